@@ -1,0 +1,247 @@
+"""Atomic, self-describing output files.
+
+Every file a run writes goes through this module so that an interrupted run never leaves a
+half-written file behind: the data are written to a temporary file in the *same* folder
+(``.<name>.<random>.tmp``), flushed and ``fsync``-ed, and then moved over the target with
+:func:`os.replace`, which is atomic on POSIX and Windows when source and target are on the same
+file system. A reader therefore sees either the old file or the complete new one.
+
+JSON output is strict (RFC 8259): NaN and +-inf have no JSON spelling, so :func:`to_jsonable`
+turns them into ``null``. A ``null`` number in a result file therefore means "not a finite
+number" (failed solve, no flutter in the range, ...); the status field next to it says why.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import enum
+import json
+import math
+import os
+import tempfile
+import uuid
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any, BinaryIO
+
+import numpy as np
+
+from model.errors import BridgeflapInputError
+
+__all__ = [
+    "atomic_savez",
+    "atomic_write_json",
+    "atomic_write_text",
+    "ensure_writable_dir",
+    "to_jsonable",
+]
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Convert ``obj`` to plain JSON types (dict, list, str, int, float, bool, None).
+
+    Parameters
+    ----------
+    obj : Any
+        Nested structure of dicts, lists/tuples/sets, dataclass instances, numpy scalars and
+        arrays, :class:`pathlib.Path`, enums, dates, complex numbers and Python scalars.
+
+    Returns
+    -------
+    Any
+        The same structure in JSON types: numpy scalars become Python scalars, arrays nested
+        lists, dataclasses dicts of their fields, paths strings, enums their value, dates ISO
+        strings, complex numbers ``{"real": x, "imag": y}``, mapping keys strings, and every
+        NaN or infinite float ``None``.
+
+    Raises
+    ------
+    TypeError
+        For an object with no JSON representation (the message names its type).
+    """
+    if obj is None or isinstance(obj, (bool, str)):
+        return obj
+    if isinstance(obj, (int, np.integer)) and not isinstance(obj, np.bool_):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if isinstance(obj, (float, np.floating)):
+        value = float(obj)
+        return value if math.isfinite(value) else None
+    if isinstance(obj, (complex, np.complexfloating)):
+        value = complex(obj)
+        return {"real": to_jsonable(value.real), "imag": to_jsonable(value.imag)}
+    if isinstance(obj, np.ndarray):
+        return [to_jsonable(item) for item in obj.tolist()] if obj.ndim else to_jsonable(obj[()])
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: to_jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, Mapping):
+        return {
+            str(to_jsonable(k)) if not isinstance(k, str) else k: to_jsonable(v)
+            for k, v in obj.items()
+        }
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(item) for item in obj]
+    if isinstance(obj, (set, frozenset)):
+        return [to_jsonable(item) for item in sorted(obj, key=repr)]
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    if isinstance(obj, enum.Enum):
+        return to_jsonable(obj.value)
+    if isinstance(obj, (_dt.datetime, _dt.date, _dt.time)):
+        return obj.isoformat()
+    raise TypeError(f"cannot convert an object of type {type(obj).__name__} to JSON")
+
+
+def _fsync_dir(folder: Path) -> None:
+    """Flush a directory entry to disk after a rename (POSIX only; best effort)."""
+    if os.name != "posix":
+        return
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def _atomic_write(path: str | os.PathLike, write: Callable[[BinaryIO], None]) -> Path:
+    """Write through ``write(file)`` into a temporary sibling of ``path``, then replace."""
+    target = Path(path)
+    folder = target.parent
+    # os.open with mode 0o666 lets the process umask set the permissions, as for open(); a
+    # random suffix and O_EXCL keep concurrent writers of the same target apart.
+    tmp_name = folder / f".{target.name}.{uuid.uuid4().hex[:12]}.tmp"
+    fd = os.open(tmp_name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            write(handle)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp_name, target)
+    except BaseException:
+        try:
+            os.unlink(tmp_name)
+        except OSError:
+            pass
+        raise
+    _fsync_dir(folder)
+    return target
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` to ``path`` (UTF-8) atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Target file; its folder must exist.
+    text : str
+        Content.
+
+    Returns
+    -------
+    pathlib.Path
+        The target path.
+    """
+    data = text.encode("utf-8")
+    return _atomic_write(path, lambda handle: handle.write(data))
+
+
+def atomic_write_json(path: str | os.PathLike, obj: Any, *, indent: int | None = 2) -> Path:
+    """Write ``obj`` as strict JSON to ``path`` atomically.
+
+    ``obj`` is passed through :func:`to_jsonable` first, so numpy values, dataclasses and
+    paths are accepted and NaN/inf are written as ``null``; the output never contains the
+    non-standard tokens ``NaN`` or ``Infinity``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Target file; its folder must exist.
+    obj : Any
+        Data to write.
+    indent : int or None, optional
+        JSON indentation [characters]; ``None`` for one line.
+
+    Returns
+    -------
+    pathlib.Path
+        The target path.
+    """
+    text = json.dumps(to_jsonable(obj), indent=indent, allow_nan=False, ensure_ascii=False)
+    return atomic_write_text(path, text + "\n")
+
+
+def atomic_savez(path: str | os.PathLike, **arrays: Any) -> Path:
+    """Save arrays to an uncompressed ``.npz`` archive atomically.
+
+    Unlike :func:`numpy.savez`, the file is written exactly at ``path``: no ``.npz`` suffix is
+    appended.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Target file; its folder must exist.
+    **arrays : array_like
+        Arrays stored under their keyword names.
+
+    Returns
+    -------
+    pathlib.Path
+        The target path.
+    """
+    return _atomic_write(path, lambda handle: np.savez(handle, **arrays))
+
+
+def ensure_writable_dir(path: str | os.PathLike, field: str = "out") -> Path:
+    """Create ``path`` (with parents) if needed and check that files can be written in it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output folder.
+    field : str, optional
+        Field name used in the error (the CLI option or config key that gave the folder).
+
+    Returns
+    -------
+    pathlib.Path
+        The folder as an absolute path.
+
+    Raises
+    ------
+    BridgeflapInputError
+        If the folder cannot be created or written to. Folders created by this call are
+        removed again before raising, so a failed call creates nothing.
+    """
+    folder = Path(path).expanduser().absolute()
+    if folder.exists() and not folder.is_dir():
+        raise BridgeflapInputError(field, f"{folder} exists and is not a folder")
+    missing = []
+    probe = folder
+    while not probe.exists() and probe != probe.parent:
+        missing.append(probe)
+        probe = probe.parent
+    created: list[Path] = []
+    try:
+        for new in reversed(missing):
+            new.mkdir()
+            created.append(new)
+        fd, probe_name = tempfile.mkstemp(prefix=".write-test.", suffix=".tmp", dir=folder)
+        os.close(fd)
+        os.unlink(probe_name)
+    except OSError as exc:
+        for new in reversed(created):
+            try:
+                new.rmdir()
+            except OSError:
+                pass
+        reason = exc.strerror or type(exc).__name__
+        raise BridgeflapInputError(field, f"cannot write to {folder}: {reason}") from exc
+    return folder

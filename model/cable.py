@@ -1,0 +1,310 @@
+"""Dead-load cable statics after Irvine (1974, 1981), including partial erection.
+
+Two routes are implemented:
+
+* :func:`three_step_single_span` -- the seed paper's three-step procedure for one level span
+  (inextensible start, elastic cable, added deck load), using the parabolic-cable cubics
+  reconstructed in HUMBER_DATA.md §4(b). Used to cross-check the general solver.
+* :func:`dead_load` -- the general "string" solution for any number of spans over
+  frictionless saddles (common horizontal tension ``H``) with piecewise-uniform loads:
+  the profile is ``y = M0(x)/H`` (simply supported moment diagram of the load), and ``H`` solves
+  the length compatibility ``sum(stretched length - elastic stretch) = S0`` by Brent's method.
+  ``S0``, the unstrained cable length, is fixed by the complete bridge at its stated main-span sag
+  (the sag is "a data usually available", seed §2); partial erection then loads only part of the
+  main span and ``H`` follows from the same ``S0``.
+
+All loads are per cable [N/m]; ``H`` is per cable [N]. Conventions: see :mod:`model`.
+
+References
+----------
+H. M. Irvine, Studies in the statics and dynamics of simple cable systems, Caltech, 1974.
+H. M. Irvine, Cable Structures, MIT Press, 1981.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from model.errors import BridgeflapError
+from model.spec import BridgeSpec
+
+G = 9.80665  # standard gravity [m/s^2]
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(24)
+
+
+@dataclass(frozen=True)
+class SpanLoad:
+    """Piecewise-uniform load on one span: ``breaks`` (m from the span's left end) and
+    ``q`` [N/m per cable] on each interval; ``deck`` marks intervals carrying the deck."""
+
+    length_m: float
+    chord_rise_m: float
+    breaks: np.ndarray
+    q: np.ndarray
+    deck: np.ndarray
+
+
+@dataclass(frozen=True)
+class CableStatics:
+    """Dead-load state of the cables (per cable).
+
+    Attributes
+    ----------
+    horizontal_tension_n : float
+        ``H`` per cable [N], common to all spans.
+    main_sag_m : float
+        Sag of the main span below its chord at mid-span [m].
+    span_sags_m : tuple of float
+        Mid-span sag below the chord of each span [m].
+    irvine_lambda_sq : float
+        Irvine parameter of the main span, ``(wL/H)^2 L / (H L_E / EA)`` with the span-mean
+        load ``w`` and ``L_E`` the whole cable's ``int (ds/dx)^3 dx``.
+    effective_length_m : float
+        ``L_E`` [m] summed over all spans (the cable runs over frictionless saddles).
+    unstrained_length_m : float
+        ``S0`` [m].
+    loads : tuple of SpanLoad
+        The loads that produced this state.
+    """
+
+    horizontal_tension_n: float
+    main_sag_m: float
+    span_sags_m: tuple
+    irvine_lambda_sq: float
+    effective_length_m: float
+    unstrained_length_m: float
+    loads: tuple
+    main_span_index: int
+
+    def profile(self, span: int, n: int = 201) -> tuple[np.ndarray, np.ndarray]:
+        """Sag below the chord ``y(x)`` [m] of one span at ``n`` points ``x`` [m]."""
+        ld = self.loads[span]
+        x = np.linspace(0.0, ld.length_m, n)
+        return x, _moment(ld, x) / self.horizontal_tension_n
+
+    def sag(self, span: int, x: np.ndarray) -> np.ndarray:
+        """Sag below the chord [m] at ``x`` [m] in ``span``."""
+        return _moment(self.loads[span], np.asarray(x, dtype=float)) / self.horizontal_tension_n
+
+    def curvature_load(self, span: int, x: np.ndarray) -> np.ndarray:
+        """``-y''(x) = q(x)/H`` [1/m] (the cable-stretching weight of Irvine's h(t))."""
+        ld = self.loads[span]
+        idx = np.clip(np.searchsorted(ld.breaks, x, side="right") - 1, 0, len(ld.q) - 1)
+        return ld.q[idx] / self.horizontal_tension_n
+
+
+def span_loads(spec: BridgeSpec, fraction: float | None = None) -> tuple[SpanLoad, ...]:
+    """Per-cable loads for each span with the main-span deck erected over ``fraction``.
+
+    The cable's own weight acts everywhere; half the deck weight hangs from each cable where
+    the deck is in place (erected symmetrically from the main-span mid-point; side-span decks
+    in place throughout, README "Erection").
+    """
+    f = spec.erected_fraction if fraction is None else fraction
+    wc = spec.cable.mass_kg_per_m * G
+    p = 0.5 * spec.deck.mass_kg_per_m * G
+    loads = []
+    for i, s in enumerate(spec.spans):
+        L = s.length_m
+        if i == spec.main_span_index and f < 1.0:
+            a, b = 0.5 * L * (1 - f), 0.5 * L * (1 + f)
+            breaks = np.array([0.0, a, b, L])
+            deck = np.array([False, True, False])
+        else:
+            breaks = np.array([0.0, L])
+            deck = np.array([bool(s.suspended_deck)])
+        q = wc + p * deck
+        loads.append(SpanLoad(L, s.chord_rise_m, breaks, q.astype(float), deck))
+    return tuple(loads)
+
+
+def _shear_and_moment_coeffs(ld: SpanLoad):
+    """Reactions of the simply supported span under the piecewise load."""
+    L = ld.length_m
+    seg_len = np.diff(ld.breaks)
+    seg_mid = 0.5 * (ld.breaks[1:] + ld.breaks[:-1])
+    total = float(np.sum(ld.q * seg_len))
+    moment_about_right = float(np.sum(ld.q * seg_len * (L - seg_mid)))
+    ra = moment_about_right / L
+    return ra, total
+
+
+def _load_integrals(ld: SpanLoad, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Q(x) = int_0^x q, and Q1(x) = int_0^x q(t)(x - t) dt."""
+    x = np.asarray(x, dtype=float)
+    Q = np.zeros_like(x)
+    Q1 = np.zeros_like(x)
+    for a, b, q in zip(ld.breaks[:-1], ld.breaks[1:], ld.q, strict=True):
+        u = np.clip(x - a, 0.0, b - a)  # loaded length of this interval to the left of x
+        Q += q * u
+        # int_a^{a+u} q (x - t) dt = q [u x - (a u + u^2/2)]
+        Q1 += q * (u * x - (a * u + 0.5 * u * u))
+    return Q, Q1
+
+
+def _moment(ld: SpanLoad, x: np.ndarray) -> np.ndarray:
+    ra, _ = _shear_and_moment_coeffs(ld)
+    _, Q1 = _load_integrals(ld, x)
+    return ra * np.asarray(x) - Q1
+
+
+def _shear(ld: SpanLoad, x: np.ndarray) -> np.ndarray:
+    ra, _ = _shear_and_moment_coeffs(ld)
+    Q, _ = _load_integrals(ld, x)
+    return ra - Q
+
+
+def _span_integrals(ld: SpanLoad, H: float) -> tuple[float, float, float]:
+    """(int ds, int (ds/dx)^2 dx, int (ds/dx)^3 dx) over the span at tension H.
+
+    Gauss-Legendre on each uniform-load interval, where the slope is linear: exact to
+    rounding for the polynomial parts, spectrally accurate for the square root.
+    """
+    c = ld.chord_rise_m / ld.length_m
+    s1 = s2 = s3 = 0.0
+    for a, b in zip(ld.breaks[:-1], ld.breaks[1:], strict=True):
+        if b <= a:
+            continue
+        x = 0.5 * (b - a) * _GL_X + 0.5 * (a + b)
+        w = 0.5 * (b - a) * _GL_W
+        slope = c - _shear(ld, x) / H
+        d2 = 1.0 + slope * slope
+        s1 += float(np.sum(w * np.sqrt(d2)))
+        s2 += float(np.sum(w * d2))
+        s3 += float(np.sum(w * d2 ** 1.5))
+    return s1, s2, s3
+
+
+def unstrained_length(loads, H: float, ea: float) -> float:
+    """``S0 = sum(int ds - (H/EA) int (ds/dx)^2 dx)`` [m] (stretch of ``T = H ds/dx``)."""
+    total = 0.0
+    for ld in loads:
+        s1, s2, _ = _span_integrals(ld, H)
+        total += s1 - H / ea * s2
+    return total
+
+
+def reference_tension(spec: BridgeSpec) -> float:
+    """H [N] of the complete bridge at the stated main-span sag (``M0(L/2) / d``)."""
+    loads = span_loads(spec, 1.0)
+    ld = loads[spec.main_span_index]
+    return float(_moment(ld, np.array([0.5 * ld.length_m]))[0] / spec.cable.main_sag_m)
+
+
+def solve_tension(loads, s0: float, ea: float, h_guess: float) -> float:
+    """Solve the compatibility ``unstrained_length(loads, H) = S0`` for H by Brent's method."""
+
+    def residual(h):
+        return unstrained_length(loads, h, ea) - s0
+
+    lo, hi = 0.5 * h_guess, 2.0 * h_guess
+    for _ in range(40):
+        if residual(lo) > 0 > residual(hi):
+            break
+        lo *= 0.5
+        hi *= 2.0
+    else:  # pragma: no cover - would need absurd input
+        raise BridgeflapError("cable statics: could not bracket the horizontal tension")
+    return float(brentq(residual, lo, hi, xtol=1e-9 * h_guess, rtol=1e-14, maxiter=200))
+
+
+def dead_load(spec: BridgeSpec) -> CableStatics:
+    """Dead-load cable statics of ``spec`` (complete or partially erected).
+
+    Returns
+    -------
+    CableStatics
+    """
+    ea = spec.cable.area_m2 * spec.cable.modulus_pa
+    h_ref = reference_tension(spec)
+    s0 = unstrained_length(span_loads(spec, 1.0), h_ref, ea)
+    loads = span_loads(spec)
+    if spec.erected_fraction >= 1.0:
+        H = h_ref
+    else:
+        H = solve_tension(loads, s0, ea, h_ref)
+    return _statics(spec, loads, H, s0, ea)
+
+
+def _statics(spec, loads, H, s0, ea) -> CableStatics:
+    sags = tuple(float(_moment(ld, np.array([0.5 * ld.length_m]))[0] / H) for ld in loads)
+    le = sum(_span_integrals(ld, H)[2] for ld in loads)
+    m = spec.main_span_index
+    ld = loads[m]
+    w_mean = float(np.sum(ld.q * np.diff(ld.breaks)) / ld.length_m)
+    L = ld.length_m
+    lam2 = (w_mean * L / H) ** 2 * L / (H * le / ea)
+    return CableStatics(horizontal_tension_n=float(H), main_sag_m=sags[m], span_sags_m=sags,
+                        irvine_lambda_sq=float(lam2), effective_length_m=float(le),
+                        unstrained_length_m=float(s0), loads=loads, main_span_index=m)
+
+
+# ------------------------------------------------------------------ seed's three-step route
+
+
+@dataclass(frozen=True)
+class ThreeStepResult:
+    """States of the three-step procedure (one level span, per cable)."""
+
+    h_inextensible_n: float
+    h_elastic_n: float
+    h_loaded_n: float
+    sag_inextensible_m: float
+    sag_elastic_m: float
+    sag_loaded_m: float
+
+
+def _irvine_lambda_sq_parabolic(w, L, H, d, ea):
+    le = L * (1.0 + 8.0 * (d / L) ** 2)
+    return (w * L / H) ** 2 * L / (H * le / ea)
+
+
+def three_step_single_span(length_m: float, cable_load_n_m: float, deck_load_n_m: float,
+                           ea_n: float, sag0_m: float) -> ThreeStepResult:
+    """Seed §2 three-step procedure for one level span (parabolic cable, HUMBER_DATA §4(b)).
+
+    Step 1: inextensible cable under its own weight at assumed sag ``sag0``:
+    ``H0 = w L^2 / (8 d0)``. Step 2: elasticity on, ``(24/lambda0^2) x^3 + x^2 - 1 = 0`` for
+    ``x = H/H0``. Step 3: deck load ``p`` added, ``h*^3 + (2 + l^2/24) h*^2 + (1 + l^2/12) h*
+    - (l^2/12) r (1 + r/2) = 0`` with ``r = p/w``, ``H -> H (1 + h*)``.
+    """
+    L, w, p = length_m, cable_load_n_m, deck_load_n_m
+    h0 = w * L * L / (8.0 * sag0_m)
+    lam0 = _irvine_lambda_sq_parabolic(w, L, h0, sag0_m, ea_n)
+    x = _positive_root([24.0 / lam0, 1.0, 0.0, -1.0])
+    h1 = x * h0
+    d1 = w * L * L / (8.0 * h1)
+    lam1 = _irvine_lambda_sq_parabolic(w, L, h1, d1, ea_n)
+    r = p / w
+    hs = _positive_root([1.0, 2.0 + lam1 / 24.0, 1.0 + lam1 / 12.0, -(lam1 / 12.0) * r * (1 + r / 2)])
+    h2 = h1 * (1.0 + hs)
+    d2 = (w + p) * L * L / (8.0 * h2)
+    return ThreeStepResult(h0, h1, h2, sag0_m, d1, d2)
+
+
+def three_step_for_final_sag(length_m, cable_load_n_m, deck_load_n_m, ea_n, final_sag_m,
+                             ) -> tuple[ThreeStepResult, float]:
+    """Iterate the assumed inextensible sag until the loaded sag equals ``final_sag_m``.
+
+    Returns the converged result and the final residual [m].
+    """
+
+    def res(d0):
+        return three_step_single_span(length_m, cable_load_n_m, deck_load_n_m, ea_n,
+                                      d0).sag_loaded_m - final_sag_m
+
+    d0 = brentq(res, 0.2 * final_sag_m, 1.5 * final_sag_m, xtol=1e-12)
+    out = three_step_single_span(length_m, cable_load_n_m, deck_load_n_m, ea_n, d0)
+    return out, out.sag_loaded_m - final_sag_m
+
+
+def _positive_root(coeffs) -> float:
+    roots = np.roots(coeffs)
+    real = roots[np.abs(roots.imag) < 1e-9 * max(1.0, np.abs(roots).max())].real
+    pos = real[real > 0]
+    if len(pos) != 1:
+        raise BridgeflapError(f"cable statics: expected one positive root, got {roots}")
+    return float(pos[0])

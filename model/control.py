@@ -1,0 +1,469 @@
+"""Flap compensator K(s) and the controller definition (flap layout, gain limit).
+
+The compensator of the seed paper (§6) drives a flap angle ``beta`` [rad] from the local deck
+pitch ``alpha`` [rad] (sign conventions: see :mod:`model`)::
+
+    K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1)
+
+The leading- and trailing-edge flaps use the same K with opposite sign (seed §6, "actually
+anti-symmetric"; METHODS §5); that sign is applied where the flap loads are assembled, not here:
+this module describes K and where the flaps are. "Gain limited to 15" is read as
+``sup_w |K(jw)| <= 15`` (METHODS §5), see :meth:`Compensator.max_gain`.
+
+This module is numpy-only (the numerics boundary of STYLE.md): the symbolic state matrix uses
+:meth:`Compensator.state_space` and :meth:`Compensator.second_derivative_feedthrough`.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from model.errors import BridgeflapInputError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised only on Python 3.10
+    import tomli as tomllib
+
+__all__ = [
+    "Compensator",
+    "Controller",
+    "DerivativeFeedthrough",
+    "load_controller",
+    "save_controller",
+]
+
+#: Default dense frequency grid of :meth:`Compensator.max_gain` [rad/s].
+_DEFAULT_OMEGA = np.logspace(-4.0, 3.0, 4001)
+
+
+def _check_number(fieldname: str, value: Any) -> float:
+    """Return ``value`` as a float, or raise if it is not a finite real number."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise BridgeflapInputError(fieldname, f"must be a number, got {type(value).__name__}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise BridgeflapInputError(fieldname, f"must be finite, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class DerivativeFeedthrough:
+    """Flap angle and its first two time derivatives as linear maps.
+
+    ``[beta; beta_dot; beta_ddot] = Gx @ xc + Ga @ [alpha; alpha_dot; alpha_ddot]``.
+
+    Attributes
+    ----------
+    Gx : numpy.ndarray
+        (3, n_c) map from the compensator state ``xc`` [state units].
+    Ga : numpy.ndarray
+        (3, 3) lower-triangular map from ``alpha`` [rad], ``alpha_dot`` [rad/s] and
+        ``alpha_ddot`` [rad/s^2].
+    """
+
+    Gx: np.ndarray
+    Ga: np.ndarray
+
+
+@dataclass(frozen=True)
+class Compensator:
+    """Second-order (or first-order) lead-lag compensator from deck pitch to flap angle.
+
+    ``K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1)``, seed paper §6.
+
+    Parameters
+    ----------
+    b2 : float
+        Numerator s^2 coefficient [s^2] (flap angle per pitch, rad/rad, times s^2).
+    b1 : float
+        Numerator s coefficient [s].
+    b0 : float
+        Static gain [rad/rad].
+    a2 : float
+        Denominator s^2 coefficient [s^2]; ``a2 >= 0``. With ``a2 == 0`` the compensator is
+        first order and ``b2`` must be 0 (properness).
+    a1 : float
+        Denominator s coefficient [s]; ``a1 > 0``.
+
+    Raises
+    ------
+    BridgeflapInputError
+        Field ``"controller.<name>"``: non-finite coefficient, ``a2 < 0`` or ``a1 <= 0``
+        ("unstable compensator: ..."), or ``a2 == 0`` with ``b2 != 0`` ("improper ...").
+
+    Notes
+    -----
+    With ``a2, a1 > 0`` the denominator ``a2 s^2 + a1 s + 1`` is Hurwitz (Routh for a
+    quadratic: all coefficients of one sign), so K is stable. ``a2 == 0`` is admitted as the
+    first-order limit so that an optimiser bound ``a2 >= 0`` is harmless.
+    """
+
+    b2: float
+    b1: float
+    b0: float
+    a2: float
+    a1: float
+
+    def __post_init__(self):
+        """Validate the coefficients (finite, stable, proper)."""
+        for name in ("b2", "b1", "b0", "a2", "a1"):
+            object.__setattr__(self, name, _check_number(f"controller.{name}", getattr(self, name)))
+        if self.a2 < 0.0:
+            raise BridgeflapInputError(
+                "controller.a2",
+                f"unstable compensator: a2 = {self.a2!r} < 0 (denominator a2 s^2 + a1 s + 1 "
+                "has a right-half-plane root)",
+            )
+        if self.a1 <= 0.0:
+            raise BridgeflapInputError(
+                "controller.a1",
+                f"unstable compensator: a1 = {self.a1!r} <= 0 (denominator a2 s^2 + a1 s + 1 "
+                "is not Hurwitz)",
+            )
+        if self.a2 == 0.0 and self.b2 != 0.0:
+            raise BridgeflapInputError(
+                "controller.b2",
+                f"improper compensator: b2 = {self.b2!r} != 0 with a2 = 0 "
+                "(numerator degree exceeds denominator degree)",
+            )
+
+    # ------------------------------------------------------------------ frequency domain
+    @property
+    def order(self) -> int:
+        """Number of compensator states n_c (2 if ``a2 > 0`` else 1)."""
+        return 2 if self.a2 > 0.0 else 1
+
+    def frequency_response(self, omega) -> np.ndarray:
+        """Evaluate K(j omega).
+
+        Parameters
+        ----------
+        omega : array_like
+            Angular frequency [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            Complex K(j omega) [rad/rad], same shape as ``omega``.
+        """
+        s = 1j * np.asarray(omega, dtype=float)
+        return (self.b2 * s**2 + self.b1 * s + self.b0) / (self.a2 * s**2 + self.a1 * s + 1.0)
+
+    def high_frequency_gain(self) -> float:
+        """Return ``lim_{w->inf} |K(jw)|`` [rad/rad]: ``|b2/a2|``, or ``|b1/a1|`` if first order."""
+        if self.a2 > 0.0:
+            return abs(self.b2 / self.a2)
+        return abs(self.b1 / self.a1)
+
+    def _stationary_frequencies(self) -> np.ndarray:
+        """Frequencies [rad/s] where d|K(jw)|^2 / d(w^2) = 0, w > 0."""
+        # |K|^2 = N(x)/D(x), x = w^2:
+        # N = (b0 - b2 x)^2 + b1^2 x,  D = (1 - a2 x)^2 + a1^2 x.
+        n = np.array([self.b2**2, self.b1**2 - 2.0 * self.b0 * self.b2, self.b0**2])
+        d = np.array([self.a2**2, self.a1**2 - 2.0 * self.a2, 1.0])
+        # N'D - ND' (the x^3 terms cancel, so this is a quadratic in x).
+        num = np.polysub(np.polymul(np.polyder(n), d), np.polymul(n, np.polyder(d)))
+        num = np.trim_zeros(num, "f")
+        if num.size <= 1:
+            return np.empty(0)
+        roots = np.roots(num)
+        x = roots[np.abs(roots.imag) <= 1e-9 * np.maximum(1.0, np.abs(roots.real))].real
+        x = x[x > 0.0]
+        return np.sqrt(x)
+
+    def max_gain(self, omega_grid=None) -> float:
+        """Return the peak gain ``sup_w |K(jw)|`` [rad/rad].
+
+        Parameters
+        ----------
+        omega_grid : array_like, optional
+            Frequencies [rad/s] evaluated in addition to the analytic candidates. Default:
+            4001 log-spaced points on 1e-4 .. 1e3 rad/s.
+
+        Returns
+        -------
+        float
+            The maximum of |K| over the grid, the analytic stationary points of |K(jw)|^2,
+            w = 0 (``|b0|``) and the limit w -> inf (:meth:`high_frequency_gain`).
+
+        Notes
+        -----
+        With x = w^2, |K|^2 = N(x)/D(x) with N, D quadratics; its stationary points solve
+        N'D - N D' = 0, a quadratic in x (the cubic terms cancel). The sup over w >= 0 is
+        attained at one of those roots, at x = 0 or as x -> inf, so the analytic candidates
+        alone give the exact value; the grid is a cheap safeguard against root round-off.
+        """
+        grid = _DEFAULT_OMEGA if omega_grid is None else np.asarray(omega_grid, dtype=float)
+        candidates = np.concatenate([np.ravel(grid), self._stationary_frequencies(), [0.0]])
+        gains = np.abs(self.frequency_response(candidates))
+        return float(max(np.max(gains), self.high_frequency_gain()))
+
+    # ------------------------------------------------------------------ state space
+    def state_space(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Return the controllable canonical realisation of K(s).
+
+        Returns
+        -------
+        Ac : numpy.ndarray
+            (n_c, n_c) state matrix [1/s].
+        Bc : numpy.ndarray
+            (n_c, 1) input matrix, input ``alpha`` [rad].
+        Cc : numpy.ndarray
+            (1, n_c) output matrix, output ``beta`` [rad].
+        Dc : numpy.ndarray
+            (1, 1) feedthrough, ``b2/a2`` (``b1/a1`` if first order) [rad/rad].
+
+        Notes
+        -----
+        Second order: with ``d(s) = s^2 + d1 s + d0`` (``d1 = a1/a2``, ``d0 = 1/a2``) and
+        ``c_i = b_i/a2``, ``x1' = x2``, ``x2' = -d0 x1 - d1 x2 + alpha`` and
+        ``beta = (c0 - c2 d0) x1 + (c1 - c2 d1) x2 + c2 alpha``. First order:
+        ``x' = -x/a1 + alpha``, ``beta = (b0 - b1/a1)/a1 x + (b1/a1) alpha``.
+        """
+        if self.a2 > 0.0:
+            d1, d0 = self.a1 / self.a2, 1.0 / self.a2
+            c2, c1, c0 = self.b2 / self.a2, self.b1 / self.a2, self.b0 / self.a2
+            Ac = np.array([[0.0, 1.0], [-d0, -d1]])
+            Bc = np.array([[0.0], [1.0]])
+            Cc = np.array([[c0 - c2 * d0, c1 - c2 * d1]])
+            Dc = np.array([[c2]])
+        else:
+            d0 = 1.0 / self.a1
+            c1, c0 = self.b1 / self.a1, self.b0 / self.a1
+            Ac = np.array([[-d0]])
+            Bc = np.array([[1.0]])
+            Cc = np.array([[c0 - c1 * d0]])
+            Dc = np.array([[c1]])
+        return Ac, Bc, Cc, Dc
+
+    def second_derivative_feedthrough(self) -> DerivativeFeedthrough:
+        """Flap angle derivatives as linear functions of the compensator state and the pitch.
+
+        The flap non-circulatory loads contain ``beta_ddot``, so the state-space assembly needs
+        ``beta``, ``beta_dot`` and ``beta_ddot`` in terms of ``xc`` and ``alpha``,
+        ``alpha_dot``, ``alpha_ddot``.
+
+        Returns
+        -------
+        DerivativeFeedthrough
+            ``Gx = [Cc; Cc Ac; Cc Ac^2]`` and
+            ``Ga = [[Dc, 0, 0], [Cc Bc, Dc, 0], [Cc Ac Bc, Cc Bc, Dc]]``.
+
+        Notes
+        -----
+        Differentiate ``beta = Cc xc + Dc alpha`` using ``xc' = Ac xc + Bc alpha``:
+        ``beta' = Cc Ac xc + Cc Bc alpha + Dc alpha'`` and
+        ``beta'' = Cc Ac^2 xc + Cc Ac Bc alpha + Cc Bc alpha' + Dc alpha''``.
+        """
+        Ac, Bc, Cc, Dc = self.state_space()
+        Gx = np.vstack([Cc, Cc @ Ac, Cc @ Ac @ Ac])
+        cb = float((Cc @ Bc)[0, 0])
+        cab = float((Cc @ Ac @ Bc)[0, 0])
+        dc = float(Dc[0, 0])
+        Ga = np.array([[dc, 0.0, 0.0], [cb, dc, 0.0], [cab, cb, dc]])
+        return DerivativeFeedthrough(Gx=Gx, Ga=Ga)
+
+
+@dataclass(frozen=True)
+class Controller:
+    """Compensator plus flap layout: the controller definition of seed paper §6.
+
+    Parameters
+    ----------
+    compensator : Compensator
+        K(s) from local deck pitch [rad] to flap angle [rad].
+    flap_strip_positions_m : tuple of float
+        Centres of the flap strips along the main span, measured from its mid-point [m]
+        (positive towards the south tower, see :mod:`model` for the x direction). Each flap
+        is driven by the pitch at its own strip (seed §6).
+    flap_width_m : float
+        Spanwise width of each flap strip [m] (3 m in seed §6).
+    leading_edge : bool
+        Whether the leading-edge flaps are fitted (driven by -K, seed §6).
+    trailing_edge : bool
+        Whether the trailing-edge flaps are fitted (driven by +K).
+    gain_limit : float
+        Upper bound on ``sup_w |K(jw)|`` [rad/rad] (15 in seed §6).
+
+    Raises
+    ------
+    BridgeflapInputError
+        Naming the field ``"controller.<name>"`` on invalid input.
+    """
+
+    compensator: Compensator
+    flap_strip_positions_m: tuple[float, ...]
+    flap_width_m: float
+    leading_edge: bool = True
+    trailing_edge: bool = True
+    gain_limit: float = 15.0
+
+    def __post_init__(self):
+        """Validate the layout and normalise the positions to a tuple of floats."""
+        if not isinstance(self.compensator, Compensator):
+            raise BridgeflapInputError(
+                "controller.compensator",
+                f"must be a Compensator, got {type(self.compensator).__name__}",
+            )
+        positions = self.flap_strip_positions_m
+        if isinstance(positions, (str, bytes)) or not hasattr(positions, "__iter__"):
+            raise BridgeflapInputError(
+                "controller.flap_strip_positions_m", "must be a list of numbers [m]"
+            )
+        positions = tuple(
+            _check_number(f"controller.flap_strip_positions_m[{i}]", x)
+            for i, x in enumerate(positions)
+        )
+        if not positions:
+            raise BridgeflapInputError("controller.flap_strip_positions_m", "no flap strips")
+        object.__setattr__(self, "flap_strip_positions_m", positions)
+        width = _check_number("controller.flap_width_m", self.flap_width_m)
+        if width <= 0.0:
+            raise BridgeflapInputError(
+                "controller.flap_width_m", f"flap width must be > 0 m, got {width!r}"
+            )
+        object.__setattr__(self, "flap_width_m", width)
+        spacing = np.diff(np.sort(positions))
+        if spacing.size and np.min(spacing) < width:
+            raise BridgeflapInputError(
+                "controller.flap_strip_positions_m",
+                f"flap strips overlap: spacing {np.min(spacing):.6g} m < width {width!r} m",
+            )
+        for name in ("leading_edge", "trailing_edge"):
+            if not isinstance(getattr(self, name), bool):
+                raise BridgeflapInputError(f"controller.{name}", "must be true or false")
+        if not (self.leading_edge or self.trailing_edge):
+            raise BridgeflapInputError(
+                "controller.trailing_edge", "no flap fitted (leading_edge and trailing_edge false)"
+            )
+        limit = _check_number("controller.gain_limit", self.gain_limit)
+        if limit <= 0.0:
+            raise BridgeflapInputError(
+                "controller.gain_limit", f"gain limit must be > 0, got {limit!r}"
+            )
+        object.__setattr__(self, "gain_limit", limit)
+
+    @property
+    def n_flaps(self) -> int:
+        """Number of flap strips along the main span."""
+        return len(self.flap_strip_positions_m)
+
+    def gain_ratio(self) -> float:
+        """Return ``sup_w |K(jw)| / gain_limit`` (<= 1 when the gain limit is met)."""
+        return self.compensator.max_gain() / self.gain_limit
+
+
+# ---------------------------------------------------------------------------- TOML I/O
+_COMPENSATOR_KEYS = ("b2", "b1", "b0", "a2", "a1")
+_LAYOUT_KEYS = (
+    "flap_strip_positions_m",
+    "flap_width_m",
+    "leading_edge",
+    "trailing_edge",
+    "gain_limit",
+)
+_REQUIRED_KEYS = _COMPENSATOR_KEYS + ("flap_strip_positions_m", "flap_width_m")
+
+
+def load_controller(path) -> Controller:
+    """Read a controller definition from a TOML file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        File written by :func:`save_controller` (flat keys: ``b2 b1 b0 a2 a1``,
+        ``flap_strip_positions_m``, ``flap_width_m``, optional ``leading_edge``,
+        ``trailing_edge``, ``gain_limit``).
+
+    Returns
+    -------
+    Controller
+
+    Raises
+    ------
+    BridgeflapInputError
+        Field ``"controller"`` for a missing or unparsable file, ``"controller.<key>"`` for a
+        missing, unknown or invalid key.
+    """
+    path = Path(path)
+    try:
+        text = path.read_bytes()
+    except FileNotFoundError:
+        raise BridgeflapInputError("controller", f"file not found: {path}") from None
+    except OSError as exc:
+        raise BridgeflapInputError("controller", f"cannot read {path}: {exc}") from None
+    try:
+        data = tomllib.loads(text.decode("utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise BridgeflapInputError("controller", f"invalid TOML in {path}: {exc}") from None
+    unknown = sorted(set(data) - set(_COMPENSATOR_KEYS) - set(_LAYOUT_KEYS))
+    if unknown:
+        raise BridgeflapInputError(f"controller.{unknown[0]}", "unknown field")
+    for key in _REQUIRED_KEYS:
+        if key not in data:
+            raise BridgeflapInputError(f"controller.{key}", f"missing in {path}")
+    compensator = Compensator(*(data[k] for k in _COMPENSATOR_KEYS))
+    layout = {k: data[k] for k in _LAYOUT_KEYS if k in data}
+    return Controller(compensator=compensator, **layout)
+
+
+def _toml_float(value: float) -> str:
+    """Format a finite float as a TOML float that round-trips exactly."""
+    text = repr(float(value))
+    return text if ("." in text or "e" in text) else text + ".0"
+
+
+def save_controller(controller: Controller, path) -> Path:
+    """Write a controller definition as TOML (readable by :func:`load_controller`).
+
+    Parameters
+    ----------
+    controller : Controller
+        Definition to write.
+    path : str or pathlib.Path
+        Output file; parent directories must exist.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Notes
+    -----
+    A small hand-written writer (flat keys, floats via ``repr`` so they round-trip exactly,
+    comments stating units) avoids a TOML-writing dependency.
+    """
+    k = controller.compensator
+    positions = ", ".join(_toml_float(x) for x in controller.flap_strip_positions_m)
+    lines = [
+        "# bridgeflap controller definition (seed paper section 6)",
+        "# K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1)",
+        "# flap angle beta [rad] from local deck pitch alpha [rad]",
+        "# The leading-edge flap is driven by -K, the trailing-edge flap by +K.",
+        "",
+        "# compensator coefficients",
+        f"b2 = {_toml_float(k.b2)}  # [s^2]",
+        f"b1 = {_toml_float(k.b1)}  # [s]",
+        f"b0 = {_toml_float(k.b0)}  # [rad/rad]",
+        f"a2 = {_toml_float(k.a2)}  # [s^2], >= 0",
+        f"a1 = {_toml_float(k.a1)}  # [s], > 0",
+        "",
+        "# flap layout",
+        "# strip centres along the main span from its mid-point [m]",
+        f"flap_strip_positions_m = [{positions}]",
+        f"flap_width_m = {_toml_float(controller.flap_width_m)}  # spanwise width per strip [m]",
+        f"leading_edge = {str(controller.leading_edge).lower()}  # leading-edge flaps fitted",
+        f"trailing_edge = {str(controller.trailing_edge).lower()}  # trailing-edge flaps fitted",
+        f"gain_limit = {_toml_float(controller.gain_limit)}  # bound on sup_w |K(jw)| [rad/rad]",
+        "",
+    ]
+    path = Path(path)
+    path.write_text("\n".join(lines), encoding="utf-8")
+    return path

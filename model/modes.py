@@ -1,0 +1,241 @@
+"""Structural modes: eigen-solution per family, labels, Rayleigh damping, modal truncation.
+
+Rayleigh damping ``C = a_M M + a_K K`` gives 1 % (``spec.damping.ratio``) in the first vertical
+and the first torsional mode (seed §2); every other mode's ratio follows from
+``zeta = a_M/(2 omega) + a_K omega/2``. The three families are uncoupled, so the mass-normalised
+modes of each family diagonalise ``M``, ``K`` and ``C`` of the whole structure.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from model.errors import BridgeflapError
+from model.fe import StructuralModel, assemble
+from model.spec import BridgeSpec
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One structural mode."""
+
+    family: str
+    symmetry: str
+    frequency_hz: float
+    damping_ratio: float
+    order: int  # 1-based order within (family, symmetry)
+    main_span_share: float  # fraction of the mode's nodal norm in the main span
+    deck_share: float = 1.0  # kinetic-energy fraction in the deck (lateral: deck vs cables)
+
+    @property
+    def label(self) -> str:
+        """Short label such as ``TS1`` or ``VA2``."""
+        return f"{self.family[0].upper()}{self.symmetry[0].upper()}{self.order}"
+
+    def as_dict(self) -> dict:
+        """JSON-ready dict (the ``modes`` CLI contract)."""
+        return {"label": self.label, "family": self.family, "symmetry": self.symmetry,
+                "frequency_hz": self.frequency_hz, "damping_ratio": self.damping_ratio,
+                "main_span_share": self.main_span_share, "deck_share": self.deck_share}
+
+
+@dataclass(frozen=True)
+class ModalModel:
+    """All modes of a bridge state, with the shapes the aerodynamics needs.
+
+    Attributes
+    ----------
+    modes : tuple of Mode
+        Sorted by frequency.
+    shapes : dict
+        ``family -> (n_dof, n_family_modes)`` mass-normalised eigenvectors, columns in the order
+        of ``family_index``.
+    family_index : dict
+        ``family -> list of indices into modes``.
+    rayleigh : tuple
+        ``(a_M [1/s], a_K [s])``.
+    """
+
+    structure: StructuralModel
+    modes: tuple
+    shapes: dict
+    family_index: dict
+    rayleigh: tuple
+
+    @property
+    def spec(self) -> BridgeSpec:
+        """The bridge definition."""
+        return self.structure.spec
+
+    def table(self) -> list[dict]:
+        """Modes as JSON-ready dicts, sorted by frequency."""
+        return [m.as_dict() for m in self.modes]
+
+    def find(self, label: str) -> Mode:
+        """The mode with a label such as ``"TS1"``."""
+        for m in self.modes:
+            if m.label == label:
+                return m
+        raise BridgeflapError(f"no mode {label} in the computed set")
+
+    def aero_basis(self, count: int) -> AeroBasis:
+        """The lowest ``count`` vertical and torsional modes, for the aeroelastic model.
+
+        Lateral modes are not coupled by thin-aerofoil loads (lift and moment only) and are
+        left out of the aeroelastic state.
+        """
+        cand = [i for i, m in enumerate(self.modes) if m.family in ("vertical", "torsional")]
+        if count < 1:
+            raise BridgeflapError("at least one mode is needed")
+        chosen = cand[:count]
+        n_strip = len(self.structure.strip_x)
+        phi_h = np.zeros((n_strip, len(chosen)))
+        phi_a = np.zeros((n_strip, len(chosen)))
+        omega = np.zeros(len(chosen))
+        zeta = np.zeros(len(chosen))
+        for j, i in enumerate(chosen):
+            m = self.modes[i]
+            col = self.family_index[m.family].index(i)
+            v = self.shapes[m.family][:, col]
+            fam = self.structure.families[m.family]
+            if m.family == "vertical":
+                phi_h[:, j] = fam.strip_map @ v
+            else:
+                phi_a[:, j] = fam.strip_map @ v
+            omega[j] = 2 * np.pi * m.frequency_hz
+            zeta[j] = m.damping_ratio
+        return AeroBasis(modes=tuple(self.modes[i] for i in chosen), omega=omega, zeta=zeta,
+                         phi_h=phi_h, phi_a=phi_a, strip_x=self.structure.strip_x,
+                         strip_length=self.structure.strip_length,
+                         strip_span=self.structure.strip_span)
+
+    def plot(self, labels=("VS1", "VA1", "TS1", "TA1", "LS1"), ax=None):
+        """Mode shapes along the bridge (deck field at the nodes)."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(9, 4))
+        st = self.structure
+        xg = st.global_x(st.node_span, st.node_x)
+        for lab in labels:
+            try:
+                m = self.find(lab)
+            except BridgeflapError:
+                continue
+            i = self.modes.index(m)
+            col = self.family_index[m.family].index(i)
+            y = st.families[m.family].node_map @ self.shapes[m.family][:, col]
+            y = y / (np.max(np.abs(y)) or 1.0)
+            for s in np.unique(st.node_span):
+                sel = st.node_span == s
+                ax.plot(xg[sel], y[sel], color=f"C{labels.index(lab)}",
+                        label=f"{lab} {m.frequency_hz:.3f} Hz" if s == 0 else None)
+        ax.set_xlabel("distance from north anchorage [m]")
+        ax.set_ylabel("normalised deck displacement [-]")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        ax.set_title(f"{self.spec.name}: mode shapes (erected {self.spec.erected_fraction:.2f})")
+        return ax
+
+
+@dataclass(frozen=True)
+class AeroBasis:
+    """Retained vertical/torsional modes sampled at the deck strips.
+
+    ``phi_h[i, j]`` is heave [m] and ``phi_a[i, j]`` pitch [rad] at strip ``i`` per unit modal
+    coordinate ``j`` (mass-normalised: modal mass 1 kg m^2 units).
+    """
+
+    modes: tuple
+    omega: np.ndarray
+    zeta: np.ndarray
+    phi_h: np.ndarray
+    phi_a: np.ndarray
+    strip_x: np.ndarray
+    strip_length: np.ndarray
+    strip_span: np.ndarray
+
+    @property
+    def n(self) -> int:
+        """Number of retained modes."""
+        return len(self.omega)
+
+
+def _symmetry(structure: StructuralModel, node_field: np.ndarray) -> tuple[str, float]:
+    """Symmetric/antisymmetric about the main-span mid-point, and the main-span share."""
+    m = structure.main_span
+    sel = structure.node_span == m
+    x = structure.node_x[sel]
+    y = node_field[sel]
+    L = structure.spec.main_span.length_m
+    mirrored = np.interp(L - x, x, y)
+    corr = float(np.dot(y, mirrored))
+    total = float(np.sum(node_field ** 2))
+    share = float(np.sum(y ** 2) / total) if total > 0 else 0.0
+    return ("symmetric" if corr >= 0 else "antisymmetric"), share
+
+
+def solve(structure: StructuralModel, count: int | None = None) -> ModalModel:
+    """Eigen-solution of every family, labels and Rayleigh damping.
+
+    Parameters
+    ----------
+    structure : StructuralModel
+    count : int, optional
+        Keep the lowest ``count`` modes of each family (all when omitted).
+    """
+    raw = []
+    shapes = {}
+    for name, fam in structure.families.items():
+        w2, vec = sla.eigh(fam.K, fam.M)
+        if np.any(w2 <= 0):
+            raise BridgeflapError(f"{name} stiffness is not positive definite "
+                                  f"(min eigenvalue {w2.min():.3g})")
+        if count is not None:
+            w2, vec = w2[:count], vec[:, :count]
+        shapes[name] = vec
+        for j in range(len(w2)):
+            sym, share = _symmetry(structure, fam.node_map @ vec[:, j])
+            deck_share = 1.0
+            if fam.deck_mask is not None:
+                v = vec[:, j]
+                md = fam.deck_mask
+                deck_share = float(v[md] @ fam.M[np.ix_(md, md)] @ v[md] / (v @ fam.M @ v))
+            raw.append((float(np.sqrt(w2[j])), name, sym, share, j, deck_share))
+    first_v = min(r[0] for r in raw if r[1] == "vertical")
+    first_t = min(r[0] for r in raw if r[1] == "torsional")
+    a_m, a_k = rayleigh_coefficients(first_v, first_t, structure.spec.damping.ratio)
+    raw.sort(key=lambda r: r[0])
+    counters: dict = {}
+    modes, col_of = [], []
+    for w, name, sym, share, j, deck_share in raw:
+        key = (name, sym)
+        counters[key] = counters.get(key, 0) + 1
+        zeta = a_m / (2 * w) + a_k * w / 2
+        modes.append(Mode(name, sym, w / (2 * np.pi), float(zeta), counters[key], share,
+                          deck_share))
+        col_of.append((name, j))
+    # family_index[name][col] = index in modes of that family's eigenvector column col
+    family_index = {}
+    for name in structure.families:
+        cols = sorted((j, i) for i, (n, j) in enumerate(col_of) if n == name)
+        family_index[name] = [i for _, i in cols]
+    return ModalModel(structure=structure, modes=tuple(modes), shapes=shapes,
+                      family_index=family_index, rayleigh=(a_m, a_k))
+
+
+def rayleigh_coefficients(omega1: float, omega2: float, zeta: float) -> tuple[float, float]:
+    """``(a_M, a_K)`` giving ratio ``zeta`` at ``omega1`` and ``omega2`` [rad/s]."""
+    if abs(omega1 - omega2) < 1e-12 * omega1:
+        return 2 * zeta * omega1, 0.0
+    a_k = 2 * zeta / (omega1 + omega2)
+    a_m = a_k * omega1 * omega2
+    return float(a_m), float(a_k)
+
+
+def modal_model(spec: BridgeSpec, count: int | None = None) -> ModalModel:
+    """Convenience: statics, assembly and modes of ``spec`` in one call."""
+    return solve(assemble(spec), count)

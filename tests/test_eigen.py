@@ -1,0 +1,192 @@
+"""Tests of design/eigen.py: eigenvalue-sensitivity callbacks and their use in Ipopt."""
+
+import casadi as ca
+import numpy as np
+import pytest
+import scipy.optimize
+
+from design.eigen import (
+    SmoothAbscissa,
+    TopRealParts,
+    eig_real_part_sensitivities,
+    smooth_abscissa,
+    spectral_abscissa,
+)
+
+
+def _random_affine_family(seed=3, n=6, n_p=3):
+    """A(p) = A0 + sum_k p_k A_k, random nonsymmetric, with well-separated eigenvalues at p0."""
+    rng = np.random.default_rng(seed)
+    A0 = rng.standard_normal((n, n))
+    Ak = [rng.standard_normal((n, n)) for _ in range(n_p)]
+    p = ca.SX.sym("p", n_p)
+    A = ca.DM(A0)
+    for k in range(n_p):
+        A = A + p[k] * ca.DM(Ak[k])
+    A_fun = ca.Function("A", [p], [A], ["p"], ["A"])
+    p0 = 0.1 * rng.standard_normal(n_p)
+    return A_fun, p0
+
+
+def _casadi_jacobian(cb, n_p):
+    """Jacobian of a callback through CasADi's AD machinery (exercises get_jacobian)."""
+    x = ca.MX.sym("x", n_p)
+    return ca.Function("J", [x], [ca.jacobian(cb(x), x)])
+
+
+def _central_fd(fun, p, h):
+    p = np.asarray(p, dtype=float)
+    cols = []
+    for k in range(p.size):
+        e = np.zeros_like(p)
+        e[k] = h
+        cols.append((fun(p + e) - fun(p - e)) / (2.0 * h))
+    return np.column_stack(cols)
+
+
+def _oscillator_family():
+    """2-DOF chain (unit masses, K = [[2,-1],[-1,2]] N/m) with negative damping on mass 1.
+
+    p = velocity-feedback gains [N s/m] added to each mass's damping. At p = 0 the damping
+    matrix diag(-0.1, 0.05) gives both modes modal damping -0.025 N s/m: unstable.
+    """
+    K = np.array([[2.0, -1.0], [-1.0, 2.0]])
+    C0 = np.diag([-0.1, 0.05])
+    p = ca.SX.sym("p", 2)
+    A = ca.vertcat(
+        ca.horzcat(ca.DM.zeros(2, 2), ca.DM.eye(2)),
+        ca.horzcat(ca.DM(-K), -(ca.DM(C0) + ca.diag(p))),
+    )
+    return ca.Function("A", [p], [A], ["p"], ["A"])
+
+
+def test_top_real_parts_jacobian_matches_central_differences():
+    A_fun, p0 = _random_affine_family()
+    A = np.asarray(A_fun(p0).full())
+    lam = np.linalg.eigvals(A)
+    gaps = np.abs(lam[:, None] - lam[None, :]) + np.eye(lam.size) * 1e9
+    # Distinct, well-separated eigenvalues (simple, far from crossing) so the real parts are
+    # smooth and sorting is stable over the FD stencil; conjugate pairs have |lambda-conj| > 0.
+    assert gaps.min() > 0.05
+    cb = TopRealParts(A_fun, 6)
+    J = np.asarray(_casadi_jacobian(cb, 3)(p0).full())
+    values = lambda p: np.asarray(cb(ca.DM(p)).full()).ravel()  # noqa: E731
+    J_fd = _central_fd(values, p0, 1e-6)
+    # Central FD: truncation O(h^2 |d3 lambda|) ~ 1e-12 and round-off eps*|lambda|/h ~ 1e-10
+    # for h = 1e-6 and |lambda| ~ 3; a 1e-7 relative (to max|J|) tolerance leaves > 100x margin.
+    np.testing.assert_allclose(J, J_fd, rtol=0, atol=1e-7 * np.abs(J_fd).max())
+    assert cb.last_fd_rows == ()
+    assert cb.fd_fallback_count == 0
+    # Values: sorted descending and equal to a dense eig (same LAPACK call, so ~ machine eps).
+    v = values(p0)
+    assert np.all(np.diff(v) <= 0.0)
+    np.testing.assert_allclose(v, np.sort(lam.real)[::-1], rtol=0, atol=1e-12)
+
+
+def test_smooth_abscissa_bounds_and_gradient():
+    A_fun, p0 = _random_affine_family(seed=5)
+    tau = 0.05
+    sa = smooth_abscissa(A_fun, tau)
+    assert isinstance(sa, SmoothAbscissa)
+    alpha = spectral_abscissa(np.asarray(A_fun(p0).full()))
+    value = float(sa(ca.DM(p0)))
+    # log-sum-exp bound: alpha <= value <= alpha + tau log n (n = 6), exact inequalities.
+    assert alpha <= value <= alpha + tau * np.log(6) + 1e-14
+    J = np.asarray(_casadi_jacobian(sa, 3)(p0).full())
+    J_fd = _central_fd(lambda p: np.asarray(sa(ca.DM(p)).full()).ravel(), p0, 1e-6)
+    # Same FD error budget as above; curvature of the softmax is ~1/tau = 20, still negligible.
+    np.testing.assert_allclose(J, J_fd, rtol=0, atol=1e-7 * np.abs(J_fd).max())
+
+
+def test_sensitivity_formula_on_diagonalisable_analytic_case():
+    # A(p) = [[p, 1], [-1, p]] has eigenvalues p +- i, so d Re(lambda)/dp = 1 exactly.
+    A = np.array([[0.3, 1.0], [-1.0, 0.3]])
+    dA = np.zeros((2, 2, 1))
+    dA[:, :, 0] = np.eye(2)
+    lam, dre, ill = eig_real_part_sensitivities(A, dA)
+    np.testing.assert_allclose(lam.real, [0.3, 0.3], atol=1e-15)
+    # Exact value 1; LAPACK eigenvectors give it to a few ulps.
+    np.testing.assert_allclose(dre[:, 0], [1.0, 1.0], atol=1e-14)
+    assert not ill.any()
+
+
+def test_defective_eigenvalue_falls_back_to_finite_differences():
+    # Jordan block at p = (p0, 0): A = [[p0, 1], [p1, p0]] has eigenvalues p0 +- sqrt(p1),
+    # defective at p1 = 0 (w^H v = 0). The derivative w.r.t. p0 is exactly 1 for both.
+    p = ca.SX.sym("p", 2)
+    A_fun = ca.Function("A", [p], [ca.vertcat(ca.horzcat(p[0], 1.0), ca.horzcat(p[1], p[0]))])
+    cb = TopRealParts(A_fun, 2)
+    J = np.asarray(_casadi_jacobian(cb, 2)(ca.DM([0.2, 0.0])).full())
+    assert cb.last_fd_rows == (0, 1)
+    assert cb.fd_fallback_count == 2
+    assert np.all(np.isfinite(J))
+    # Shifting p0 moves both eigenvalues rigidly, so the FD column is exact up to round-off
+    # eps/h ~ 1e-10 (h = 1e-6).
+    np.testing.assert_allclose(J[:, 0], [1.0, 1.0], atol=1e-8)
+
+
+def test_ipopt_minimum_norm_stabilising_feedback():
+    A_fun = _oscillator_family()
+    assert spectral_abscissa(np.asarray(A_fun([0.0, 0.0]).full())) > 0.0  # unstable at p = 0
+    margin = 0.05  # required decay rate [1/s]
+    cb = TopRealParts(A_fun, 4)  # keep alive: referenced by the solver below
+    x = ca.MX.sym("x", 2)
+    solver = ca.nlpsol(
+        "stabilise",
+        "ipopt",
+        {"x": x, "f": ca.sumsqr(x), "g": cb(x)},
+        {
+            "ipopt.hessian_approximation": "limited-memory",
+            "ipopt.tol": 1e-10,
+            "ipopt.constr_viol_tol": 1e-10,
+            "ipopt.print_level": 0,
+            "ipopt.sb": "yes",
+            "print_time": False,
+        },
+    )
+    sol = solver(x0=[0.0, 0.0], lbg=-np.inf, ubg=-margin)
+    assert solver.stats()["return_status"] == "Solve_Succeeded"
+    p_opt = np.asarray(sol["x"].full()).ravel()
+    g_opt = np.asarray(sol["g"].full()).ravel()
+    alpha = spectral_abscissa(np.asarray(A_fun(p_opt).full()))
+    # A posteriori dense eig agrees with the constraint value (same matrix, same LAPACK
+    # routine: agreement to round-off), and the constraint holds to Ipopt's tolerance 1e-10
+    # (1e-9 allows for Ipopt's internal scaling of the constraint).
+    assert abs(alpha - g_opt[0]) < 1e-12
+    assert alpha <= -margin + 1e-9
+    # Cross-method: SLSQP with finite-difference gradients of a plain numpy constraint. The
+    # problem is smooth at the optimum (two distinct complex pairs, both active), so both
+    # methods find the same point; SLSQP's FD gradients (step ~1.5e-8) limit it to ~1e-6.
+    ref = scipy.optimize.minimize(
+        lambda q: q @ q,
+        x0=[0.2, 0.2],
+        constraints=[
+            {
+                "type": "ineq",
+                "fun": lambda q: -margin - np.linalg.eigvals(np.asarray(A_fun(q).full())).real,
+            }
+        ],
+        method="SLSQP",
+        options={"ftol": 1e-12, "maxiter": 200},
+    )
+    assert ref.success
+    np.testing.assert_allclose(p_opt, ref.x, atol=1e-5)
+
+
+def test_callback_rejects_bad_arguments():
+    A_fun, _ = _random_affine_family()
+    with pytest.raises(ValueError, match="m must be"):
+        TopRealParts(A_fun, 7)
+    with pytest.raises(ValueError, match="temperature"):
+        smooth_abscissa(A_fun, 0.0)
+    with pytest.raises(ValueError, match="square"):
+        spectral_abscissa(np.zeros((2, 3)))
+
+
+def test_non_finite_matrix_gives_nan_not_exception():
+    # "Solver failure is data": a NaN in A(p) yields NaN values and Jacobian for Ipopt to reject.
+    p = ca.SX.sym("p", 1)
+    A_fun = ca.Function("A", [p], [ca.vertcat(ca.horzcat(ca.log(p), 1.0), ca.horzcat(0.0, -1.0))])
+    cb = TopRealParts(A_fun, 2)
+    assert np.all(np.isnan(np.asarray(cb(ca.DM(-1.0)).full())))
+    assert np.all(np.isnan(np.asarray(_casadi_jacobian(cb, 1)(-1.0).full())))
