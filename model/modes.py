@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from model.errors import BridgeflapError
+from model.aero import StructuralBasis
+from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import StructuralModel, assemble
 from model.spec import BridgeSpec
 
@@ -81,15 +82,16 @@ class ModalModel:
                 return m
         raise BridgeflapError(f"no mode {label} in the computed set")
 
-    def aero_basis(self, count: int) -> AeroBasis:
-        """The lowest ``count`` vertical and torsional modes, for the aeroelastic model.
+    def structural_basis(self, count: int) -> StructuralBasis:
+        """The lowest ``count`` vertical and torsional modes as generalised coordinates.
 
-        Lateral modes are not coupled by thin-aerofoil loads (lift and moment only) and are
-        left out of the aeroelastic state.
+        Mass-normalised: ``M = I``, ``K = diag(omega^2)``, ``C = diag(2 zeta omega)`` (Rayleigh
+        damping is diagonal in the modes). Lateral modes are not coupled by thin-aerofoil
+        loads (lift and moment only) and are left out of the aeroelastic state.
         """
         cand = [i for i, m in enumerate(self.modes) if m.family in ("vertical", "torsional")]
         if count < 1:
-            raise BridgeflapError("at least one mode is needed")
+            raise BridgeflapInputError("modes", f"at least one mode is needed, got {count}")
         chosen = cand[:count]
         n_strip = len(self.structure.strip_x)
         phi_h = np.zeros((n_strip, len(chosen)))
@@ -98,8 +100,7 @@ class ModalModel:
         zeta = np.zeros(len(chosen))
         for j, i in enumerate(chosen):
             m = self.modes[i]
-            col = self.family_index[m.family].index(i)
-            v = self.shapes[m.family][:, col]
+            v = self.shape(i)
             fam = self.structure.families[m.family]
             if m.family == "vertical":
                 phi_h[:, j] = fam.strip_map @ v
@@ -107,10 +108,17 @@ class ModalModel:
                 phi_a[:, j] = fam.strip_map @ v
             omega[j] = 2 * np.pi * m.frequency_hz
             zeta[j] = m.damping_ratio
-        return AeroBasis(modes=tuple(self.modes[i] for i in chosen), omega=omega, zeta=zeta,
-                         phi_h=phi_h, phi_a=phi_a, strip_x=self.structure.strip_x,
-                         strip_length=self.structure.strip_length,
-                         strip_span=self.structure.strip_span)
+        st = self.structure
+        return StructuralBasis(
+            M=np.eye(len(chosen)), C=np.diag(2 * zeta * omega), K=np.diag(omega ** 2),
+            phi_h=phi_h, phi_a=phi_a, strip_length=st.strip_length,
+            strip_x=st.global_x(st.strip_span, st.strip_x),
+            labels=tuple(self.modes[i].label for i in chosen))
+
+    def shape(self, i: int) -> np.ndarray:
+        """Mass-normalised eigenvector (family DOFs) of ``modes[i]``."""
+        m = self.modes[i]
+        return self.shapes[m.family][:, self.family_index[m.family].index(i)]
 
     def plot(self, labels=("VS1", "VA1", "TS1", "TA1", "LS1"), ax=None):
         """Mode shapes along the bridge (deck field at the nodes)."""
@@ -125,9 +133,7 @@ class ModalModel:
                 m = self.find(lab)
             except BridgeflapError:
                 continue
-            i = self.modes.index(m)
-            col = self.family_index[m.family].index(i)
-            y = st.families[m.family].node_map @ self.shapes[m.family][:, col]
+            y = st.families[m.family].node_map @ self.shape(self.modes.index(m))
             y = y / (np.max(np.abs(y)) or 1.0)
             for s in np.unique(st.node_span):
                 sel = st.node_span == s
@@ -139,29 +145,6 @@ class ModalModel:
         ax.grid(alpha=0.3)
         ax.set_title(f"{self.spec.name}: mode shapes (erected {self.spec.erected_fraction:.2f})")
         return ax
-
-
-@dataclass(frozen=True)
-class AeroBasis:
-    """Retained vertical/torsional modes sampled at the deck strips.
-
-    ``phi_h[i, j]`` is heave [m] and ``phi_a[i, j]`` pitch [rad] at strip ``i`` per unit modal
-    coordinate ``j`` (mass-normalised: modal mass 1 kg m^2 units).
-    """
-
-    modes: tuple
-    omega: np.ndarray
-    zeta: np.ndarray
-    phi_h: np.ndarray
-    phi_a: np.ndarray
-    strip_x: np.ndarray
-    strip_length: np.ndarray
-    strip_span: np.ndarray
-
-    @property
-    def n(self) -> int:
-        """Number of retained modes."""
-        return len(self.omega)
 
 
 def _symmetry(structure: StructuralModel, node_field: np.ndarray) -> tuple[str, float]:

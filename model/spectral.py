@@ -389,6 +389,14 @@ def _output_psd(evaluator, omegas, S, full, chunk):
     for start in range(0, n_omega, chunk):
         sl = slice(start, min(start + chunk, n_omega))
         H = evaluator.transfer(omegas[sl])  # (k, p, m)
+        if not full and not np.iscomplexobj(S):
+            # real CSD (e.g. real coherence): diag(H S H^H) = rowsum((Hr S) Hr + (Hi S) Hi),
+            # half the flops of the complex product
+            Hr, Hi = np.ascontiguousarray(H.real), np.ascontiguousarray(H.imag)
+            out[sl] = np.einsum("kpm,kpm->kp", Hr @ S[sl], Hr) + np.einsum(
+                "kpm,kpm->kp", Hi @ S[sl], Hi
+            )
+            continue
         HS = H @ S[sl]  # (k, p, m)
         if full:
             out[sl] = HS @ np.conj(np.swapaxes(H, 1, 2))

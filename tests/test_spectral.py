@@ -62,7 +62,7 @@ STRIP_POSITIONS = np.array([0.0, 4.0, 10.0])  # [m]
 
 
 def fixed_coherence():
-    """A constant (frequency-independent) positive-definite coherence matrix of 3 inputs."""
+    """Return a constant (frequency-independent) positive-definite coherence matrix of 3 inputs."""
     d = np.abs(STRIP_POSITIONS[:, None] - STRIP_POSITIONS[None, :])
     return np.exp(-d / 8.0)
 
@@ -108,6 +108,7 @@ def test_flat_one_sided_spectrum_equals_lyapunov_sdof():
 # (c) cross-method agreement
 # ----------------------------------------------------------------------------------------------
 def test_two_dof_correlated_white_spectral_vs_lyapunov():
+    """2-DOF, 3 inputs with a fixed coherence matrix: quadrature vs exact Lyapunov."""
     A, B, C, _ = two_dof()
     R = fixed_coherence()
     G0 = 0.5
@@ -122,6 +123,7 @@ def test_two_dof_correlated_white_spectral_vs_lyapunov():
 
 
 def test_full_csd_matches_auto_psd_and_schur_matches_modal():
+    """Auto-PSD equals the diagonal of the full CSD; modal and Schur paths agree."""
     A, B, C, _ = two_dof()
     coh = exponential_coherence(STRIP_POSITIONS, decay_coefficient=8.0, wind_speed=20.0)
     csd = separable_csd(lambda w: 1.0 / (1.0 + w**2), coh, admittance_squared=lambda w: 0.8)
@@ -168,6 +170,7 @@ def test_monte_carlo_vs_spectral():
 
 
 def test_casadi_expression_matches_numpy():
+    """CasADi (MX and SX) spectral RMS equals the numpy quadrature on the same grid."""
     A, B, C, _ = two_dof()
     coh = exponential_coherence(STRIP_POSITIONS, decay_coefficient=8.0, wind_speed=15.0)
     csd = separable_csd(lambda w: 1.0 / (1.0 + w**2), coh)
@@ -207,6 +210,7 @@ def test_casadi_complex_csd_matches_numpy():
 # (d) derivative check
 # ----------------------------------------------------------------------------------------------
 def test_casadi_gradient_vs_finite_difference():
+    """Derivative of the RMS w.r.t. a stiffness scale: CasADi AD vs central differences."""
     p0 = 1.0
     A0, B, C, A1 = two_dof(stiffness_scale=p0)
     coh = exponential_coherence(STRIP_POSITIONS, decay_coefficient=8.0, wind_speed=15.0)
@@ -224,10 +228,10 @@ def test_casadi_gradient_vs_finite_difference():
 
     h = 1e-5
     fd = (rms_np(p0 + h) - rms_np(p0 - h)) / (2 * h)
-    # central differences: truncation h^2 f'''/6 ~ 1e-10 relative (f varies on the scale O(1) in p;
-    # the grid is fixed so the peaks do not move relative to the points' derivative), round-off
-    # eps |f| / h ~ 2e-11 / 1e-5 = 2e-11 ... 1e-10 relative; 1e-6 leaves a wide margin while still
-    # catching any wrong term (a missing Im part or weight would be O(1) wrong)
+    # central differences: truncation error h^2 f'''/6 (measured ~1e-8 relative: the resonance
+    # peaks move across the fixed grid points as p changes, so f''' is large), round-off
+    # eps |f| / h ~ 2e-16 / 1e-5 = 2e-11 relative. 1e-6 leaves a 100x margin and still catches any
+    # wrong term (a missing Im part or weight is an O(1) error).
     np.testing.assert_allclose(grad, fd, rtol=1e-6, atol=1e-12 * np.max(np.abs(fd)))
     assert np.all(np.abs(grad) > 1e-6)  # non-trivial derivative
 
@@ -236,7 +240,7 @@ def test_casadi_gradient_vs_finite_difference():
 # (b) invariants and numerics
 # ----------------------------------------------------------------------------------------------
 def test_grid_convergence_lightly_damped():
-    """zeta = 0.5 %: refining the adaptive grid changes the RMS by < 0.5 %."""
+    """Zeta = 0.5 %: refining the adaptive grid changes the RMS by < 0.5 %."""
     A, B, C, _ = two_dof(zeta=0.005)
     coh = exponential_coherence(STRIP_POSITIONS, decay_coefficient=8.0, wind_speed=25.0)
     csd = separable_csd(lambda w: 2.0 / (1.0 + (w / 2.0) ** 2) ** (5 / 6), coh)
@@ -256,6 +260,7 @@ def test_grid_convergence_lightly_damped():
 
 
 def test_grid_contains_peaks_and_bounds():
+    """The adaptive grid spans [0, omega_max] and samples every half-power band."""
     A, _, _, _ = two_dof(zeta=0.005)
     lam = np.linalg.eigvals(A)
     grid = adaptive_frequency_grid(A, 10.0)
@@ -267,6 +272,7 @@ def test_grid_contains_peaks_and_bounds():
 
 
 def test_unstable_system_reports_nan():
+    """Unstable A: status "unstable" and NaN from all three methods, no exception."""
     A, B, C, _, _ = sdof()
     A_unstable = A.copy()
     A_unstable[1, 1] = +0.1  # negative damping: flutter-like growing oscillation
@@ -296,6 +302,7 @@ def test_rms_grows_towards_instability_without_clipping():
 
 
 def test_coherence_invariants():
+    """Eq. (16) coherence: unit diagonal, symmetric, 1 at omega = 0, published form."""
     coh = exponential_coherence(STRIP_POSITIONS, decay_coefficient=10.0, wind_speed=30.0)
     R = coh(2.0)
     np.testing.assert_allclose(np.diag(R), 1.0)

@@ -1,0 +1,182 @@
+"""Aeroelastic state space ``x' = A(U) x + B_w(U) w``, ``A(U) = A0 + U A1 + U^2 A2``.
+
+State ``x = (q, q', lag states)`` (named partitions in :class:`StateIndex`). The lift-deficiency
+function is replaced by its lag-form rational approximation (:mod:`model.rfa`)::
+
+    C(s_bar) Q = Q/2 + sum_j A_j y_j,     y_j' = (beta_j U / b) (Q - y_j)
+
+(``sum_j A_j = 1/2``). Two assemblies that must agree (METHODS.md §2):
+
+* ``order="full"``: lag states on every strip's downwash ``Q_i`` (``4 n_strip`` states);
+* ``order="modal"``: lag states on the generalised circulatory downwash ``P Q`` (``4 n``
+  states). Exact when all strips share ``b`` and the lag poles, because the lag filter then
+  commutes with the projection ``P``.
+
+No acceleration feed-through arises (the non-circulatory inertia joins the mass matrix), and
+``U`` enters polynomially, so a sweep is a matrix sum and one ``eig`` per speed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from model.aero import StripAero, StructuralBasis, strip_aero
+from model.errors import BridgeflapInputError
+from model.rfa import RationalApprox, get_rfa
+
+ORDERS = ("modal", "full")
+
+
+@dataclass(frozen=True)
+class StateIndex:
+    """Named partitions of the state vector."""
+
+    q: slice
+    q_dot: slice
+    aero_lag: slice
+    compensator: slice
+    n: int
+    names: tuple
+
+    def find(self, name: str) -> int:
+        """Index of a state by name."""
+        return self.names.index(name)
+
+
+@dataclass(frozen=True)
+class AeroelasticSystem:
+    """Linear aeroelastic model of one bridge state (speed-polynomial form).
+
+    ``A(U) = A0 + U A1 + U^2 A2``; ``B_w(U) = U Bw1`` maps strip gust velocities [m/s] (up
+    positive, before admittance) to ``x'``; ``C_out`` maps ``x`` to strip heave [m] then strip
+    pitch [rad].
+    """
+
+    A0: np.ndarray
+    A1: np.ndarray
+    A2: np.ndarray
+    Bw1: np.ndarray
+    C_out: np.ndarray
+    index: StateIndex
+    basis: StructuralBasis
+    aero: StripAero
+    rfa: RationalApprox
+    order: str
+    extras: dict = field(default_factory=dict, compare=False)
+
+    def A(self, wind_speed: float) -> np.ndarray:
+        """State matrix at ``wind_speed`` [m/s]."""
+        U = float(wind_speed)
+        return self.A0 + U * self.A1 + (U * U) * self.A2
+
+    def B_gust(self, wind_speed: float) -> np.ndarray:
+        """Gust input matrix at ``wind_speed`` [m/s]."""
+        return float(wind_speed) * self.Bw1
+
+    @property
+    def n_states(self) -> int:
+        """Number of states."""
+        return self.A0.shape[0]
+
+    def structural_eigenvalues(self) -> np.ndarray:
+        """Eigenvalues of the structure alone (upper half plane), ``U = 0``, no air."""
+        n = self.basis.n
+        Minv = np.linalg.inv(self.basis.M)
+        As = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ self.basis.K, -Minv @ self.basis.C]])
+        lam = np.linalg.eigvals(As)
+        return np.sort_complex(lam[lam.imag > 0])
+
+
+def build(basis: StructuralBasis, half_chord: float, air_density: float,
+          rfa: RationalApprox | str = "rfa4", order: str = "modal", added_inertia: bool = True,
+          lift_slope_buffeting: float = 2 * np.pi,
+          moment_slope_buffeting: float = np.pi / 2) -> AeroelasticSystem:
+    """Assemble the aeroelastic state space of a structural basis.
+
+    Parameters
+    ----------
+    basis : StructuralBasis
+    half_chord : float
+        ``b`` [m].
+    air_density : float
+        [kg/m^3].
+    rfa : RationalApprox or str
+        Rational approximation of C(k) (``"rfa4"`` default, ``"jones"``).
+    order : {"modal", "full"}
+        Lag states on generalised or on strip downwash.
+    added_inertia : bool
+        Keep the apparent-inertia moment (seed Eq. 3).
+    """
+    if order not in ORDERS:
+        raise BridgeflapInputError("order", f"must be one of {ORDERS}, got {order!r}")
+    rfa = get_rfa(rfa) if isinstance(rfa, str) else rfa
+    aero = strip_aero(basis, half_chord, air_density, added_inertia, lift_slope_buffeting,
+                      moment_slope_buffeting)
+    n, ns = basis.n, basis.n_strip
+    nl = rfa.n_lags
+    b = aero.half_chord
+    Mt = basis.M + aero.M_nc
+    Minv = np.linalg.inv(Mt)
+    if order == "modal":
+        R = np.eye(n)          # force from lag states
+        S = aero.P             # lag states filter P Q
+        m = n
+    else:
+        R = aero.P
+        S = np.eye(ns)
+        m = ns
+    nx = 2 * n + nl * m
+    iq, iv = slice(0, n), slice(n, 2 * n)
+    A0, A1, A2 = np.zeros((nx, nx)), np.zeros((nx, nx)), np.zeros((nx, nx))
+    A0[iq, iv] = np.eye(n)
+    A0[iv, iq] = -Minv @ basis.K
+    A0[iv, iv] = -Minv @ basis.C
+    A1[iv, iv] = Minv @ (-aero.D_nc + 0.5 * aero.P @ aero.G1)
+    A2[iv, iq] = Minv @ (0.5 * aero.P @ aero.G0)
+    for j in range(nl):
+        lj = slice(2 * n + j * m, 2 * n + (j + 1) * m)
+        A1[iv, lj] = Minv @ (rfa.gains[j] * R)
+        rate = rfa.poles[j] / b
+        A1[lj, iv] = rate * (S @ aero.G1)
+        A1[lj, lj] = -rate * np.eye(m)
+        A2[lj, iq] = rate * (S @ aero.G0)
+    Bw1 = np.zeros((nx, ns))
+    Bw1[iv, :] = Minv @ aero.P_gust
+    C_out = np.zeros((2 * ns, nx))
+    C_out[:ns, iq] = basis.phi_h
+    C_out[ns:, iq] = basis.phi_a
+    names = ([f"q[{lab}]" for lab in basis.labels] + [f"qdot[{lab}]" for lab in basis.labels]
+             + [f"lag{j + 1}[{k}]" for j in range(nl)
+                for k in (basis.labels if order == "modal" else range(ns))])
+    index = StateIndex(q=iq, q_dot=iv, aero_lag=slice(2 * n, nx), compensator=slice(nx, nx),
+                       n=nx, names=tuple(str(s) for s in names))
+    return AeroelasticSystem(A0=A0, A1=A1, A2=A2, Bw1=Bw1, C_out=C_out, index=index,
+                             basis=basis, aero=aero, rfa=rfa, order=order)
+
+
+def exact_dynamic_matrix(system: AeroelasticSystem, p: complex, wind_speed: float,
+                         c_value: complex) -> np.ndarray:
+    """``D(p) = p^2 M_t + p (C + U D_nc) + K - U C(k) P (p G1 + U G0)`` for a given ``C(k)``.
+
+    ``det D(p) = 0`` is the exact Theodorsen flutter equation used by the p-k method.
+    """
+    B, a = system.basis, system.aero
+    U = float(wind_speed)
+    return (p * p * (B.M + a.M_nc) + p * (B.C + U * a.D_nc) + B.K
+            - U * c_value * a.P @ (p * a.G1 + U * a.G0))
+
+
+def divergence_speed_static(system: AeroelasticSystem) -> float:
+    """Static divergence speed [m/s]: smallest ``U`` with ``det(K - U^2 P G0) = 0`` (C(0) = 1).
+
+    Returns NaN when no positive real root exists.
+    """
+    K = system.basis.K
+    Q = system.aero.P @ system.aero.G0
+    mu = np.linalg.eigvals(np.linalg.solve(K, Q))
+    real = mu[(np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()) & (mu.real > 0)].real
+    if real.size == 0:
+        return float("nan")
+    return float(1.0 / np.sqrt(real.max()))
