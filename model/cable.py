@@ -279,7 +279,11 @@ def three_step_single_span(length_m: float, cable_load_n_m: float, deck_load_n_m
     d1 = w * L * L / (8.0 * h1)
     lam1 = _irvine_lambda_sq_parabolic(w, L, h1, d1, ea_n)
     r = p / w
-    hs = _positive_root([1.0, 2.0 + lam1 / 24.0, 1.0 + lam1 / 12.0, -(lam1 / 12.0) * r * (1 + r / 2)])
+    if r == 0.0:
+        hs = 0.0  # no deck load: h* = 0 is the exact root of the step-3 cubic
+    else:
+        hs = _positive_root([1.0, 2.0 + lam1 / 24.0, 1.0 + lam1 / 12.0,
+                             -(lam1 / 12.0) * r * (1 + r / 2)])
     h2 = h1 * (1.0 + hs)
     d2 = (w + p) * L * L / (8.0 * h2)
     return ThreeStepResult(h0, h1, h2, sag0_m, d1, d2)
@@ -296,7 +300,11 @@ def three_step_for_final_sag(length_m, cable_load_n_m, deck_load_n_m, ea_n, fina
         return three_step_single_span(length_m, cable_load_n_m, deck_load_n_m, ea_n,
                                       d0).sag_loaded_m - final_sag_m
 
-    d0 = brentq(res, 0.2 * final_sag_m, 1.5 * final_sag_m, xtol=1e-12)
+    lo, hi = 0.2 * final_sag_m, 1.5 * final_sag_m
+    if res(lo) * res(hi) > 0:
+        raise BridgeflapError(f"cable statics: final sag {final_sag_m} m cannot be reached from "
+                              f"inextensible sags in [{lo:.3g}, {hi:.3g}] m")
+    d0 = brentq(res, lo, hi, xtol=1e-12)
     out = three_step_single_span(length_m, cable_load_n_m, deck_load_n_m, ea_n, d0)
     return out, out.sag_loaded_m - final_sag_m
 

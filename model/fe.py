@@ -187,7 +187,8 @@ def _end_nodes(span_nodes):
     return {nodes[0] for nodes in span_nodes} | {nodes[-1] for nodes in span_nodes}
 
 
-def assemble(spec: BridgeSpec, statics: CableStatics | None = None) -> StructuralModel:
+def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
+             erection_gj_factor: float = 0.5) -> StructuralModel:
     """Assemble the three families for ``spec`` (complete or partially erected).
 
     Parameters
@@ -195,6 +196,9 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None) -> Structura
     spec : BridgeSpec
     statics : CableStatics, optional
         Dead-load state; computed by :func:`model.cable.dead_load` when omitted.
+    erection_gj_factor : float
+        Fraction of GJ the deck keeps while erecting (seed §2: one half; 1 gives the paper's
+        "full GJ" comparison curve of Fig. 2).
     """
     statics = dead_load(spec) if statics is None else statics
     elements, node_span, node_x, span_nodes = build_mesh(spec, statics)
@@ -209,7 +213,7 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None) -> Structura
     erecting = spec.is_erecting
     ei_v = 0.0 if erecting else deck.ei_vertical_nm2
     ei_l = 0.0 if erecting else deck.ei_lateral_nm2
-    gj = 0.5 * deck.gj_nm2 if erecting else deck.gj_nm2
+    gj = erection_gj_factor * deck.gj_nm2 if erecting else deck.gj_nm2
     strips = [k for k, el in enumerate(elements) if el.deck]
     ends = _end_nodes(span_nodes)
 

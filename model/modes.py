@@ -31,16 +31,21 @@ class Mode:
     main_span_share: float  # fraction of the mode's nodal norm in the main span
     deck_share: float = 1.0  # kinetic-energy fraction in the deck (lateral: deck vs cables)
 
+    span: str = "main"  # span holding most of the mode ("main" or a side-span name)
+
     @property
     def label(self) -> str:
-        """Short label such as ``TS1`` or ``VA2``."""
+        """Short label such as ``TS1`` or ``VA2``; side-span modes: ``V-barton1``."""
+        if self.span != "main":
+            return f"{self.family[0].upper()}-{self.span}{self.order}"
         return f"{self.family[0].upper()}{self.symmetry[0].upper()}{self.order}"
 
     def as_dict(self) -> dict:
         """JSON-ready dict (the ``modes`` CLI contract)."""
         return {"label": self.label, "family": self.family, "symmetry": self.symmetry,
                 "frequency_hz": self.frequency_hz, "damping_ratio": self.damping_ratio,
-                "main_span_share": self.main_span_share, "deck_share": self.deck_share}
+                "main_span_share": self.main_span_share, "deck_share": self.deck_share,
+                "span": self.span}
 
 
 @dataclass(frozen=True)
@@ -147,8 +152,19 @@ class ModalModel:
         return ax
 
 
+def _span_of(structure: StructuralModel, node_field: np.ndarray) -> str:
+    """Name of the span holding the largest share of the nodal norm."""
+    shares = [float(np.sum(node_field[structure.node_span == s] ** 2))
+              for s in range(len(structure.spec.spans))]
+    return structure.spec.spans[int(np.argmax(shares))].name if max(shares) > 0 else "main"
+
+
 def _symmetry(structure: StructuralModel, node_field: np.ndarray) -> tuple[str, float]:
-    """Symmetric/antisymmetric about the main-span mid-point, and the main-span share."""
+    """Symmetric/antisymmetric about the main-span mid-point, and the main-span share.
+
+    For modes living in a side span the main-span part is tiny and the sign of the
+    correlation is not meaningful; such modes are labelled by their span instead.
+    """
     m = structure.main_span
     sel = structure.node_span == m
     x = structure.node_x[sel]
@@ -181,25 +197,29 @@ def solve(structure: StructuralModel, count: int | None = None) -> ModalModel:
             w2, vec = w2[:count], vec[:, :count]
         shapes[name] = vec
         for j in range(len(w2)):
-            sym, share = _symmetry(structure, fam.node_map @ vec[:, j])
+            field_ = fam.node_map @ vec[:, j]
+            sym, share = _symmetry(structure, field_)
+            span = "main" if share >= 0.5 else _span_of(structure, field_)
+            if span == structure.spec.main_span.name:
+                span = "main"
             deck_share = 1.0
             if fam.deck_mask is not None:
                 v = vec[:, j]
                 md = fam.deck_mask
                 deck_share = float(v[md] @ fam.M[np.ix_(md, md)] @ v[md] / (v @ fam.M @ v))
-            raw.append((float(np.sqrt(w2[j])), name, sym, share, j, deck_share))
+            raw.append((float(np.sqrt(w2[j])), name, sym, share, j, deck_share, span))
     first_v = min(r[0] for r in raw if r[1] == "vertical")
     first_t = min(r[0] for r in raw if r[1] == "torsional")
     a_m, a_k = rayleigh_coefficients(first_v, first_t, structure.spec.damping.ratio)
     raw.sort(key=lambda r: r[0])
     counters: dict = {}
     modes, col_of = [], []
-    for w, name, sym, share, j, deck_share in raw:
-        key = (name, sym)
+    for w, name, sym, share, j, deck_share, span in raw:
+        key = (name, sym) if span == "main" else (name, span)
         counters[key] = counters.get(key, 0) + 1
         zeta = a_m / (2 * w) + a_k * w / 2
         modes.append(Mode(name, sym, w / (2 * np.pi), float(zeta), counters[key], share,
-                          deck_share))
+                          deck_share, span))
         col_of.append((name, j))
     # family_index[name][col] = index in modes of that family's eigenvector column col
     family_index = {}

@@ -1,0 +1,412 @@
+"""The ``bridgeflap`` command line.
+
+Every command takes ``--json`` and then prints exactly one JSON object on stdout (numbers with
+units in the key names, statuses; NaN as ``null``); progress and logs go to stderr. Bad input
+gives one line ``bridgeflap: error: <field>: <reason>`` on stderr and exit status 2, with nothing
+written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from model.errors import BridgeflapError, BridgeflapInputError
+
+EXIT_BAD_INPUT = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """Argument parser whose errors are one line and exit status 2."""
+
+    def error(self, message):  # noqa: D102 - argparse API
+        raise BridgeflapInputError("arguments", message)
+
+
+def _emit(args, payload: dict, text: str) -> None:
+    from design.io import to_jsonable
+
+    if getattr(args, "json", False):
+        sys.stdout.write(json.dumps(to_jsonable(payload), allow_nan=False) + "\n")
+    else:
+        sys.stdout.write(text.rstrip("\n") + "\n")
+
+
+def _log(msg: str) -> None:
+    sys.stderr.write(msg + "\n")
+    sys.stderr.flush()
+
+
+def _spec(args):
+    from model.spec import load_bridge
+
+    spec = load_bridge(args.bridge)
+    if getattr(args, "erection", None) is not None:
+        spec = spec.erected(args.erection)
+    return spec
+
+
+def save_figure(fig, path: str | Path) -> Path:
+    """Save a matplotlib figure atomically (temp file in the same folder, then rename)."""
+    path = Path(path)
+    if path.suffix.lower() not in (".png", ".pdf", ".svg"):
+        raise BridgeflapInputError("plot", f"unsupported figure type {path.suffix!r} "
+                                           "(use .png, .pdf or .svg)")
+    if not path.parent.exists() or not os.access(path.parent, os.W_OK):
+        raise BridgeflapInputError("plot", f"folder not writable: {path.parent}")
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=130, bbox_inches="tight")
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path
+
+
+def _check_plot_target(args) -> None:
+    if getattr(args, "plot", None):
+        p = Path(args.plot)
+        if p.suffix.lower() not in (".png", ".pdf", ".svg"):
+            raise BridgeflapInputError("plot", f"unsupported figure type {p.suffix!r}")
+        if not p.parent.exists() or not os.access(p.parent, os.W_OK):
+            raise BridgeflapInputError("plot", f"folder not writable: {p.parent}")
+
+
+def _plot(result, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ax = result.plot()
+    fig = (ax[0] if isinstance(ax, list | tuple | np.ndarray) else ax).figure
+    save_figure(fig, path)
+    plt.close(fig)
+    _log(f"figure written: {path}")
+
+
+# ------------------------------------------------------------------------------ commands
+
+
+def cmd_modes(args):
+    from model.analysis import modal_model
+
+    spec = _spec(args)
+    if args.count < 1:
+        raise BridgeflapInputError("count", "must be at least 1")
+    modal = modal_model(spec)
+    modes = modal.table()[: args.count]
+    payload = {"bridge": spec.name, "erected_fraction": spec.erected_fraction,
+               "cable_horizontal_tension_n": modal.structure.statics.horizontal_tension_n,
+               "cable_main_sag_m": modal.structure.statics.main_sag_m,
+               "irvine_lambda_sq": modal.structure.statics.irvine_lambda_sq,
+               "modes": modes}
+    lines = [f"{spec.name}: erected fraction {spec.erected_fraction:.3f}, "
+             f"H = {payload['cable_horizontal_tension_n'] / 1e6:.2f} MN per cable, "
+             f"sag {payload['cable_main_sag_m']:.2f} m, lambda^2 = {payload['irvine_lambda_sq']:.1f}",
+             f"{"mode":10s} {"family":10s} {'symmetry':14s} {'f [Hz]':>8s} {'zeta [%]':>8s}"
+             f" {'main-span':>9s}"]
+    for m in modes:
+        lines.append(f"{m["label"]:10s} {m['family']:10s} {m['symmetry']:14s} "
+                     f"{m['frequency_hz']:8.4f} {100 * m['damping_ratio']:8.3f}"
+                     f" {m['main_span_share']:9.2f}")
+    if args.plot:
+        _plot(modal, args.plot)
+    _emit(args, payload, "\n".join(lines))
+
+
+def cmd_frequency_ratio(args):
+    from model.analysis import frequency_ratio
+    from model.spec import load_bridge
+
+    _check_plot_target(args)
+    res = frequency_ratio(load_bridge(args.bridge), args.fractions)
+    lines = ["erected  ratio(full GJ)  ratio(half GJ)"]
+    lines += [f"{s['erected_fraction']:7.3f}  {s['ratio_full_gj']:14.3f}  {s['ratio_half_gj']:14.3f}"
+              for s in res.stages]
+    if args.plot:
+        _plot(res, args.plot)
+    _emit(args, res.summary(), "\n".join(lines))
+
+
+def _controller(args):
+    if getattr(args, "controller", None):
+        from model.control import load_controller
+
+        return load_controller(args.controller)
+    return None
+
+
+def cmd_flutter(args):
+    from model.analysis import flutter, parse_range
+
+    _check_plot_target(args)
+    spec = _spec(args)
+    speeds = parse_range(args.speeds, "speeds", 0.0)
+    controller = _controller(args)
+    if controller is not None:
+        from model.flaps import closed_loop_flutter
+
+        res = closed_loop_flutter(spec, controller, speeds, n_modes=args.modes)
+    else:
+        res = flutter(spec, speeds, n_modes=args.modes, order=args.order, rfa=args.rfa)
+    s = res.summary()
+    text = (f"{spec.name} (erected {spec.erected_fraction:.2f}, {s['modes_retained']} modes, "
+            f"{s['order']} RFA {s['rfa']}, b = {spec.deck.half_chord_m} m)\n"
+            f"flutter:    {s['flutter_speed_m_s']:.2f} m/s at {s['flutter_frequency_hz']:.4f} Hz"
+            f" [{s['flutter_status']}], critical branch {s['critical_branch']['label']}\n"
+            f"divergence: {s['divergence_speed_m_s']:.2f} m/s [{s['divergence_status']}]"
+            f" (static check {s['divergence_static_speed_m_s']:.2f} m/s)")
+    if args.plot:
+        _plot(res, args.plot)
+    _emit(args, s, text)
+
+
+def cmd_erection(args):
+    from model.analysis import erection
+    from model.spec import load_bridge
+
+    _check_plot_target(args)
+    res = erection(load_bridge(args.bridge), args.fractions, args.speeds, args.modes,
+                   progress=lambda f: _log(f"erection stage {f:.3f} done"))
+    lines = ["erected  flutter [m/s]  status         divergence [m/s]  status"]
+    for s in res.stages:
+        lines.append(f"{s['erected_fraction']:7.3f}  {s['flutter_speed_m_s']:13.2f}  "
+                     f"{s['flutter_status']:13s}  {s['divergence_speed_m_s']:16.2f}  "
+                     f"{s['divergence_status']}")
+    if args.plot:
+        _plot(res, args.plot)
+    _emit(args, res.summary(), "\n".join(lines))
+
+
+def cmd_section(args):
+    from model import statespace, stability
+    from model.section import section_basis
+
+    basis = section_basis(args.mass, args.inertia, args.f_heave, args.f_torsion, args.half_chord,
+                          args.damping_ratio)
+    if not (np.isfinite(args.air_density) and args.air_density > 0):
+        raise BridgeflapInputError("air-density", "must be positive")
+    speeds = _speeds_for_section(args)
+    rfa = "rfa4" if args.aero == "exact" else args.aero
+    system = statespace.build(basis, args.half_chord, args.air_density, rfa=rfa,
+                              added_inertia=not args.no_added_inertia)
+    sw = stability.sweep(system, speeds)
+    out = sw.summary()
+    if args.aero == "exact":
+        pk = stability.pk_sweep(system, speeds)
+        out["flutter_speed_m_s"] = pk.flutter.speed
+        out["flutter_frequency_hz"] = pk.flutter.frequency_hz
+        out["flutter_status"] = pk.flutter.status
+        out["divergence_speed_m_s"] = sw.divergence_static_speed
+        out["divergence_status"] = ("converged" if np.isfinite(sw.divergence_static_speed)
+                                    else "no_crossing_in_range")
+    out["aero"] = args.aero
+    out["selberg_flutter_speed_m_s"] = _selberg(args)
+    text = (f"section ({args.aero}): flutter {out['flutter_speed_m_s']:.3f} m/s "
+            f"[{out['flutter_status']}] at {out['flutter_frequency_hz']:.4f} Hz; divergence "
+            f"{out['divergence_speed_m_s']:.3f} m/s [{out['divergence_status']}]; "
+            f"Selberg estimate {out['selberg_flutter_speed_m_s']:.3f} m/s")
+    _emit(args, out, text)
+
+
+def _selberg(args) -> float:
+    """Selberg's flutter formula (HUMBER_DATA §5(b)) as an engineer's sanity check."""
+    b, m, inertia = args.half_chord, args.mass, args.inertia
+    gamma = args.f_heave / args.f_torsion
+    if gamma >= 1:
+        return float("nan")
+    nu = 2 * inertia / (m * b * b)
+    mu = 2 * np.pi * args.air_density * b * b / m
+    return float(0.44 * 2 * np.pi * args.f_torsion * 2 * b
+                 * np.sqrt((1 - gamma ** 2) * np.sqrt(nu) / mu))
+
+
+def _speeds_for_section(args):
+    from model.analysis import parse_range
+
+    if args.speeds:
+        return parse_range(args.speeds, "speeds", 0.0)
+    # default grid: up to 3x Selberg's estimate or 20 b omega_theta, 400 points
+    top = 20 * args.half_chord * 2 * np.pi * args.f_torsion
+    return np.linspace(0.0, top, 801)
+
+
+def cmd_state_space(args):
+    from model.analysis import bridge_system
+
+    spec = _spec(args)
+    if not (np.isfinite(args.speed) and args.speed >= 0):
+        raise BridgeflapInputError("speed", f"must be a non-negative number, got {args.speed}")
+    out = Path(args.out)
+    if out.suffix.lower() not in (".npz", ".mat"):
+        raise BridgeflapInputError("out", "must end in .npz or .mat")
+    if not out.parent.exists() or not os.access(out.parent, os.W_OK):
+        raise BridgeflapInputError("out", f"folder not writable: {out.parent}")
+    controller = _controller(args)
+    if controller is not None:
+        from model.flaps import closed_loop_state_space
+
+        A, B, C, D, names, inputs, outputs = closed_loop_state_space(spec, controller, args.speed,
+                                                                     args.modes)
+    else:
+        _, system = bridge_system(spec, args.modes)
+        A, B = system.A(args.speed), system.B_gust(args.speed)
+        C = system.C_out
+        D = np.zeros((C.shape[0], B.shape[1]))
+        names = list(system.index.names)
+        ns = system.basis.n_strip
+        inputs = [f"gust_w[strip{i}] (m/s, up, before admittance)" for i in range(ns)]
+        outputs = ([f"heave[strip{i}] (m, down)" for i in range(ns)]
+                   + [f"pitch[strip{i}] (rad, nose-up)" for i in range(ns)])
+    data = {"A": A, "B": B, "C": C, "D": D, "state_names": np.array(names),
+            "input_names": np.array(inputs), "output_names": np.array(outputs),
+            "wind_speed_m_s": np.array(args.speed)}
+    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=out.suffix)
+    os.close(fd)
+    try:
+        if out.suffix.lower() == ".npz":
+            with open(tmp, "wb") as fh:
+                np.savez(fh, **data)
+        else:
+            import scipy.io
+
+            scipy.io.savemat(tmp, data)
+        os.replace(tmp, out)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    payload = {"out": str(out), "states": int(A.shape[0]), "inputs": int(B.shape[1]),
+               "outputs": int(C.shape[0]), "wind_speed_m_s": args.speed,
+               "spectral_abscissa_1_s": float(np.linalg.eigvals(A).real.max())}
+    _emit(args, payload, f"wrote {out}: {A.shape[0]} states, {B.shape[1]} inputs, "
+                         f"{C.shape[0]} outputs at U = {args.speed} m/s")
+
+
+# ------------------------------------------------------------------------------ parser
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser (also used for the README's command list)."""
+    p = _Parser(prog="bridgeflap", description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="command", parser_class=_Parser)
+
+    def common(sp, bridge=True, erection=True):
+        sp.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+        if bridge:
+            sp.add_argument("--bridge", default="humber",
+                            help="built-in name (humber) or path to a bridge .toml")
+        if erection:
+            sp.add_argument("--erection", type=float, default=None,
+                            help="erected fraction of the main span in (0, 1]")
+
+    sp = sub.add_parser("modes", help="structural modes")
+    common(sp)
+    sp.add_argument("--count", type=int, default=30)
+    sp.add_argument("--plot", default=None, help="mode-shape figure (.png/.pdf/.svg)")
+    sp.set_defaults(func=cmd_modes)
+
+    sp = sub.add_parser("frequency-ratio", help="f(TS1)/f(VS1) against erected fraction")
+    common(sp, erection=False)
+    sp.add_argument("--fractions", default="0.1:1.0:0.05")
+    sp.add_argument("--plot", default=None)
+    sp.set_defaults(func=cmd_frequency_ratio)
+
+    sp = sub.add_parser("flutter", help="flutter and torsional divergence")
+    common(sp)
+    sp.add_argument("--speeds", default="0:85:0.5", help="start:stop:step [m/s]")
+    sp.add_argument("--modes", type=int, default=16, help="retained vertical+torsional modes")
+    sp.add_argument("--order", choices=("modal", "full"), default="modal")
+    sp.add_argument("--rfa", choices=("rfa4", "jones"), default="rfa4")
+    sp.add_argument("--controller", default=None, help="controller .toml (closed loop)")
+    sp.add_argument("--plot", default=None)
+    sp.set_defaults(func=cmd_flutter)
+
+    sp = sub.add_parser("erection", help="flutter/divergence against erected fraction")
+    common(sp, erection=False)
+    sp.add_argument("--fractions", default="0.1:1.0:0.1")
+    sp.add_argument("--speeds", default="0:85:0.5")
+    sp.add_argument("--modes", type=int, default=16)
+    sp.add_argument("--plot", default=None)
+    sp.set_defaults(func=cmd_erection)
+
+    sp = sub.add_parser("section", help="rigid 2-DOF deck section")
+    common(sp, bridge=False, erection=False)
+    sp.add_argument("--mass", type=float, required=True, help="[kg/m]")
+    sp.add_argument("--inertia", type=float, required=True, help="about mid-chord [kg m2/m]")
+    sp.add_argument("--f-heave", type=float, required=True, help="[Hz]")
+    sp.add_argument("--f-torsion", type=float, required=True, help="[Hz]")
+    sp.add_argument("--half-chord", type=float, required=True, help="[m]")
+    sp.add_argument("--air-density", type=float, default=1.225, help="[kg/m3]")
+    sp.add_argument("--damping-ratio", type=float, default=0.0)
+    sp.add_argument("--no-added-inertia", action="store_true")
+    sp.add_argument("--aero", choices=("exact", "rfa4", "jones"), default="rfa4")
+    sp.add_argument("--speeds", default=None, help="start:stop:step [m/s]")
+    sp.set_defaults(func=cmd_section)
+
+    sp = sub.add_parser("state-space", help="write A, B, C, D at one speed (.npz or .mat)")
+    common(sp)
+    sp.add_argument("--speed", type=float, required=True, help="[m/s]")
+    sp.add_argument("--modes", type=int, default=16)
+    sp.add_argument("--controller", default=None)
+    sp.add_argument("--out", required=True)
+    sp.set_defaults(func=cmd_state_space)
+
+    for register in _EXTRA_COMMANDS:
+        register(sub, common)
+    return p
+
+
+_EXTRA_COMMANDS: list = []
+
+
+def register_command(fn):
+    """Decorator for modules that add subcommands: ``fn(subparsers, common)``."""
+    _EXTRA_COMMANDS.append(fn)
+    return fn
+
+
+def _load_extras() -> None:
+    # Commands defined next to their analyses (imported lazily to keep start-up fast).
+    import importlib
+
+    for mod in ("design.commands",):
+        try:
+            importlib.import_module(mod)
+        except ModuleNotFoundError as exc:
+            if exc.name != mod:
+                raise
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``bridgeflap`` console script."""
+    _load_extras()
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if not getattr(args, "command", None):
+            parser.print_help(sys.stderr)
+            return EXIT_BAD_INPUT
+        args.func(args)
+    except BridgeflapInputError as exc:
+        _log(f"bridgeflap: error: {exc}")
+        return EXIT_BAD_INPUT
+    except BridgeflapError as exc:
+        _log(f"bridgeflap: error: {exc}")
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        _log("bridgeflap: interrupted")
+        return 130
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
