@@ -112,10 +112,10 @@ def cmd_modes(args):
     lines = [f"{spec.name}: erected fraction {spec.erected_fraction:.3f}, "
              f"H = {payload['cable_horizontal_tension_n'] / 1e6:.2f} MN per cable, "
              f"sag {payload['cable_main_sag_m']:.2f} m, lambda^2 = {payload['irvine_lambda_sq']:.1f}",
-             f"{"mode":10s} {"family":10s} {'symmetry':14s} {'f [Hz]':>8s} {'zeta [%]':>8s}"
+             f"{'mode':10s} {'family':10s} {'symmetry':14s} {'f [Hz]':>8s} {'zeta [%]':>8s}"
              f" {'main-span':>9s}"]
     for m in modes:
-        lines.append(f"{m["label"]:10s} {m['family']:10s} {m['symmetry']:14s} "
+        lines.append(f"{m['label']:10s} {m['family']:10s} {m['symmetry']:14s} "
                      f"{m['frequency_hz']:8.4f} {100 * m['damping_ratio']:8.3f}"
                      f" {m['main_span_share']:9.2f}")
     if args.plot:
