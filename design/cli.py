@@ -378,7 +378,7 @@ def _load_extras() -> None:
     # Commands defined next to their analyses (imported lazily to keep start-up fast).
     import importlib
 
-    for mod in ("design.commands",):
+    for mod in ("design.cmd_buffeting", "design.cmd_optimise", "design.cmd_study"):
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as exc:
