@@ -111,7 +111,8 @@ def cmd_modes(args):
                "modes": modes}
     lines = [f"{spec.name}: erected fraction {spec.erected_fraction:.3f}, "
              f"H = {payload['cable_horizontal_tension_n'] / 1e6:.2f} MN per cable, "
-             f"sag {payload['cable_main_sag_m']:.2f} m, lambda^2 = {payload['irvine_lambda_sq']:.1f}",
+             f"sag {payload['cable_main_sag_m']:.2f} m, "
+             f"lambda^2 = {payload['irvine_lambda_sq']:.1f}",
              f"{'mode':10s} {'family':10s} {'symmetry':14s} {'f [Hz]':>8s} {'zeta [%]':>8s}"
              f" {'main-span':>9s}"]
     for m in modes:
@@ -130,7 +131,8 @@ def cmd_frequency_ratio(args):
     _check_plot_target(args)
     res = frequency_ratio(load_bridge(args.bridge), args.fractions)
     lines = ["erected  ratio(full GJ)  ratio(half GJ)"]
-    lines += [f"{s['erected_fraction']:7.3f}  {s['ratio_full_gj']:14.3f}  {s['ratio_half_gj']:14.3f}"
+    lines += [f"{s['erected_fraction']:7.3f}  {s['ratio_full_gj']:14.3f}  "
+              f"{s['ratio_half_gj']:14.3f}"
               for s in res.stages]
     if args.plot:
         _plot(res, args.plot)
@@ -188,7 +190,7 @@ def cmd_erection(args):
 
 
 def cmd_section(args):
-    from model import statespace, stability
+    from model import stability, statespace
     from model.section import section_basis
 
     basis = section_basis(args.mass, args.inertia, args.f_heave, args.f_torsion, args.half_chord,

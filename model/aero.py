@@ -105,7 +105,8 @@ def strip_aero(basis: StructuralBasis, half_chord: float, air_density: float,
     ph, pa = basis.phi_h, basis.phi_a
     M_nc = np.pi * rho * b ** 2 * (ph.T @ (dl * ph)) \
         + kappa * np.pi * rho * b ** 4 / 8.0 * (pa.T @ (dl * pa))
-    D_nc = np.pi * rho * b ** 2 * (ph.T @ (dl * pa)) + np.pi * rho * b ** 3 / 2.0 * (pa.T @ (dl * pa))
+    D_nc = (np.pi * rho * b ** 2 * (ph.T @ (dl * pa))
+            + np.pi * rho * b ** 3 / 2.0 * (pa.T @ (dl * pa)))
     P = (dl * (-2 * np.pi * rho * b * ph + np.pi * rho * b ** 2 * pa)).T
     P_gust = (dl * (-rho * b * lift_slope_buffeting * ph
                     + 2 * rho * b ** 2 * moment_slope_buffeting * pa)).T

@@ -35,7 +35,8 @@ def parse_range(text: str, field: str, minimum: float | None = None) -> np.ndarr
                 raise ValueError
             start, stop, step = parts
             if not (np.isfinite(step) and step > 0) or stop < start:
-                raise BridgeflapInputError(field, f"empty grid {text!r} (need start <= stop, step > 0)")
+                raise BridgeflapInputError(
+                    field, f"empty grid {text!r} (need start <= stop, step > 0)")
             n = int(np.floor((stop - start) / step + 1e-9)) + 1
             if n > 100000:
                 raise BridgeflapInputError(field, f"grid {text!r} has too many points")
@@ -155,7 +156,8 @@ class ErectionResult:
 def erection(spec: BridgeSpec, fractions=DEFAULT_FRACTIONS, speeds=DEFAULT_SPEEDS,
              n_modes: int = DEFAULT_MODES, progress=None) -> ErectionResult:
     """Flutter/divergence at each erected fraction (mid-span outwards, half GJ, zero EI)."""
-    fr = parse_range(fractions, "fractions") if isinstance(fractions, str) else np.asarray(fractions)
+    fr = (parse_range(fractions, "fractions") if isinstance(fractions, str)
+          else np.asarray(fractions))
     for f in fr:
         check_fraction(f)
     stages = []
@@ -216,7 +218,8 @@ def frequency_ratio(spec: BridgeSpec, fractions="0.1:1.0:0.05") -> FrequencyRati
 
     Symmetric modes living mainly in the main span are used (main-span share > 0.5).
     """
-    fr = parse_range(fractions, "fractions") if isinstance(fractions, str) else np.asarray(fractions)
+    fr = (parse_range(fractions, "fractions") if isinstance(fractions, str)
+          else np.asarray(fractions))
     for f in fr:
         check_fraction(f)
     stages = []

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.cable import G, CableStatics, dead_load
+from model.cable import CableStatics, G, dead_load
 from model.spec import BridgeSpec
 
 FAMILIES = ("vertical", "lateral", "torsional")

@@ -30,7 +30,7 @@ def main():
     spec = load_bridge("humber")
     out = {}
     for family, path in PARAMS.items():
-        def cost(log10_value, family=family, path=path):
+        def cost(log10_value, family=family, path=path, spec=spec):
             return log_misfit(modal_model(spec.replace(**{path: 10 ** log10_value})), family)
 
         res = minimize_scalar(cost, bounds=BOUNDS[family], method="bounded",
