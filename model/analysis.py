@@ -147,7 +147,8 @@ class ErectionResult:
         ax.plot(f, ud, "s--", label="torsional divergence")
         ax.set_xlabel("deck erected [% of main span]")
         ax.set_ylabel("critical wind speed [m/s]")
-        ax.set_title(f"{self.bridge}: stability during erection (open symbols: no crossing)")
+        ax.set_title(f"{self.bridge}: stability during erection\n"
+                     "(half GJ, zero EI while erecting; full bridge at 100 %)")
         ax.grid(alpha=0.3)
         ax.legend()
         return ax
