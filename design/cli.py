@@ -293,6 +293,18 @@ def cmd_state_space(args):
                          f"{C.shape[0]} outputs at U = {args.speed} m/s")
 
 
+def cmd_rfa(args):
+    from model.rfa import get_rfa
+
+    rep = get_rfa(args.name).report()
+    lines = [f"{rep['name']}: {rep['n_lags']} lags, C(s) = 1 - sum A_j s/(s + beta_j), s = i k",
+             f"max |C_rfa - C| on 0 < k <= {rep['k_max']}: {rep['max_error']:.3e} "
+             f"at k = {rep['k_at_max_error']:.4f}"]
+    lines += [f"  A = {a:.8f}  beta = {p:.8f}" for a, p in zip(rep["gains"], rep["poles"],
+                                                                 strict=True)]
+    _emit(args, rep, "\n".join(lines))
+
+
 # ------------------------------------------------------------------------------ parser
 
 
@@ -361,6 +373,11 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--controller", default=None)
     sp.add_argument("--out", required=True)
     sp.set_defaults(func=cmd_state_space)
+
+    sp = sub.add_parser("rfa", help="fit report of the rational approximation of C(k)")
+    common(sp, bridge=False, erection=False)
+    sp.add_argument("--name", choices=("rfa4", "jones"), default="rfa4")
+    sp.set_defaults(func=cmd_rfa)
 
     for register in _EXTRA_COMMANDS:
         register(sub, common)
