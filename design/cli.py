@@ -58,8 +58,7 @@ def save_figure(fig, path: str | Path) -> Path:
     if path.suffix.lower() not in (".png", ".pdf", ".svg"):
         raise BridgeflapInputError("plot", f"unsupported figure type {path.suffix!r} "
                                            "(use .png, .pdf or .svg)")
-    if not path.parent.exists() or not os.access(path.parent, os.W_OK):
-        raise BridgeflapInputError("plot", f"folder not writable: {path.parent}")
+    _check_writable_parent("plot", path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
     os.close(fd)
     try:
@@ -71,13 +70,20 @@ def save_figure(fig, path: str | Path) -> Path:
     return path
 
 
+def _check_writable_parent(field: str, path: Path) -> None:
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir() or not os.access(parent, os.W_OK):
+        raise BridgeflapInputError(field, f"folder missing or not writable: {parent}")
+    if path.is_dir():
+        raise BridgeflapInputError(field, f"is a folder, not a file: {path}")
+
+
 def _check_plot_target(args) -> None:
     if getattr(args, "plot", None):
         p = Path(args.plot)
         if p.suffix.lower() not in (".png", ".pdf", ".svg"):
             raise BridgeflapInputError("plot", f"unsupported figure type {p.suffix!r}")
-        if not p.parent.exists() or not os.access(p.parent, os.W_OK):
-            raise BridgeflapInputError("plot", f"folder not writable: {p.parent}")
+        _check_writable_parent("plot", p)
 
 
 def _plot(result, path):
@@ -251,8 +257,7 @@ def cmd_state_space(args):
     out = Path(args.out)
     if out.suffix.lower() not in (".npz", ".mat"):
         raise BridgeflapInputError("out", "must end in .npz or .mat")
-    if not out.parent.exists() or not os.access(out.parent, os.W_OK):
-        raise BridgeflapInputError("out", f"folder not writable: {out.parent}")
+    _check_writable_parent("out", out)
     controller = _controller(args)
     if controller is not None:
         from model.flaps import closed_loop_state_space

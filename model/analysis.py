@@ -21,7 +21,7 @@ from model.modes import ModalModel, solve
 from model.spec import BridgeSpec, check_fraction
 from model.stability import StabilitySweep, check_speeds, sweep
 
-DEFAULT_MODES = 16  # modal truncation study: README "Truncation" (66.12 m/s from 16 to 60 modes)
+DEFAULT_MODES = 16  # truncation study (bench/stability.py): 66.12 m/s at 16-20, 66.14 at 24-60
 DEFAULT_SPEEDS = "0:85:0.5"
 DEFAULT_FRACTIONS = "0.1:1.0:0.1"
 
@@ -43,6 +43,8 @@ def parse_range(text: str, field: str, minimum: float | None = None) -> np.ndarr
             values = start + step * np.arange(n)
         else:
             values = np.array([float(p) for p in str(text).split(",") if p.strip()])
+    except BridgeflapInputError:
+        raise
     except ValueError:
         raise BridgeflapInputError(field, f"not a number grid: {text!r}") from None
     if values.size == 0:
@@ -86,6 +88,7 @@ class FlutterResult:
     order: str
     rfa: str
     n_states: int
+    modes: tuple = ()
 
     def summary(self) -> dict:
         """The ``bridgeflap flutter`` JSON contract."""
@@ -104,8 +107,11 @@ class FlutterResult:
         return s
 
     def _mode_frequency(self, label: str) -> float:
-        i = self.sweep.branch_labels.index(label)
-        return float(abs(self.sweep.branches[i, 0].imag) / (2 * np.pi))
+        """In-vacuo natural frequency [Hz] of the structural mode that labels the branch."""
+        for m in self.modes:
+            if m.label == label:
+                return m.frequency_hz
+        return float("nan")
 
     def plot(self, axes=None):
         """Root locus and damping/frequency against speed."""
@@ -117,8 +123,9 @@ def flutter(spec: BridgeSpec, speeds=DEFAULT_SPEEDS, n_modes: int = DEFAULT_MODE
             order: str = "modal", rfa: str = "rfa4") -> FlutterResult:
     """Flutter and torsional divergence of ``spec`` over a speed grid [m/s]."""
     u = parse_range(speeds, "speeds", 0.0) if isinstance(speeds, str) else check_speeds(speeds)
-    _, system = bridge_system(spec, n_modes, order, rfa)
-    return FlutterResult(spec, sweep(system, u), int(n_modes), order, rfa, system.n_states)
+    modal, system = bridge_system(spec, n_modes, order, rfa)
+    return FlutterResult(spec, sweep(system, u), int(n_modes), order, rfa, system.n_states,
+                         modal.modes)
 
 
 @dataclass(frozen=True)

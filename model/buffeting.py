@@ -1,0 +1,815 @@
+"""Buffeting: RMS deck response to span-wise correlated vertical turbulence (seed §3 and §5).
+
+Conventions of :mod:`model` apply (SI units; heave ``h`` down, pitch ``alpha`` nose-up about
+mid-chord; ``k = omega b / U``). Spectra are **one-sided in circular frequency** as in
+:mod:`model.spectral` (``sigma^2 = int_0^inf G d omega``); the seed's Eqs. (15) and (17) are the
+same quantities written two-sided (``G = 2 S``).
+
+Model (seed Eqs. (7)-(8), (10)-(17), thin aerofoil with ``C_L = C_M = C_D = 0``)::
+
+    x' = A(U) x + B_gust(U) w_tilde,    y = C_out x      (self-excited forces inside A(U))
+    G_ww(omega) = s_w(omega) chi^2(k) R(omega),   R_ij = exp(-c n |y_i - y_j| / U),  n = omega/2pi
+
+with ``w_tilde`` the strip gust velocities after the admittance ``chi`` (``chi_Lw = chi_Mw``),
+``s_w`` a vertical-turbulence spectrum (:func:`model.wind.vertical_spectrum`, converted to
+``omega``: ``G(omega) = S(n) / (2 pi)``) and ``c`` the Davenport decay constant (an estimate,
+HUMBER_DATA §4(f)).
+
+Cost (the load CSD is separable and ``B_gust`` has rank ``r <= n_modes``): ``B_gust = B_l V^T``
+and ``C_out = C_l C_r`` are factorised once per speed (SVD), the load CSD is projected,
+``V^T R(omega) V`` (r x r), with an O(m) recursion instead of the m x m coherence matrix
+(the exponential coherence on a line is the covariance of a Markov process, so ``R v`` is a
+forward plus a backward first-order scan), and the transfer matrix ``C_r (i omega - A)^{-1} B_l``
+(r_c x r) is evaluated in the diagonalised (modal) form of :func:`model.spectral.response_psd`.
+The strip variances are ``diag(C_l P C_l^T)`` with ``P = int G_qq d omega`` of the reduced
+outputs, so the strip outputs never enter the frequency loop.
+
+References
+----------
+Davenport (1962) Proc. ICE 23; Sears (1941) J. Aero. Sci. 8; Liepmann (1952) J. Aero. Sci. 19;
+Busch & Panofsky (1968) QJRMS 94; Massaro, Limebeer et al. (seed paper) Eqs. (7)-(17), Fig. 4.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from model.errors import BridgeflapError, BridgeflapInputError
+from model.spectral import (
+    adaptive_frequency_grid,
+    exponential_coherence,
+    response_psd,
+    simulate_monte_carlo,
+    trapezoid_weights,
+)
+from model.wind import ADMITTANCE_KINDS, SPECTRUM_KINDS, admittance_sq, vertical_spectrum
+
+__all__ = [
+    "BuffetingResult",
+    "GustField",
+    "buffeting",
+    "buffeting_casadi",
+    "coherence_projection",
+    "gust_field",
+    "reduced_response",
+    "spectral_abscissa",
+]
+
+METHODS = ("spectral", "monte-carlo")
+#: Relative grid-convergence estimate above which a speed is flagged ``"unconverged"``.
+CONVERGENCE_TOL = 5e-3
+#: Upper integration limit as a multiple of the highest damped frequency of ``A(U)``.
+OMEGA_MAX_FACTOR = 3.0
+
+
+# ----------------------------------------------------------------------------------------------
+# wind input
+# ----------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class GustField:
+    """Vertical-turbulence and buffeting-load inputs, validated.
+
+    Attributes
+    ----------
+    spectrum : str or callable
+        Name in :data:`model.wind.SPECTRUM_KINDS`, or ``(omega [rad/s], U [m/s]) -> G`` one-sided
+        in ``omega`` [m^2/s^2 per rad/s] (used for analytic checks).
+    admittance : str or callable
+        Name in :data:`model.wind.ADMITTANCE_KINDS`, or ``k -> |chi(k)|^2`` [-].
+    turbulence_intensity : float
+        ``sigma_w / U`` [-], > 0 (seed: 0.07).
+    deck_height_m : float
+        Deck height above water ``z`` [m] (Busch-Panofsky and Kaimal scale with ``n z / U``).
+    coherence_decay : float
+        Davenport decay constant ``c`` [-], >= 0 (0: full span-wise coherence).
+    half_chord_m : float
+        ``b`` [m], for ``k = omega b / U`` in the admittance.
+    length_scale_m : float or None
+        ``L_w^x`` [m] for the von Karman spectrum
+        (default :func:`model.wind.default_length_scale_w`).
+    """
+
+    spectrum: str | Callable = "busch-panofsky"
+    admittance: str | Callable = "liepmann"
+    turbulence_intensity: float = 0.07
+    deck_height_m: float = 30.0
+    coherence_decay: float = 8.0
+    half_chord_m: float = 11.0
+    length_scale_m: float | None = None
+
+    def __post_init__(self):
+        if isinstance(self.spectrum, str):
+            key = self.spectrum.strip().lower().replace("_", "-")
+            if key not in SPECTRUM_KINDS:
+                raise BridgeflapInputError(
+                    "spectrum", f"unknown kind {self.spectrum!r}; expected one of {SPECTRUM_KINDS}")
+            object.__setattr__(self, "spectrum", key)
+        elif not callable(self.spectrum):
+            raise BridgeflapInputError("spectrum", "must be a name or a callable")
+        if isinstance(self.admittance, str):
+            key = self.admittance.strip().lower()
+            if key not in ADMITTANCE_KINDS:
+                raise BridgeflapInputError(
+                    "admittance",
+                    f"unknown kind {self.admittance!r}; expected one of {ADMITTANCE_KINDS}")
+            object.__setattr__(self, "admittance", key)
+        elif not callable(self.admittance):
+            raise BridgeflapInputError("admittance", "must be a name or a callable")
+        for name in ("turbulence_intensity", "deck_height_m", "half_chord_m"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
+                raise BridgeflapInputError(name, f"must be finite and > 0, got {v!r}")
+        c = self.coherence_decay
+        if not (isinstance(c, int | float) and np.isfinite(c) and c >= 0):
+            raise BridgeflapInputError("coherence_decay", f"must be finite and >= 0, got {c!r}")
+        if self.length_scale_m is not None and not (
+                np.isfinite(self.length_scale_m) and self.length_scale_m > 0):
+            raise BridgeflapInputError("length_scale_m", "must be finite and > 0")
+
+    def psd(self, omega, wind_speed: float) -> np.ndarray:
+        """One-sided gust PSD ``s_w(omega)`` [m^2/s^2 per rad/s] (admittance not included)."""
+        omega = np.abs(np.asarray(omega, dtype=float))
+        if callable(self.spectrum):
+            return np.asarray(self.spectrum(omega, wind_speed), dtype=float) * np.ones_like(omega)
+        kw = {} if self.length_scale_m is None or self.spectrum != "von-karman" else {
+            "length_scale": self.length_scale_m}
+        # one-sided in n [Hz] -> one-sided in omega: G(omega) = S(n) dn/domega = S(n) / (2 pi)
+        return vertical_spectrum(self.spectrum, omega / (2 * np.pi), wind_speed,
+                                 self.deck_height_m, self.turbulence_intensity, **kw) / (2 * np.pi)
+
+    def admittance_sq(self, omega, wind_speed: float) -> np.ndarray:
+        """``|chi(k)|^2`` at ``k = omega b / U`` [-]."""
+        k = np.abs(np.asarray(omega, dtype=float)) * self.half_chord_m / float(wind_speed)
+        if callable(self.admittance):
+            return np.asarray(self.admittance(k), dtype=float) * np.ones_like(k)
+        return admittance_sq(self.admittance, k)
+
+    def summary(self) -> dict:
+        """JSON-ready description of the inputs."""
+        def name(v):
+            return v if isinstance(v, str) else getattr(v, "__name__", "callable")
+
+        return {"spectrum": name(self.spectrum), "admittance": name(self.admittance),
+                "turbulence_intensity": float(self.turbulence_intensity),
+                "deck_height_m": float(self.deck_height_m),
+                "coherence_decay": float(self.coherence_decay),
+                "half_chord_m": float(self.half_chord_m),
+                "length_scale_m": self.length_scale_m}
+
+
+def gust_field(spec=None, **overrides) -> GustField:
+    """A :class:`GustField` from ``spec.aero`` and ``spec.deck``; non-None keywords override."""
+    base = {}
+    if spec is not None:
+        base = {"turbulence_intensity": spec.aero.turbulence_intensity,
+                "deck_height_m": spec.aero.deck_height_m,
+                "coherence_decay": spec.aero.coherence_decay,
+                "half_chord_m": spec.deck.half_chord_m}
+    base.update({k: v for k, v in overrides.items() if v is not None})
+    return GustField(**base)
+
+
+# ----------------------------------------------------------------------------------------------
+# numerical kernels
+# ----------------------------------------------------------------------------------------------
+def coherence_projection(positions, V, omegas, wind_speed, decay) -> np.ndarray:
+    """``V^T R(omega) V`` for the exponential coherence, by an O(m) recursion per frequency.
+
+    Parameters
+    ----------
+    positions : array_like, shape (m,)
+        Strip coordinates along the span [m] (any order).
+    V : array_like, shape (m, r)
+        Projection (real).
+    omegas : array_like, shape (n_omega,)
+        Circular frequencies [rad/s], >= 0.
+    wind_speed : float
+        ``U`` [m/s], > 0.
+    decay : float
+        Decay constant ``c`` [-], >= 0.
+
+    Returns
+    -------
+    ndarray, shape (n_omega, r, r)
+        Real symmetric ``V^T R V`` with ``R_ij = exp(-c omega |y_i - y_j| / (2 pi U))``
+        (seed Eq. (16)).
+
+    Notes
+    -----
+    For sorted ``y`` the matrix ``R`` is the covariance of a first-order Markov process in
+    ``y``, so ``(R v)_i = f_i + g_i - v_i`` with ``f_i = v_i + a_i f_{i-1}`` and
+    ``g_i = v_i + a_{i+1} g_{i+1}``, ``a_i = exp(-c omega (y_i - y_{i-1}) / (2 pi U))``.
+    """
+    y = np.asarray(positions, dtype=float).ravel()
+    V = np.asarray(V, dtype=float)
+    order = np.argsort(y, kind="stable")
+    y, V = y[order], V[order]
+    omegas = np.asarray(omegas, dtype=float).ravel()
+    m = y.size
+    a = np.exp(-float(decay) * np.abs(omegas)[:, None] * np.diff(y)[None, :]
+               / (2 * np.pi * float(wind_speed)))  # (n_omega, m-1)
+    # scan along the span with the frequency axis inside: (m, n_omega, r) keeps slices contiguous
+    a = np.ascontiguousarray(a.T)  # (m-1, n_omega)
+    f = np.empty((m, omegas.size, V.shape[1]))
+    g = np.empty_like(f)
+    f[0] = V[0]
+    for i in range(1, m):
+        np.multiply(a[i - 1, :, None], f[i - 1], out=f[i])
+        f[i] += V[i]
+    g[m - 1] = V[m - 1]
+    for i in range(m - 2, -1, -1):
+        np.multiply(a[i, :, None], g[i + 1], out=g[i])
+        g[i] += V[i]
+    f += g
+    f -= V[:, None, :]  # R V, (m, n_omega, r)
+    out = np.tensordot(V, f, axes=(0, 0)).transpose(1, 0, 2)  # (n_omega, r, r), one GEMM
+    return 0.5 * (out + np.swapaxes(out, 1, 2))
+
+
+def _row_factor(M, rtol=1e-12):
+    """``M = L R`` with ``R`` orthonormal rows spanning the row space of ``M`` (SVD)."""
+    U_, s, Vt = np.linalg.svd(M, full_matrices=False)
+    r = int(np.sum(s > rtol * (s[0] if s.size else 0.0))) if s.size and s[0] > 0 else 0
+    r = max(r, 1)
+    return U_[:, :r] * s[:r], Vt[:r]
+
+
+def spectral_abscissa(A) -> float:
+    """``max Re eig(A)`` [1/s]."""
+    return float(np.max(np.linalg.eigvals(np.asarray(A, dtype=float)).real))
+
+
+@dataclass(frozen=True)
+class _SpeedResponse:
+    rms: np.ndarray            # (p,) strip outputs (heave then pitch)
+    convergence: float
+    grid_points: int
+    omegas: np.ndarray
+    psd_reduced: np.ndarray    # (n_omega, rc, rc) complex, reduced-output CSD
+    C_left: np.ndarray         # (p, rc)
+    status: str
+    abscissa: float
+
+
+def reduced_response(A, B, C, positions, wind_speed, gust: GustField, *, omega_max=None,
+                     omegas=None, n_base=120, peaks_per_mode=41, half_widths=30.0,
+                     convergence_tol=CONVERGENCE_TOL) -> _SpeedResponse:
+    """Spectral RMS of ``y = C x`` for the buffeting CSD at one speed (rank-reduced).
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        ``A(U)`` [1/s].
+    B : array_like, shape (n, m)
+        ``B_gust(U)``: strip gust velocities [m/s] to ``x'``.
+    C : array_like, shape (p, n)
+        Output map.
+    positions : array_like, shape (m,)
+        Strip coordinates [m].
+    wind_speed : float
+        ``U`` [m/s], > 0.
+    gust : GustField
+        Spectrum, admittance, coherence.
+    omega_max : float, optional
+        Upper limit [rad/s]; ``OMEGA_MAX_FACTOR`` times the highest damped frequency of ``A``.
+    omegas : array_like, optional
+        Fixed grid [rad/s] (overrides the adaptive grid).
+    n_base, peaks_per_mode, half_widths : optional
+        :func:`model.spectral.adaptive_frequency_grid` settings.
+    convergence_tol : float, optional
+        Relative difference between the grid and its every-other-point coarsening above which
+        the adaptive grid is refined (``n_base`` and ``peaks_per_mode`` doubled, at most twice)
+        and, if still above, the status is ``"unconverged"`` (numbers kept, flagged).
+
+    Returns
+    -------
+    _SpeedResponse
+        RMS [output unit], NaN with status ``"unstable"`` when ``max Re eig(A) >= 0``.
+    """
+    A = np.asarray(A, dtype=float)
+    B = np.asarray(B, dtype=float)
+    C = np.asarray(C, dtype=float)
+    U = float(wind_speed)
+    lam = np.linalg.eigvals(A)
+    abscissa = float(np.max(lam.real))
+    Cl, Cr = _row_factor(C)
+    if abscissa >= 0.0:  # at or beyond flutter/divergence: report, never clip
+        grid = np.zeros(1) if omegas is None else np.asarray(omegas, dtype=float)
+        return _SpeedResponse(np.full(C.shape[0], np.nan), float("nan"), int(grid.size), grid,
+                              np.full((grid.size, Cr.shape[0], Cr.shape[0]), np.nan + 0j), Cl,
+                              "unstable", abscissa)
+    if omega_max is None:
+        omega_max = OMEGA_MAX_FACTOR * float(np.abs(lam.imag).max())
+        if omega_max <= 0:  # no oscillatory root: scale on the fastest real root
+            omega_max = 10.0 * float(np.abs(lam).max())
+    Bl, Vt = _row_factor(B)
+    # near flutter the peaks narrow: refine the adaptive grid (twice at most) until converged
+    for attempt in range(3 if omegas is None else 1):
+        if omegas is None:
+            grid = adaptive_frequency_grid(A, omega_max, n_base * 2 ** attempt,
+                                           peaks_per_mode * 2 ** attempt, half_widths)
+        else:
+            grid = np.asarray(omegas, dtype=float)
+        scale = gust.psd(grid, U) * gust.admittance_sq(grid, U)  # s_w chi^2, one-sided
+        S = scale[:, None, None] * coherence_projection(positions, Vt.T, grid, U,
+                                                        gust.coherence_decay)
+        Gqq = response_psd(A, Bl, Cr, grid, S, full=True)  # (n_omega, rc, rc)
+        rms = _strip_rms(grid, Gqq, Cl)
+        idx = np.arange(0, grid.size, 2)
+        if idx[-1] != grid.size - 1:
+            idx = np.append(idx, grid.size - 1)
+        rms_coarse = _strip_rms(grid[idx], Gqq[idx], Cl)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.where(rms > 1e-300, np.abs(rms - rms_coarse) / rms, 0.0)
+        conv = float(np.max(rel))
+        if conv <= convergence_tol:
+            break
+    status = "ok" if conv <= convergence_tol else "unconverged"
+    return _SpeedResponse(rms, conv, int(grid.size), grid, Gqq, Cl, status, abscissa)
+
+
+def _strip_rms(grid, Gqq, Cl):
+    P = np.tensordot(trapezoid_weights(grid), Gqq, axes=(0, 0)).real
+    P = 0.5 * (P + P.T)
+    return np.sqrt(np.clip(np.einsum("pi,ij,pj->p", Cl, P, Cl), 0.0, None))
+
+
+# ----------------------------------------------------------------------------------------------
+# result
+# ----------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class BuffetingResult:
+    """Buffeting response against wind speed.
+
+    Attributes
+    ----------
+    speeds : ndarray, shape (n_U,)
+        Mean wind speeds [m/s].
+    strip_x : ndarray, shape (n_strip,)
+        Strip positions from the north anchorage [m].
+    main_span : ndarray of bool, shape (n_strip,)
+        Strips on the main span.
+    rms_heave : ndarray, shape (n_U, n_strip)
+        RMS deck heave per strip [m].
+    rms_pitch : ndarray, shape (n_U, n_strip)
+        RMS deck pitch per strip [rad].
+    rms_vertical : ndarray, shape (n_U,)
+        Maximum of ``rms_heave`` over the main span [m] (seed Fig. 4 ordinate times 2b).
+    rms_torsion : ndarray, shape (n_U,)
+        Maximum of ``rms_pitch`` over the main span [rad].
+    deck_width_m : float
+        ``2 b`` [m].
+    status : tuple of str
+        Per speed: ``"ok"``, ``"unconverged"`` (numbers kept and flagged) or ``"unstable"``
+        (at or beyond flutter/divergence: NaN, never clipped).
+    convergence : ndarray, shape (n_U,)
+        Spectral: relative change of the strip RMS between the grid and its every-other-point
+        coarsening (an estimate of the coarse grid's quadrature error, so conservative).
+        Monte-Carlo: relative standard error of ``rms_vertical``.
+    grid_points : ndarray of int
+        Frequencies used per speed.
+    spectral_abscissa : ndarray
+        ``max Re eig A(U)`` [1/s].
+    method : str
+        ``"spectral"`` or ``"monte-carlo"``.
+    inputs : dict
+        Inputs used (gust field, modes, bridge).
+    standard_error_vertical : ndarray
+        Monte-Carlo standard error of ``rms_vertical`` [m] (NaN for the spectral method).
+    psd_omegas, psd_vertical, psd_torsion : tuple of ndarray
+        Per speed: grid [rad/s] and one-sided PSDs [m^2 s/rad], [rad^2 s/rad] at the main-span
+        strip of largest RMS (spectral method only; empty arrays otherwise).
+    """
+
+    speeds: np.ndarray
+    strip_x: np.ndarray
+    main_span: np.ndarray
+    rms_heave: np.ndarray
+    rms_pitch: np.ndarray
+    rms_vertical: np.ndarray
+    rms_torsion: np.ndarray
+    deck_width_m: float
+    status: tuple
+    convergence: np.ndarray
+    grid_points: np.ndarray
+    spectral_abscissa: np.ndarray
+    method: str
+    inputs: dict = field(default_factory=dict)
+    standard_error_vertical: np.ndarray | None = None
+    psd_omegas: tuple = ()
+    psd_vertical: tuple = ()
+    psd_torsion: tuple = ()
+    elapsed_s: float = float("nan")
+
+    @property
+    def rms_vertical_over_width(self) -> np.ndarray:
+        """``max sigma_z / (2 b)`` on the main span [-] (seed Fig. 4)."""
+        return self.rms_vertical / self.deck_width_m
+
+    def summary(self) -> dict:
+        """The ``bridgeflap buffeting`` JSON contract (NaN becomes null in the CLI)."""
+        se = (self.standard_error_vertical if self.standard_error_vertical is not None
+              else np.full(self.speeds.size, np.nan))
+        return {
+            "speeds_m_s": self.speeds.tolist(),
+            "rms_vertical_m": self.rms_vertical.tolist(),
+            "rms_torsion_rad": self.rms_torsion.tolist(),
+            "rms_vertical_over_width": self.rms_vertical_over_width.tolist(),
+            "status": list(self.status),
+            "convergence": self.convergence.tolist(),
+            "grid_points": [int(g) for g in self.grid_points],
+            "spectral_abscissa_1_s": self.spectral_abscissa.tolist(),
+            "standard_error_vertical_m": np.asarray(se, dtype=float).tolist(),
+            "x_max_vertical_m": [self._argmax_x(self.rms_heave[i]) for i in
+                                 range(self.speeds.size)],
+            "method": self.method,
+            "deck_width_m": self.deck_width_m,
+            "elapsed_s": self.elapsed_s,
+            "inputs": dict(self.inputs),
+        }
+
+    def _argmax_x(self, row) -> float:
+        vals = np.where(self.main_span, row, -np.inf)
+        if not np.any(np.isfinite(row[self.main_span])):
+            return float("nan")
+        return float(self.strip_x[int(np.nanargmax(vals))])
+
+    def plot(self, ax=None, label=None, **kw):
+        """``max sigma_z / (2b)`` on the main span against ``U`` (seed Fig. 4 style).
+
+        Unstable speeds are NaN and leave a gap; nothing is clipped.
+        """
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 4))
+        ax.plot(self.speeds, self.rms_vertical_over_width, "o-",
+                label=label or f"{self.inputs.get('spectrum', '')}, "
+                               f"{self.inputs.get('admittance', '')}, "
+                               f"c = {self.inputs.get('coherence_decay', float('nan')):g}", **kw)
+        bad = np.array([s == "unstable" for s in self.status])
+        if np.any(bad):
+            for u in self.speeds[bad]:
+                ax.axvline(u, color="r", alpha=0.2)
+        ax.set_xlabel("mean wind speed U [m/s]")
+        ax.set_ylabel(r"max $\sigma_z$ / (2b) on the main span [-]")
+        ax.set_title(f"{self.inputs.get('bridge', '')} buffeting ({self.method})")
+        ax.grid(alpha=0.3)
+        ax.legend()
+        return ax
+
+    def plot_psd(self, ax=None, speeds=None):
+        """One-sided PSDs of heave and pitch at the main-span strip of largest RMS.
+
+        Parameters
+        ----------
+        ax : sequence of two matplotlib Axes, optional
+        speeds : sequence of float, optional
+            Speeds to show [m/s] (nearest computed); all when omitted.
+        """
+        import matplotlib.pyplot as plt
+
+        if not self.psd_omegas:
+            raise BridgeflapError("PSDs are stored by the spectral method only")
+        if ax is None:
+            _, ax = plt.subplots(1, 2, figsize=(10, 4))
+        idx = (range(self.speeds.size) if speeds is None else
+               sorted({int(np.argmin(np.abs(self.speeds - u))) for u in speeds}))
+        for i in idx:
+            if self.status[i] == "unstable":
+                continue
+            f = self.psd_omegas[i] / (2 * np.pi)
+            ax[0].loglog(f[1:], self.psd_vertical[i][1:], label=f"U = {self.speeds[i]:g} m/s")
+            ax[1].loglog(f[1:], self.psd_torsion[i][1:], label=f"U = {self.speeds[i]:g} m/s")
+        ax[0].set_ylabel("heave PSD, one-sided in omega [m^2 s/rad]")
+        ax[1].set_ylabel("pitch PSD, one-sided in omega [rad^2 s/rad]")
+        for a in ax:
+            a.set_xlabel("frequency [Hz]")
+            a.grid(alpha=0.3, which="both")
+            a.legend(fontsize=7)
+        return ax
+
+
+# ----------------------------------------------------------------------------------------------
+# driver
+# ----------------------------------------------------------------------------------------------
+def _main_span_mask(spec, strip_x):
+    if spec is None:
+        return np.ones(strip_x.size, dtype=bool)
+    starts = np.concatenate([[0.0], np.cumsum([s.length_m for s in spec.spans])])
+    x0, x1 = starts[spec.main_span_index], starts[spec.main_span_index + 1]
+    return (strip_x >= x0) & (strip_x <= x1)
+
+
+def _check_speeds(speeds) -> np.ndarray:
+    u = np.atleast_1d(np.asarray(speeds, dtype=float)).ravel()
+    if u.size == 0 or not np.all(np.isfinite(u)) or np.any(u <= 0):
+        raise BridgeflapInputError("speeds", "need finite mean wind speeds > 0 [m/s]")
+    return u
+
+
+def _resolve_system(spec_or_system, n_modes, controller, spec):
+    from model.spec import BridgeSpec
+
+    if isinstance(spec_or_system, BridgeSpec):
+        spec = spec_or_system
+        from model.analysis import bridge_system
+
+        if controller is not None:
+            try:
+                from model.flaps import closed_loop_system
+            except ModuleNotFoundError as exc:
+                if exc.name not in ("model.flaps",):
+                    raise
+                raise BridgeflapInputError(
+                    "controller", "closed-loop buffeting needs model.flaps") from None
+            system = closed_loop_system(spec, controller, n_modes)
+            basis = getattr(system, "basis", None)
+            if basis is None:
+                basis = bridge_system(spec, n_modes)[1].basis
+        else:
+            _, system = bridge_system(spec, n_modes)
+            basis = system.basis
+    else:
+        system = spec_or_system
+        if controller is not None:
+            raise BridgeflapInputError("controller", "give a bridge spec with a controller")
+        basis = getattr(system, "basis", None)
+        if basis is None:
+            raise BridgeflapInputError("system", "needs a .basis with strip_x (StructuralBasis)")
+    return spec, system, basis
+
+
+def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance="liepmann",
+              coherence_decay=None, n_modes=16, method="spectral", *, spec=None,
+              turbulence_intensity=None, deck_height_m=None, length_scale_m=None,
+              half_chord_m=None, controller=None, allow_unstable=True, omega_max=None,
+              n_base=120, peaks_per_mode=41, half_widths=30.0,
+              convergence_tol=CONVERGENCE_TOL, mc_records=16, mc_seed=0,
+              mc_points=None) -> BuffetingResult:
+    """RMS deck response to vertical turbulence over a range of wind speeds (seed §5, Fig. 4).
+
+    Parameters
+    ----------
+    spec_or_system : BridgeSpec or AeroelasticSystem
+        Bridge definition (the modal state space is built with ``n_modes``), or a built system
+        with ``A(U)``, ``B_gust(U)``, ``C_out`` and ``basis`` (then ``spec`` gives the wind
+        defaults and the main span; without it every strip counts as main span).
+    speeds : array_like
+        Mean wind speeds at deck height [m/s], > 0.
+    spectrum : {"busch-panofsky", "von-karman", "kaimal"} or callable
+        Vertical turbulence spectrum (seed Eq. (15) is Busch-Panofsky).
+    admittance : {"liepmann", "sears", "unit"} or callable
+        ``|chi(k)|^2`` with ``k = omega b / U`` (seed: Liepmann).
+    coherence_decay : float, optional
+        Davenport ``c`` [-] (seed Eq. (16)); ``spec.aero.coherence_decay`` when omitted.
+    n_modes : int, optional
+        Retained vertical + torsional modes.
+    method : {"spectral", "monte-carlo"}
+        Frequency-domain quadrature, or time-domain simulation
+        (:func:`model.spectral.simulate_monte_carlo`) as an independent check.
+    spec : BridgeSpec, optional
+        Wind defaults and main span when ``spec_or_system`` is a system.
+    turbulence_intensity, deck_height_m, length_scale_m, half_chord_m : float, optional
+        Overrides of ``sigma_w/U`` [-], ``z`` [m], von Karman ``L_w`` [m] and ``b`` [m].
+    controller : object, optional
+        Passed to ``model.flaps.closed_loop_system(spec, controller, n_modes)``.
+    allow_unstable : bool, optional
+        If False, raise :class:`BridgeflapInputError` when any requested speed has
+        ``max Re eig A(U) >= 0`` (checked before any response is computed); if True (default)
+        such speeds are reported as NaN with status ``"unstable"``.
+    omega_max : float, optional
+        Integration limit [rad/s] (default 3x the highest damped frequency of ``A(U)``).
+    n_base, peaks_per_mode, half_widths, convergence_tol : optional
+        Quadrature grid settings (:func:`model.spectral.adaptive_frequency_grid`).
+    mc_records, mc_seed, mc_points : optional
+        Monte-Carlo records, seed and number of synthesis frequencies (default: spacing a
+        quarter of the smallest half-power half-bandwidth, at most 8000 points).
+
+    Returns
+    -------
+    BuffetingResult
+    """
+    import time
+
+    t0 = time.perf_counter()
+    if method not in METHODS:
+        raise BridgeflapInputError("method", f"must be one of {METHODS}, got {method!r}")
+    if not (isinstance(n_modes, int | np.integer) and n_modes >= 1):
+        raise BridgeflapInputError("modes", f"must be an integer >= 1, got {n_modes!r}")
+    u = _check_speeds(speeds)
+    spec, system, basis = _resolve_system(spec_or_system, int(n_modes), controller, spec)
+    gust = gust_field(spec, spectrum=spectrum, admittance=admittance,
+                      coherence_decay=coherence_decay, turbulence_intensity=turbulence_intensity,
+                      deck_height_m=deck_height_m, length_scale_m=length_scale_m,
+                      half_chord_m=half_chord_m if half_chord_m is not None else (
+                          None if spec is not None else getattr(getattr(system, "aero", None),
+                                                                "half_chord", None)))
+    strip_x = np.asarray(basis.strip_x, dtype=float)
+    main = _main_span_mask(spec, strip_x)
+    ns = strip_x.size
+    A_list = [np.asarray(system.A(U), dtype=float) for U in u]
+    absc = np.array([spectral_abscissa(A) for A in A_list])
+    if not allow_unstable and np.any(absc >= 0):
+        bad = ", ".join(f"{U:g}" for U in u[absc >= 0])
+        raise BridgeflapInputError(
+            "speeds", f"at or beyond the flutter/divergence limit (max Re eig A(U) >= 0) at "
+                      f"U = {bad} m/s; pass --allow-unstable to report them as NaN")
+    C = np.asarray(system.C_out, dtype=float)
+    rms = np.full((u.size, C.shape[0]), np.nan)
+    status, conv = [], np.full(u.size, np.nan)
+    grid_pts = np.zeros(u.size, dtype=int)
+    se_v = np.full(u.size, np.nan)
+    psd_w, psd_v, psd_t = [], [], []
+    for i, (U, A) in enumerate(zip(u, A_list, strict=True)):
+        B = np.asarray(system.B_gust(U), dtype=float)
+        if method == "spectral":
+            r = reduced_response(A, B, C, strip_x, U, gust, omega_max=omega_max, n_base=n_base,
+                                 peaks_per_mode=peaks_per_mode, half_widths=half_widths,
+                                 convergence_tol=convergence_tol)
+            rms[i], conv[i], grid_pts[i] = r.rms, r.convergence, r.grid_points
+            status.append(r.status)
+            if r.status != "unstable":
+                jv = int(np.argmax(np.where(main, r.rms[:ns], -np.inf)))
+                jt = int(np.argmax(np.where(main, r.rms[ns:2 * ns], -np.inf)))
+                rows = r.C_left[[jv, ns + jt]]
+                G = np.einsum("pi,kij,pj->kp", rows, r.psd_reduced, rows).real
+                psd_w.append(r.omegas)
+                psd_v.append(G[:, 0])
+                psd_t.append(G[:, 1])
+            else:
+                psd_w.append(r.omegas)
+                psd_v.append(np.full(r.omegas.size, np.nan))
+                psd_t.append(np.full(r.omegas.size, np.nan))
+        else:
+            mc = _monte_carlo(A, B, C, strip_x, U, gust, main, ns, mc_records, mc_seed,
+                              mc_points, omega_max)
+            rms[i], se_v[i], grid_pts[i] = mc["rms"], mc["se_vertical"], mc["points"]
+            conv[i] = mc["rel_se"]
+            status.append(mc["status"])
+    heave, pitch = rms[:, :ns], rms[:, ns:2 * ns]
+    with np.errstate(invalid="ignore"):
+        vmax = np.array([np.max(h[main]) if np.all(np.isfinite(h[main])) else np.nan
+                         for h in heave])
+        tmax = np.array([np.max(p[main]) if np.all(np.isfinite(p[main])) else np.nan
+                         for p in pitch])
+    inputs = gust.summary()
+    inputs.update({"modes_retained": int(n_modes), "states": int(A_list[0].shape[0]),
+                   "strips": int(ns), "main_span_strips": int(main.sum()),
+                   "lift_slope_buffeting": _aero_attr(system, spec, "lift_slope_buffeting"),
+                   "moment_slope_buffeting": _aero_attr(system, spec, "moment_slope_buffeting"),
+                   "controller": controller is not None,
+                   "convergence_tol": float(convergence_tol)})
+    if spec is not None:
+        inputs.update({"bridge": spec.name, "erected_fraction": spec.erected_fraction})
+    return BuffetingResult(
+        speeds=u, strip_x=strip_x, main_span=main, rms_heave=heave, rms_pitch=pitch,
+        rms_vertical=vmax, rms_torsion=tmax, deck_width_m=2.0 * gust.half_chord_m,
+        status=tuple(status), convergence=conv, grid_points=grid_pts, spectral_abscissa=absc,
+        method=method, inputs=inputs, standard_error_vertical=se_v, psd_omegas=tuple(psd_w),
+        psd_vertical=tuple(psd_v), psd_torsion=tuple(psd_t),
+        elapsed_s=time.perf_counter() - t0)
+
+
+def _aero_attr(system, spec, name):
+    if spec is not None:
+        return float(getattr(spec.aero, name))
+    return float("nan")
+
+
+def _monte_carlo(A, B, C, strip_x, U, gust, main, ns, n_records, seed, n_points, omega_max):
+    """One speed by :func:`model.spectral.simulate_monte_carlo` with the full strip inputs."""
+    lam = np.linalg.eigvals(A)
+    p = C.shape[0]
+    if np.max(lam.real) >= 0:
+        return {"rms": np.full(p, np.nan), "se_vertical": np.nan, "points": 0,
+                "rel_se": np.nan, "status": "unstable"}
+    wd = np.abs(lam.imag)
+    under = (lam.imag > 0) & (np.abs(lam.real) < lam.imag)
+    wmax = OMEGA_MAX_FACTOR * float(wd.max()) if omega_max is None else float(omega_max)
+    sigma_min = float(np.min(np.abs(lam.real[under]))) if np.any(under) else float(
+        np.min(np.abs(lam.real)))
+    if n_points is None:
+        n_points = int(min(8000, np.ceil(wmax / (0.25 * sigma_min))))
+    d_omega = wmax / n_points
+    omegas = (np.arange(n_points) + 0.5) * d_omega
+    dt = 0.5 * np.pi / wmax  # Nyquist at 2 omega_max: ZOH midpoint error O((omega dt)^2)
+    duration = 2 * np.pi / d_omega
+    s = gust.psd(omegas, U) * gust.admittance_sq(omegas, U)
+    coh = exponential_coherence(strip_x, gust.coherence_decay, U)
+    res = simulate_monte_carlo(A, B, C, omegas, s, coh, dt, duration, seed=seed,
+                               n_records=n_records)
+    j = int(np.argmax(np.where(main, res.rms[:ns], -np.inf)))
+    return {"rms": res.rms, "se_vertical": float(res.standard_error[j]), "points": n_points,
+            "rel_se": float(res.standard_error[j] / res.rms[j]), "status": res.status}
+
+
+# ----------------------------------------------------------------------------------------------
+# differentiable form
+# ----------------------------------------------------------------------------------------------
+CASADI_PARAMETERS = ("damping_scale", "air_density_scale")
+
+
+def buffeting_casadi(system, wind_speed, gust: GustField, outputs: Sequence[int], *,
+                     omegas=None, n_base=40, peaks_per_mode=15, half_widths=20.0,
+                     linear_solver="lapacklu"):
+    """Buffeting RMS of selected outputs as a CasADi Function of design parameters.
+
+    The same spectral integral as :func:`reduced_response` (one-sided, trapezoid rule on a
+    fixed grid, load CSD projected on the row space of ``B_gust``), written with
+    :func:`model.spectral_casadi.casadi_spectral_variance` so that it is differentiable in
+    ``p = (damping_scale, air_density_scale)`` (both 1 at nominal):
+
+    * ``damping_scale`` multiplies the structural damping matrix ``C`` of the basis;
+    * ``air_density_scale`` multiplies ``rho`` in every aerodynamic term: ``M_nc``, ``D_nc``,
+      ``P`` (hence the lag-state inputs in modal lag order) and the buffeting map ``P_gust``.
+
+    With ``M_t(p) = M + rho_s M_nc`` the rows of ``A`` and ``B`` on ``q'`` are
+    ``M_t^{-1} (F_struct(zeta_s) + rho_s F_motion + F_lag)``, recovered exactly from the
+    nominal ``A(U)``; the lag-state rows on ``(q, q')`` scale with ``rho_s`` in modal lag order
+    (the lags filter ``P Q``), the lag-force columns in full order (``R = P``). This is an exact
+    reparametrisation of :func:`model.statespace.build` (checked in the tests).
+
+    Parameters
+    ----------
+    system : AeroelasticSystem
+        Open-loop system of :mod:`model.statespace` (uses ``index``, ``basis``, ``aero``).
+    wind_speed : float
+        ``U`` [m/s].
+    gust : GustField
+        Wind inputs.
+    outputs : sequence of int
+        Rows of ``system.C_out`` (strip heave 0..n_strip-1, then pitch).
+    omegas : array_like, optional
+        Fixed grid [rad/s]; adaptive at the nominal ``A(U)`` when omitted (coarser defaults
+        than the numpy path: CasADi does one dense 2n x 2n solve per frequency).
+    linear_solver : str, optional
+        CasADi linear solver for the per-frequency solves.
+
+    Returns
+    -------
+    fun : casadi.Function
+        ``"buffeting_rms"``: ``p (2,) -> rms (len(outputs),)`` [output unit].
+    omegas : ndarray
+        The frozen grid [rad/s].
+    """
+    import casadi as ca
+
+    from model.spectral_casadi import casadi_spectral_variance
+
+    U = float(wind_speed)
+    idx = system.index
+    basis, aero = system.basis, system.aero
+    A0 = np.asarray(system.A(U), dtype=float)
+    B0 = np.asarray(system.B_gust(U), dtype=float)
+    n_x = A0.shape[0]
+    iv, iq = idx.q_dot, idx.q
+    lag = idx.aero_lag
+    Mt0 = basis.M + aero.M_nc
+    F = Mt0 @ A0[iv, :]
+    Fs = np.zeros_like(F)
+    Fs[:, iq] = -basis.K
+    Fs[:, iv] = -basis.C
+    Fa = F - Fs
+    Fs_k = np.zeros_like(F)
+    Fs_k[:, iq] = -basis.K
+    Fs_c = np.zeros_like(F)
+    Fs_c[:, iv] = -basis.C
+    Gb = Mt0 @ B0[iv, :]  # = U P_gust, proportional to rho
+    _, Vt = _row_factor(B0)
+    Cr = np.asarray(system.C_out, dtype=float)[list(outputs)]
+    if omegas is None:
+        wd = np.abs(np.linalg.eigvals(A0).imag)
+        omegas = adaptive_frequency_grid(A0, OMEGA_MAX_FACTOR * wd.max(), n_base,
+                                         peaks_per_mode, half_widths)
+    omegas = np.asarray(omegas, dtype=float)
+    scale = gust.psd(omegas, U) * gust.admittance_sq(omegas, U)
+    S = scale[:, None, None] * coherence_projection(basis.strip_x, Vt.T, omegas, U,
+                                                    gust.coherence_decay)
+
+    p = ca.MX.sym("p", 2)
+    zs, rs = p[0], p[1]
+    # rho enters the motion-dependent forces (P, D_nc, M_nc) and either the lag-state inputs
+    # (modal lag order: the lags filter P Q) or the lag-state force map (full order: R = P)
+    rho_in, rho_out = (rs, 1.0) if system.order == "modal" else (1.0, rs)
+    Fa_motion = np.zeros_like(Fa)
+    Fa_motion[:, :iv.stop] = Fa[:, :iv.stop]
+    Fa_lag = Fa - Fa_motion
+    Mt = ca.DM(basis.M) + rs * ca.DM(aero.M_nc)
+    rows_v = ca.solve(Mt, ca.DM(Fs_k) + zs * ca.DM(Fs_c) + rs * ca.DM(Fa_motion)
+                      + rho_out * ca.DM(Fa_lag))
+    A_lag = ca.horzcat(rho_in * ca.DM(A0[lag, :iv.stop]), ca.DM(A0[lag, iv.stop:]))
+    A = ca.vertcat(ca.DM(A0[iq, :]), rows_v, A_lag)
+    if A.size1() != n_x:
+        raise BridgeflapError("unexpected state layout for the symbolic buffeting model")
+    Bv = ca.solve(Mt, rs * ca.DM(Gb @ Vt.T))  # B(p) V, rows q'
+    Bl = ca.vertcat(ca.DM.zeros(iv.start, Vt.shape[0]), Bv,
+                    ca.DM.zeros(n_x - iv.stop, Vt.shape[0]))
+    if np.max(np.abs(np.delete(B0, np.s_[iv], axis=0))) > 0:
+        raise BridgeflapError("B_gust has rows outside q'; not an open-loop AeroelasticSystem")
+    var = casadi_spectral_variance(A, Bl, ca.DM(Cr), omegas, S, linear_solver=linear_solver)
+    fun = ca.Function("buffeting_rms", [p], [ca.sqrt(var)], ["p"], ["rms"])
+    return fun, omegas
