@@ -433,4 +433,7 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    # run through the imported module so that command modules register into the same registry
+    from design.cli import main as _main
+
+    sys.exit(_main())

@@ -1,0 +1,1 @@
+"""Built-in study definitions (TOML), shipped as package data."""
