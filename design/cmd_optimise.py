@@ -1,0 +1,82 @@
+"""``bridgeflap optimise``: design the flap compensator K(s) (seed §6), see design.problem."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from design.cli import _emit, _log, register_command, save_figure
+from model.errors import BridgeflapInputError
+
+DEFAULT_DEFINITION = Path(__file__).resolve().parents[1] / "runs" / "humber_flaps.toml"
+
+
+def cmd_optimise(args):
+    """Run the design, write the controller TOML and figures to ``--out`` atomically."""
+    from design.io import to_jsonable  # noqa: F401 - JSON conversion used by _emit
+    from design.problem import design, load_settings, quick_settings
+    from model.control import save_controller
+
+    settings = load_settings(args.definition) if args.definition else load_settings(
+        DEFAULT_DEFINITION if DEFAULT_DEFINITION.exists() else None)
+    if args.quick:
+        settings = quick_settings(settings)
+    out = Path(args.out)
+    parent = out.resolve().parent
+    if not parent.exists() or not os.access(parent, os.W_OK):
+        raise BridgeflapInputError("out", f"folder not writable: {parent}")
+    result = design(settings, progress=_log)
+    tmp = Path(tempfile.mkdtemp(dir=parent, prefix=f".{out.name}."))
+    try:
+        payload = result.summary()
+        ctrl_file = out / "controller.toml"
+        if result.controller is not None:
+            save_controller(result.controller, tmp / "controller.toml")
+            import matplotlib
+
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+
+            from model.stability import sweep
+
+            cl = result.extras.get("closed_loop")
+            for name, fn in (("bode.png", result.plot_bode), ("margins.png", result.plot_margins)):
+                ax = fn()
+                save_figure(ax[0].figure, tmp / name)
+                plt.close(ax[0].figure)
+            if cl is None:
+                from design.problem import _build_model
+
+                _, model = _build_model(settings)
+                cl = model.system(result.controller.compensator)
+            sw = sweep(cl, settings.check_speeds())
+            ax = sw.plot(title="closed loop")
+            save_figure(ax[0].figure, tmp / "root_locus.png")
+            plt.close(ax[0].figure)
+        out.mkdir(parents=True, exist_ok=True)
+        for f in tmp.iterdir():
+            os.replace(f, out / f.name)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    payload["controller_file"] = str(ctrl_file) if result.controller is not None else None
+    lines = [f"status {payload['status']}; K(s) coefficients {payload['coefficients']}",
+             f"flaps {payload['flap_count']}, max gain {payload['max_gain']:.3g} "
+             f"(limit {settings.gain_limit}), robust margin {payload['robust_margin']:.3g}, "
+             f"stable to {payload['closed_loop_stable_to_m_s']} m/s",
+             f"minimum flap count {payload['minimum_flaps']['minimum']}",
+             f"controller written: {payload['controller_file']}"]
+    lines += [f"start {s['start']}: {s['status']}" for s in payload["starts"]]
+    _emit(args, payload, "\n".join(lines))
+
+
+@register_command
+def _register(sub, common):
+    sp = sub.add_parser("optimise", help="design the flap compensator (seed section 6)")
+    common(sp, bridge=False, erection=False)
+    sp.add_argument("definition", nargs="?", default=None,
+                    help="design definition .toml (default runs/humber_flaps.toml / built-in)")
+    sp.add_argument("--out", default="optimise_out", help="output folder")
+    sp.add_argument("--quick", action="store_true", help="reduced problem (CI)")
+    sp.set_defaults(func=cmd_optimise)
