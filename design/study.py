@@ -445,8 +445,9 @@ class StudyResult:
 
     @property
     def status(self) -> str:
-        """``"ok"`` when every analysis is ok, otherwise ``"partial"``."""
-        return "ok" if all(s == "ok" for s in self.statuses.values()) else "partial"
+        """``"ok"`` when every analysis is ok (or converged), otherwise ``"partial"``."""
+        good = ("ok", "converged")
+        return "ok" if all(s in good for s in self.statuses.values()) else "partial"
 
     def summary(self) -> dict:
         """The ``bridgeflap study --json`` contract."""
