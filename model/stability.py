@@ -122,7 +122,7 @@ class StabilitySweep:
         import matplotlib.pyplot as plt
 
         if axes is None:
-            fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
+            fig, axes = plt.subplots(1, 3, figsize=(15, 4.5), layout="constrained")
         ax0, ax1, ax2 = axes
         sc = None
         for k in range(self.branches.shape[0]):
