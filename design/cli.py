@@ -154,10 +154,14 @@ def _controller(args):
 
 
 def cmd_flutter(args):
+    import dataclasses
+
     from model.analysis import flutter, parse_range
 
     _check_plot_target(args)
     spec = _spec(args)
+    if args.no_added_inertia:
+        spec = dataclasses.replace(spec, aero=dataclasses.replace(spec.aero, added_inertia=False))
     speeds = parse_range(args.speeds, "speeds", 0.0)
     controller = _controller(args)
     if controller is not None:
@@ -346,6 +350,8 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--order", choices=("modal", "full"), default="modal")
     sp.add_argument("--rfa", choices=("rfa4", "jones"), default="rfa4")
     sp.add_argument("--controller", default=None, help="controller .toml (closed loop)")
+    sp.add_argument("--no-added-inertia", action="store_true",
+                    help="drop the apparent-inertia moment pi rho b^4 alpha''/8 (Scanlan)")
     sp.add_argument("--plot", default=None)
     sp.set_defaults(func=cmd_flutter)
 
