@@ -103,7 +103,8 @@ class FlutterResult:
         s.update({"bridge": self.spec.name, "erected_fraction": self.spec.erected_fraction,
                   "critical_branch": crit, "modes_retained": self.n_modes,
                   "order": self.order, "rfa": self.rfa, "states": self.n_states,
-                  "half_chord_m": self.spec.deck.half_chord_m})
+                  "half_chord_m": self.spec.deck.half_chord_m,
+                  "added_inertia": self.spec.aero.added_inertia})
         return s
 
     def _mode_frequency(self, label: str) -> float:
