@@ -64,10 +64,16 @@ def cmd_optimise(args):
     lines = [f"status {payload['status']}; K(s) coefficients {payload['coefficients']}",
              f"flaps {payload['flap_count']}, max gain {payload['max_gain']:.3g} "
              f"(limit {settings.gain_limit}), robust margin {payload['robust_margin']:.3g}, "
-             f"stable to {payload['closed_loop_stable_to_m_s']} m/s",
+             f"stable to {payload['closed_loop_stable_to_m_s']} m/s on the "
+             f"{payload['design_modes']}-mode design model",
+             f"verification ({payload['verification'].get('modes')} modes, "
+             f"{payload['verification'].get('step_m_s')} m/s grid): stable everywhere "
+             f"{payload['verification'].get('stable_everywhere')}, stable to "
+             f"{payload['verification'].get('stable_to_m_s')} m/s",
              f"minimum flap count {payload['minimum_flaps']['minimum']}",
              f"controller written: {payload['controller_file']}"]
-    lines += [f"start {s['start']}: {s['status']}" for s in payload["starts"]]
+    lines += [f"start {s['start']}: {s['status']} ({s.get('iterations', 0)} iterations, "
+              f"{s.get('time_s', float('nan')):.1f} s)" for s in payload["starts"]]
     _emit(args, payload, "\n".join(lines))
 
 

@@ -42,6 +42,7 @@ import numpy as np
 import scipy.linalg
 
 __all__ = [
+    "PolynomialTopRealParts",
     "SmoothAbscissa",
     "TopRealParts",
     "eig_real_part_sensitivities",
@@ -318,6 +319,255 @@ class TopRealParts(_EigenCallback):
     def _jacobian_from(self, lam, dre, ill):
         idx = self._order(lam)
         return dre[idx].copy(), ill[idx]
+
+    def jacobian(self, p) -> np.ndarray:
+        """Jacobian [(m, n_p)] contracting only the ``m`` selected eigenpairs.
+
+        Same formula as :func:`eig_real_part_sensitivities` (``Re w^H dA_k v / w^H v``) but
+        ``O(m n^2 n_p)`` instead of ``O(n^3 n_p)``: at 146 states and 5 parameters about
+        10x faster than contracting every eigenvalue. Rows of nearly defective eigenvalues
+        (``|w^H v|/(|w||v|) < defect_tol``) are taken by central differences (reported in
+        :attr:`last_fd_rows` / :attr:`fd_fallback_count`).
+        """
+        p = np.asarray(p, dtype=float).ravel()
+        key = p.tobytes()
+        if key == self._cache_key:
+            return self._cache.copy()
+        A = self.matrix(p)
+        dA = np.asarray(self._dA_fun(ca.DM(p)).full()).reshape(
+            (self._n, self._n, self._n_p), order="F"
+        )
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(dA))):
+            return np.full((self._n_out, self._n_p), np.nan)
+        lam, vl, vr = scipy.linalg.eig(A, left=True, right=True)
+        idx = self._order(lam)
+        J, bad = _selected_sensitivities(vl[:, idx], vr[:, idx],
+                                         dA.reshape(self._n * self._n, self._n_p, order="F"),
+                                         self.defect_tol)
+        bad_rows = tuple(int(i) for i in np.flatnonzero(bad))
+        if bad_rows:
+            rows = list(bad_rows)
+            for k in range(self._n_p):
+                h = self.fd_step * max(1.0, abs(p[k]))
+                e = np.zeros_like(p)
+                e[k] = h
+                fp = self._outputs(self._eigvals(p + e))
+                fm = self._outputs(self._eigvals(p - e))
+                J[rows, k] = (fp[rows] - fm[rows]) / (2.0 * h)
+            self.fd_fallback_count += len(bad_rows)
+        self.last_fd_rows = bad_rows
+        self._cache_key, self._cache = key, J.copy()
+        return J
+
+
+def _selected_sensitivities(wl, vr, dA_flat, defect_tol):
+    """``d Re lambda_i / dp`` of selected eigenpairs and their nearly-defective flags.
+
+    Parameters
+    ----------
+    wl, vr : numpy.ndarray
+        (n, m) left and right eigenvectors of the selected eigenvalues.
+    dA_flat : numpy.ndarray or scipy.sparse matrix
+        (n*n, n_p) ``d vec(A) / dp`` in column-major (Fortran) ``vec`` order.
+    defect_tol : float
+        Threshold on ``|w^H v|/(|w||v|)`` [-].
+
+    Returns
+    -------
+    J : numpy.ndarray
+        (m, n_p) real-part sensitivities (rows flagged ``bad`` are not to be trusted).
+    bad : numpy.ndarray
+        (m,) bool.
+
+    Notes
+    -----
+    ``Re(w^H dA v / w^H v) = sum_ab Re(conj(u_a) v_b) dA_ab`` with ``u = w / conj(w^H v)``:
+    one real weight matrix per eigenvalue, contracted with ``vec(dA)``.
+    """
+    whv = np.einsum("ai,ai->i", wl.conj(), vr)
+    cond = np.abs(whv) / (np.linalg.norm(wl, axis=0) * np.linalg.norm(vr, axis=0))
+    bad = ~(cond >= defect_tol)
+    u = wl / np.where(bad, 1.0, whv).conj()
+    # W_i[a, b] = Re(conj(u_ai) v_bi); vec in column-major order: index a + n b
+    W = np.einsum("ai,bi->iba", u.conj(), vr).real.reshape(wl.shape[1], -1)
+    J = np.asarray(dA_flat.T @ W.T).T if hasattr(dA_flat, "tocsr") else W @ dA_flat
+    return np.asarray(J, float), bad
+
+
+class PolynomialTopRealParts(ca.Callback):
+    """Top-``m`` real parts of ``A(U, p) = sum_j U^j A_j(p)`` at a list of speeds, stacked.
+
+    One callback for a whole speed grid: ``dA_j/dp`` is evaluated once per ``p`` (sparse),
+    each speed needs one ``eig`` with left and right eigenvectors, shared between the value
+    and the Jacobian (cached by ``p``). This is the multi-speed form of :class:`TopRealParts`
+    used by the compensator design (``A_j`` the closed-loop parts of :mod:`model.flaps`).
+
+    Parameters
+    ----------
+    parts_fun : casadi.Function
+        ``p -> (A_0, A_1, ..., A_d)``, one input (dense column) and ``d + 1`` square outputs.
+    speeds : array_like
+        Speeds ``U`` [m/s] (any scalar parameter of the polynomial).
+    m : int
+        Real parts returned per speed (sorted descending).
+    subsets : dict, optional
+        ``{speed: indices}``: use only ``A[idx][:, idx]`` at that speed (e.g. drop states
+        whose eigenvalues are identically zero at ``U = 0``).
+    defect_tol, fd_step : float
+        As for :class:`TopRealParts`.
+    name : str
+        CasADi function name.
+
+    Notes
+    -----
+    Output layout: ``m`` values for ``speeds[0]``, then ``speeds[1]``, ... Keep the object
+    alive while it is used (module docstring).
+    """
+
+    def __init__(self, parts_fun: ca.Function, speeds, m: int, subsets=None,
+                 defect_tol: float = DEFECT_TOL, fd_step: float = 1e-6,
+                 name: str = "top_real_parts_grid", opts: dict | None = None):
+        ca.Callback.__init__(self)
+        if not isinstance(parts_fun, ca.Function) or parts_fun.n_in() != 1:
+            raise TypeError("parts_fun must be a casadi.Function p -> (A_0, ..., A_d)")
+        self._parts = parts_fun
+        self._n_p = parts_fun.size1_in(0)
+        self._n = parts_fun.size1_out(0)
+        self.speeds = np.asarray(speeds, float).ravel()
+        if self.speeds.size == 0:
+            raise ValueError("need at least one speed")
+        subsets = dict(subsets or {})
+        self._idx = [np.asarray(subsets[u], int) if u in subsets else None
+                     for u in self.speeds]
+        sizes = [self._n if ix is None else ix.size for ix in self._idx]
+        if not (isinstance(m, (int, np.integer)) and 1 <= m <= min(sizes)):
+            raise ValueError(f"m must be an integer in 1..{min(sizes)}, got {m!r}")
+        self.m = int(m)
+        self.defect_tol = float(defect_tol)
+        self.fd_step = float(fd_step)
+        self.fd_fallback_count = 0
+        self.evaluations = 0
+        self.eval_time_s = 0.0
+        sym = ca.SX if parts_fun.is_a("SXFunction") else ca.MX
+        p = sym.sym("p", self._n_p)
+        outs = parts_fun(p)
+        outs = outs if isinstance(outs, (list, tuple)) else [outs]
+        self._dparts = ca.Function("dparts", [p], [ca.jacobian(ca.vec(a), p) for a in outs])
+        self._key = None
+        self._store = None
+        self._jac_callback = None
+        self.construct(name, dict(opts or {}))
+
+    # ---- CasADi interface
+    def get_n_in(self):
+        return 1
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return "p"
+
+    def get_name_out(self, i):
+        return "out"
+
+    def get_sparsity_in(self, i):
+        return ca.Sparsity.dense(self._n_p, 1)
+
+    def get_sparsity_out(self, i):
+        return ca.Sparsity.dense(self.m * self.speeds.size, 1)
+
+    def has_jacobian(self):
+        return True
+
+    def get_jacobian(self, name, inames, onames, opts):
+        self._jac_callback = _GridJacobianCallback(self, name, inames, onames, opts)
+        return self._jac_callback
+
+    def eval(self, arg):
+        return [ca.DM(self.values(np.asarray(arg[0], float).ravel()))]
+
+    # ---- numerics
+    def matrices(self, p) -> list[np.ndarray]:
+        """``A(U, p)`` at every speed (subset applied) as dense arrays."""
+        parts = self._parts(ca.DM(np.asarray(p, float)))
+        parts = parts if isinstance(parts, (list, tuple)) else [parts]
+        parts = [np.asarray(a.full()) for a in parts]
+        out = []
+        for u, ix in zip(self.speeds, self._idx, strict=True):
+            A = sum(u**j * a for j, a in enumerate(parts))
+            out.append(A if ix is None else A[np.ix_(ix, ix)])
+        return out
+
+    def _decompose(self, p):
+        key = p.tobytes()
+        if key != self._key:
+            import time
+
+            t0 = time.perf_counter()
+            rows = []
+            for A in self.matrices(p):
+                if not np.all(np.isfinite(A)):
+                    rows.append(None)
+                    continue
+                lam, vl, vr = scipy.linalg.eig(A, left=True, right=True)
+                idx = np.argsort(-lam.real, kind="stable")[: self.m]
+                rows.append((lam[idx], vl[:, idx], vr[:, idx]))
+            self._key, self._store = key, rows
+            self.evaluations += 1
+            self.eval_time_s += time.perf_counter() - t0
+        return self._store
+
+    def values(self, p) -> np.ndarray:
+        """The stacked top-``m`` real parts [(m * n_speeds,)]; NaN where ``A`` is not finite."""
+        p = np.asarray(p, float).ravel()
+        out = [np.full(self.m, np.nan) if r is None else r[0].real
+               for r in self._decompose(p)]
+        return np.concatenate(out)
+
+    def jacobian(self, p) -> np.ndarray:
+        """Analytic Jacobian [(m * n_speeds, n_p)], central differences for defective rows."""
+        p = np.asarray(p, float).ravel()
+        rows = self._decompose(p)
+        dparts = [ca.DM(d).sparse() if hasattr(ca.DM(d), "sparse") else d.full()
+                  for d in self._dparts(ca.DM(p))]
+        dparts = dparts if isinstance(dparts, list) else [dparts]
+        J = np.full((self.m * self.speeds.size, self._n_p), np.nan)
+        n = self._n
+        bad_rows = []
+        for s, (u, ix, r) in enumerate(zip(self.speeds, self._idx, rows, strict=True)):
+            if r is None:
+                continue
+            dA = sum(u**j * d for j, d in enumerate(dparts))
+            if ix is not None:   # rows of vec(A[ix, ix]) in column-major order
+                flat = (ix[:, None] + n * ix[None, :]).ravel(order="F")
+                dA = dA[flat]
+            Js, bad = _selected_sensitivities(r[1], r[2], dA, self.defect_tol)
+            J[s * self.m:(s + 1) * self.m] = Js
+            bad_rows.extend(s * self.m + int(i) for i in np.flatnonzero(bad))
+        if bad_rows:
+            for k in range(self._n_p):
+                h = self.fd_step * max(1.0, abs(p[k]))
+                e = np.zeros_like(p)
+                e[k] = h
+                fp, fm = self._plain_values(p + e), self._plain_values(p - e)
+                J[bad_rows, k] = (fp[bad_rows] - fm[bad_rows]) / (2.0 * h)
+            self.fd_fallback_count += len(bad_rows)
+        return J
+
+    def _plain_values(self, p):
+        return np.concatenate([np.sort(scipy.linalg.eigvals(A).real)[::-1][: self.m]
+                               for A in self.matrices(p)])
+
+
+class _GridJacobianCallback(_JacobianCallback):
+    def get_sparsity_in(self, i):
+        if i == 0:
+            return ca.Sparsity.dense(self._parent._n_p, 1)
+        return ca.Sparsity.dense(self._parent.m * self._parent.speeds.size, 1)
+
+    def get_sparsity_out(self, i):
+        return ca.Sparsity.dense(self._parent.m * self._parent.speeds.size, self._parent._n_p)
 
 
 class SmoothAbscissa(_EigenCallback):

@@ -284,7 +284,8 @@ class Controller:
         (positive towards the south tower, see :mod:`model` for the x direction). Each flap
         is driven by the pitch at its own strip (seed §6).
     flap_width_m : float
-        Spanwise width of each flap strip [m] (3 m in seed §6).
+        Spanwise length of each flap pair (LE + TE flap at one strip) [m]; the chordwise
+        flap size (3 m in seed §6) is a separate input of :mod:`model.flaps`.
     leading_edge : bool
         Whether the leading-edge flaps are fitted (driven by -K, seed §6).
     trailing_edge : bool
@@ -331,7 +332,10 @@ class Controller:
             )
         object.__setattr__(self, "flap_width_m", width)
         spacing = np.diff(np.sort(positions))
-        if spacing.size and np.min(spacing) < width:
+        # touching strips (spacing == width) are legal; positions computed as i * width or
+        # read back from a TOML file differ from it by a few ulps, hence a relative tolerance
+        # of 1e-9 (1e-7 m on a 100 m strip, far below any physical overlap)
+        if spacing.size and np.min(spacing) < width * (1.0 - 1e-9):
             raise BridgeflapInputError(
                 "controller.flap_strip_positions_m",
                 f"flap strips overlap: spacing {np.min(spacing):.6g} m < width {width!r} m",

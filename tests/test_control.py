@@ -219,3 +219,14 @@ def test_load_errors_name_the_field(tmp_path):
     with pytest.raises(BridgeflapInputError) as info:
         load_controller(bad)
     assert info.value.field == "controller"
+
+
+def test_touching_strips_pass_despite_rounding():
+    # 25 strips of 56.4 m computed as (i - 12) * 56.4: some spacings are a few ulps below
+    # 56.4 (asserted, so the test keeps testing the tolerance)
+    pos = tuple((np.arange(25) - 12.0) * 56.4)
+    assert min(np.diff(pos)) < 56.4
+    c = Controller(SECOND_ORDER, pos, 56.4)
+    assert c.n_flaps == 25
+    with pytest.raises(BridgeflapInputError, match="overlap"):
+        Controller(SECOND_ORDER, (0.0, 56.3), 56.4)     # a real 0.1 m overlap still fails

@@ -6,6 +6,7 @@ import pytest
 import scipy.optimize
 
 from design.eigen import (
+    PolynomialTopRealParts,
     SmoothAbscissa,
     TopRealParts,
     eig_real_part_sensitivities,
@@ -190,3 +191,32 @@ def test_non_finite_matrix_gives_nan_not_exception():
     cb = TopRealParts(A_fun, 2)
     assert np.all(np.isnan(np.asarray(cb(ca.DM(-1.0)).full())))
     assert np.all(np.isnan(np.asarray(_casadi_jacobian(cb, 1)(-1.0).full())))
+
+
+def test_polynomial_top_real_parts_matches_fd_and_single_speed_callbacks():
+    # A(U, p) = A0(p) + U A1(p) + U^2 A2(p), nonlinear in p, with a state subset at U = 0.
+    rng = np.random.default_rng(5)
+    n = 6
+    M = [ca.DM(rng.standard_normal((n, n))) for _ in range(6)]
+    p = ca.SX.sym("p", 3)
+    parts = ca.Function("parts", [p], [M[0] + p[0] * M[1] + p[1] * p[2] * M[2],
+                                       M[3] * p[2] + M[4], 0.1 * p[0] ** 2 * M[5]])
+    speeds = [0.0, 0.5, 1.0]
+    keep = [0, 1, 2, 4]
+    cb = PolynomialTopRealParts(parts, speeds, 3, subsets={0.0: keep})
+    p0 = np.array([0.3, -0.2, 0.5])
+    J = np.asarray(_casadi_jacobian(cb, 3)(p0).full())
+    J_fd = _central_fd(cb._plain_values, p0, 1e-6)
+    # central FD with h = 1e-6: truncation ~1e-12, round-off eps |lambda| / h ~ 1e-9 for
+    # |lambda| ~ 3; 1e-7 relative to max |J| leaves a 100x margin
+    np.testing.assert_allclose(J, J_fd, rtol=0, atol=1e-7 * np.abs(J_fd).max())
+    # values equal the single-speed TopRealParts on the same matrices (same LAPACK call)
+    vals = np.asarray(cb(p0).full()).ravel()
+    for s, u in enumerate(speeds):
+        P = [a.full() for a in parts(p0)]
+        A = P[0] + u * P[1] + u * u * P[2]
+        if u == 0.0:
+            A = A[np.ix_(keep, keep)]
+        ref = np.sort(np.linalg.eigvals(A).real)[::-1][:3]
+        np.testing.assert_allclose(vals[3 * s:3 * s + 3], ref, rtol=0, atol=1e-12)
+    assert cb.fd_fallback_count == 0
