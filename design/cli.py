@@ -416,8 +416,26 @@ def _load_extras() -> None:
                 raise
 
 
+def _limit_blas_threads() -> None:
+    """Use one BLAS thread unless the user set ``OPENBLAS_NUM_THREADS``/``OMP_NUM_THREADS``.
+
+    bridgeflap's dense matrices are small (at most a few hundred rows): multithreaded BLAS only
+    adds synchronisation, and on a loaded 2-core machine it made ``eig`` up to 80x slower.
+    Worker processes (DOE batches, multistart) inherit the setting through the environment.
+    """
+    if any(v in os.environ for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS",
+                                     "MKL_NUM_THREADS")):
+        return
+    for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ[v] = "1"
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1, user_api="blas")
+
+
 def main(argv=None) -> int:
     """Entry point of the ``bridgeflap`` console script."""
+    _limit_blas_threads()
     _load_extras()
     try:
         parser = build_parser()
