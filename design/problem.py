@@ -79,6 +79,29 @@ EIG_SCALE = 100.0
 VIOLATION_TOL = 1e-6
 #: Nominal first start (b2, b1, b0, a2, a1): static gain -1 (flap against pitch), mild rate.
 NOMINAL_START = np.array([0.0, 0.5, -1.0, 0.05, 0.5])
+#: Relative back-off of the gain limit inside the NLP. Ipopt accepts a violation of
+#: ``constr_viol_tol = 1e-6`` on ``|K|^2 / L_nlp^2 - 1``, i.e. ``|K| <= L_nlp (1 + 5e-7)``;
+#: with ``L_nlp = L (1 - 1e-6)`` a converged sample point is strictly inside ``|K| <= L``, so
+#: the a posteriori check ``max_gain <= gain_limit`` needs no tolerance of its own.
+GAIN_BACKOFF = 1e-6
+#: Relative tolerance of the robust cutting-plane test ``sigma_max(T) <= gamma_T (1 + tol)``
+#: on the dense grid. At an active cut the NLP gives ``||T||_F^2 <= gamma_T^2 + 1e-6``, i.e.
+#: ``sigma_max <= gamma_T (1 + 5e-7 / gamma_T^2)``; near a resonance ``T`` is nearly rank one
+#: (``sigma_max ~ ||T||_F``), so an active cut sits at ``gamma_T`` to ~1e-6. 1e-3 (the margin
+#: is reported to three significant figures) stops a re-solve (~10-30 s) for a 0.1 % gap.
+ROBUST_CUT_TOL = 1e-3
+#: Robust cuts added per speed and round: the worst local peaks of sigma_max above gamma_T.
+ROBUST_CUTS_PER_SPEED = 2
+#: Each robust cut is a cluster ``omega* (1 + k ROBUST_CLUSTER_STEP)``, k = -2..2. The peaks
+#: of sigma_max(T) here have relative half-power half-widths >= ~3 % (70 m/s, default design:
+#: 2.44 at the peak, 2.13 at -2 %); a single point is escaped by shifting the resonance by a
+#: fraction of that, a 1 % spaced cluster bounds the under-read of a shifted peak to ~5 %.
+ROBUST_CLUSTER_STEP = 0.01
+#: Ipopt barrier parameter of a warm-started re-solve (default 0.1 re-centres the iterate
+#: far from the previous solution; 1e-3 keeps it near while staying interior).
+WARM_MU_INIT = 1e-3
+#: Candidates screened per Sobol start (:func:`screened_starts`).
+SCREEN_FACTOR = 8
 
 
 def _num(field_name, v, positive=False, nonneg=False):
@@ -333,6 +356,47 @@ def true_t_peak(theta, Pa, X, omega, weights) -> np.ndarray:
     return out
 
 
+def t_sigma_function(model, U, theta, weights):
+    """``omega -> sigma_max(T(j omega, U))`` (vectorised over ``omega``) for one speed."""
+    def f(omega):
+        omega = np.atleast_1d(np.asarray(omega, float))
+        Pa, X = plant_factors(model, float(U), 1j * omega)
+        return true_t_peak(theta, Pa, X, omega, weights)
+    return f
+
+
+def refine_peaks(fun, omega, values, count) -> list[tuple[float, float]]:
+    """The ``count`` largest local maxima of ``fun`` sampled as ``values`` on ``omega``.
+
+    Each discrete local maximum ``i`` is polished by a bounded scalar search on
+    ``[omega[i-1], omega[i+1]]`` (``xatol`` 1e-9 relative: the peaks of a lightly damped mode
+    have a relative half-width ~ its damping ratio >= 1e-4, so the located peak value is exact
+    to ~(1e-9 / 1e-4)^2, far below any tolerance used on it). Returns ``(omega, value)`` pairs,
+    largest first; the polished value is never below the sampled one.
+    """
+    from scipy.optimize import minimize_scalar
+
+    v = np.asarray(values, float)
+    n = v.size
+    if n == 0:
+        return []
+    left = np.r_[-np.inf, v[:-1]]
+    right = np.r_[v[1:], -np.inf]
+    idx = np.flatnonzero((v >= left) & (v >= right))
+    idx = idx[np.argsort(-v[idx])][:count]
+    out = []
+    for i in idx:
+        lo, hi = omega[max(i - 1, 0)], omega[min(i + 1, n - 1)]
+        best = (float(omega[i]), float(v[i]))
+        if hi > lo:
+            r = minimize_scalar(lambda x: -float(fun(x)[0]), bounds=(lo, hi), method="bounded",
+                                options={"xatol": 1e-9 * hi})
+            if -r.fun > best[1]:
+                best = (float(r.x), float(-r.fun))
+        out.append(best)
+    return sorted(out, key=lambda t: -t[1])
+
+
 class _BuffetingCallback(ca.Callback):
     """``J_buf(p)``: closed-loop buffeting cost (module docstring), forward-difference Jacobian."""
 
@@ -461,7 +525,12 @@ class DesignProblem:
         self.keep0 = _lag_free_indices(model)
         self.callbacks: dict = {}      # kept alive (design.eigen docstring)
         self._robust = None
+        self._robust_base = None
         self._buffeting_ref = None
+        #: Cutting planes added by :meth:`solve_with_cuts`: robust (speed, omega) points and
+        #: gain-constraint frequencies, on top of the settings' sample grids.
+        self.robust_cuts: list[tuple[float, float]] = []
+        self.gain_cuts: list[float] = []
 
     @property
     def n_p(self) -> int:
@@ -497,9 +566,10 @@ class DesignProblem:
         return A0.full(), A1.full(), A2.full(), self.keep0
 
     def omega_grid(self) -> np.ndarray:
-        """Frequency grid of the gain constraint [rad/s]."""
+        """Frequency grid of the gain constraint [rad/s]: log grid plus the gain cuts."""
         s = self.settings
-        return np.logspace(np.log10(s.omega_min_rad_s), np.log10(s.omega_max_rad_s), s.n_omega)
+        w = np.logspace(np.log10(s.omega_min_rad_s), np.log10(s.omega_max_rad_s), s.n_omega)
+        return np.unique(np.concatenate([w, np.asarray(self.gain_cuts, float)]))
 
     def structural_frequencies(self) -> np.ndarray:
         """In-vacuo structural circular frequencies [rad/s]."""
@@ -518,20 +588,38 @@ class DesignProblem:
         band = np.linspace(0.8 * ws.min(), 1.2 * ws.max(), s.n_robust_omega) if ws.size else []
         return np.unique(np.concatenate([w, ws, band]))
 
+    def robust_check_speeds(self) -> np.ndarray:
+        """Speeds of the dense robust check and cuts [m/s]: design and reported speeds."""
+        s = self.settings
+        return np.unique(np.asarray(tuple(s.robust_design_speeds_m_s)
+                                    + tuple(s.robust_speeds_m_s), float))
+
     def robust_function(self) -> tuple[ca.Function, list]:
-        """``(theta, w) -> ||T||_F^2`` at every (robust design speed, frequency), and the points."""
-        if self._robust is None:
+        """``(theta, w) -> ||T||_F^2`` at every (robust design speed, frequency) and at every
+        robust cut (:attr:`robust_cuts`), and the ``(speed, omega)`` points."""
+        key = tuple(self.robust_cuts)
+        if self._robust is None or self._robust[2] != key:
             s = self.settings
-            om = self.robust_omega_grid()
-            Xr, Xi, oms, pts = [], [], [], []
-            Pa = None
-            for U in s.robust_design_speeds_m_s:
-                Pa, X = plant_factors(self.model, float(U), 1j * om)
-                for k in range(len(om)):
-                    Xr.append(X[k].real)
-                    Xi.append(X[k].imag)
-                    oms.append(om[k])
-                    pts.append((float(U), float(om[k])))
+            if self._robust_base is None:
+                om = self.robust_omega_grid()
+                Xr, Xi, oms, pts = [], [], [], []
+                Pa = None
+                for U in s.robust_design_speeds_m_s:
+                    Pa, X = plant_factors(self.model, float(U), 1j * om)
+                    for k in range(len(om)):
+                        Xr.append(X[k].real)
+                        Xi.append(X[k].imag)
+                        oms.append(om[k])
+                        pts.append((float(U), float(om[k])))
+                self._robust_base = (Pa, Xr, Xi, oms, pts)
+            Pa, Xr, Xi, oms, pts = self._robust_base
+            Xr, Xi, oms, pts = list(Xr), list(Xi), list(oms), list(pts)
+            for U, omc in key:
+                Pa, X = plant_factors(self.model, float(U), [1j * omc])
+                Xr.append(X[0].real)
+                Xi.append(X[0].imag)
+                oms.append(omc)
+                pts.append((float(U), float(omc)))
             f1 = robust_point_function(Pa)
             N = len(pts)
             fm = f1.map(N, "serial")
@@ -540,8 +628,8 @@ class DesignProblem:
             val = fm(th, w, ca.DM(np.array(oms)[None, :]), ca.DM(np.hstack(Xr)),
                      ca.DM(np.hstack(Xi)))
             fun = ca.Function("T_fro2_grid", [th, w], [val.T], ["theta", "w"], ["T_fro2"])
-            self._robust = (fun, pts)
-        return self._robust
+            self._robust = (fun, pts, key)
+        return self._robust[:2]
 
     # ---- buffeting
     def buffeting_rms(self, theta, weights=None, speeds=None) -> tuple[np.ndarray, np.ndarray]:
@@ -578,8 +666,13 @@ class DesignProblem:
                          for u, sg in zip(speeds, sig, strict=True)])
 
     # ---- one solve
-    def solve(self, theta0, speeds, max_iter=None, weights0=None) -> dict:
+    def solve(self, theta0, speeds, max_iter=None, weights0=None, gamma0=None,
+              warm=False) -> dict:
         """Solve the NLP from ``theta0`` (and ``weights0``) on the design ``speeds`` [m/s].
+
+        ``gamma0`` (warm start) is raised to the epigraph value at ``theta0`` when lower, so
+        the start satisfies the robust constraints whatever cuts were added; ``warm``
+        starts Ipopt's barrier at ``WARM_MU_INIT`` (a re-solve after cuts).
 
         Returns a dict with ``theta``, ``weights``, ``gamma_T``, ``status`` (Ipopt return
         status), ``success``, ``iterations``, ``time_s``, ``objective``, ``constraints_eig``.
@@ -601,16 +694,22 @@ class DesignProblem:
         sig = np.repeat(s.sigma_required(speeds), s.n_eig)
         g = [EIG_SCALE * (cb(p) + sig)]
         lbg, ubg = [np.full(sig.size, -np.inf)], [np.zeros(sig.size)]
-        # gain limit |K(j w)| <= gain_limit on the grid and at omega -> inf (b2/a2)
-        for om in self.omega_grid():
+        # gain limit |K(j w)| <= L_nlp on the grid (+ gain cuts), at omega = 0 (b0) and at
+        # omega -> inf (b2/a2); L_nlp backed off by GAIN_BACKOFF (see there)
+        L2 = (s.gain_limit * (1.0 - GAIN_BACKOFF)) ** 2
+        oms = self.omega_grid()
+        for om in oms:
             Kr, Ki = _k_complex(th, om)
-            g.append((Kr * Kr + Ki * Ki) / s.gain_limit**2 - 1.0)
-        g.append((th[0] * th[0] - s.gain_limit**2 * th[3] * th[3]) / s.gain_limit**2)
-        lbg.append(np.full(len(self.omega_grid()) + 1, -np.inf))
-        ubg.append(np.zeros(len(self.omega_grid()) + 1))
+            g.append((Kr * Kr + Ki * Ki) / L2 - 1.0)
+        g.append(th[2] * th[2] / L2 - 1.0)
+        # omega -> inf as (b2/a2)^2 / L^2 - 1 (a2 >= a2_min > 0): scaled like the grid
+        # points, so constr_viol_tol bounds the relative gain error (not a2^2 times it)
+        g.append(th[0] * th[0] / (th[3] * th[3] * L2) - 1.0)
+        lbg.append(np.full(len(oms) + 2, -np.inf))
+        ubg.append(np.zeros(len(oms) + 2))
         f = s.weight_regularisation * ca.sumsqr(th / THETA_SCALE)
         n_rob = 0
-        if s.weight_robust > 0:
+        if s.weight_robust > 0 and (s.robust_design_speeds_m_s or self.robust_cuts):
             rob, pts = self.robust_function()
             g.append(rob(th, w) - gT * gT)
             n_rob = len(pts)
@@ -631,7 +730,7 @@ class DesignProblem:
         if n_rob:
             vals = np.asarray(self.robust_function()[0](theta0, w0).full()).ravel()
             gT0 = float(np.sqrt(np.max(vals))) if np.all(np.isfinite(vals)) else 10.0
-            gT0 = min(max(gT0, 1e-3), 1e3)
+            gT0 = min(max(gT0, 1e-3, 0.0 if gamma0 is None else float(gamma0)), 1e3)
         x0 = np.append(theta0, gT0)
         if s.optimise_placement:
             lbx += [0.0] * nF
@@ -641,7 +740,11 @@ class DesignProblem:
         opts = {"ipopt.hessian_approximation": "limited-memory",
                 "ipopt.max_iter": int(max_iter or s.max_iter), "ipopt.print_level": 0,
                 "print_time": False, "ipopt.tol": 1e-6, "ipopt.acceptable_tol": 1e-4,
-                "ipopt.acceptable_iter": 5, "ipopt.sb": "yes", "ipopt.constr_viol_tol": 1e-6}
+                "ipopt.acceptable_iter": 5, "ipopt.sb": "yes", "ipopt.constr_viol_tol": 1e-6,
+                # an "acceptable" exit must be as feasible as an optimal one (default 1e-2)
+                "ipopt.acceptable_constr_viol_tol": 1e-6}
+        if warm:
+            opts["ipopt.mu_init"] = WARM_MU_INIT
         solver = ca.nlpsol("design", "ipopt", nlp, opts)
         ev0, et0 = cb.evaluations, cb.eval_time_s
         t0 = time.perf_counter()
@@ -679,61 +782,151 @@ class DesignProblem:
                 "modes": int(self.model.open_loop.basis.n), "step_m_s": s.check_step_m_s}
 
     def solve_with_cuts(self, theta0, weights0=None) -> dict:
-        """Solve, verify densely, add violating speeds, re-solve (cutting planes)."""
+        """Solve and re-solve with cutting planes (at most ``cutting_plane_rounds`` re-solves).
+
+        After each solve the design is checked a posteriori and the worst violations join the
+        NLP's sample sets before a warm-started re-solve:
+
+        * decay rate: abscissa on the dense ``check_step_m_s`` grid; the worst speed of each run
+          of violations joins the design speeds;
+        * gain limit: the true peak :meth:`model.control.Compensator.max_gain`; if above
+          ``gain_limit`` the stationary frequencies of ``|K(jw)|`` join the gain grid;
+        * robustness: ``sigma_max(T)`` on a dense frequency grid (:meth:`robust_margin`) at
+          :meth:`robust_check_speeds`; the worst (speed, frequency) peaks above
+          ``gamma_T (1 + ROBUST_CUT_TOL)`` join the robust epigraph points.
+
+        Returns the last :meth:`solve` result plus ``verification``, ``rounds`` (one record per
+        solve), ``design_speeds``, ``gain_ok``, ``robust`` (dense check of the final design),
+        ``robust_bound_holds`` (dense peak <= gamma_T within ``ROBUST_CUT_TOL``) and the cuts.
+        """
         s = self.settings
         speeds = list(self.settings.design_speeds())
         history = []
         theta = np.asarray(theta0, float)
         w = self.weights if weights0 is None else np.asarray(weights0, float)
-        res = None
+        gamma = None
+        res = ver = rob = None
+        kept = []
+        use_rob = s.weight_robust > 0 and (bool(s.robust_design_speeds_m_s)
+                                           or bool(s.robust_speeds_m_s))
         for rnd in range(s.cutting_plane_rounds + 1):
-            res = self.solve(theta, np.array(sorted(speeds)), weights0=w)
+            res = self.solve(theta, np.array(sorted(speeds)), weights0=w, gamma0=gamma,
+                             warm=rnd > 0)
             theta, w = res["theta"], res["weights"]
+            gamma = res["gamma_T"] if use_rob else None
             ver = self.verify(theta, w)
-            history.append({"round": rnd, "status": res["status"], "iterations": res["iterations"],
-                            "time_s": res["time_s"], "n_speeds": len(speeds),
-                            "max_violation_1_s": ver["max_violation"],
-                            "eig_time_per_speed_s": res["eig_time_per_speed_s"]})
-            if ver["max_violation"] <= VIOLATION_TOL or not _a2_ok(theta):
+            eig_ok = ver["max_violation"] <= VIOLATION_TOL
+            gain_ok = ver["max_gain"] <= s.gain_limit
+            rob_ok, new_rob = True, []
+            rob = None
+            if use_rob and _a2_ok(theta):
+                rob = self.robust_margin(theta, speeds=self.robust_check_speeds(), weights=w,
+                                         peaks=ROBUST_CUTS_PER_SPEED)
+                lim = gamma * (1.0 + ROBUST_CUT_TOL)
+                rob_ok = bool(np.max(rob["T_inf"]) <= lim)
+                for U, pk in zip(rob["speeds_m_s"], rob["peaks"], strict=True):
+                    new_rob += [(float(U), om * (1.0 + k * ROBUST_CLUSTER_STEP))
+                                for om, v in pk if v > lim for k in (-2, -1, 0, 1, 2)]
+                new_rob = [c for c in dict.fromkeys(new_rob) if c not in self.robust_cuts]
+            new_gain = []
+            if not gain_ok:
+                comp = Compensator(*(float(v) for v in theta))
+                wst = comp._stationary_frequencies()
+                new_gain = [float(x) for x in wst
+                            if abs(comp.frequency_response(x)) > s.gain_limit
+                            * (1.0 - GAIN_BACKOFF) and float(x) not in self.gain_cuts]
+            new_speeds = []
+            if not eig_ok:
+                new_speeds = [u for u in _worst_per_run(ver["speeds"],
+                                                        ver["violation"] > VIOLATION_TOL,
+                                                        ver["violation"]) if u not in speeds]
+            history.append({
+                "round": rnd, "status": res["status"], "iterations": res["iterations"],
+                "theta": [float(v) for v in theta],
+                "time_s": res["time_s"], "n_speeds": len(speeds),
+                "max_violation_1_s": ver["max_violation"], "max_gain": ver["max_gain"],
+                "gamma_T_frobenius": res["gamma_T"],
+                "dense_T_peak": float(np.max(rob["T_inf"])) if rob else float("nan"),
+                "n_robust_points": len(self.robust_function()[1]) if use_rob else 0,
+                "n_gain_points": len(self.omega_grid()),
+                "new_cuts": {"speeds": len(new_speeds), "gain": len(new_gain),
+                             "robust": len(new_rob)},
+                "eig_time_per_speed_s": res["eig_time_per_speed_s"]})
+            peak = float(np.max(rob["T_inf"])) if rob else float("nan")
+            kept.append((res, ver, rob, dict(speeds=sorted(speeds), robust_cuts=list(
+                self.robust_cuts), gain_cuts=list(self.gain_cuts)), eig_ok and gain_ok, peak))
+            if (eig_ok and gain_ok and rob_ok) or not _a2_ok(theta):
                 break
-            new = [u for u in _worst_per_run(ver["speeds"], ver["violation"] > VIOLATION_TOL,
-                                             ver["violation"]) if u not in speeds]
-            if not new:
+            if rnd == s.cutting_plane_rounds or not (new_speeds or new_gain or new_rob):
                 break
-            speeds.extend(new)
+            speeds.extend(new_speeds)
+            self.gain_cuts.extend(new_gain)
+            self.robust_cuts.extend(new_rob)
+        # a re-solve sees only the sample points and can land on a design whose dense peak
+        # (or gain, decay rate) is worse than before the cuts: return the best round --
+        # feasible (decay rate and gain) first, then the smallest dense peak of sigma_max(T)
+        def rank(i):
+            _, _, _, _, ok, pk = kept[i]
+            return (not ok, pk if np.isfinite(pk) else np.inf, -i)
+        ibest = min(range(len(kept)), key=rank)
+        res, ver, rob, cuts, _, _ = kept[ibest]
+        for i, h in enumerate(history):
+            h["chosen"] = i == ibest
         res = dict(res)
         res["verification"] = ver
         res["rounds"] = history
-        res["design_speeds"] = sorted(speeds)
+        res["chosen_round"] = ibest
+        res["design_speeds"] = cuts["speeds"]
+        res["gain_ok"] = bool(ver["max_gain"] <= s.gain_limit)
+        res["robust"] = rob
+        res["robust_bound_holds"] = (bool(rob is not None and np.max(rob["T_inf"])
+                                          <= res["gamma_T"] * (1.0 + ROBUST_CUT_TOL))
+                                     if use_rob else None)
+        res["robust_cuts"] = [list(c) for c in cuts["robust_cuts"]]
+        res["gain_cuts"] = list(cuts["gain_cuts"])
         return res
 
     # ---- robustness
-    def robust_margin(self, theta, speeds=None, omega=None, weights=None) -> dict:
+    def robust_dense_omega(self, theta, U, weights=None) -> np.ndarray:
+        """Dense check frequencies [rad/s] at speed ``U``: 400 log-spaced on 0.01..30 rad/s,
+        the structural frequencies and the damped frequencies ``|Im lambda|`` of the closed
+        loop in that band (the peaks of ``sigma_max(T)`` sit on its lightly damped poles)."""
+        A0, A1, A2, _ = self.A_parts(theta, weights)
+        lam = scipy.linalg.eigvals(A0 + U * A1 + U * U * A2)
+        wd = np.abs(lam.imag)
+        wd = wd[(wd > 1e-2) & (wd < 30.0)]
+        return np.unique(np.concatenate([np.logspace(-2, np.log10(30.0), 400),
+                                         self.structural_frequencies(), wd]))
+
+    def robust_margin(self, theta, speeds=None, omega=None, weights=None, peaks=1) -> dict:
         """True small-gain margin ``1 / max_U sup_w sigma_max(T(jw))`` on a dense grid.
 
         ``T = (I - L)^{-1} L``, ``L(jw) = K(jw) G(jw)`` (positive feedback ``beta = K alpha``):
         the transfer from a perturbation ``d`` of the flap inputs (``beta_applied = beta + d``)
         to the controller output; ``sigma_max`` by SVD (not the Frobenius bound of the NLP).
-        Default grid: ``robust_speeds_m_s`` x 400 log frequencies 0.01..30 rad/s plus the
-        structural frequencies.
+        Default grid: ``robust_speeds_m_s`` x :meth:`robust_dense_omega`; the largest discrete
+        local maxima (at least 8, and ``peaks``) are polished by a bounded scalar search
+        (:func:`refine_peaks`), so a resonance between grid points is not under-read.
+        ``peaks`` gives the ``(omega, sigma_max)`` local peaks per speed returned in ``peaks``.
         """
         s = self.settings
         speeds = np.asarray(s.robust_speeds_m_s if speeds is None else speeds, float)
-        if omega is None:
-            omega = np.unique(np.concatenate([np.logspace(-2, np.log10(30.0), 400),
-                                              self.structural_frequencies()]))
-        omega = np.asarray(omega, float)
         w = self.weights if weights is None else np.asarray(weights, float)
-        peaks, at = [], []
+        theta = np.asarray(theta, float)
+        out_peaks, T_inf, at = [], [], []
         for U in speeds:
-            Pa, X = plant_factors(self.model, float(U), 1j * omega)
-            sv = true_t_peak(theta, Pa, X, omega, w)
-            peaks.append(float(sv.max()))
-            at.append(float(omega[int(np.argmax(sv))]))
-        peaks = np.array(peaks)
-        return {"speeds_m_s": speeds, "T_inf": peaks, "peak_omega_rad_s": np.array(at),
-                "margin": float(1.0 / peaks.max()) if peaks.size else float("nan"),
-                "norm": "sigma_max (SVD)"}
+            om = (self.robust_dense_omega(theta, float(U), w) if omega is None
+                  else np.asarray(omega, float))
+            fun = t_sigma_function(self.model, float(U), theta, w)
+            pk = refine_peaks(fun, om, fun(om), max(8, int(peaks)))
+            out_peaks.append(pk[:max(1, int(peaks))])
+            T_inf.append(pk[0][1])
+            at.append(pk[0][0])
+        T_inf = np.array(T_inf)
+        return {"speeds_m_s": speeds, "T_inf": T_inf, "peak_omega_rad_s": np.array(at),
+                "peaks": out_peaks,
+                "margin": float(1.0 / T_inf.max()) if T_inf.size else float("nan"),
+                "norm": "sigma_max (SVD), peaks polished"}
 
 
 def _worst_per_run(U, bad, viol) -> list[float]:
@@ -773,6 +966,42 @@ def sobol_starts(settings: DesignSettings, count: int) -> np.ndarray:
     th[:, 0] = np.clip(th[:, 0], -0.5 * settings.gain_limit * th[:, 3],
                        0.5 * settings.gain_limit * th[:, 3])
     return th
+
+
+def screened_starts(settings: DesignSettings, count: int, model=None) -> np.ndarray:
+    """``count`` Sobol starts, the best of ``SCREEN_FACTOR * count`` Sobol candidates.
+
+    Raw Sobol points in the compensator box are mostly far from feasible (positive static
+    gain, fast lead) and a start from there can use the whole Ipopt budget (80 iterations,
+    ~80 s on 16 modes) to reach a poor local solution. Each candidate is scored by the NLP's
+    own merit at the start point: ``weight_robust * gamma_T0 + EIG_SCALE * max(0, max
+    violation of the decay-rate constraints)`` (objective plus an exact l-inf penalty on the
+    scaled eigenvalue constraints, unit weight) on a 10 m/s speed grid and the robust sample
+    points; candidates with ``sup|K| > gain_limit`` are rejected first. Cost: one eig per
+    speed and one epigraph evaluation per candidate (~0.2 s on 16 modes).
+    """
+    if count <= 0:
+        return np.empty((0, 5))
+    cand = sobol_starts(settings, SCREEN_FACTOR * count)
+    if model is None:
+        _, model = _build_model(settings)
+    prob = DesignProblem(replace(settings, optimise_placement=False), model)
+    speeds = np.unique(np.append(np.arange(0.0, settings.speed_max_m_s, 10.0),
+                                 settings.speed_max_m_s))
+    use_rob = settings.weight_robust > 0 and bool(settings.robust_design_speeds_m_s)
+    rob = prob.robust_function()[0] if use_rob else None
+    w = np.ones(model.n_flaps)
+    scores = []
+    for th in cand:
+        if Compensator(*(float(v) for v in th)).max_gain() > settings.gain_limit:
+            scores.append(np.inf)
+            continue
+        viol = float(np.max(prob.constraint_values(th, speeds)))
+        gam = float(np.sqrt(np.max(np.asarray(rob(th, w).full())))) if rob else 0.0
+        sc = settings.weight_robust * gam + EIG_SCALE * max(0.0, viol)
+        scores.append(sc if np.isfinite(sc) else np.inf)
+    order = np.argsort(np.asarray(scores), kind="stable")
+    return cand[order[:count]]
 
 
 def _build_model(settings: DesignSettings, count=None, modal=None, n_modes=None,
@@ -826,25 +1055,49 @@ def _run_start(args):
                          "time_s": time.perf_counter() - t0}
     theta = res["theta"]
     ver = res["verification"]
-    rob = prob.robust_margin(theta)
+    rob = prob.robust_margin(theta, weights=weights)
     positions = settings.positions()[weights > 0.5]
     ver16 = (verify_layout(settings, theta, positions)
              if settings.verification_modes != settings.n_modes else
              {k: v for k, v in ver.items() if k not in ("speeds", "abscissa", "violation")}
              | {"meets_decay_rate": bool(ver["max_violation"] <= VIOLATION_TOL),
                 "max_abscissa_1_s": float(np.max(ver["abscissa"]))})
+    meets = bool(ver["max_violation"] <= VIOLATION_TOL)
+    gain_ok = bool(ver["max_gain"] <= settings.gain_limit)
+    dense_peak = (float(np.max(res["robust"]["T_inf"])) if res.get("robust") is not None
+                  else float("nan"))
     return record | {
         "theta": [float(v) for v in theta], "status": res["status"], "success": res["success"],
         "iterations": sum(r["iterations"] for r in rounds),
-        "time_s": time.perf_counter() - t0, "rounds": rounds,
+        "time_s": time.perf_counter() - t0, "rounds": rounds, "cut_rounds": len(rounds) - 1,
         "max_violation_1_s": ver["max_violation"], "stable_to_m_s": ver["stable_to_m_s"],
         "stable_everywhere": ver["stable_everywhere"], "max_gain": ver["max_gain"],
+        "meets_decay_rate": meets, "gain_ok": gain_ok,
+        # verified: every a posteriori check holds, whatever Ipopt's exit status
+        "verified": bool(meets and gain_ok and ver16.get("stable_everywhere")),
         "gamma_T_frobenius": res["gamma_T"],
+        "dense_T_peak_check_speeds": dense_peak,
+        "robust_bound_holds": res["robust_bound_holds"],
         "robust_margin": rob["margin"],
         "robust_T_inf_by_speed": {f"{u:g}": float(t) for u, t in
                                   zip(rob["speeds_m_s"], rob["T_inf"], strict=True)},
+        "robust_peak_omega_by_speed": {f"{u:g}": float(o) for u, o in
+                                       zip(rob["speeds_m_s"], rob["peak_omega_rad_s"],
+                                           strict=True)},
+        "robust_cuts": res["robust_cuts"], "gain_cuts": res["gain_cuts"],
         "flap_positions_m": [float(x) for x in positions],
         "verification": ver16, "design_speeds": res["design_speeds"]}
+
+
+def _start_row(r: dict, chosen: bool) -> dict:
+    """One row of the start table (``summary()["start_table"]``)."""
+    return {"start": r.get("start"), "status": r.get("status"),
+            "iterations": r.get("iterations", 0), "cut_rounds": r.get("cut_rounds", 0),
+            "time_s": r.get("time_s", float("nan")),
+            "robust_margin": r.get("robust_margin", float("nan")),
+            "gamma_T_frobenius": r.get("gamma_T_frobenius", float("nan")),
+            "max_gain": r.get("max_gain", float("nan")),
+            "verified": bool(r.get("verified", False)), "chosen": bool(chosen)}
 
 
 @dataclass(frozen=True)
@@ -888,6 +1141,12 @@ class DesignResult:
             "spectral_abscissa_by_speed": [
                 {"speed_m_s": float(u), "abscissa_1_s": float(a)}
                 for u, a in zip(self.abscissa_speeds, self.abscissa, strict=True)],
+            "chosen_start": self.best.get("start"),
+            "start_table": [_start_row(s, s.get("start") == self.best.get("start"))
+                            for s in self.starts],
+            "dense_T_peak": (1.0 / self.best["robust_margin"]
+                             if self.best.get("robust_margin") else float("nan")),
+            "robust_bound_holds": self.best.get("robust_bound_holds"),
             "starts": [{k2: v for k2, v in s.items() if k2 != "design_speeds"}
                        for s in self.starts],
             "minimum_flaps": self.min_flaps,
@@ -1000,7 +1259,7 @@ def design(settings: DesignSettings, progress=None) -> DesignResult:
     t0 = time.perf_counter()
     log = progress or (lambda msg: None)
     # start 0 is a nominal phase-lead-free design (K ~ -1 static, light lag), the others Sobol
-    starts0 = np.vstack([NOMINAL_START, sobol_starts(settings, settings.starts)])[
+    starts0 = np.vstack([NOMINAL_START, screened_starts(settings, settings.starts - 1)])[
         :settings.starts]
     jobs = [(settings, th, i) for i, th in enumerate(starts0)]
     if settings.parallel and settings.starts > 1:
@@ -1012,14 +1271,20 @@ def design(settings: DesignSettings, progress=None) -> DesignResult:
         records = [_run_start(job) for job in jobs]
     for r in records:
         log(f"start {r['start']}: {r['status']} in {r.get('time_s', 0):.1f} s, "
-            f"{r.get('iterations', 0)} iterations, violation "
-            f"{r.get('max_violation_1_s', float('nan')):.2e}, margin "
-            f"{r.get('robust_margin', float('nan')):.3g}, {settings.verification_modes}-mode "
-            f"check stable: {r.get('verification', {}).get('stable_everywhere')}")
-    feasible = [r for r in records if r.get("max_violation_1_s", np.inf) <= VIOLATION_TOL
-                and r.get("max_gain", np.inf) <= settings.gain_limit * (1 + 1e-6)]
-    verified = [r for r in feasible if r["verification"].get("stable_everywhere")]
+            f"{r.get('iterations', 0)} iterations, {r.get('cut_rounds', 0)} cut rounds, "
+            f"violation {r.get('max_violation_1_s', float('nan')):.2e}, max gain "
+            f"{r.get('max_gain', float('nan')):.4g}, margin "
+            f"{r.get('robust_margin', float('nan')):.3g} (gamma_T "
+            f"{r.get('gamma_T_frobenius', float('nan')):.3g}), "
+            f"{settings.verification_modes}-mode check stable: "
+            f"{r.get('verification', {}).get('stable_everywhere')}, verified: "
+            f"{r.get('verified', False)}")
+    # the gain limit is checked on the true peak (max_gain) with no tolerance: the NLP backs
+    # off by GAIN_BACKOFF, so a feasible solve meets it strictly
+    feasible = [r for r in records if r.get("meets_decay_rate") and r.get("gain_ok")]
+    verified = [r for r in feasible if r.get("verified")]
     if verified:
+        # the best *verified* start (true dense margin), whatever its Ipopt exit status
         best = max(verified, key=lambda r: r["robust_margin"])
         status = "converged"
     elif feasible:
