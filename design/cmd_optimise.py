@@ -72,8 +72,14 @@ def cmd_optimise(args):
              f"{payload['verification'].get('stable_to_m_s')} m/s",
              f"minimum flap count {payload['minimum_flaps']['minimum']}",
              f"controller written: {payload['controller_file']}"]
-    lines += [f"start {s['start']}: {s['status']} ({s.get('iterations', 0)} iterations, "
-              f"{s.get('time_s', float('nan')):.1f} s)" for s in payload["starts"]]
+    lines.append(f"optimiser gamma_T (Frobenius, sample points) {payload['gamma_T_frobenius']:.4g}"
+                 f" vs dense sigma_max peak {payload['dense_T_peak']:.4g} (bound holds at the "
+                 f"check speeds: {payload['robust_bound_holds']})")
+    lines.append("start | Ipopt status | iterations | cut rounds | time [s] | margin | "
+                 "max gain | verified | chosen")
+    lines += [f"{s['start']} | {s['status']} | {s['iterations']} | {s['cut_rounds']} | "
+              f"{s['time_s']:.1f} | {s['robust_margin']:.3g} | {s['max_gain']:.4g} | "
+              f"{s['verified']} | {s['chosen']}" for s in payload["start_table"]]
     _emit(args, payload, "\n".join(lines))
 
 

@@ -36,6 +36,14 @@ torsional deck response (each normalised by its open-loop value) from
 :func:`model.buffeting.buffeting`, evaluated numerically in a :class:`casadi.Callback` with a
 forward-difference Jacobian (step 1e-4 relative); used only when ``weight_buffeting > 0``.
 
+Cutting planes (:meth:`DesignProblem.solve_with_cuts`, at most ``cutting_plane_rounds``
+warm-started re-solves of at most ``resolve_max_iter`` iterations): violating speeds of the dense
+decay-rate check join the design grid; if the true peak ``Compensator.max_gain()`` exceeds the
+limit, its frequency joins the gain grid; dense ``sigma_max(T)`` peaks above ``gamma_T`` join the
+robust epigraph. A re-solve only sees sample points and may land on a worse design, so the best
+round (feasible first, then smallest dense peak) is returned and every round is recorded.
+A design whose true peak gain exceeds ``gain_limit`` is never ``converged``.
+
 Verification. Every solution is checked a posteriori on the dense ``check_step_m_s`` grid
 (cutting planes: violating speeds join the design grid and the problem is re-solved) and, when
 the design model is reduced, on the ``verification_modes`` model that ``bridgeflap flutter``
@@ -157,7 +165,7 @@ class DesignSettings:
     seed: int = 1
     parallel: bool = False
     max_iter: int = 80
-    resolve_max_iter: int = 30
+    resolve_max_iter: int = 20
     cutting_plane_rounds: int = 2
     b_bound: float = 15.0
     a2_bounds: tuple = (1e-3, 5.0)

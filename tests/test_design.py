@@ -203,8 +203,11 @@ def test_gain_cuts_enforce_true_peak(small):
     res = prob.solve_with_cuts(np.array([0.2, 0.3, -1.0, 0.05, 0.1]))
     kmax = Compensator(*res["theta"]).max_gain()
     assert res["gain_ok"] == (kmax <= 2.0)
-    if any(r["max_gain"] > 2.0 for r in res["rounds"][:-1]):
-        assert prob.gain_cuts                          # the peak frequency joined the grid
+    for r in res["rounds"][:-1]:
+        c = Compensator(*r["theta"])
+        finite = [w for w in c._stationary_frequencies() if abs(c.frequency_response(w)) > 2.0]
+        if finite:      # a peak between grid points (not at 0 or infinity, constrained exactly)
+            assert set(finite) <= set(prob.gain_cuts)
     assert res["rounds"][res["chosen_round"]]["chosen"]
 
 
@@ -247,8 +250,13 @@ def test_buffeting_callback_value_and_gradient(buffeting_problem):
     np.testing.assert_allclose(z, ref.rms_vertical, rtol=1e-10)
     np.testing.assert_allclose(a, ref.rms_torsion, rtol=1e-10)
     cb = _BuffetingCallback(prob, 5)
-    j_expected = 0.5 * np.mean((ref.rms_vertical / ol.rms_vertical) ** 2
-                               + (ref.rms_torsion / ol.rms_torsion) ** 2)
+    # J_buf is normalised by K = 0 with the flaps fitted (same state space and quadrature
+    # grid construction as the closed loop); the bare deck differs only by the adaptive grid
+    # (convergence tolerance 5e-3, observed ~1e-5): 1e-3 relative
+    z0, a0 = prob.buffeting_rms([0.0, 0.0, 0.0, 1.0, 1.0])
+    np.testing.assert_allclose(z0, ol.rms_vertical, rtol=1e-3)
+    np.testing.assert_allclose(a0, ol.rms_torsion, rtol=1e-3)
+    j_expected = 0.5 * np.mean((ref.rms_vertical / z0) ** 2 + (ref.rms_torsion / a0) ** 2)
     assert float(cb(THETA)) == pytest.approx(j_expected, rel=1e-10)
     x = ca.MX.sym("x", 5)
     g_cb = np.asarray(ca.Function("J", [x], [ca.jacobian(cb(x), x)])(THETA).full()).ravel()
