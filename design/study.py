@@ -622,6 +622,13 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
             if outcome.arrays:
                 atomic_savez(tmp / "results" / f"{kind}.npz", **outcome.arrays)
             figures[kind] = _save_figures(outcome.figures, tmp / "figures")
+            controller = getattr(outcome.obj, "controller", None) if kind == "design" else None
+            if controller is not None:
+                from model.control import save_controller
+
+                save_controller(controller, tmp / "results" / "controller.toml")
+                outcome.summary["controller_file"] = "results/controller.toml"
+                atomic_write_json(tmp / "results" / f"{kind}.json", outcome.summary)
             say(f"study {config.name}: {kind} {outcome.status} "
                 f"({time.perf_counter() - t0:.1f} s)")
         atomic_write_json(tmp / "statuses.json", statuses)
@@ -780,6 +787,8 @@ def _design_section(d: dict) -> list[str]:
     """Report lines for the flap-compensator design (seed §6, Fig. 5)."""
     c = d["coefficients"]
     L = ["", "## Flap compensator (seed §6, Fig. 5)", "",
+         f"Controller file: `{d.get('controller_file', '-')}` (use it with "
+         "`bridgeflap flutter|buffeting|state-space --controller`).", "",
          f"K(s) = ({c['b2']:.4g} s^2 {c['b1']:+.4g} s {c['b0']:+.4g}) / "
          f"({c['a2']:.4g} s^2 {c['a1']:+.4g} s + 1), driving {d.get('flap_count')} LE+TE flap "
          "pairs from the local deck pitch (LE and TE antisymmetric).", "",

@@ -222,6 +222,17 @@ def test_default_study_quick_runs_and_names_every_status(tmp_path):
     assert s["results"]["flutter_status"] == "converged"
     for st in json.loads((out / "results" / "erection.json").read_text())["stages"]:
         assert f"flutter `{st['flutter_status']}`" in report
+    design = json.loads((out / "results" / "design.json").read_text())
+    for start in design["starts"]:  # every Ipopt start's status is in the report
+        assert f"| {start['start']} | {start['status']} |" in report
+    if design["status"] == "converged":
+        # the study's controller file is usable by the CLI, and the closed loop it reports as
+        # stable really is stable on the 16-mode model over the paper's 0-85 m/s range
+        ctl = out / design["controller_file"]
+        r = subprocess.run([*CLI, "flutter", "--controller", str(ctl), "--speeds", "0:85:0.5",
+                            "--json"], cwd=tmp_path, env=_env(), capture_output=True,
+                           text=True, check=True)
+        assert json.loads(r.stdout)["flutter_status"] == "no_crossing_in_range"
 
 
 @pytest.mark.slow
