@@ -117,7 +117,27 @@ def eig_real_part_sensitivities(
     return lam, dlam.real, ill
 
 
-class _EigenCallback(ca.Callback):
+class _VectorIO:
+    """CasADi Callback boilerplate shared by the eigenvalue callbacks: one dense input ``p``
+    of length ``self._n_p`` and one dense output named ``out`` (sparsity from the subclass)."""
+
+    def get_n_in(self):
+        return 1
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return "p"
+
+    def get_name_out(self, i):
+        return "out"
+
+    def get_sparsity_in(self, i):
+        return ca.Sparsity.dense(self._n_p, 1)
+
+
+class _EigenCallback(_VectorIO, ca.Callback):
     """Common machinery: evaluate A(p), dA/dp numerically and the eigen-sensitivities."""
 
     def __init__(self, name, A_fun, n_out, defect_tol, fd_step, opts):
@@ -150,22 +170,7 @@ class _EigenCallback(ca.Callback):
         self._cache = None
         self.construct(name, dict(opts or {}))
 
-    # ---- CasADi interface
-    def get_n_in(self):
-        return 1
-
-    def get_n_out(self):
-        return 1
-
-    def get_name_in(self, i):
-        return "p"
-
-    def get_name_out(self, i):
-        return "out"
-
-    def get_sparsity_in(self, i):
-        return ca.Sparsity.dense(self._n_p, 1)
-
+    # ---- CasADi interface: one dense input p, one dense output (see _VectorIO)
     def get_sparsity_out(self, i):
         return ca.Sparsity.dense(self._n_out, 1)
 
@@ -394,7 +399,7 @@ def _selected_sensitivities(wl, vr, dA_flat, defect_tol):
     return np.asarray(J, float), bad
 
 
-class PolynomialTopRealParts(ca.Callback):
+class PolynomialTopRealParts(_VectorIO, ca.Callback):
     """Top-``m`` real parts of ``A(U, p) = sum_j U^j A_j(p)`` at a list of speeds, stacked.
 
     One callback for a whole speed grid: ``dA_j/dp`` is evaluated once per ``p`` (sparse),
@@ -458,22 +463,7 @@ class PolynomialTopRealParts(ca.Callback):
         self._jac_callback = None
         self.construct(name, dict(opts or {}))
 
-    # ---- CasADi interface
-    def get_n_in(self):
-        return 1
-
-    def get_n_out(self):
-        return 1
-
-    def get_name_in(self, i):
-        return "p"
-
-    def get_name_out(self, i):
-        return "out"
-
-    def get_sparsity_in(self, i):
-        return ca.Sparsity.dense(self._n_p, 1)
-
+    # ---- CasADi interface: one dense input p, one dense output (see _VectorIO)
     def get_sparsity_out(self, i):
         return ca.Sparsity.dense(self.m * self.speeds.size, 1)
 
