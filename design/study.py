@@ -413,19 +413,9 @@ def fig5(spec, controller, n_modes: int = 16, quick: bool = False):
     cl = closed_loop_flutter(spec, controller, speeds, n_modes)
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
     sw = cl.base.sweep
-    sc = None
-    for k in range(sw.branches.shape[0]):
-        lam = sw.branches[k]
-        sc = ax0.scatter(lam.real, lam.imag / (2 * np.pi), c=sw.speeds, s=4, cmap="viridis")
-        ax0.plot(lam.real[0], lam.imag[0] / (2 * np.pi), "m.", ms=7)
-    ax0.axvline(0.0, color="k", lw=0.8)
-    ax0.set_xlabel("Re(lambda) [1/s]")
-    ax0.set_ylabel("Im(lambda)/2pi [Hz]")
-    ax0.set_title(f"closed loop, {controller.n_flaps} flap pairs: "
-                  + (f"flutter {cl.base.sweep.flutter.speed:.1f} m/s"
-                     if cl.base.sweep.flutter.status == "converged" else "stable 0-85 m/s"))
-    if sc is not None:
-        fig.colorbar(sc, ax=ax0, label="U [m/s]")
+    sw.plot_root_locus(ax0, title=f"closed loop, {controller.n_flaps} flap pairs: "
+                       + (f"flutter {sw.flutter.speed:.1f} m/s"
+                          if sw.flutter.status == "converged" else "stable 0-85 m/s"))
     bspeeds = np.arange(4.0, 84.0 + 1e-9, 8.0 if quick else 4.0)
     ol = buffeting(spec, bspeeds, n_modes=n_modes, allow_unstable=True)
     clb = buffeting(spec, bspeeds, n_modes=n_modes, controller=controller, allow_unstable=True)

@@ -117,6 +117,25 @@ class StabilitySweep:
             "speed_max_m_s": float(self.speeds[-1]),
         }
 
+    def plot_root_locus(self, ax=None, title: str = "root locus (magenta: U = 0)"):
+        """Tracked branches in the complex plane, coloured by wind speed, with a colour bar."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 4.5), layout="constrained")
+        sc = None
+        for k in range(self.branches.shape[0]):
+            lam = self.branches[k]
+            sc = ax.scatter(lam.real, lam.imag / (2 * np.pi), c=self.speeds, s=4, cmap="viridis")
+            ax.plot(lam.real[0], lam.imag[0] / (2 * np.pi), "m.", ms=8)
+        ax.axvline(0, color="k", lw=0.8)
+        ax.set_xlabel("Re(lambda) [1/s]")
+        ax.set_ylabel("Im(lambda)/2pi [Hz]")
+        ax.set_title(title)
+        if sc is not None:
+            ax.figure.colorbar(sc, ax=ax, label="U [m/s]")
+        return ax
+
     def plot(self, axes=None, title: str = ""):
         """Root locus (left) and damping ratio / frequency against speed (right)."""
         import matplotlib.pyplot as plt
@@ -124,17 +143,7 @@ class StabilitySweep:
         if axes is None:
             fig, axes = plt.subplots(1, 3, figsize=(15, 4.5), layout="constrained")
         ax0, ax1, ax2 = axes
-        sc = None
-        for k in range(self.branches.shape[0]):
-            lam = self.branches[k]
-            sc = ax0.scatter(lam.real, lam.imag / (2 * np.pi), c=self.speeds, s=4, cmap="viridis")
-            ax0.plot(lam.real[0], lam.imag[0] / (2 * np.pi), "m.", ms=8)
-        ax0.axvline(0, color="k", lw=0.8)
-        ax0.set_xlabel("Re(lambda) [1/s]")
-        ax0.set_ylabel("Im(lambda)/2pi [Hz]")
-        ax0.set_title("root locus (magenta: U = 0)")
-        if sc is not None:
-            plt.colorbar(sc, ax=ax0, label="U [m/s]")
+        self.plot_root_locus(ax0)
         z = self.damping_ratios()
         f = self.frequencies_hz()
         for k, lab in enumerate(self.branch_labels):
