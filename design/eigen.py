@@ -138,7 +138,11 @@ class _VectorIO:
 
 
 class _EigenCallback(_VectorIO, ca.Callback):
-    """Common machinery: evaluate A(p), dA/dp numerically and the eigen-sensitivities."""
+    """Common machinery: evaluate A(p), dA/dp numerically and the eigen-sensitivities.
+
+    Subclasses define ``_outputs(lam) -> values`` and ``_jacobian_from(lam, dre, ill) ->
+    (J, bad_rows)``: the analytic Jacobian and the rows that need finite differences.
+    """
 
     def __init__(self, name, A_fun, n_out, defect_tol, fd_step, opts):
         ca.Callback.__init__(self)
@@ -195,13 +199,6 @@ class _EigenCallback(_VectorIO, ca.Callback):
         if not np.all(np.isfinite(A)):  # solver failure is data: NaN, not an exception
             return np.full(self._n, np.nan, dtype=complex)
         return scipy.linalg.eigvals(A)
-
-    def _outputs(self, lam: np.ndarray) -> np.ndarray:
-        raise NotImplementedError
-
-    def _jacobian_from(self, lam, dre, ill) -> tuple[np.ndarray, np.ndarray]:
-        """Return (J, bad_rows): analytic Jacobian and the rows that need finite differences."""
-        raise NotImplementedError
 
     def jacobian(self, p) -> np.ndarray:
         """Jacobian of the output w.r.t. ``p`` [(n_out, n_p)], with finite-difference fallback.
