@@ -44,6 +44,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from design.io import to_jsonable
 from model import cable, fe
 from model.spec import BridgeSpec, load_bridge
 
@@ -242,17 +243,6 @@ def format_table(result: dict) -> str:
     return "\n".join(lines)
 
 
-def _json_safe(x):
-    """NaN/inf -> None (strict JSON), recursively."""
-    if isinstance(x, dict):
-        return {k: _json_safe(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_json_safe(v) for v in x]
-    if isinstance(x, float) and not np.isfinite(x):
-        return None
-    return x
-
-
 def main(argv=None) -> int:
     """Command-line entry point."""
     p = argparse.ArgumentParser(prog="python -m bench.modes", description=__doc__.split("\n")[0])
@@ -265,7 +255,7 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     result = run(a.bridge, a.element_lengths, a.modes, a.repeat)
     if a.json:
-        print(json.dumps(_json_safe(result), allow_nan=False))
+        print(json.dumps(to_jsonable(result), allow_nan=False))
     else:
         print(format_table(result))
     return 0

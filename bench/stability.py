@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 import scipy
 
+from design.io import to_jsonable
 from model import stability
 from model.analysis import DEFAULT_SPEEDS, bridge_system, modal_model, parse_range
 from model.rfa import get_rfa
@@ -183,19 +184,6 @@ def format_table(result: dict) -> str:
     return "\n".join(lines)
 
 
-def _json_safe(x):
-    """NaN/inf -> None (strict JSON), recursively."""
-    if isinstance(x, dict):
-        return {k: _json_safe(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_json_safe(v) for v in x]
-    if isinstance(x, np.floating | np.integer):
-        x = x.item()
-    if isinstance(x, float) and not np.isfinite(x):
-        return None
-    return x
-
-
 def main(argv=None) -> int:
     """Command-line entry point."""
     p = argparse.ArgumentParser(prog="python -m bench.stability",
@@ -211,7 +199,7 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     result = run(a.bridge, a.speeds, a.modes, a.truncation, a.repeat, not a.no_memory)
     if a.json:
-        print(json.dumps(_json_safe(result), allow_nan=False))
+        print(json.dumps(to_jsonable(result), allow_nan=False))
     else:
         print(format_table(result))
     return 0
