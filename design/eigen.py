@@ -200,6 +200,16 @@ class _EigenCallback(_VectorIO, ca.Callback):
             return np.full(self._n, np.nan, dtype=complex)
         return scipy.linalg.eigvals(A)
 
+    def _matrix_and_derivative(self, p: np.ndarray):
+        """``(A(p), dA/dp)`` with ``dA`` shaped (n, n, n_p); ``(None, None)`` if not finite."""
+        A = self.matrix(p)
+        dA = np.asarray(self._dA_fun(ca.DM(p)).full()).reshape(
+            (self._n, self._n, self._n_p), order="F"
+        )
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(dA))):
+            return None, None
+        return A, dA
+
     def jacobian(self, p) -> np.ndarray:
         """Jacobian of the output w.r.t. ``p`` [(n_out, n_p)], with finite-difference fallback.
 
@@ -211,11 +221,8 @@ class _EigenCallback(_VectorIO, ca.Callback):
         key = p.tobytes()
         if key == self._cache_key:
             return self._cache.copy()
-        A = self.matrix(p)
-        dA = np.asarray(self._dA_fun(ca.DM(p)).full()).reshape(
-            (self._n, self._n, self._n_p), order="F"
-        )
-        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(dA))):
+        A, dA = self._matrix_and_derivative(p)
+        if A is None:
             return np.full((self._n_out, self._n_p), np.nan)
         lam, dre, ill = eig_real_part_sensitivities(A, dA, self.defect_tol)
         J, bad = self._jacobian_from(lam, dre, ill)
@@ -335,11 +342,8 @@ class TopRealParts(_EigenCallback):
         key = p.tobytes()
         if key == self._cache_key:
             return self._cache.copy()
-        A = self.matrix(p)
-        dA = np.asarray(self._dA_fun(ca.DM(p)).full()).reshape(
-            (self._n, self._n, self._n_p), order="F"
-        )
-        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(dA))):
+        A, dA = self._matrix_and_derivative(p)
+        if A is None:
             return np.full((self._n_out, self._n_p), np.nan)
         lam, vl, vr = scipy.linalg.eig(A, left=True, right=True)
         idx = self._order(lam)
