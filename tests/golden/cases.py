@@ -1,0 +1,106 @@
+"""Golden-number cases: fixed CLI commands whose ``--json`` output pins today's numbers.
+
+Recorded before the "one physics path" redesign (issue 10) by
+``cd tests && python -m golden.record`` and compared after every change by
+``tests/test_golden.py`` to 1e-9 relative. A number that changes on purpose is a named fix:
+re-record and say so in the commit.
+
+Each case is ``(name, argv, slow)``; ``{out}`` in an argument is replaced by a temporary folder.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+
+_SECTION = ["--mass", "7660", "--inertia", "375000", "--f-heave", "0.117", "--f-torsion",
+            "0.311", "--half-chord", "11"]
+
+CASES = [
+    ("modes", ["modes"], False),
+    ("flutter_modal", ["flutter"], False),
+    ("flutter_full", ["flutter", "--order", "full"], False),
+    ("erection", ["erection"], False),
+    ("frequency_ratio", ["frequency-ratio"], False),
+    ("section_exact", ["section", *_SECTION, "--aero", "exact"], False),
+    ("section_rfa4", ["section", *_SECTION, "--aero", "rfa4"], False),
+    ("section_jones", ["section", *_SECTION, "--aero", "jones"], False),
+    ("buffeting", ["buffeting"], False),
+    ("state_space", ["state-space", "--speed", "40", "--out", "{out}/ss.npz"], False),
+    ("sensitivity", ["sensitivity"], True),
+    ("doe_4", ["doe", str(ROOT / "runs" / "doe_gj_sag" / "doe.toml"), "--quick",
+               "--scheduler", "serial", "--out", "{out}/doe"], False),
+    ("optimise_quick", ["optimise", "--quick", "--out", "{out}/opt"], True),
+]
+
+#: keys whose values depend on the machine, the clock or the folder, not on the physics
+VOLATILE = {"out", "table", "out_dir", "elapsed_s", "time_s", "seconds", "wall_time_s",
+            "figures", "files", "manifest", "report", "path", "duration_s", "controller_file",
+            "eig_time_per_speed_s", "time_per_start_s"}
+
+
+def _extra(name: str, out: Path) -> dict:
+    """Numbers written to files rather than printed (state-space arrays, DOE cases)."""
+    if name == "state_space":
+        with np.load(out / "ss.npz", allow_pickle=False) as z:
+            return {k: float(np.linalg.norm(z[k])) for k in ("A", "B", "C") if k in z.files}
+    if name == "doe_4":
+        cases = sorted((out / "doe" / "cases").glob("*.json"))
+        return {p.stem: json.loads(p.read_text()) for p in cases}
+    return {}
+
+
+def run_case(name: str, argv: list[str], out: Path) -> dict:
+    """Run one CLI command in-process and return its JSON plus the file numbers."""
+    from design.cli import main
+
+    argv = [a.replace("{out}", str(out)) for a in argv] + ["--json"]
+    buf, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(err):
+        rc = main(argv)
+    if rc != 0:
+        raise RuntimeError(f"{name}: exit {rc}: {err.getvalue()[-2000:]}")
+    return {"stdout": json.loads(buf.getvalue()), "written": _extra(name, out)}
+
+
+def strip_volatile(obj):
+    """Drop machine/clock/path dependent keys, recursively."""
+    if isinstance(obj, dict):
+        return {k: strip_volatile(v) for k, v in obj.items()
+                if k not in VOLATILE and not k.endswith("_time_s") and k != "elapsed_s"}
+    if isinstance(obj, list):
+        return [strip_volatile(v) for v in obj]
+    return obj
+
+
+def compare(a, b, rtol: float, path: str = "") -> list[str]:
+    """Differences between two JSON trees: numbers to ``rtol`` relative, the rest exactly."""
+    out: list[str] = []
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in sorted(set(a) | set(b)):
+            if k not in a or k not in b:
+                out.append(f"{path}/{k}: key only in {'new' if k in b else 'golden'}")
+            else:
+                out += compare(a[k], b[k], rtol, f"{path}/{k}")
+    elif isinstance(a, list) and isinstance(b, list):
+        if len(a) != len(b):
+            out.append(f"{path}: length {len(a)} != {len(b)}")
+        else:
+            for i, (x, y) in enumerate(zip(a, b, strict=True)):
+                out += compare(x, y, rtol, f"{path}[{i}]")
+    elif (isinstance(a, int | float) and isinstance(b, int | float)
+          and not isinstance(a, bool) and not isinstance(b, bool)):
+        # 1e-12 absolute floor: residual-like fields (Re lambda at a refined crossing) are
+        # round-off of order 1e-14 and carry no physics
+        if abs(a - b) > rtol * max(abs(a), abs(b)) + 1e-12:
+            out.append(f"{path}: {a!r} != {b!r}")
+    elif a != b:
+        out.append(f"{path}: {a!r} != {b!r}")
+    return out
