@@ -52,7 +52,8 @@ def sobol_starts(settings: DesignSettings, count: int) -> np.ndarray:
     return th
 
 
-def screened_starts(settings: DesignSettings, count: int, model=None) -> np.ndarray:
+def screened_starts(settings: DesignSettings, count: int, model=None,
+                    spec=None) -> np.ndarray:
     """``count`` Sobol starts, the best of ``SCREEN_FACTOR * count`` Sobol candidates.
 
     Raw Sobol points in the compensator box are mostly far from feasible (positive static
@@ -68,7 +69,7 @@ def screened_starts(settings: DesignSettings, count: int, model=None) -> np.ndar
         return np.empty((0, 5))
     cand = sobol_starts(settings, SCREEN_FACTOR * count)
     if model is None:
-        _, model = build_model(settings)
+        _, model = build_model(settings, spec=spec)
     prob = DesignProblem(replace(settings, optimise_placement=False), model)
     speeds = np.unique(np.append(np.arange(0.0, settings.speed_max_m_s, 10.0),
                                  settings.speed_max_m_s))
@@ -89,7 +90,7 @@ def screened_starts(settings: DesignSettings, count: int, model=None) -> np.ndar
 
 
 def build_model(settings: DesignSettings, count=None, modal=None, n_modes=None,
-                positions=None):
+                positions=None, spec=None):
     """Bridge and closed-loop flap model of a design problem.
 
     Parameters
@@ -103,6 +104,8 @@ def build_model(settings: DesignSettings, count=None, modal=None, n_modes=None,
         Retained modes (default ``settings.n_modes``).
     positions : array_like, optional
         Flap centres from the main-span mid-point [m] (overrides ``count``).
+    spec : model.spec.BridgeSpec, optional
+        The bridge (default: the built-in ``settings.bridge``).
 
     Returns
     -------
@@ -112,7 +115,7 @@ def build_model(settings: DesignSettings, count=None, modal=None, n_modes=None,
     from model.flaps import closed_loop_model
     from model.spec import load_bridge
 
-    spec = load_bridge(settings.bridge)
+    spec = load_bridge(settings.bridge) if spec is None else spec
     pos = settings.positions(count) if positions is None else np.asarray(positions, float)
     return spec, closed_loop_model(spec, pos, settings.flap_width_m,
                                    settings.n_modes if n_modes is None else int(n_modes),
@@ -120,19 +123,22 @@ def build_model(settings: DesignSettings, count=None, modal=None, n_modes=None,
                                    settings.trailing_edge, modal=modal)
 
 
-def verify_layout(settings: DesignSettings, theta, positions, n_modes=None) -> Verification:
+def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,
+                  spec=None) -> Verification:
     """Dense check of ``theta`` on the layout ``positions`` [m] with ``n_modes`` (default: the
-    verification model, ``settings.verification_modes``), as ``bridgeflap flutter`` sees it."""
+    verification model, ``settings.verification_modes``), as ``bridgeflap flutter`` sees it;
+    ``spec`` the bridge (default ``settings.bridge``)."""
     nm = settings.verification_modes if n_modes is None else int(n_modes)
-    _, model = build_model(settings, n_modes=nm, positions=positions)
+    _, model = build_model(settings, n_modes=nm, positions=positions, spec=spec)
     return DesignProblem(replace(settings, optimise_placement=False), model).verify(theta)
 
 
-def run_start(settings: DesignSettings, theta0, index: int) -> StartRecord:
+def run_start(settings: DesignSettings, theta0, index: int, spec=None) -> StartRecord:
     """One start: solve with cuts (placement: round the weights, re-solve), then the dense
-    robust margin and the check on the verification model. A failure is a record (STYLE)."""
+    robust margin and the check on the verification model. A failure is a record (STYLE).
+    ``spec``: the bridge (default ``settings.bridge``)."""
     t0 = time.perf_counter()
-    spec, model = build_model(settings)
+    spec, model = build_model(settings, spec=spec)
     prob = DesignProblem(settings, model, spec=spec)
     theta0 = tuple(float(v) for v in theta0)
     w_cont = None
@@ -158,7 +164,7 @@ def run_start(settings: DesignSettings, theta0, index: int) -> StartRecord:
     ver = res.verification
     rob = prob.robust_margin(theta, weights=weights)
     positions = settings.positions()[weights > 0.5]
-    ver16 = (verify_layout(settings, theta, positions)
+    ver16 = (verify_layout(settings, theta, positions, spec=spec)
              if settings.verification_modes != settings.n_modes else ver)
     gain_ok = bool(ver.max_gain <= settings.gain_limit)
     return StartRecord(
@@ -178,12 +184,14 @@ def run_start(settings: DesignSettings, theta0, index: int) -> StartRecord:
         design_speeds_m_s=res.design_speeds_m_s, weights_continuous=w_cont)
 
 
-def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None) -> dict:
+def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
+                       spec=None) -> dict:
     """Fewest evenly spaced flaps (around mid-span) still stable 0..U_max with the margin.
 
     The optimised ``theta`` is kept; each count is verified on the dense grid with the
     required decay rate ``sigma_req`` on the verification model (``verification_modes``).
-    Returns the records per count and the minimum.
+    Returns the records per count and the minimum. ``spec``: the bridge (default
+    ``settings.bridge``).
     """
     counts = settings.min_flap_counts if counts is None else counts
     rows = []
@@ -191,7 +199,8 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None)
     for c in counts:
         if c > settings.flap_count:
             continue
-        _, model = build_model(settings, c, modal, n_modes=settings.verification_modes)
+        _, model = build_model(settings, c, modal, n_modes=settings.verification_modes,
+                               spec=spec)
         prob = DesignProblem(replace(settings, optimise_placement=False), model)
         ver = prob.verify(theta)
         ok = ver.max_violation_1_s <= VIOLATION_TOL
@@ -205,12 +214,15 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None)
             "criterion": "max Re lambda <= -sigma_req(U) on the dense grid, same K(s)"}
 
 
-def buffeting_comparison(settings: DesignSettings, controller: Controller, speeds=None) -> dict:
-    """Open- vs closed-loop max RMS response (``model.buffeting``, verification model)."""
+def buffeting_comparison(settings: DesignSettings, controller: Controller, speeds=None,
+                         spec=None) -> dict:
+    """Open- vs closed-loop max RMS response (``model.buffeting``, verification model) at
+    ``speeds`` [m/s] (default ``buffeting_speeds_m_s``) on ``spec`` (default the built-in
+    ``settings.bridge``)."""
     from model.buffeting import buffeting
     from model.spec import load_bridge
 
-    spec = load_bridge(settings.bridge)
+    spec = load_bridge(settings.bridge) if spec is None else spec
     speeds = np.asarray(settings.buffeting_speeds_m_s if speeds is None else speeds, float)
     nm = settings.verification_modes
     ol = buffeting(spec, speeds, n_modes=nm)
@@ -244,27 +256,35 @@ def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
     return min(cands, key=lambda r: (max(r.max_violation_1_s, 0.0), r.max_gain)), "infeasible"
 
 
-def design(settings: DesignSettings, progress=None) -> DesignResult:
+def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
     """Multistart design with cutting planes, 16-mode verification and flap-count search.
 
     Status: ``converged`` (a start meets the decay rate on the design model's dense grid, the
     gain limit, and is stable on the verification model's dense grid), ``unverified`` (the
     design model is satisfied but the verification model is not stable everywhere -- only
     possible with a reduced design model), ``infeasible`` or ``failed``.
+
+    Parameters
+    ----------
+    settings : DesignSettings
+    progress : callable, optional
+        ``str -> None``, called with one line per start and step.
+    spec : model.spec.BridgeSpec, optional
+        The bridge, e.g. a modified built-in one (default: ``load_bridge(settings.bridge)``).
     """
     t0 = time.perf_counter()
     log = progress or (lambda msg: None)
     # start 0 is a nominal phase-lead-free design (K ~ -1 static, light lag), the others Sobol
-    starts0 = np.vstack([NOMINAL_START, screened_starts(settings, settings.starts - 1)])[
+    starts0 = np.vstack([NOMINAL_START, screened_starts(settings, settings.starts - 1, spec=spec)])[
         :settings.starts]
     n = len(starts0)
     if settings.parallel and settings.starts > 1:
         from concurrent.futures import ProcessPoolExecutor
 
         with ProcessPoolExecutor(max_workers=min(2, settings.starts)) as ex:
-            records = list(ex.map(run_start, [settings] * n, starts0, range(n)))
+            records = list(ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n))
     else:
-        records = [run_start(settings, th, i) for i, th in enumerate(starts0)]
+        records = [run_start(settings, th, i, spec) for i, th in enumerate(starts0)]
     for r in records:
         log(f"start {r.start}: {r.ipopt_status} in {r.time_s:.1f} s, "
             f"{r.iterations} iterations, {r.cut_rounds} cut rounds, "
@@ -282,11 +302,11 @@ def design(settings: DesignSettings, progress=None) -> DesignResult:
     if best is not None:
         theta = np.asarray(best.theta)
         positions = np.asarray(best.flap_positions_m)
-        spec, model = build_model(settings, n_modes=settings.verification_modes,
-                                   positions=positions)
+        _, model = build_model(settings, n_modes=settings.verification_modes,
+                               positions=positions, spec=spec)
         prob = DesignProblem(replace(settings, optimise_placement=False), model)
         absc = prob.verify(theta).abscissa_1_s
-        _, model_ol = build_model(settings, n_modes=settings.verification_modes)
+        _, model_ol = build_model(settings, n_modes=settings.verification_modes, spec=spec)
         ol_parts = DesignProblem(settings, model_ol).A_parts(np.array([0.0, 0.0, 0.0, 1.0, 1.0]))
         extras["open_loop_abscissa"] = closed_loop_abscissa(ol_parts, absc_u)
         extras["closed_loop"] = model.system(Compensator(*(float(v) for v in theta)))
@@ -295,10 +315,10 @@ def design(settings: DesignSettings, progress=None) -> DesignResult:
                                 settings.flap_width_m, settings.leading_edge,
                                 settings.trailing_edge, settings.gain_limit)
         if status in ("converged", "unverified"):
-            min_flaps = minimum_flap_count(settings, theta)
+            min_flaps = minimum_flap_count(settings, theta, spec=spec)
             log(f"minimum flap count: {min_flaps['minimum']}")
             try:
-                extras["buffeting"] = buffeting_comparison(settings, controller)
+                extras["buffeting"] = buffeting_comparison(settings, controller, spec=spec)
             except Exception as exc:  # noqa: BLE001 - a report item, not the design
                 extras["buffeting"] = {"status": f"failed: {exc}"}
     return DesignResult(status=status, settings=settings, controller=controller,
