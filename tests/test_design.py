@@ -340,3 +340,34 @@ def test_humber_design_stable_on_16_modes(tmp_path, capsys):
     assert payload["robust_margin"] == pytest.approx(prob.robust_margin(theta).margin,
                                                      rel=1e-9)
     assert summ["open_loop_flutter_speed_m_s"] < 70.0
+
+
+def test_failed_design_summary_keeps_the_optimise_contract():
+    # a design with no usable start: the same top-level keys as a converged one (the golden
+    # optimise case), NaN numbers, the failure as data in starts and start_table
+    import json
+    from dataclasses import FrozenInstanceError
+    from pathlib import Path
+
+    from design.result import DesignResult
+
+    s = load_settings()
+    failed = StartRecord(start=0, theta0=(0.0,) * 5, ipopt_status="failed: x", success=False,
+                         time_s=0.5)
+    with pytest.raises(FrozenInstanceError):
+        failed.max_gain = 1.0
+    res = DesignResult(status="failed", settings=s, controller=None, starts=(failed,),
+                       best=None, abscissa_speeds_m_s=s.check_speeds(),
+                       abscissa_1_s=np.full(s.check_speeds().shape, np.nan),
+                       min_flaps={"minimum": None, "counts": []}, wall_time_s=1.0)
+    summ = json.loads(json.dumps(res.summary()))
+    golden = Path(__file__).resolve().parent / "golden" / "optimise_quick.json"
+    assert set(summ) == set(json.loads(golden.read_text())["stdout"]) | {"wall_time_s"}
+    assert summ["status"] == "failed" and summ["chosen_start"] is None
+    assert np.isnan(summ["max_gain"]) and np.isnan(summ["robust_margin"])
+    assert summ["verification"] == {} and summ["robust_T_inf_by_speed"] == {}
+    assert summ["starts"] == [{"start": 0, "theta0": [0.0] * 5, "status": "failed: x",
+                               "success": False, "time_s": 0.5}]
+    row = summ["start_table"][0]
+    assert (row["status"], row["iterations"], row["cut_rounds"], row["verified"],
+            row["chosen"]) == ("failed: x", 0, 0, False, False)
