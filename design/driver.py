@@ -24,7 +24,13 @@ import numpy as np
 
 from design.nlp import EIG_SCALE, VIOLATION_TOL, DesignProblem
 from design.plant import closed_loop_abscissa
-from design.records import StartRecord, Verification
+from design.records import (
+    BuffetingComparison,
+    FlapCountCheck,
+    FlapCountSearch,
+    StartRecord,
+    Verification,
+)
 from design.result import DesignResult
 from design.settings import DesignSettings
 from model.control import Compensator, Controller
@@ -185,7 +191,7 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None) -> StartR
 
 
 def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
-                       spec=None) -> dict:
+                       spec=None) -> FlapCountSearch:
     """Fewest evenly spaced flaps (around mid-span) still stable 0..U_max with the margin.
 
     The optimised ``theta`` is kept; each count is verified on the dense grid with the
@@ -204,18 +210,17 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
         prob = DesignProblem(replace(settings, optimise_placement=False), model)
         ver = prob.verify(theta)
         ok = ver.max_violation_1_s <= VIOLATION_TOL
-        rows.append({"flap_count": int(c), "meets_margin": ok,
-                     "stable_everywhere": ver.stable_everywhere,
-                     "stable_to_m_s": ver.stable_to_m_s,
-                     "max_violation_1_s": ver.max_violation_1_s})
+        rows.append(FlapCountCheck(flap_count=int(c), meets_margin=ok,
+                                   stable_everywhere=ver.stable_everywhere,
+                                   stable_to_m_s=ver.stable_to_m_s,
+                                   max_violation_1_s=ver.max_violation_1_s))
         if ok:
             best = int(c) if best is None else min(best, int(c))
-    return {"minimum": best, "counts": rows, "modes": settings.verification_modes,
-            "criterion": "max Re lambda <= -sigma_req(U) on the dense grid, same K(s)"}
+    return FlapCountSearch(minimum=best, counts=tuple(rows), modes=settings.verification_modes)
 
 
 def buffeting_comparison(settings: DesignSettings, controller: Controller, speeds=None,
-                         spec=None) -> dict:
+                         spec=None) -> BuffetingComparison:
     """Open- vs closed-loop max RMS response (``model.buffeting``, verification model) at
     ``speeds`` [m/s] (default ``buffeting_speeds_m_s``) on ``spec`` (default the built-in
     ``settings.bridge``)."""
@@ -227,11 +232,12 @@ def buffeting_comparison(settings: DesignSettings, controller: Controller, speed
     nm = settings.verification_modes
     ol = buffeting(spec, speeds, n_modes=nm)
     cl = buffeting(spec, speeds, n_modes=nm, controller=controller)
-    return {"speeds_m_s": speeds.tolist(), "modes": nm,
-            "open_loop_rms_vertical_m": ol.rms_vertical.tolist(),
-            "closed_loop_rms_vertical_m": cl.rms_vertical.tolist(),
-            "open_loop_rms_torsion_rad": ol.rms_torsion.tolist(),
-            "closed_loop_rms_torsion_rad": cl.rms_torsion.tolist()}
+    return BuffetingComparison(
+        status="ok", speeds_m_s=tuple(speeds.tolist()), modes=nm,
+        open_loop_rms_vertical_m=tuple(ol.rms_vertical.tolist()),
+        closed_loop_rms_vertical_m=tuple(cl.rms_vertical.tolist()),
+        open_loop_rms_torsion_rad=tuple(ol.rms_torsion.tolist()),
+        closed_loop_rms_torsion_rad=tuple(cl.rms_torsion.tolist()))
 
 
 def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
@@ -298,7 +304,7 @@ def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
     absc_u = settings.check_speeds()
     absc = np.full(absc_u.shape, np.nan)
     extras = {}
-    min_flaps = {"minimum": None, "counts": []}
+    min_flaps = None
     if best is not None:
         theta = np.asarray(best.theta)
         positions = np.asarray(best.flap_positions_m)
@@ -316,11 +322,11 @@ def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
                                 settings.trailing_edge, settings.gain_limit)
         if status in ("converged", "unverified"):
             min_flaps = minimum_flap_count(settings, theta, spec=spec)
-            log(f"minimum flap count: {min_flaps['minimum']}")
+            log(f"minimum flap count: {min_flaps.minimum}")
             try:
                 extras["buffeting"] = buffeting_comparison(settings, controller, spec=spec)
             except Exception as exc:  # noqa: BLE001 - a report item, not the design
-                extras["buffeting"] = {"status": f"failed: {exc}"}
+                extras["buffeting"] = BuffetingComparison(status=f"failed: {exc}")
     return DesignResult(status=status, settings=settings, controller=controller,
                         starts=tuple(records), best=best, abscissa_speeds_m_s=absc_u,
                         abscissa_1_s=absc, min_flaps=min_flaps,

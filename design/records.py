@@ -298,3 +298,67 @@ class StartRecord:
                 "time_s": self.time_s, "robust_margin": self.robust_margin,
                 "gamma_T_frobenius": self.gamma_T_frobenius, "max_gain": self.max_gain,
                 "verified": bool(self.verified), "chosen": bool(chosen)}
+
+
+@dataclass(frozen=True)
+class FlapCountCheck:
+    """One evenly spaced layout of the flap-count search: ``meets_margin`` is the decay rate
+    on the dense grid of the verification model, same K(s)."""
+
+    flap_count: int
+    meets_margin: bool
+    stable_everywhere: bool
+    stable_to_m_s: float
+    max_violation_1_s: float
+
+    def to_dict(self) -> dict:
+        """One entry of ``minimum_flaps.counts``."""
+        return {"flap_count": self.flap_count, "meets_margin": self.meets_margin,
+                "stable_everywhere": self.stable_everywhere,
+                "stable_to_m_s": self.stable_to_m_s,
+                "max_violation_1_s": self.max_violation_1_s}
+
+
+@dataclass(frozen=True)
+class FlapCountSearch:
+    """Fewest evenly spaced flaps meeting the decay rate (``design.driver.minimum_flap_count``).
+
+    ``minimum`` None when no checked count meets it; ``modes`` of the verification model.
+    """
+
+    minimum: int | None
+    counts: tuple[FlapCountCheck, ...]
+    modes: int
+    criterion: str = "max Re lambda <= -sigma_req(U) on the dense grid, same K(s)"
+
+    def to_dict(self) -> dict:
+        """The ``minimum_flaps`` JSON object."""
+        return {"minimum": self.minimum, "counts": [c.to_dict() for c in self.counts],
+                "modes": self.modes, "criterion": self.criterion}
+
+
+@dataclass(frozen=True)
+class BuffetingComparison:
+    """Open- vs closed-loop max RMS buffeting response (``design.driver.buffeting_comparison``).
+
+    RMS vertical [m] and torsional [rad] response per speed [m/s] on the ``modes``-mode
+    verification model; ``status`` ``ok`` or ``failed: <reason>`` (then no numbers).
+    """
+
+    status: str
+    speeds_m_s: tuple = ()
+    modes: int = 0
+    open_loop_rms_vertical_m: tuple = ()
+    closed_loop_rms_vertical_m: tuple = ()
+    open_loop_rms_torsion_rad: tuple = ()
+    closed_loop_rms_torsion_rad: tuple = ()
+
+    def to_dict(self) -> dict:
+        """The ``buffeting`` JSON object (only ``status`` for a failure)."""
+        if self.status != "ok":
+            return {"status": self.status}
+        return {"speeds_m_s": list(self.speeds_m_s), "modes": self.modes,
+                "open_loop_rms_vertical_m": list(self.open_loop_rms_vertical_m),
+                "closed_loop_rms_vertical_m": list(self.closed_loop_rms_vertical_m),
+                "open_loop_rms_torsion_rad": list(self.open_loop_rms_torsion_rad),
+                "closed_loop_rms_torsion_rad": list(self.closed_loop_rms_torsion_rad)}

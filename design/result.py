@@ -6,7 +6,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from design.records import StartRecord
+from design.records import FlapCountSearch, StartRecord
 from design.settings import THETA_NAMES, DesignSettings
 from model.control import Controller
 
@@ -32,12 +32,13 @@ class DesignResult:
     abscissa_speeds_m_s, abscissa_1_s : ndarray
         Dense check grid [m/s] and the chosen design's spectral abscissa on the verification
         model [1/s] (NaN without a design).
-    min_flaps : dict
+    min_flaps : FlapCountSearch or None
         Fewest evenly spaced flaps meeting the decay rate
-        (:func:`design.driver.minimum_flap_count`).
+        (:func:`design.driver.minimum_flap_count`; None when not searched).
     wall_time_s : float
     extras : dict
-        ``open_loop_abscissa`` [1/s], ``closed_loop`` (state space), ``buffeting``.
+        ``open_loop_abscissa`` [1/s], ``closed_loop`` (state space), ``buffeting``
+        (:class:`design.records.BuffetingComparison`).
     """
 
     status: str
@@ -47,7 +48,7 @@ class DesignResult:
     best: StartRecord | None
     abscissa_speeds_m_s: np.ndarray
     abscissa_1_s: np.ndarray
-    min_flaps: dict
+    min_flaps: FlapCountSearch | None
     wall_time_s: float
     extras: dict = field(default_factory=dict, compare=False)
 
@@ -75,7 +76,8 @@ class DesignResult:
             "verification": (b.verification.to_dict()
                              if b is not None and b.verification is not None else {}),
             "flap_positions_m": list(b.flap_positions_m) if b is not None else [],
-            "buffeting": self.extras.get("buffeting", {}),
+            "buffeting": (self.extras["buffeting"].to_dict() if "buffeting" in self.extras
+                          else {}),
             "sigma_min_1_s": self.settings.sigma_min_1_s,
             "spectral_abscissa_by_speed": [
                 {"speed_m_s": float(u), "abscissa_1_s": float(a)}
@@ -86,7 +88,8 @@ class DesignResult:
             "dense_T_peak": 1.0 / margin if margin else NAN,
             "robust_bound_holds": b.robust_bound_holds if b is not None else None,
             "starts": [s.to_dict() for s in self.starts],
-            "minimum_flaps": self.min_flaps,
+            "minimum_flaps": (self.min_flaps.to_dict() if self.min_flaps is not None
+                              else {"minimum": None, "counts": []}),
             "wall_time_s": self.wall_time_s,
             "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"},
         }

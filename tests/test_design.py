@@ -359,13 +359,14 @@ def test_failed_design_summary_keeps_the_optimise_contract():
     res = DesignResult(status="failed", settings=s, controller=None, starts=(failed,),
                        best=None, abscissa_speeds_m_s=s.check_speeds(),
                        abscissa_1_s=np.full(s.check_speeds().shape, np.nan),
-                       min_flaps={"minimum": None, "counts": []}, wall_time_s=1.0)
+                       min_flaps=None, wall_time_s=1.0)
     summ = json.loads(json.dumps(res.summary()))
     golden = Path(__file__).resolve().parent / "golden" / "optimise_quick.json"
     assert set(summ) == set(json.loads(golden.read_text())["stdout"]) | {"wall_time_s"}
     assert summ["status"] == "failed" and summ["chosen_start"] is None
     assert np.isnan(summ["max_gain"]) and np.isnan(summ["robust_margin"])
     assert summ["verification"] == {} and summ["robust_T_inf_by_speed"] == {}
+    assert summ["minimum_flaps"] == {"minimum": None, "counts": []}
     assert summ["starts"] == [{"start": 0, "theta0": [0.0] * 5, "status": "failed: x",
                                "success": False, "time_s": 0.5}]
     row = summ["start_table"][0]
