@@ -40,15 +40,11 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(Path(__file__).parent / "output"))
     args = ap.parse_args(argv)
     quick = args.quick or os.environ.get("BRIDGEFLAP_QUICK", "") not in ("", "0")
-    settings = load_settings(DEFINITION)
-    spec = load_bridge(settings.bridge)
-    changes = {}
+    settings = load_settings(DEFINITION, **({} if quick else {"starts": 4}))
+    changes = dict(QUICK_SPEC) if quick else {}
     if quick:
         settings = quick_settings(settings)
-        changes = dict(QUICK_SPEC)
-        spec = spec.replace(**changes)
-    else:
-        settings = load_settings(DEFINITION, starts=4)
+    spec = load_bridge(settings.bridge).replace(**changes)
     out = ensure_writable_dir(args.out)
     atomic_write_json(out / "manifest.json", build_manifest(
         {"quick": quick, "definition": str(DEFINITION), "bridge": settings.bridge,
