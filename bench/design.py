@@ -24,7 +24,9 @@ def run(modes=(8, 12, 16), steps=(10.0, 5.0)) -> list[dict]:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     import casadi as ca
 
-    from design.problem import DesignProblem, _build_model, load_settings
+    from design.driver import build_model
+    from design.nlp import DesignProblem
+    from design.settings import load_settings
 
     rows = []
     th = np.array([0.0, 0.5, -1.0, 0.05, 0.5])
@@ -32,7 +34,7 @@ def run(modes=(8, 12, 16), steps=(10.0, 5.0)) -> list[dict]:
         for step in steps:
             s = load_settings(n_modes=nm, design_step_m_s=step, starts=1)
             t0 = time.perf_counter()
-            _, model = _build_model(s)
+            _, model = build_model(s)
             prob = DesignProblem(s, model)
             fun, pts = prob.robust_function()
             build = time.perf_counter() - t0
@@ -47,25 +49,25 @@ def run(modes=(8, 12, 16), steps=(10.0, 5.0)) -> list[dict]:
             rob_jac = time.perf_counter() - t1
             res = prob.solve(th, s.design_speeds())
             t1 = time.perf_counter()
-            ver = prob.verify(res["theta"])
+            ver = prob.verify(res.theta)
             verify_s = time.perf_counter() - t1
             t1 = time.perf_counter()
-            rm = prob.robust_margin(res["theta"], speeds=prob.robust_check_speeds())
+            rm = prob.robust_margin(res.theta, speeds=prob.robust_check_speeds())
             dense_s = time.perf_counter() - t1
             rows.append({"n_modes": nm, "n_states": int(prob.A_parts(th)[0].shape[0]),
                          "design_speeds": len(s.design_speeds()),
                          "robust_points": len(pts), "build_s": round(build, 3),
-                         "solve_s": round(res["time_s"], 2),
-                         "ipopt_iterations": res["iterations"], "ipopt_status": res["status"],
-                         "eig_eval_per_speed_s": round(res["eig_time_per_speed_s"], 4),
-                         "eig_evaluations": res["eig_evaluations"],
+                         "solve_s": round(res.time_s, 2),
+                         "ipopt_iterations": res.iterations, "ipopt_status": res.ipopt_status,
+                         "eig_eval_per_speed_s": round(res.eig_time_per_speed_s, 4),
+                         "eig_evaluations": res.eig_evaluations,
                          "robust_eval_s": round(rob_eval, 4), "robust_jac_s": round(rob_jac, 4),
                          "verify_s": round(verify_s, 2),
-                         "gamma_T_frobenius": round(res["gamma_T"], 4),
-                         "dense_T_peak": round(float(rm["T_inf"].max()), 4),
+                         "gamma_T_frobenius": round(res.gamma_T, 4),
+                         "dense_T_peak": round(rm.peak, 4),
                          "dense_T_check_s": round(dense_s, 2),
-                         "max_violation_dense_1_s": ver["max_violation"],
-                         "stable_to_m_s": ver["stable_to_m_s"]})
+                         "max_violation_dense_1_s": ver.max_violation_1_s,
+                         "stable_to_m_s": ver.stable_to_m_s})
     return rows
 
 

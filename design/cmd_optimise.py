@@ -1,4 +1,4 @@
-"""``bridgeflap optimise``: design the flap compensator K(s) (seed §6), see design.problem."""
+"""``bridgeflap optimise``: design the flap compensator K(s) (seed §6), see design.driver."""
 
 from __future__ import annotations
 
@@ -15,8 +15,9 @@ DEFAULT_DEFINITION = Path(__file__).resolve().parents[1] / "runs" / "humber_flap
 
 def cmd_optimise(args):
     """Run the design, write the controller TOML and figures to ``--out`` atomically."""
+    from design.driver import design
     from design.io import to_jsonable  # noqa: F401 - JSON conversion used by _emit
-    from design.problem import design, load_settings, quick_settings
+    from design.settings import load_settings, quick_settings
     from model.control import save_controller
 
     settings = load_settings(args.definition) if args.definition else load_settings(
@@ -47,9 +48,9 @@ def cmd_optimise(args):
                 save_figure(ax[0].figure, tmp / name)
                 plt.close(ax[0].figure)
             if cl is None:
-                from design.problem import _build_model
+                from design.driver import build_model
 
-                _, model = _build_model(settings)
+                _, model = build_model(settings)
                 cl = model.system(result.controller.compensator)
             sw = sweep(cl, settings.check_speeds())
             ax = sw.plot(title="closed loop")

@@ -378,16 +378,13 @@ def _aggregate_status(status) -> str:
 
 def _run_design(spec, opts, quick: bool = False, bridge: str = "humber",
                 progress=None) -> _Outcome:
-    try:
-        from design import problem
-    except ImportError as exc:
-        return _unavailable("design.problem", exc)
-    if not (hasattr(problem, "design") and hasattr(problem, "load_settings")):
-        return _Outcome("unavailable: design.problem has no design()/load_settings()")
-    settings = problem.load_settings(**{"bridge": bridge, **opts})
-    if quick and hasattr(problem, "quick_settings"):
-        settings = problem.quick_settings(settings)
-    res = problem.design(settings, progress=progress)
+    from design.driver import design
+    from design.settings import load_settings, quick_settings
+
+    settings = load_settings(**{"bridge": bridge, **opts})
+    if quick:
+        settings = quick_settings(settings)
+    res = design(settings, progress=progress)
     s = res.summary() if hasattr(res, "summary") else dict(res)
     figs = {}
     if getattr(res, "controller", None) is not None:

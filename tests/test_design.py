@@ -1,4 +1,5 @@
-"""Compensator design (design/problem.py): settings, derivatives, a real Humber design (slow)."""
+"""Compensator design (design.settings, nlp, robust, driver): settings, derivatives, a real
+Humber design (slow)."""
 
 from dataclasses import replace
 
@@ -6,17 +7,13 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from design.problem import (
-    DesignProblem,
-    _BuffetingCallback,
-    _build_model,
-    load_settings,
-    plant_factors,
-    refine_peaks,
-    robust_point_function,
-    select_start,
-    true_t_peak,
-)
+from design.buffeting_term import BuffetingCost
+from design.driver import build_model, select_start
+from design.nlp import ROBUST_CUT_TOL, DesignProblem
+from design.plant import plant_factors
+from design.records import RobustMargin, StartRecord, Verification
+from design.robust import refine_peaks, robust_point_function, true_t_peak
+from design.settings import load_settings
 from model.control import Compensator, Controller
 from model.errors import BridgeflapInputError
 
@@ -28,7 +25,7 @@ def small():
     # Humber, 6 modes, 5 flap pairs: the same code paths as the full design, small matrices
     s = load_settings(n_modes=6, flap_count=5, robust_design_speeds_m_s=(30.0, 60.0),
                       n_robust_omega=8)
-    spec, model = _build_model(s)
+    spec, model = build_model(s)
     return s, model
 
 
@@ -153,8 +150,8 @@ def test_placement_solve_runs_and_reports_status(small):
                  robust_design_speeds_m_s=(40.0,))
     prob = DesignProblem(s2, model)
     res = prob.solve(THETA, np.array([0.0, 40.0, 70.0]))
-    assert isinstance(res["status"], str)
-    assert np.all((res["weights"] >= -1e-8) & (res["weights"] <= 1 + 1e-8))
+    assert isinstance(res.ipopt_status, str)
+    assert np.all((res.weights >= -1e-8) & (res.weights <= 1 + 1e-8))
 
 
 def test_refine_peaks_finds_resonance_between_grid_points():
@@ -176,21 +173,30 @@ def test_refine_peaks_finds_resonance_between_grid_points():
 
 
 def _rec(start, viol, gain, verified, margin, stable_to=85.0):
-    return {"start": start, "theta": [0.0] * 5, "max_violation_1_s": viol, "max_gain": gain,
-            "meets_decay_rate": viol <= 1e-6, "gain_ok": gain <= 15.0, "verified": verified,
-            "robust_margin": margin, "verification": {"stable_to_m_s": stable_to}}
+    ver = Verification(speeds_m_s=np.zeros(1), abscissa_1_s=np.zeros(1),
+                       violation_1_s=np.zeros(1), max_violation_1_s=viol,
+                       stable_everywhere=True, stable_to_m_s=stable_to, max_gain=gain, modes=16,
+                       step_m_s=0.25, meets_decay_rate=viol <= 1e-6)
+    rob = RobustMargin(speeds_m_s=np.array([70.0]), t_inf=np.array([1.0 / margin]),
+                       peak_omega_rad_s=np.array([1.0]), peaks=(), margin=margin)
+    return StartRecord(start=start, theta0=(0.0,) * 5, ipopt_status="Solve_Succeeded",
+                       success=True, time_s=1.0, theta=(0.0,) * 5, max_violation_1_s=viol,
+                       max_gain=gain, meets_decay_rate=viol <= 1e-6, gain_ok=gain <= 15.0,
+                       verified=verified, robust=rob, verification=ver)
 
 
 def test_select_start_best_verified_and_gain_never_converged():
     recs = [_rec(0, -1e-5, 4.0, True, 0.40), _rec(1, -1e-5, 3.0, True, 0.45),
             _rec(2, -1e-5, 15.03, True, 0.90)]          # best margin but above the gain limit
     best, status = select_start(recs, 15.0)
-    assert status == "converged" and best["start"] == 1
+    assert status == "converged" and best.start == 1
     best, status = select_start([recs[2]], 15.0)
-    assert status == "infeasible" and best["start"] == 2
+    assert status == "infeasible" and best.start == 2
     best, status = select_start([_rec(0, -1e-5, 15.0 * (1 + 1e-9), True, 0.4)], 15.0)
     assert status == "infeasible"                       # no tolerance on the true peak
-    assert select_start([{"start": 0, "status": "failed: x"}], 15.0) == ({}, "failed")
+    failed = StartRecord(start=0, theta0=(0.0,) * 5, ipopt_status="failed: x", success=False,
+                         time_s=0.0)
+    assert select_start([failed], 15.0) == (None, "failed")
 
 
 def test_gain_cuts_enforce_true_peak(small):
@@ -201,30 +207,28 @@ def test_gain_cuts_enforce_true_peak(small):
                  cutting_plane_rounds=2, design_step_m_s=20.0, weight_robust=0.0)
     prob = DesignProblem(s2, model)
     res = prob.solve_with_cuts(np.array([0.2, 0.3, -1.0, 0.05, 0.1]))
-    kmax = Compensator(*res["theta"]).max_gain()
-    assert res["gain_ok"] == (kmax <= 2.0)
-    for r in res["rounds"][:-1]:
-        c = Compensator(*r["theta"])
+    kmax = Compensator(*res.theta).max_gain()
+    assert res.gain_ok == (kmax <= 2.0)
+    for r in res.rounds[:-1]:
+        c = Compensator(*r.theta)
         finite = [w for w in c._stationary_frequencies() if abs(c.frequency_response(w)) > 2.0]
         if finite:      # a peak between grid points (not at 0 or infinity, constrained exactly)
             assert set(finite) <= set(prob.gain_cuts)
-    assert res["rounds"][res["chosen_round"]]["chosen"]
+    assert res.rounds[res.chosen_round].chosen
 
 
 def test_robust_cuts_report_dense_peak(small):
     # robust cut loop on the small model: the reported dense peak is the sigma_max check of
     # the chosen design, and the flag is exactly dense peak <= gamma_T (1 + ROBUST_CUT_TOL)
-    from design.problem import ROBUST_CUT_TOL
-
     s, model = small
     s2 = replace(s, max_iter=30, resolve_max_iter=15, cutting_plane_rounds=1,
                  design_step_m_s=20.0, robust_speeds_m_s=(30.0, 60.0))
     prob = DesignProblem(s2, model)
     res = prob.solve_with_cuts(THETA)
-    peak = float(np.max(res["robust"]["T_inf"]))
-    chk = prob.robust_margin(res["theta"], speeds=prob.robust_check_speeds())
-    assert peak == pytest.approx(float(np.max(chk["T_inf"])), rel=1e-12)
-    assert res["robust_bound_holds"] == (peak <= res["gamma_T"] * (1 + ROBUST_CUT_TOL))
+    peak = res.robust.peak
+    chk = prob.robust_margin(res.theta, speeds=prob.robust_check_speeds())
+    assert peak == pytest.approx(chk.peak, rel=1e-12)
+    assert res.robust_bound_holds == (peak <= res.solve.gamma_T * (1 + ROBUST_CUT_TOL))
 
 
 @pytest.fixture(scope="module")
@@ -233,7 +237,7 @@ def buffeting_problem():
     s = load_settings(n_modes=6, verification_modes=6, flap_count=5,
                       robust_design_speeds_m_s=(30.0, 60.0), n_robust_omega=8,
                       buffeting_speeds_m_s=(10.0, 20.0))
-    spec, model = _build_model(s)
+    spec, model = build_model(s)
     return s, spec, model
 
 
@@ -249,7 +253,7 @@ def test_buffeting_callback_value_and_gradient(buffeting_problem):
     # same closed loop, same quadrature: equal to round-off (1e-10 relative)
     np.testing.assert_allclose(z, ref.rms_vertical, rtol=1e-10)
     np.testing.assert_allclose(a, ref.rms_torsion, rtol=1e-10)
-    cb = _BuffetingCallback(prob, 5)
+    cb = BuffetingCost(prob, 5)
     # J_buf is normalised by K = 0 with the flaps fitted (same state space and quadrature
     # grid construction as the closed loop); the bare deck differs only by the adaptive grid
     # (convergence tolerance 5e-3, observed ~1e-5): 1e-3 relative
@@ -289,8 +293,8 @@ def test_buffeting_weight_lowers_rms(buffeting_problem):
     for wb in (0.0, 2.0):
         prob = DesignProblem(replace(base, weight_buffeting=wb), model, spec=spec)
         res = prob.solve(THETA, speeds)
-        z, a = prob.buffeting_rms(res["theta"])
-        out[wb] = (float(z[0]), float(a[0]), prob.buffeting_cost(res["theta"]))
+        z, a = prob.buffeting_rms(res.theta)
+        out[wb] = (float(z[0]), float(a[0]), prob.buffeting_cost(res.theta))
     # J_buf (the weighted quantity) strictly lower; both RMS not higher (1e-9: round-off)
     assert out[2.0][2] < out[0.0][2]
     assert out[2.0][0] <= out[0.0][0] * (1 + 1e-9)
@@ -326,13 +330,45 @@ def test_humber_design_stable_on_16_modes(tmp_path, capsys):
     assert summ["flutter_status"] == "no_crossing_in_range"
     assert summ["divergence_status"] == "no_crossing_in_range"
     s = load_settings()
-    prob = DesignProblem(s, _build_model(s, positions=ctrl.flap_strip_positions_m)[1])
+    prob = DesignProblem(s, build_model(s, positions=ctrl.flap_strip_positions_m)[1])
     theta = np.array([getattr(ctrl.compensator, n) for n in ("b2", "b1", "b0", "a2", "a1")])
     ver = prob.verify(theta)
-    assert ver["modes"] == DEFAULT_MODES and ver["step_m_s"] == 0.25
-    assert ver["stable_everywhere"] and ver["stable_to_m_s"] == 85.0
-    assert ver["max_violation"] <= 1e-6      # the decay rate too (VIOLATION_TOL)
+    assert ver.modes == DEFAULT_MODES and ver.step_m_s == 0.25
+    assert ver.stable_everywhere and ver.stable_to_m_s == 85.0
+    assert ver.max_violation_1_s <= 1e-6      # the decay rate too (VIOLATION_TOL)
     # the reported margin is the true sigma_max one, and the open loop really flutters
-    assert payload["robust_margin"] == pytest.approx(prob.robust_margin(theta)["margin"],
+    assert payload["robust_margin"] == pytest.approx(prob.robust_margin(theta).margin,
                                                      rel=1e-9)
     assert summ["open_loop_flutter_speed_m_s"] < 70.0
+
+
+def test_failed_design_summary_keeps_the_optimise_contract():
+    # a design with no usable start: the same top-level keys as a converged one (the golden
+    # optimise case), NaN numbers, the failure as data in starts and start_table
+    import json
+    from dataclasses import FrozenInstanceError
+    from pathlib import Path
+
+    from design.result import DesignResult
+
+    s = load_settings()
+    failed = StartRecord(start=0, theta0=(0.0,) * 5, ipopt_status="failed: x", success=False,
+                         time_s=0.5)
+    with pytest.raises(FrozenInstanceError):
+        failed.max_gain = 1.0
+    res = DesignResult(status="failed", settings=s, controller=None, starts=(failed,),
+                       best=None, abscissa_speeds_m_s=s.check_speeds(),
+                       abscissa_1_s=np.full(s.check_speeds().shape, np.nan),
+                       min_flaps=None, wall_time_s=1.0)
+    summ = json.loads(json.dumps(res.summary()))
+    golden = Path(__file__).resolve().parent / "golden" / "optimise_quick.json"
+    assert set(summ) == set(json.loads(golden.read_text())["stdout"]) | {"wall_time_s"}
+    assert summ["status"] == "failed" and summ["chosen_start"] is None
+    assert np.isnan(summ["max_gain"]) and np.isnan(summ["robust_margin"])
+    assert summ["verification"] == {} and summ["robust_T_inf_by_speed"] == {}
+    assert summ["minimum_flaps"] == {"minimum": None, "counts": []}
+    assert summ["starts"] == [{"start": 0, "theta0": [0.0] * 5, "status": "failed: x",
+                               "success": False, "time_s": 0.5}]
+    row = summ["start_table"][0]
+    assert (row["status"], row["iterations"], row["cut_rounds"], row["verified"],
+            row["chosen"]) == ("failed: x", 0, 0, False, False)

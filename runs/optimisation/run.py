@@ -1,48 +1,68 @@
 """Scripted flap-controller optimisation on the Humber case (seed Fig. 5).
 
-Calls ``design.problem.optimise`` when that module exists; otherwise prints "unavailable" and
-exits 0, so that CI can run this script before the optimiser lands.
+Designs the compensator K(s) with :func:`design.driver.design` from the packaged definition
+``runs/humber_flaps.toml`` on a bridge specification built in this script (``--quick``: the
+coarse 47 m mesh, :func:`design.settings.quick_settings`, one start; otherwise the built-in
+mesh and 4 starts). Writes ``manifest.json`` (configuration, versions, commit),
+``result.json`` (the ``bridgeflap optimise`` summary) and ``controller.toml``.
+
+Exits 1 when the design is not ``converged`` (every start's status is in ``result.json``);
+an error is a traceback and a non-zero exit.
 
     python runs/optimisation/run.py [--quick] [--out DIR]
+
+``BRIDGEFLAP_QUICK=1`` in the environment is the same as ``--quick`` (CI).
 """
 
 import argparse
-import inspect
 import json
+import os
 import sys
 from pathlib import Path
 
+from design.driver import design
+from design.io import atomic_write_json, ensure_writable_dir
+from design.manifest import build_manifest
+from design.settings import load_settings, quick_settings
+from model.control import save_controller
+from model.spec import load_bridge
 
-def main():
+DEFINITION = Path(__file__).resolve().parents[1] / "humber_flaps.toml"
+#: Changes to the built-in Humber specification in quick mode (numerics only).
+QUICK_SPEC = {"mesh.element_length_m": 47.0}
+
+
+def main(argv=None) -> int:
+    """Run the design; 0 if converged, 1 otherwise."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="one start, coarse mesh")
+    ap.add_argument("--quick", action="store_true",
+                    help="coarse mesh, one start, quick settings (or BRIDGEFLAP_QUICK=1)")
     ap.add_argument("--out", default=str(Path(__file__).parent / "output"))
-    args = ap.parse_args()
-    try:
-        from design import problem
-    except ImportError as exc:
-        print(f"unavailable: design.problem not importable ({exc})")
-        return 0
-    optimise = getattr(problem, "optimise", None)
-    if optimise is None:
-        print("unavailable: design.problem has no optimise()")
-        return 0
-    from design.io import atomic_write_json, ensure_writable_dir
-    from design.manifest import build_manifest
-    from model.spec import load_bridge
-
-    spec = load_bridge("humber")
-    options = {"starts": 1} if args.quick else {"starts": 4}
-    if args.quick:
-        spec = spec.replace(**{"mesh.element_length_m": 47.0})
-    accepted = inspect.signature(optimise).parameters
-    options = {k: v for k, v in options.items() if k in accepted}
-    result = optimise(spec, **options)
+    args = ap.parse_args(argv)
+    quick = args.quick or os.environ.get("BRIDGEFLAP_QUICK", "") not in ("", "0")
+    settings = load_settings(DEFINITION, **({} if quick else {"starts": 4}))
+    changes = dict(QUICK_SPEC) if quick else {}
+    if quick:
+        settings = quick_settings(settings)
+    spec = load_bridge(settings.bridge).replace(**changes)
     out = ensure_writable_dir(args.out)
-    summary = result.summary() if hasattr(result, "summary") else dict(result)
-    atomic_write_json(out / "manifest.json", build_manifest({"quick": args.quick, **options}))
+    atomic_write_json(out / "manifest.json", build_manifest(
+        {"quick": quick, "definition": str(DEFINITION), "bridge": settings.bridge,
+         "spec_changes": changes, "starts": settings.starts}))
+    result = design(settings, spec=spec,
+                    progress=lambda msg: print(msg, file=sys.stderr, flush=True))
+    summary = result.summary()
     atomic_write_json(out / "result.json", summary)
-    print(json.dumps({"status": summary.get("status"), "out": str(out)}, default=str))
+    if result.controller is not None:
+        save_controller(result.controller, out / "controller.toml")
+    print(json.dumps({"status": summary["status"], "coefficients": summary["coefficients"],
+                      "max_gain": summary["max_gain"],
+                      "robust_margin": summary["robust_margin"],
+                      "closed_loop_stable_to_m_s": summary["closed_loop_stable_to_m_s"],
+                      "out": str(out)}))
+    if summary["status"] != "converged":
+        print(f"design not converged: {summary['status']}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -1,0 +1,335 @@
+"""Multistart driver of the compensator design: starts, per-start runs, selection, checks.
+
+:func:`design` runs one :class:`design.nlp.DesignProblem` per start (a nominal start and
+screened Sobol points, optionally in processes), selects one (:func:`select_start`), checks it
+on the verification model, searches the minimum flap count and compares buffeting.
+
+Verification. Every solution is checked a posteriori on the dense ``check_step_m_s`` grid
+(cutting planes: violating speeds join the design grid and the problem is re-solved) and, when
+the design model is reduced, on the ``verification_modes`` model that ``bridgeflap flutter``
+uses (:data:`model.analysis.DEFAULT_MODES`); the result reports both honestly.
+
+Placement. With ``optimise_placement`` the per-flap weights ``w`` (load factor, 1 = fitted)
+are NLP variables with a penalty ``weight_flaps * sum(w)/n_flaps``; the solution is rounded
+(``w > 0.5`` fitted), ``theta`` re-solved for the rounded layout and re-verified. The minimum
+flap count search over evenly spaced layouts remains as the fallback.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from design.nlp import EIG_SCALE, VIOLATION_TOL, DesignProblem
+from design.plant import closed_loop_abscissa
+from design.records import (
+    BuffetingComparison,
+    FlapCountCheck,
+    FlapCountSearch,
+    StartRecord,
+    Verification,
+)
+from design.result import DesignResult
+from design.settings import DesignSettings
+from model.control import Compensator, Controller
+
+#: Nominal first start (b2, b1, b0, a2, a1): static gain -1 (flap against pitch), mild rate.
+NOMINAL_START = np.array([0.0, 0.5, -1.0, 0.05, 0.5])
+#: Candidates screened per Sobol start (:func:`screened_starts`).
+SCREEN_FACTOR = 8
+
+
+def sobol_starts(settings: DesignSettings, count: int) -> np.ndarray:
+    """Sobol points in the compensator box (b's in [-5, 5], a2, a1 log-uniform) (count, 5)."""
+    from scipy.stats import qmc
+
+    m = max(1, int(np.ceil(np.log2(max(count, 1)))))
+    pts = qmc.Sobol(5, scramble=True, seed=settings.seed).random_base2(m)[:count]
+    lo_a2, hi_a2 = np.log10(0.01), np.log10(1.0)
+    lo_a1, hi_a1 = np.log10(0.05), np.log10(3.0)
+    th = np.empty((count, 5))
+    th[:, :3] = -5.0 + 10.0 * pts[:, :3]
+    th[:, 3] = 10 ** (lo_a2 + (hi_a2 - lo_a2) * pts[:, 3])
+    th[:, 4] = 10 ** (lo_a1 + (hi_a1 - lo_a1) * pts[:, 4])
+    th[:, 0] = np.clip(th[:, 0], -0.5 * settings.gain_limit * th[:, 3],
+                       0.5 * settings.gain_limit * th[:, 3])
+    return th
+
+
+def screened_starts(settings: DesignSettings, count: int, model=None,
+                    spec=None) -> np.ndarray:
+    """``count`` Sobol starts, the best of ``SCREEN_FACTOR * count`` Sobol candidates.
+
+    Raw Sobol points in the compensator box are mostly far from feasible (positive static
+    gain, fast lead) and a start from there can use the whole Ipopt budget (80 iterations,
+    ~80 s on 16 modes) to reach a poor local solution. Each candidate is scored by the NLP's
+    own merit at the start point: ``weight_robust * gamma_T0 + EIG_SCALE * max(0, max
+    violation of the decay-rate constraints)`` (objective plus an exact l-inf penalty on the
+    scaled eigenvalue constraints, unit weight) on a 10 m/s speed grid and the robust sample
+    points; candidates with ``sup|K| > gain_limit`` are rejected first. Cost: one eig per
+    speed and one epigraph evaluation per candidate (~0.2 s on 16 modes).
+    """
+    if count <= 0:
+        return np.empty((0, 5))
+    cand = sobol_starts(settings, SCREEN_FACTOR * count)
+    if model is None:
+        _, model = build_model(settings, spec=spec)
+    prob = DesignProblem(replace(settings, optimise_placement=False), model)
+    speeds = np.unique(np.append(np.arange(0.0, settings.speed_max_m_s, 10.0),
+                                 settings.speed_max_m_s))
+    use_rob = settings.weight_robust > 0 and bool(settings.robust_design_speeds_m_s)
+    rob = prob.robust_function()[0] if use_rob else None
+    w = np.ones(model.n_flaps)
+    scores = []
+    for th in cand:
+        if Compensator(*(float(v) for v in th)).max_gain() > settings.gain_limit:
+            scores.append(np.inf)
+            continue
+        viol = float(np.max(prob.constraint_values(th, speeds)))
+        gam = float(np.sqrt(np.max(np.asarray(rob(th, w).full())))) if rob else 0.0
+        sc = settings.weight_robust * gam + EIG_SCALE * max(0.0, viol)
+        scores.append(sc if np.isfinite(sc) else np.inf)
+    order = np.argsort(np.asarray(scores), kind="stable")
+    return cand[order[:count]]
+
+
+def build_model(settings: DesignSettings, count=None, modal=None, n_modes=None,
+                positions=None, spec=None):
+    """Bridge and closed-loop flap model of a design problem.
+
+    Parameters
+    ----------
+    settings : DesignSettings
+    count : int, optional
+        Evenly spaced flap count (default ``settings.flap_count``).
+    modal : model.modes.ModalModel, optional
+        Reused modal model.
+    n_modes : int, optional
+        Retained modes (default ``settings.n_modes``).
+    positions : array_like, optional
+        Flap centres from the main-span mid-point [m] (overrides ``count``).
+    spec : model.spec.BridgeSpec, optional
+        The bridge (default: the built-in ``settings.bridge``).
+
+    Returns
+    -------
+    spec : model.spec.BridgeSpec
+    model : model.flaps.ClosedLoopModel
+    """
+    from model.flaps import closed_loop_model
+    from model.spec import load_bridge
+
+    spec = load_bridge(settings.bridge) if spec is None else spec
+    pos = settings.positions(count) if positions is None else np.asarray(positions, float)
+    return spec, closed_loop_model(spec, pos, settings.flap_width_m,
+                                   settings.n_modes if n_modes is None else int(n_modes),
+                                   settings.flap_chord_m, settings.leading_edge,
+                                   settings.trailing_edge, modal=modal)
+
+
+def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,
+                  spec=None) -> Verification:
+    """Dense check of ``theta`` on the layout ``positions`` [m] with ``n_modes`` (default: the
+    verification model, ``settings.verification_modes``), as ``bridgeflap flutter`` sees it;
+    ``spec`` the bridge (default ``settings.bridge``)."""
+    nm = settings.verification_modes if n_modes is None else int(n_modes)
+    _, model = build_model(settings, n_modes=nm, positions=positions, spec=spec)
+    return DesignProblem(replace(settings, optimise_placement=False), model).verify(theta)
+
+
+def run_start(settings: DesignSettings, theta0, index: int, spec=None) -> StartRecord:
+    """One start: solve with cuts (placement: round the weights, re-solve), then the dense
+    robust margin and the check on the verification model. A failure is a record (STYLE).
+    ``spec``: the bridge (default ``settings.bridge``)."""
+    t0 = time.perf_counter()
+    spec, model = build_model(settings, spec=spec)
+    prob = DesignProblem(settings, model, spec=spec)
+    theta0 = tuple(float(v) for v in theta0)
+    w_cont = None
+    try:
+        res = prob.solve_with_cuts(np.asarray(theta0))
+        rounds = list(res.rounds)
+        weights = np.ones(model.n_flaps)
+        if settings.optimise_placement:
+            w_cont = tuple(float(v) for v in res.solve.weights)
+            weights = (np.asarray(w_cont) > 0.5).astype(float)
+            if not weights.any():
+                weights[np.argmax(w_cont)] = 1.0
+            fixed = DesignProblem(replace(settings, optimise_placement=False), model,
+                                  weights=weights, spec=spec)
+            res = fixed.solve_with_cuts(res.theta)
+            rounds += [replace(r, placement="rounded") for r in res.rounds]
+            prob = fixed
+    except Exception as exc:  # noqa: BLE001 - solver failure is data (STYLE)
+        return StartRecord(start=index, theta0=theta0, ipopt_status=f"failed: {exc}",
+                           success=False, time_s=time.perf_counter() - t0,
+                           weights_continuous=w_cont)
+    theta = res.theta
+    ver = res.verification
+    rob = prob.robust_margin(theta, weights=weights)
+    positions = settings.positions()[weights > 0.5]
+    ver16 = (verify_layout(settings, theta, positions, spec=spec)
+             if settings.verification_modes != settings.n_modes else ver)
+    gain_ok = bool(ver.max_gain <= settings.gain_limit)
+    return StartRecord(
+        start=index, theta0=theta0, theta=tuple(float(v) for v in theta),
+        ipopt_status=res.solve.ipopt_status, success=res.solve.success,
+        iterations=sum(r.iterations for r in rounds), time_s=time.perf_counter() - t0,
+        rounds=tuple(rounds), max_violation_1_s=ver.max_violation_1_s,
+        stable_to_m_s=ver.stable_to_m_s, stable_everywhere=ver.stable_everywhere,
+        max_gain=ver.max_gain, meets_decay_rate=ver.meets_decay_rate, gain_ok=gain_ok,
+        # verified: every a posteriori check holds, whatever Ipopt's exit status
+        verified=bool(ver.meets_decay_rate and gain_ok and ver16.stable_everywhere),
+        gamma_T_frobenius=res.solve.gamma_T,
+        dense_t_peak_check_speeds=res.robust.peak if res.robust is not None else float("nan"),
+        robust_bound_holds=res.robust_bound_holds, robust=rob, verification=ver16,
+        robust_cuts=res.robust_cuts, gain_cuts=res.gain_cuts,
+        flap_positions_m=tuple(float(x) for x in positions),
+        design_speeds_m_s=res.design_speeds_m_s, weights_continuous=w_cont)
+
+
+def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
+                       spec=None) -> FlapCountSearch:
+    """Fewest evenly spaced flaps (around mid-span) still stable 0..U_max with the margin.
+
+    The optimised ``theta`` is kept; each count is verified on the dense grid with the
+    required decay rate ``sigma_req`` on the verification model (``verification_modes``).
+    Returns the records per count and the minimum. ``spec``: the bridge (default
+    ``settings.bridge``).
+    """
+    counts = settings.min_flap_counts if counts is None else counts
+    rows = []
+    best = None
+    for c in counts:
+        if c > settings.flap_count:
+            continue
+        _, model = build_model(settings, c, modal, n_modes=settings.verification_modes,
+                               spec=spec)
+        prob = DesignProblem(replace(settings, optimise_placement=False), model)
+        ver = prob.verify(theta)
+        ok = ver.max_violation_1_s <= VIOLATION_TOL
+        rows.append(FlapCountCheck(flap_count=int(c), meets_margin=ok,
+                                   stable_everywhere=ver.stable_everywhere,
+                                   stable_to_m_s=ver.stable_to_m_s,
+                                   max_violation_1_s=ver.max_violation_1_s))
+        if ok:
+            best = int(c) if best is None else min(best, int(c))
+    return FlapCountSearch(minimum=best, counts=tuple(rows), modes=settings.verification_modes)
+
+
+def buffeting_comparison(settings: DesignSettings, controller: Controller, speeds=None,
+                         spec=None) -> BuffetingComparison:
+    """Open- vs closed-loop max RMS response (``model.buffeting``, verification model) at
+    ``speeds`` [m/s] (default ``buffeting_speeds_m_s``) on ``spec`` (default the built-in
+    ``settings.bridge``)."""
+    from model.buffeting import buffeting
+    from model.spec import load_bridge
+
+    spec = load_bridge(settings.bridge) if spec is None else spec
+    speeds = np.asarray(settings.buffeting_speeds_m_s if speeds is None else speeds, float)
+    nm = settings.verification_modes
+    ol = buffeting(spec, speeds, n_modes=nm)
+    cl = buffeting(spec, speeds, n_modes=nm, controller=controller)
+    return BuffetingComparison(
+        status="ok", speeds_m_s=tuple(speeds.tolist()), modes=nm,
+        open_loop_rms_vertical_m=tuple(ol.rms_vertical.tolist()),
+        closed_loop_rms_vertical_m=tuple(cl.rms_vertical.tolist()),
+        open_loop_rms_torsion_rad=tuple(ol.rms_torsion.tolist()),
+        closed_loop_rms_torsion_rad=tuple(cl.rms_torsion.tolist()))
+
+
+def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
+    """Chosen start and design status from the per-start records of :func:`run_start`.
+
+    ``converged``: the best *verified* start (decay rate on the design model's dense grid,
+    true peak gain ``max_gain <= gain_limit`` -- no tolerance, the NLP backs off by
+    ``GAIN_BACKOFF`` --, stable on the verification model), by the true dense robust margin,
+    whatever its Ipopt exit status; ``unverified``: feasible on the design model only;
+    ``infeasible``: no start meets the decay rate and the gain limit (the least violating is
+    reported, never as converged); ``failed``: no start produced a design.
+    """
+    feasible = [r for r in records if r.meets_decay_rate and r.max_gain <= gain_limit]
+    verified = [r for r in feasible if r.verified]
+    if verified:
+        return max(verified, key=lambda r: r.robust_margin), "converged"
+    if feasible:
+        return max(feasible, key=lambda r: r.verification.stable_to_m_s), "unverified"
+    cands = [r for r in records if not r.failed]
+    if not cands:
+        return None, "failed"
+    return min(cands, key=lambda r: (max(r.max_violation_1_s, 0.0), r.max_gain)), "infeasible"
+
+
+def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
+    """Multistart design with cutting planes, 16-mode verification and flap-count search.
+
+    Status: ``converged`` (a start meets the decay rate on the design model's dense grid, the
+    gain limit, and is stable on the verification model's dense grid), ``unverified`` (the
+    design model is satisfied but the verification model is not stable everywhere -- only
+    possible with a reduced design model), ``infeasible`` or ``failed``.
+
+    Parameters
+    ----------
+    settings : DesignSettings
+    progress : callable, optional
+        ``str -> None``, called with one line per start and step.
+    spec : model.spec.BridgeSpec, optional
+        The bridge, e.g. a modified built-in one (default: ``load_bridge(settings.bridge)``).
+    """
+    t0 = time.perf_counter()
+    log = progress or (lambda msg: None)
+    # start 0 is a nominal phase-lead-free design (K ~ -1 static, light lag), the others Sobol
+    starts0 = np.vstack([NOMINAL_START, screened_starts(settings, settings.starts - 1, spec=spec)])[
+        :settings.starts]
+    n = len(starts0)
+    if settings.parallel and settings.starts > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=min(2, settings.starts)) as ex:
+            records = list(ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n))
+    else:
+        records = [run_start(settings, th, i, spec) for i, th in enumerate(starts0)]
+    for r in records:
+        log(f"start {r.start}: {r.ipopt_status} in {r.time_s:.1f} s, "
+            f"{r.iterations} iterations, {r.cut_rounds} cut rounds, "
+            f"violation {r.max_violation_1_s:.2e}, max gain {r.max_gain:.4g}, margin "
+            f"{r.robust_margin:.3g} (gamma_T {r.gamma_T_frobenius:.3g}), "
+            f"{settings.verification_modes}-mode check stable: "
+            f"{r.verification.stable_everywhere if r.verification else None}, verified: "
+            f"{r.verified}")
+    best, status = select_start(records, settings.gain_limit)
+    controller = None
+    absc_u = settings.check_speeds()
+    absc = np.full(absc_u.shape, np.nan)
+    extras = {}
+    min_flaps = None
+    if best is not None:
+        theta = np.asarray(best.theta)
+        positions = np.asarray(best.flap_positions_m)
+        _, model = build_model(settings, n_modes=settings.verification_modes,
+                               positions=positions, spec=spec)
+        prob = DesignProblem(replace(settings, optimise_placement=False), model)
+        absc = prob.verify(theta).abscissa_1_s
+        _, model_ol = build_model(settings, n_modes=settings.verification_modes, spec=spec)
+        ol_parts = DesignProblem(settings, model_ol).A_parts(np.array([0.0, 0.0, 0.0, 1.0, 1.0]))
+        extras["open_loop_abscissa"] = closed_loop_abscissa(ol_parts, absc_u)
+        extras["closed_loop"] = model.system(Compensator(*(float(v) for v in theta)))
+        controller = Controller(Compensator(*(float(v) for v in theta)),
+                                tuple(float(x) for x in positions),
+                                settings.flap_width_m, settings.leading_edge,
+                                settings.trailing_edge, settings.gain_limit)
+        if status in ("converged", "unverified"):
+            min_flaps = minimum_flap_count(settings, theta, spec=spec)
+            log(f"minimum flap count: {min_flaps.minimum}")
+            try:
+                extras["buffeting"] = buffeting_comparison(settings, controller, spec=spec)
+            except Exception as exc:  # noqa: BLE001 - a report item, not the design
+                extras["buffeting"] = BuffetingComparison(status=f"failed: {exc}")
+    return DesignResult(status=status, settings=settings, controller=controller,
+                        starts=tuple(records), best=best, abscissa_speeds_m_s=absc_u,
+                        abscissa_1_s=absc, min_flaps=min_flaps,
+                        wall_time_s=time.perf_counter() - t0, extras=extras)
+
+

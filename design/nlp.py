@@ -1,0 +1,521 @@
+"""The compensator NLP: Ipopt over K(s) (and optionally the flap layout), seed §6.
+
+Problem (METHODS §4-5)::
+
+    minimise     w_rob gamma_T + w_buf J_buf(theta)/J_buf(open loop) + w_reg |theta/scale|^2
+                 + w_flaps sum(w)/n_flaps
+    over         theta = (b2, b1, b0, a2, a1), gamma_T  [and w in [0, 1]^n_flaps if
+                 optimise_placement]
+    subject to   top-m Re lambda(A_cl(U_i, theta, w)) <= -sigma_req(U_i)  at every design speed
+                 ||T(j omega_k, U_j)||_F^2 <= gamma_T^2    robust speeds U_j x frequency grid
+                 |K(j omega_k)|^2 <= gain_limit^2          on a frequency grid (and omega -> inf)
+                 a2 >= a2_min > 0,  a1 >= a1_min > 0       (stable, proper K)
+
+Robustness: ``T`` is the input complementary sensitivity of the flap loop; the NLP bounds its
+Frobenius norm (an upper bound of ``sigma_max``) at ``robust_design_speeds_m_s`` and
+``n_robust_omega`` log-spaced frequencies plus the in-vacuo structural frequencies, so
+``1/gamma_T`` is a guaranteed lower bound of the small-gain margin at those points
+(:mod:`design.robust`); the true margin is checked on a dense grid (:meth:`robust_margin`).
+
+Decay rate. ``sigma_req(U) = min(sigma_min, sigma_per_speed * U)``: the slowest aerodynamic lag
+pole of the RFA moves as ``-beta_1 U / b`` and is (almost) uncontrollable by the flaps, so a
+fixed decay rate cannot be demanded at low speed. At ``U = 0`` the lag states are exactly
+decoupled (their input is proportional to ``U``), their zero eigenvalues are dropped, and the
+structural ones must satisfy ``sigma_min``. The eigenvalue constraints use
+:class:`design.eigen.PolynomialTopRealParts` (analytic eigenvalue Jacobians, limited-memory
+Hessian).
+
+Buffeting. ``J_buf`` is the mean over ``buffeting_speeds_m_s`` of the squared RMS vertical and
+torsional deck response (each normalised by its open-loop value) from
+:func:`model.buffeting.buffeting`, evaluated numerically in a :class:`casadi.Callback` with a
+forward-difference Jacobian (step 1e-4 relative); used only when ``weight_buffeting > 0``.
+
+Cutting planes (:meth:`DesignProblem.solve_with_cuts`, at most ``cutting_plane_rounds``
+warm-started re-solves of at most ``resolve_max_iter`` iterations): violating speeds of the dense
+decay-rate check join the design grid; if the true peak ``Compensator.max_gain()`` exceeds the
+limit, its frequency joins the gain grid; dense ``sigma_max(T)`` peaks above ``gamma_T`` join the
+robust epigraph. A re-solve only sees sample points and may land on a worse design, so the best
+round (feasible first, then smallest dense peak) is returned and every round is recorded.
+A design whose true peak gain exceeds ``gain_limit`` is never ``converged``.
+
+Multistart, verification on the ``verification_modes`` model, placement rounding and the
+result records: :mod:`design.driver`; settings: :mod:`design.settings`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import casadi as ca
+import numpy as np
+import scipy.linalg
+
+from design.buffeting_term import BuffetingCost
+from design.eigen import PolynomialTopRealParts
+from design.plant import (
+    closed_loop_abscissa,
+    lag_free_indices,
+    plant_factors,
+    top_real_parts_numeric,
+)
+from design.records import CutRound, CutsOutcome, RobustMargin, Solve, Verification
+from design.robust import (
+    k_complex,
+    robust_dense_omega,
+    robust_margin,
+    robust_point_function,
+)
+from design.settings import DesignSettings
+from model.control import Compensator
+
+#: Scale of theta in the regularisation term (a2 ~ 0.01..1 s^2).
+THETA_SCALE = np.array([1.0, 1.0, 1.0, 0.1, 1.0])
+#: Eigenvalue constraints are ~ 0.01 1/s: multiplied by this [s] to be O(1) for Ipopt.
+EIG_SCALE = 100.0
+#: Feasibility tolerance of the dense verification [1/s] (Ipopt's constr_viol_tol 1e-6 on the
+#: scaled constraint is 1e-8 1/s; 1e-6 1/s leaves room for the eig round-off of ~1e-10 1/s).
+VIOLATION_TOL = 1e-6
+#: Relative back-off of the gain limit inside the NLP. Ipopt accepts a violation of
+#: ``constr_viol_tol = 1e-6`` on ``|K|^2 / L_nlp^2 - 1``, i.e. ``|K| <= L_nlp (1 + 5e-7)``;
+#: with ``L_nlp = L (1 - 1e-6)`` a converged sample point is strictly inside ``|K| <= L``, so
+#: the a posteriori check ``max_gain <= gain_limit`` needs no tolerance of its own.
+GAIN_BACKOFF = 1e-6
+#: Relative tolerance of the robust cutting-plane test ``sigma_max(T) <= gamma_T (1 + tol)``
+#: on the dense grid. At an active cut the NLP gives ``||T||_F^2 <= gamma_T^2 + 1e-6``, i.e.
+#: ``sigma_max <= gamma_T (1 + 5e-7 / gamma_T^2)``; near a resonance ``T`` is nearly rank one
+#: (``sigma_max ~ ||T||_F``), so an active cut sits at ``gamma_T`` to ~1e-6. 1e-3 (the margin
+#: is reported to three significant figures) stops a re-solve (~10-30 s) for a 0.1 % gap.
+ROBUST_CUT_TOL = 1e-3
+#: Robust cuts added per speed and round: the worst local peaks of sigma_max above gamma_T.
+ROBUST_CUTS_PER_SPEED = 2
+#: Each robust cut is a cluster ``omega* (1 + k ROBUST_CLUSTER_STEP)``, k = -2..2. The peaks
+#: of sigma_max(T) here have relative half-power half-widths >= ~3 % (70 m/s, default design:
+#: 2.44 at the peak, 2.13 at -2 %); a single point is escaped by shifting the resonance by a
+#: fraction of that, a 1 % spaced cluster bounds the under-read of a shifted peak to ~5 %.
+ROBUST_CLUSTER_STEP = 0.01
+#: Ipopt barrier parameter of a warm-started re-solve (default 0.1 re-centres the iterate
+#: far from the previous solution; 1e-3 keeps it near while staying interior).
+WARM_MU_INIT = 1e-3
+
+
+class DesignProblem:
+    """Compensator NLP for a flap layout (build once, solve from many starts).
+
+    Parameters
+    ----------
+    settings : DesignSettings
+    model : model.flaps.ClosedLoopModel
+    weights : array_like, optional
+        Per-flap weights [0, 1] (1 = fitted); the start point when ``optimise_placement``.
+    spec : model.spec.BridgeSpec, optional
+        Needed only for the buffeting term (wind defaults).
+    """
+
+    def __init__(self, settings: DesignSettings, model, weights=None, spec=None):
+        self.settings = settings
+        self.model = model
+        self.spec = spec
+        self.weights = (np.ones(model.n_flaps) if weights is None
+                        else np.asarray(weights, float).ravel())
+        self.functions = model.casadi_functions()
+        self.keep0 = lag_free_indices(model)
+        self.callbacks: dict = {}      # kept alive (design.eigen docstring)
+        self._robust = None
+        self._robust_base = None
+        self._buffeting_ref = None
+        #: Cutting planes added by :meth:`solve_with_cuts`: robust (speed, omega) points and
+        #: gain-constraint frequencies, on top of the settings' sample grids.
+        self.robust_cuts: list[tuple[float, float]] = []
+        self.gain_cuts: list[float] = []
+
+    @property
+    def n_p(self) -> int:
+        """Number of callback parameters: theta, plus the weights when placement is free."""
+        return 5 + (self.model.n_flaps if self.settings.optimise_placement else 0)
+
+    # ---- pieces
+    def parts_function(self) -> ca.Function:
+        """``p -> (A0, A1, A2)`` with ``p = theta`` or ``(theta, w)`` (placement)."""
+        th = ca.SX.sym("theta", 5)
+        if self.settings.optimise_placement:
+            w = ca.SX.sym("w", self.model.n_flaps)
+            p = ca.vertcat(th, w)
+            parts = self.functions["A_parts"](th, w)
+        else:
+            p = th
+            parts = self.functions["A_parts"](th, ca.DM(self.weights))
+        return ca.Function("A_parts_p", [p], list(parts))
+
+    def grid_callback(self, speeds) -> PolynomialTopRealParts:
+        """Top-m real parts at ``speeds`` (lag states dropped at U = 0), cached per grid."""
+        key = tuple(float(u) for u in speeds)
+        if key not in self.callbacks:
+            self.callbacks[key] = PolynomialTopRealParts(
+                self.parts_function(), np.array(key), self.settings.n_eig,
+                subsets={0.0: self.keep0}, name=f"top_grid_{len(self.callbacks)}")
+        return self.callbacks[key]
+
+    def A_parts(self, theta, weights=None) -> tuple:
+        """Numeric ``(A0, A1, A2, keep0)`` of the closed loop at ``theta``."""
+        w = self.weights if weights is None else np.asarray(weights, float)
+        A0, A1, A2 = self.functions["A_parts"](ca.DM(theta), ca.DM(w))
+        return A0.full(), A1.full(), A2.full(), self.keep0
+
+    def omega_grid(self) -> np.ndarray:
+        """Frequency grid of the gain constraint [rad/s]: log grid plus the gain cuts."""
+        s = self.settings
+        w = np.logspace(np.log10(s.omega_min_rad_s), np.log10(s.omega_max_rad_s), s.n_omega)
+        return np.unique(np.concatenate([w, np.asarray(self.gain_cuts, float)]))
+
+    def structural_frequencies(self) -> np.ndarray:
+        """In-vacuo structural circular frequencies [rad/s]."""
+        B = self.model.open_loop.basis
+        return np.sqrt(np.abs(scipy.linalg.eigvals(B.K, B.M).real))
+
+    def robust_omega_grid(self) -> np.ndarray:
+        """Frequencies of the robustness constraint [rad/s]: log grid + structural modes."""
+        s = self.settings
+        w = np.logspace(np.log10(s.robust_omega_min_rad_s), np.log10(s.robust_omega_max_rad_s),
+                        s.n_robust_omega)
+        ws = self.structural_frequencies()
+        ws = ws[(ws > s.robust_omega_min_rad_s) & (ws < s.robust_omega_max_rad_s)]
+        # the peaks of |T| sit on the lightly damped closed-loop modes: a linear band over
+        # the structural frequency range as well (n_robust_omega points)
+        band = np.linspace(0.8 * ws.min(), 1.2 * ws.max(), s.n_robust_omega) if ws.size else []
+        return np.unique(np.concatenate([w, ws, band]))
+
+    def robust_check_speeds(self) -> np.ndarray:
+        """Speeds of the dense robust check and cuts [m/s]: design and reported speeds."""
+        s = self.settings
+        return np.unique(np.asarray(tuple(s.robust_design_speeds_m_s)
+                                    + tuple(s.robust_speeds_m_s), float))
+
+    def robust_function(self) -> tuple[ca.Function, list]:
+        """``(theta, w) -> ||T||_F^2`` at every (robust design speed, frequency) and at every
+        robust cut (:attr:`robust_cuts`), and the ``(speed, omega)`` points."""
+        key = tuple(self.robust_cuts)
+        if self._robust is None or self._robust[2] != key:
+            s = self.settings
+            if self._robust_base is None:
+                om = self.robust_omega_grid()
+                Xr, Xi, oms, pts = [], [], [], []
+                Pa = None
+                for U in s.robust_design_speeds_m_s:
+                    Pa, X = plant_factors(self.model, float(U), 1j * om)
+                    for k in range(len(om)):
+                        Xr.append(X[k].real)
+                        Xi.append(X[k].imag)
+                        oms.append(om[k])
+                        pts.append((float(U), float(om[k])))
+                self._robust_base = (Pa, Xr, Xi, oms, pts)
+            Pa, Xr, Xi, oms, pts = self._robust_base
+            Xr, Xi, oms, pts = list(Xr), list(Xi), list(oms), list(pts)
+            for U, omc in key:
+                Pa, X = plant_factors(self.model, float(U), [1j * omc])
+                Xr.append(X[0].real)
+                Xi.append(X[0].imag)
+                oms.append(omc)
+                pts.append((float(U), float(omc)))
+            f1 = robust_point_function(Pa)
+            N = len(pts)
+            fm = f1.map(N, "serial")
+            th = ca.MX.sym("theta", 5)
+            w = ca.MX.sym("w", self.model.n_flaps)
+            val = fm(th, w, ca.DM(np.array(oms)[None, :]), ca.DM(np.hstack(Xr)),
+                     ca.DM(np.hstack(Xi)))
+            fun = ca.Function("T_fro2_grid", [th, w], [val.T], ["theta", "w"], ["T_fro2"])
+            self._robust = (fun, pts, key)
+        return self._robust[:2]
+
+    # ---- buffeting
+    def buffeting_rms(self, theta, weights=None, speeds=None) -> tuple[np.ndarray, np.ndarray]:
+        """Max RMS vertical [m] and torsional [rad] response at ``speeds`` (closed loop)."""
+        from model.buffeting import buffeting
+        from model.spec import load_bridge
+
+        spec = self.spec if self.spec is not None else load_bridge(self.settings.bridge)
+        w = self.weights if weights is None else np.asarray(weights, float)
+        speeds = self.settings.buffeting_speeds_m_s if speeds is None else speeds
+        sys_cl = self.model.system(Compensator(*(float(v) for v in theta)), weights=w)
+        r = buffeting(sys_cl, np.asarray(speeds, float), spec=spec,
+                      n_modes=int(self.model.open_loop.basis.n))
+        return r.rms_vertical, r.rms_torsion
+
+    def buffeting_cost(self, theta, weights=None) -> float:
+        """``J_buf``: mean of the squared RMS ratios to the open loop (NaN/unstable -> 1e3)."""
+        if self._buffeting_ref is None:
+            self._buffeting_ref = self.buffeting_rms([0.0, 0.0, 0.0, 1.0, 1.0])
+        try:
+            ok = theta[3] > 0 and theta[4] > 0
+            z, a = self.buffeting_rms(theta, weights) if ok else (np.nan, np.nan)
+        except Exception:  # noqa: BLE001 - infeasible iterate: a large finite cost
+            return 1e3
+        z0, a0 = self._buffeting_ref
+        v = 0.5 * np.mean((np.asarray(z) / z0) ** 2 + (np.asarray(a) / a0) ** 2)
+        return float(v) if np.isfinite(v) else 1e3
+
+    def constraint_values(self, theta, speeds) -> np.ndarray:
+        """``top_m Re lambda + sigma_req`` per speed (n_speeds, m) [1/s]; <= 0 is feasible."""
+        parts = self.A_parts(theta)
+        sig = self.settings.sigma_required(speeds)
+        return np.array([top_real_parts_numeric(parts, u, self.settings.n_eig) + sg
+                         for u, sg in zip(speeds, sig, strict=True)])
+
+    # ---- one solve
+    def solve(self, theta0, speeds, max_iter=None, weights0=None, gamma0=None,
+              warm=False) -> Solve:
+        """Solve the NLP from ``theta0`` (and ``weights0``) on the design ``speeds`` [m/s].
+
+        ``gamma0`` (warm start) is raised to the epigraph value at ``theta0`` when lower, so
+        the start satisfies the robust constraints whatever cuts were added; ``warm``
+        starts Ipopt's barrier at ``WARM_MU_INIT`` (a re-solve after cuts).
+
+        Returns the :class:`design.records.Solve` record (Ipopt status, iterate, timings).
+        """
+        s = self.settings
+        nF = self.model.n_flaps
+        speeds = np.asarray(speeds, float)
+        th = ca.MX.sym("theta", 5)
+        gT = ca.MX.sym("gamma_T")
+        if s.optimise_placement:
+            w = ca.MX.sym("w", nF)
+            p = ca.vertcat(th, w)
+            x = ca.vertcat(th, gT, w)
+        else:
+            w = ca.DM(self.weights)
+            p = th
+            x = ca.vertcat(th, gT)
+        cb = self.grid_callback(speeds)
+        sig = np.repeat(s.sigma_required(speeds), s.n_eig)
+        g = [EIG_SCALE * (cb(p) + sig)]
+        lbg, ubg = [np.full(sig.size, -np.inf)], [np.zeros(sig.size)]
+        # gain limit |K(j w)| <= L_nlp on the grid (+ gain cuts), at omega = 0 (b0) and at
+        # omega -> inf (b2/a2); L_nlp backed off by GAIN_BACKOFF (see there)
+        L2 = (s.gain_limit * (1.0 - GAIN_BACKOFF)) ** 2
+        oms = self.omega_grid()
+        for om in oms:
+            Kr, Ki = k_complex(th, om)
+            g.append((Kr * Kr + Ki * Ki) / L2 - 1.0)
+        g.append(th[2] * th[2] / L2 - 1.0)
+        # omega -> inf as (b2/a2)^2 / L^2 - 1 (a2 >= a2_min > 0): scaled like the grid
+        # points, so constr_viol_tol bounds the relative gain error (not a2^2 times it)
+        g.append(th[0] * th[0] / (th[3] * th[3] * L2) - 1.0)
+        lbg.append(np.full(len(oms) + 2, -np.inf))
+        ubg.append(np.zeros(len(oms) + 2))
+        f = s.weight_regularisation * ca.sumsqr(th / THETA_SCALE)
+        n_rob = 0
+        if s.weight_robust > 0 and (s.robust_design_speeds_m_s or self.robust_cuts):
+            rob, pts = self.robust_function()
+            g.append(rob(th, w) - gT * gT)
+            n_rob = len(pts)
+            lbg.append(np.full(n_rob, -np.inf))
+            ubg.append(np.zeros(n_rob))
+            f = f + s.weight_robust * gT
+        if s.weight_buffeting > 0:
+            bcb = BuffetingCost(self, self.n_p)
+            self.callbacks["buffeting"] = bcb
+            f = f + s.weight_buffeting * bcb(p)
+        if s.optimise_placement and s.weight_flaps > 0:
+            f = f + s.weight_flaps * ca.sum1(w) / nF
+        lbx = [-s.b_bound, -s.b_bound, -s.b_bound, s.a2_bounds[0], s.a1_bounds[0], 0.0]
+        ubx = [s.b_bound, s.b_bound, s.b_bound, s.a2_bounds[1], s.a1_bounds[1], 1e4]
+        theta0 = np.asarray(theta0, float)
+        w0 = self.weights if weights0 is None else np.asarray(weights0, float)
+        gT0 = 1.0
+        if n_rob:
+            vals = np.asarray(self.robust_function()[0](theta0, w0).full()).ravel()
+            gT0 = float(np.sqrt(np.max(vals))) if np.all(np.isfinite(vals)) else 10.0
+            gT0 = min(max(gT0, 1e-3, 0.0 if gamma0 is None else float(gamma0)), 1e3)
+        x0 = np.append(theta0, gT0)
+        if s.optimise_placement:
+            lbx += [0.0] * nF
+            ubx += [1.0] * nF
+            x0 = np.append(x0, w0)
+        nlp = {"x": x, "f": f, "g": ca.vertcat(*g)}
+        opts = {"ipopt.hessian_approximation": "limited-memory",
+                "ipopt.max_iter": int(max_iter or s.max_iter), "ipopt.print_level": 0,
+                "print_time": False, "ipopt.tol": 1e-6, "ipopt.acceptable_tol": 1e-4,
+                "ipopt.acceptable_iter": 5, "ipopt.sb": "yes", "ipopt.constr_viol_tol": 1e-6,
+                # an "acceptable" exit must be as feasible as an optimal one (default 1e-2)
+                "ipopt.acceptable_constr_viol_tol": 1e-6}
+        if warm:
+            opts["ipopt.mu_init"] = WARM_MU_INIT
+        solver = ca.nlpsol("design", "ipopt", nlp, opts)
+        ev0, et0 = cb.evaluations, cb.eval_time_s
+        t0 = time.perf_counter()
+        sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=np.concatenate(lbg), ubg=np.concatenate(ubg))
+        elapsed = time.perf_counter() - t0
+        st = solver.stats()
+        xs = np.asarray(sol["x"].full()).ravel()
+        gs = np.asarray(sol["g"].full()).ravel()
+        n_eig_cons = len(speeds) * s.n_eig
+        evals = cb.evaluations - ev0
+        return Solve(theta=xs[:5], gamma_T=float(xs[5]),
+                     weights=xs[6:] if s.optimise_placement else self.weights.copy(),
+                     ipopt_status=st["return_status"], success=bool(st["success"]),
+                     iterations=int(st["iter_count"]), time_s=elapsed,
+                     objective=float(sol["f"]),
+                     constraints_eig_1_s=gs[:n_eig_cons] / EIG_SCALE, n_speeds=len(speeds),
+                     eig_evaluations=evals,
+                     eig_time_per_speed_s=(cb.eval_time_s - et0) / max(evals, 1) / len(speeds))
+
+    # ---- verification
+    def verify(self, theta, weights=None) -> Verification:
+        """Dense a posteriori check: abscissa on the check grid, constraint, peak gain."""
+        s = self.settings
+        U = s.check_speeds()
+        parts = self.A_parts(theta, weights)
+        absc = closed_loop_abscissa(parts, U)
+        viol = absc + s.sigma_required(U)
+        comp = Compensator(*(float(v) for v in theta))
+        stable = absc < 0
+        stable_to = float(U[-1]) if stable.all() else (
+            float(U[np.argmax(~stable) - 1]) if np.argmax(~stable) > 0 else 0.0)
+        return Verification(speeds_m_s=U, abscissa_1_s=absc, violation_1_s=viol,
+                            max_violation_1_s=float(viol.max()),
+                            stable_everywhere=bool(stable.all()), stable_to_m_s=stable_to,
+                            max_gain=comp.max_gain(), modes=int(self.model.open_loop.basis.n),
+                            step_m_s=s.check_step_m_s,
+                            meets_decay_rate=bool(viol.max() <= VIOLATION_TOL))
+
+    def solve_with_cuts(self, theta0, weights0=None) -> CutsOutcome:
+        """Solve and re-solve with cutting planes (at most ``cutting_plane_rounds`` re-solves).
+
+        After each solve the design is checked a posteriori and the worst violations join the
+        NLP's sample sets before a warm-started re-solve:
+
+        * decay rate: abscissa on the dense ``check_step_m_s`` grid; the worst speed of each run
+          of violations joins the design speeds;
+        * gain limit: the true peak :meth:`model.control.Compensator.max_gain`; if above
+          ``gain_limit`` the stationary frequencies of ``|K(jw)|`` join the gain grid;
+        * robustness: ``sigma_max(T)`` on a dense frequency grid (:meth:`robust_margin`) at
+          :meth:`robust_check_speeds`; the worst (speed, frequency) peaks above
+          ``gamma_T (1 + ROBUST_CUT_TOL)`` join the robust epigraph points.
+
+        Returns the :class:`design.records.CutsOutcome` of the best round: its solve,
+        verification and dense robust check, every round, the design speeds and cuts then in
+        force, ``gain_ok`` and ``robust_bound_holds`` (dense peak <= gamma_T within
+        ``ROBUST_CUT_TOL``).
+        """
+        s = self.settings
+        speeds = list(self.settings.design_speeds())
+        history = []
+        theta = np.asarray(theta0, float)
+        w = self.weights if weights0 is None else np.asarray(weights0, float)
+        gamma = None
+        res = ver = rob = None
+        kept = []
+        use_rob = s.weight_robust > 0 and (bool(s.robust_design_speeds_m_s)
+                                           or bool(s.robust_speeds_m_s))
+        for rnd in range(s.cutting_plane_rounds + 1):
+            res = self.solve(theta, np.array(sorted(speeds)), weights0=w, gamma0=gamma,
+                             warm=rnd > 0,
+                             max_iter=s.resolve_max_iter if rnd > 0 else s.max_iter)
+            theta, w = res.theta, res.weights
+            gamma = res.gamma_T if use_rob else None
+            ver = self.verify(theta, w)
+            eig_ok = ver.max_violation_1_s <= VIOLATION_TOL
+            gain_ok = ver.max_gain <= s.gain_limit
+            rob_ok, new_rob = True, []
+            rob = None
+            if use_rob and _a2_ok(theta):
+                rob = self.robust_margin(theta, speeds=self.robust_check_speeds(), weights=w,
+                                         peaks=ROBUST_CUTS_PER_SPEED)
+                lim = gamma * (1.0 + ROBUST_CUT_TOL)
+                rob_ok = bool(rob.peak <= lim)
+                for U, pk in zip(rob.speeds_m_s, rob.peaks, strict=True):
+                    new_rob += [(float(U), om * (1.0 + k * ROBUST_CLUSTER_STEP))
+                                for om, v in pk if v > lim for k in (-2, -1, 0, 1, 2)]
+                new_rob = [c for c in dict.fromkeys(new_rob) if c not in self.robust_cuts]
+            new_gain = []
+            if not gain_ok:
+                comp = Compensator(*(float(v) for v in theta))
+                wst = comp._stationary_frequencies()
+                new_gain = [float(x) for x in wst
+                            if abs(comp.frequency_response(x)) > s.gain_limit
+                            * (1.0 - GAIN_BACKOFF) and float(x) not in self.gain_cuts]
+            new_speeds = []
+            if not eig_ok:
+                new_speeds = [u for u in _worst_per_run(ver.speeds_m_s,
+                                                        ver.violation_1_s > VIOLATION_TOL,
+                                                        ver.violation_1_s) if u not in speeds]
+            peak = rob.peak if rob else float("nan")
+            history.append(CutRound(
+                round=rnd, ipopt_status=res.ipopt_status, iterations=res.iterations,
+                theta=tuple(float(v) for v in theta), time_s=res.time_s, n_speeds=len(speeds),
+                max_violation_1_s=ver.max_violation_1_s, max_gain=ver.max_gain,
+                gamma_T_frobenius=res.gamma_T, dense_t_peak=peak,
+                n_robust_points=len(self.robust_function()[1]) if use_rob else 0,
+                n_gain_points=len(self.omega_grid()), new_speeds=len(new_speeds),
+                new_gain_cuts=len(new_gain), new_robust_cuts=len(new_rob),
+                eig_time_per_speed_s=res.eig_time_per_speed_s))
+            kept.append((res, ver, rob, dict(speeds=sorted(speeds), robust_cuts=list(
+                self.robust_cuts), gain_cuts=list(self.gain_cuts)), eig_ok and gain_ok, peak))
+            if (eig_ok and gain_ok and rob_ok) or not _a2_ok(theta):
+                break
+            if rnd == s.cutting_plane_rounds or not (new_speeds or new_gain or new_rob):
+                break
+            speeds.extend(new_speeds)
+            self.gain_cuts.extend(new_gain)
+            self.robust_cuts.extend(new_rob)
+        # a re-solve sees only the sample points and can land on a design whose dense peak
+        # (or gain, decay rate) is worse than before the cuts: return the best round --
+        # feasible (decay rate and gain) first, then the smallest dense peak of sigma_max(T)
+        def rank(i):
+            _, _, _, _, ok, pk = kept[i]
+            return (not ok, pk if np.isfinite(pk) else np.inf, -i)
+        ibest = min(range(len(kept)), key=rank)
+        res, ver, rob, cuts, _, _ = kept[ibest]
+        return CutsOutcome(
+            solve=res, verification=ver, robust=rob,
+            rounds=tuple(replace(h, chosen=i == ibest) for i, h in enumerate(history)),
+            chosen_round=ibest, design_speeds_m_s=tuple(cuts["speeds"]),
+            gain_ok=bool(ver.max_gain <= s.gain_limit),
+            robust_bound_holds=(bool(rob is not None and rob.peak
+                                     <= res.gamma_T * (1.0 + ROBUST_CUT_TOL))
+                                if use_rob else None),
+            robust_cuts=tuple(tuple(c) for c in cuts["robust_cuts"]),
+            gain_cuts=tuple(cuts["gain_cuts"]))
+
+    # ---- robustness
+    def robust_dense_omega(self, theta, U, weights=None) -> np.ndarray:
+        """Dense check frequencies [rad/s] at speed ``U`` [m/s] of the closed loop at ``theta``
+        (:func:`design.robust.robust_dense_omega`)."""
+        return robust_dense_omega(self.A_parts(theta, weights), U, self.structural_frequencies())
+
+    def robust_margin(self, theta, speeds=None, omega=None, weights=None,
+                      peaks=1) -> RobustMargin:
+        """True small-gain margin on a dense grid (:func:`design.robust.robust_margin`).
+
+        Default grid: ``robust_speeds_m_s`` x :meth:`robust_dense_omega`, or the fixed
+        frequencies ``omega`` [rad/s] at every speed; ``peaks`` local peaks kept per speed.
+        """
+        speeds = self.settings.robust_speeds_m_s if speeds is None else speeds
+        w = self.weights if weights is None else np.asarray(weights, float)
+        theta = np.asarray(theta, float)
+
+        def omega_at(U):
+            return (self.robust_dense_omega(theta, U, w) if omega is None
+                    else np.asarray(omega, float))
+
+        return robust_margin(self.model, theta, speeds, w, omega_at, peaks=peaks)
+
+
+def _worst_per_run(U, bad, viol) -> list[float]:
+    """The worst speed in each run of consecutive violations."""
+    out, i = [], 0
+    while i < len(U):
+        if bad[i]:
+            j = i
+            while j + 1 < len(U) and bad[j + 1]:
+                j += 1
+            out.append(float(U[i + int(np.argmax(viol[i:j + 1]))]))
+            i = j + 1
+        else:
+            i += 1
+    return out
+
+
+def _a2_ok(theta) -> bool:
+    return bool(theta[3] > 0 and theta[4] > 0)

@@ -1,0 +1,364 @@
+"""Records of the compensator design: one frozen dataclass per result, units in field names.
+
+Each record's ``to_dict()`` is its part of the ``bridgeflap optimise --json`` contract; the
+JSON keys are those of the contract (``status`` for the Ipopt exit status, ``max_violation``
+for the dense decay-rate violation of a verification), the fields say their units.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+NAN = float("nan")
+
+
+@dataclass(frozen=True)
+class Verification:
+    """Dense a posteriori check of a compensator on one model (``DesignProblem.verify``).
+
+    Attributes
+    ----------
+    speeds_m_s, abscissa_1_s, violation_1_s : ndarray
+        Check grid [m/s], spectral abscissa [1/s] and ``abscissa + sigma_req`` [1/s] (<= 0
+        meets the decay rate).
+    max_violation_1_s : float
+        Largest violation [1/s].
+    stable_everywhere : bool
+    stable_to_m_s : float
+        Last speed of the leading stable run of the grid [m/s].
+    max_gain : float
+        True peak ``sup |K(jw)|`` [rad/rad].
+    modes : int
+        Retained modes of the checked model.
+    step_m_s : float
+        Grid step [m/s].
+    meets_decay_rate : bool
+        ``max_violation_1_s`` within the feasibility tolerance (``design.nlp.VIOLATION_TOL``).
+    """
+
+    speeds_m_s: np.ndarray
+    abscissa_1_s: np.ndarray
+    violation_1_s: np.ndarray
+    max_violation_1_s: float
+    stable_everywhere: bool
+    stable_to_m_s: float
+    max_gain: float
+    modes: int
+    step_m_s: float
+    meets_decay_rate: bool
+
+    def to_dict(self) -> dict:
+        """The scalar part (the ``verification`` JSON object)."""
+        return {"max_violation": self.max_violation_1_s,
+                "stable_everywhere": self.stable_everywhere,
+                "stable_to_m_s": self.stable_to_m_s, "max_gain": self.max_gain,
+                "modes": self.modes, "step_m_s": self.step_m_s,
+                "meets_decay_rate": self.meets_decay_rate,
+                "max_abscissa_1_s": float(np.max(self.abscissa_1_s))}
+
+
+@dataclass(frozen=True)
+class RobustMargin:
+    """Dense small-gain check ``1 / max_U sup_w sigma_max(T(jw))`` (:mod:`design.robust`).
+
+    Attributes
+    ----------
+    speeds_m_s : ndarray
+    t_inf : ndarray
+        ``sup_w sigma_max(T)`` per speed [-].
+    peak_omega_rad_s : ndarray
+        Frequency of that peak per speed [rad/s].
+    peaks : tuple
+        Per speed, the largest local peaks ``(omega [rad/s], sigma_max [-])``.
+    margin : float
+        ``1 / max(t_inf)`` [-] (NaN without speeds).
+    norm : str
+    """
+
+    speeds_m_s: np.ndarray
+    t_inf: np.ndarray
+    peak_omega_rad_s: np.ndarray
+    peaks: tuple
+    margin: float
+    norm: str = "sigma_max (SVD), peaks polished"
+
+    @property
+    def peak(self) -> float:
+        """``max(t_inf)`` [-]."""
+        return float(np.max(self.t_inf))
+
+
+@dataclass(frozen=True)
+class Solve:
+    """One Ipopt solve of the NLP (``DesignProblem.solve``).
+
+    ``theta`` (b2, b1, b0, a2, a1), ``weights`` per flap [-], ``gamma_T`` the Frobenius
+    epigraph value [-], ``constraints_eig_1_s`` the top-m real parts plus ``sigma_req`` at the
+    design speeds [1/s] (<= 0 feasible), ``eig_time_per_speed_s`` one eigen-evaluation per
+    speed [s].
+    """
+
+    theta: np.ndarray
+    gamma_T: float
+    weights: np.ndarray
+    ipopt_status: str
+    success: bool
+    iterations: int
+    time_s: float
+    objective: float
+    constraints_eig_1_s: np.ndarray
+    n_speeds: int
+    eig_evaluations: int
+    eig_time_per_speed_s: float
+
+
+@dataclass(frozen=True)
+class CutRound:
+    """One solve of the cutting-plane loop (``DesignProblem.solve_with_cuts``).
+
+    ``new_speeds``, ``new_gain_cuts``, ``new_robust_cuts``: counts of the cuts this round adds;
+    ``dense_t_peak`` the dense ``sigma_max(T)`` peak [-] (NaN when not checked).
+    """
+
+    round: int
+    ipopt_status: str
+    iterations: int
+    theta: tuple
+    time_s: float
+    n_speeds: int
+    max_violation_1_s: float
+    max_gain: float
+    gamma_T_frobenius: float
+    dense_t_peak: float
+    n_robust_points: int
+    n_gain_points: int
+    new_speeds: int
+    new_gain_cuts: int
+    new_robust_cuts: int
+    eig_time_per_speed_s: float
+    chosen: bool = False
+    placement: str | None = None
+
+    def to_dict(self) -> dict:
+        """One entry of ``rounds``."""
+        out = {"round": self.round, "status": self.ipopt_status, "iterations": self.iterations,
+               "theta": list(self.theta), "time_s": self.time_s, "n_speeds": self.n_speeds,
+               "max_violation_1_s": self.max_violation_1_s, "max_gain": self.max_gain,
+               "gamma_T_frobenius": self.gamma_T_frobenius, "dense_T_peak": self.dense_t_peak,
+               "n_robust_points": self.n_robust_points, "n_gain_points": self.n_gain_points,
+               "new_cuts": {"speeds": self.new_speeds, "gain": self.new_gain_cuts,
+                            "robust": self.new_robust_cuts},
+               "eig_time_per_speed_s": self.eig_time_per_speed_s, "chosen": self.chosen}
+        if self.placement is not None:
+            out["placement"] = self.placement
+        return out
+
+
+@dataclass(frozen=True)
+class CutsOutcome:
+    """Best round of the cutting-plane loop (``DesignProblem.solve_with_cuts``).
+
+    ``solve`` and ``verification`` of the chosen round, ``robust`` its dense robust check (None
+    without robustness), ``rounds`` every round, ``design_speeds_m_s`` and the cuts in force at
+    the chosen round, ``robust_bound_holds`` dense peak <= gamma_T within the cut tolerance
+    (None without robustness).
+    """
+
+    solve: Solve
+    verification: Verification
+    robust: RobustMargin | None
+    rounds: tuple
+    chosen_round: int
+    design_speeds_m_s: tuple
+    gain_ok: bool
+    robust_bound_holds: bool | None
+    robust_cuts: tuple
+    gain_cuts: tuple
+
+    @property
+    def theta(self) -> np.ndarray:
+        """Chosen coefficients (b2, b1, b0, a2, a1)."""
+        return self.solve.theta
+
+
+@dataclass(frozen=True)
+class StartRecord:
+    """One multistart run (``design.driver.run_start``): solve, cuts, verification, margin.
+
+    A failed start has ``ipopt_status`` ``"failed: <reason>"``, ``theta`` None and NaN numbers.
+
+    Attributes
+    ----------
+    start : int
+    theta0, theta : tuple
+        Start and solution (b2, b1, b0, a2, a1).
+    ipopt_status : str
+        Ipopt return status of the chosen round.
+    iterations : int
+        Ipopt iterations over all rounds.
+    max_violation_1_s, stable_to_m_s, stable_everywhere, max_gain :
+        Dense check on the design model [1/s], [m/s], -, [rad/rad].
+    meets_decay_rate, gain_ok, verified : bool
+        ``verified``: every a posteriori check holds, also on the verification model.
+    gamma_T_frobenius : float
+        Optimiser's epigraph value [-].
+    dense_t_peak_check_speeds : float
+        Dense ``sigma_max(T)`` peak at the robust check speeds [-].
+    robust : RobustMargin
+        Dense check at ``robust_speeds_m_s`` (the reported margin).
+    verification : Verification
+        Dense check on the verification model.
+    flap_positions_m, design_speeds_m_s, robust_cuts, gain_cuts : tuple
+    weights_continuous : tuple or None
+        Relaxed flap weights (placement only).
+    """
+
+    start: int
+    theta0: tuple
+    ipopt_status: str
+    success: bool
+    time_s: float
+    theta: tuple | None = None
+    iterations: int = 0
+    rounds: tuple = ()
+    max_violation_1_s: float = NAN
+    stable_to_m_s: float = NAN
+    stable_everywhere: bool = False
+    max_gain: float = NAN
+    meets_decay_rate: bool = False
+    gain_ok: bool = False
+    verified: bool = False
+    gamma_T_frobenius: float = NAN
+    dense_t_peak_check_speeds: float = NAN
+    robust_bound_holds: bool | None = None
+    robust: RobustMargin | None = None
+    verification: Verification | None = None
+    robust_cuts: tuple = ()
+    gain_cuts: tuple = ()
+    flap_positions_m: tuple = ()
+    design_speeds_m_s: tuple = ()
+    weights_continuous: tuple | None = None
+
+    @property
+    def failed(self) -> bool:
+        """No design came out of this start."""
+        return self.theta is None
+
+    @property
+    def cut_rounds(self) -> int:
+        """Re-solves after cuts."""
+        return max(len(self.rounds) - 1, 0)
+
+    @property
+    def robust_margin(self) -> float:
+        """Dense small-gain margin [-] (NaN without robustness check)."""
+        return self.robust.margin if self.robust is not None else NAN
+
+    def to_dict(self) -> dict:
+        """One entry of ``starts`` (the design speeds excluded)."""
+        out = {"start": self.start, "theta0": list(self.theta0)}
+        if self.weights_continuous is not None:
+            out["weights_continuous"] = list(self.weights_continuous)
+        if self.failed:
+            return out | {"status": self.ipopt_status, "success": self.success,
+                          "time_s": self.time_s}
+        rob = self.robust
+        return out | {
+            "theta": list(self.theta), "status": self.ipopt_status, "success": self.success,
+            "iterations": self.iterations, "time_s": self.time_s,
+            "rounds": [r.to_dict() for r in self.rounds], "cut_rounds": self.cut_rounds,
+            "max_violation_1_s": self.max_violation_1_s, "stable_to_m_s": self.stable_to_m_s,
+            "stable_everywhere": self.stable_everywhere, "max_gain": self.max_gain,
+            "meets_decay_rate": self.meets_decay_rate, "gain_ok": self.gain_ok,
+            "verified": self.verified, "gamma_T_frobenius": self.gamma_T_frobenius,
+            "dense_T_peak_check_speeds": self.dense_t_peak_check_speeds,
+            "robust_bound_holds": self.robust_bound_holds, "robust_margin": self.robust_margin,
+            "robust_T_inf_by_speed": self.t_inf_by_speed(),
+            "robust_peak_omega_by_speed": {f"{u:g}": float(o) for u, o in
+                                           zip(rob.speeds_m_s, rob.peak_omega_rad_s,
+                                               strict=True)},
+            "robust_cuts": [list(c) for c in self.robust_cuts],
+            "gain_cuts": list(self.gain_cuts),
+            "flap_positions_m": list(self.flap_positions_m),
+            "verification": self.verification.to_dict()}
+
+    def t_inf_by_speed(self) -> dict:
+        """``{speed: sup_w sigma_max(T)}`` of the reported robust check (``{}`` if none)."""
+        if self.robust is None:
+            return {}
+        return {f"{u:g}": float(t) for u, t in zip(self.robust.speeds_m_s, self.robust.t_inf,
+                                                  strict=True)}
+
+    def table_row(self, chosen: bool) -> dict:
+        """One row of ``start_table``."""
+        return {"start": self.start, "status": self.ipopt_status,
+                "iterations": self.iterations, "cut_rounds": self.cut_rounds,
+                "time_s": self.time_s, "robust_margin": self.robust_margin,
+                "gamma_T_frobenius": self.gamma_T_frobenius, "max_gain": self.max_gain,
+                "verified": bool(self.verified), "chosen": bool(chosen)}
+
+
+@dataclass(frozen=True)
+class FlapCountCheck:
+    """One evenly spaced layout of the flap-count search: ``meets_margin`` is the decay rate
+    on the dense grid of the verification model, same K(s)."""
+
+    flap_count: int
+    meets_margin: bool
+    stable_everywhere: bool
+    stable_to_m_s: float
+    max_violation_1_s: float
+
+    def to_dict(self) -> dict:
+        """One entry of ``minimum_flaps.counts``."""
+        return {"flap_count": self.flap_count, "meets_margin": self.meets_margin,
+                "stable_everywhere": self.stable_everywhere,
+                "stable_to_m_s": self.stable_to_m_s,
+                "max_violation_1_s": self.max_violation_1_s}
+
+
+@dataclass(frozen=True)
+class FlapCountSearch:
+    """Fewest evenly spaced flaps meeting the decay rate (``design.driver.minimum_flap_count``).
+
+    ``minimum`` None when no checked count meets it; ``modes`` of the verification model.
+    """
+
+    minimum: int | None
+    counts: tuple[FlapCountCheck, ...]
+    modes: int
+    criterion: str = "max Re lambda <= -sigma_req(U) on the dense grid, same K(s)"
+
+    def to_dict(self) -> dict:
+        """The ``minimum_flaps`` JSON object."""
+        return {"minimum": self.minimum, "counts": [c.to_dict() for c in self.counts],
+                "modes": self.modes, "criterion": self.criterion}
+
+
+@dataclass(frozen=True)
+class BuffetingComparison:
+    """Open- vs closed-loop max RMS buffeting response (``design.driver.buffeting_comparison``).
+
+    RMS vertical [m] and torsional [rad] response per speed [m/s] on the ``modes``-mode
+    verification model; ``status`` ``ok`` or ``failed: <reason>`` (then no numbers).
+    """
+
+    status: str
+    speeds_m_s: tuple = ()
+    modes: int = 0
+    open_loop_rms_vertical_m: tuple = ()
+    closed_loop_rms_vertical_m: tuple = ()
+    open_loop_rms_torsion_rad: tuple = ()
+    closed_loop_rms_torsion_rad: tuple = ()
+
+    def to_dict(self) -> dict:
+        """The ``buffeting`` JSON object (only ``status`` for a failure)."""
+        if self.status != "ok":
+            return {"status": self.status}
+        return {"speeds_m_s": list(self.speeds_m_s), "modes": self.modes,
+                "open_loop_rms_vertical_m": list(self.open_loop_rms_vertical_m),
+                "closed_loop_rms_vertical_m": list(self.closed_loop_rms_vertical_m),
+                "open_loop_rms_torsion_rad": list(self.open_loop_rms_torsion_rad),
+                "closed_loop_rms_torsion_rad": list(self.closed_loop_rms_torsion_rad)}

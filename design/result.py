@@ -1,0 +1,144 @@
+"""The outcome of a compensator design: :class:`DesignResult`, its JSON summary and plots."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from design.records import FlapCountSearch, StartRecord
+from design.settings import THETA_NAMES, DesignSettings
+from model.control import Controller
+
+NAN = float("nan")
+
+
+@dataclass(frozen=True)
+class DesignResult:
+    """Outcome of :func:`design.driver.design`.
+
+    Attributes
+    ----------
+    status : str
+        ``converged``, ``unverified``, ``infeasible`` or ``failed``
+        (:func:`design.driver.select_start`).
+    settings : DesignSettings
+    controller : model.control.Controller or None
+        The chosen compensator and layout (None when no start produced a design).
+    starts : tuple of StartRecord
+        Every start, in order.
+    best : StartRecord or None
+        The chosen start.
+    abscissa_speeds_m_s, abscissa_1_s : ndarray
+        Dense check grid [m/s] and the chosen design's spectral abscissa on the verification
+        model [1/s] (NaN without a design).
+    min_flaps : FlapCountSearch or None
+        Fewest evenly spaced flaps meeting the decay rate
+        (:func:`design.driver.minimum_flap_count`; None when not searched).
+    wall_time_s : float
+    extras : dict
+        ``open_loop_abscissa`` [1/s], ``closed_loop`` (state space), ``buffeting``
+        (:class:`design.records.BuffetingComparison`).
+    """
+
+    status: str
+    settings: DesignSettings
+    controller: Controller | None
+    starts: tuple[StartRecord, ...]
+    best: StartRecord | None
+    abscissa_speeds_m_s: np.ndarray
+    abscissa_1_s: np.ndarray
+    min_flaps: FlapCountSearch | None
+    wall_time_s: float
+    extras: dict = field(default_factory=dict, compare=False)
+
+    def summary(self) -> dict:
+        """JSON-ready summary (the ``bridgeflap optimise`` contract)."""
+        k = self.controller.compensator if self.controller else None
+        coeffs = ({n: getattr(k, n) for n in THETA_NAMES} if k else
+                  {n: NAN for n in THETA_NAMES})
+        b = self.best
+        margin = b.robust_margin if b is not None else NAN
+        return {
+            "status": self.status,
+            "coefficients": coeffs,
+            "flap_count": self.controller.n_flaps if self.controller else 0,
+            "max_gain": b.max_gain if b is not None else NAN,
+            "gain_limit": self.settings.gain_limit,
+            "robust_margin": margin,
+            "robust_margin_definition": "1 / max over robust_speeds_m_s and a dense frequency "
+                                        "grid of sigma_max(T(jw)), T the input complementary "
+                                        "sensitivity of the flap loop (small-gain theorem)",
+            "robust_T_inf_by_speed": b.t_inf_by_speed() if b is not None else {},
+            "gamma_T_frobenius": b.gamma_T_frobenius if b is not None else NAN,
+            "closed_loop_stable_to_m_s": b.stable_to_m_s if b is not None else NAN,
+            "design_modes": self.settings.n_modes,
+            "verification": (b.verification.to_dict()
+                             if b is not None and b.verification is not None else {}),
+            "flap_positions_m": list(b.flap_positions_m) if b is not None else [],
+            "buffeting": (self.extras["buffeting"].to_dict() if "buffeting" in self.extras
+                          else {}),
+            "sigma_min_1_s": self.settings.sigma_min_1_s,
+            "spectral_abscissa_by_speed": [
+                {"speed_m_s": float(u), "abscissa_1_s": float(a)}
+                for u, a in zip(self.abscissa_speeds_m_s, self.abscissa_1_s, strict=True)],
+            "chosen_start": b.start if b is not None else None,
+            "start_table": [s.table_row(b is not None and s.start == b.start)
+                            for s in self.starts],
+            "dense_T_peak": 1.0 / margin if margin else NAN,
+            "robust_bound_holds": b.robust_bound_holds if b is not None else None,
+            "starts": [s.to_dict() for s in self.starts],
+            "minimum_flaps": (self.min_flaps.to_dict() if self.min_flaps is not None
+                              else {"minimum": None, "counts": []}),
+            "wall_time_s": self.wall_time_s,
+            "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"},
+        }
+
+    def plot_bode(self, ax=None):
+        """|K(jw)| and phase of the designed compensator with the gain limit."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
+        k = self.controller.compensator
+        w = np.logspace(-3, 2, 600)
+        K = k.frequency_response(w)
+        ax[0].loglog(w, np.abs(K), "b-")
+        ax[0].axhline(self.settings.gain_limit, color="r", ls="--", label="gain limit")
+        ax[0].set_ylabel("|K(jw)| [rad/rad]")
+        ax[0].legend()
+        ax[1].semilogx(w, np.degrees(np.angle(K)), "b-")
+        ax[1].set_ylabel("phase [deg]")
+        ax[1].set_xlabel("omega [rad/s]")
+        for a_ in ax:
+            a_.grid(alpha=0.3, which="both")
+        ax[0].set_title("designed compensator K(s)")
+        return ax
+
+    def plot_margins(self, ax=None):
+        """Spectral abscissa against speed with the required decay rate, and the layout."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(1, 2, figsize=(11, 4))
+        ax[0].plot(self.abscissa_speeds_m_s, self.abscissa_1_s, "b-", label="closed loop")
+        ol = self.extras.get("open_loop_abscissa")
+        if ol is not None:
+            ax[0].plot(self.abscissa_speeds_m_s, ol, "k--", label="open loop")
+        U = self.abscissa_speeds_m_s
+        ax[0].plot(U, -self.settings.sigma_required(U), "r:", label="-sigma_req")
+        ax[0].axhline(0, color="k", lw=0.7)
+        ax[0].set_xlabel("U [m/s]")
+        ax[0].set_ylabel("max Re lambda [1/s]")
+        ax[0].legend()
+        ax[0].grid(alpha=0.3)
+        pos = np.asarray(self.controller.flap_strip_positions_m)
+        w = self.controller.flap_width_m
+        for x in pos:
+            ax[1].add_patch(plt.Rectangle((x - w / 2, -0.5), w, 1.0, color="tab:blue", alpha=0.6))
+        ax[1].set_xlim(-705, 705)
+        ax[1].set_ylim(-1, 1)
+        ax[1].set_xlabel("x from main-span mid-point [m]")
+        ax[1].set_yticks([])
+        ax[1].set_title(f"flap layout: {len(pos)} LE+TE flap pairs")
+        return ax

@@ -1,0 +1,190 @@
+"""Settings of the compensator design problem: :class:`DesignSettings` and its TOML file.
+
+Defaults are the Humber design of seed §6; ``runs/humber_flaps.toml`` documents every key.
+Every TOML key is a field of :class:`DesignSettings` (``[tables]`` only group them).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from model.errors import BridgeflapInputError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+#: Names of the compensator coefficients theta, ``K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s
+#: + 1)`` (:class:`model.control.Compensator`).
+THETA_NAMES = ("b2", "b1", "b0", "a2", "a1")
+
+
+def _num(field_name, v, positive=False, nonneg=False):
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise BridgeflapInputError(field_name, f"must be a number, got {v!r}")
+    v = float(v)
+    if not math.isfinite(v):
+        raise BridgeflapInputError(field_name, f"must be finite, got {v!r}")
+    if positive and v <= 0:
+        raise BridgeflapInputError(field_name, f"must be > 0, got {v!r}")
+    if nonneg and v < 0:
+        raise BridgeflapInputError(field_name, f"must be >= 0, got {v!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class DesignSettings:
+    """Definition of the design problem (defaults: Humber, seed §6; overridable by TOML).
+
+    Units: lengths [m], speeds [m/s], rates [1/s], frequencies [rad/s], gains [rad/rad].
+    """
+
+    bridge: str = "humber"
+    n_modes: int = 16
+    verification_modes: int = 16
+    flap_count: int = 25
+    flap_width_m: float = 56.4          # spanwise length of each flap pair: 1410 m / 25
+    flap_chord_m: float = 3.0           # chordwise, inside the 22 m deck chord (seed §6)
+    leading_edge: bool = True
+    trailing_edge: bool = True
+    speed_max_m_s: float = 85.0
+    design_step_m_s: float = 5.0
+    check_step_m_s: float = 0.25
+    sigma_min_1_s: float = 0.004
+    sigma_per_speed_1_m: float = 2.5e-4
+    n_eig: int = 3
+    gain_limit: float = 15.0
+    omega_min_rad_s: float = 1e-3
+    omega_max_rad_s: float = 1e2
+    n_omega: int = 120
+    robust_design_speeds_m_s: tuple = (20.0, 40.0, 60.0, 70.0, 80.0, 85.0)
+    robust_omega_min_rad_s: float = 0.02
+    robust_omega_max_rad_s: float = 10.0
+    n_robust_omega: int = 20
+    robust_speeds_m_s: tuple = (10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 85.0)
+    weight_robust: float = 1.0
+    weight_regularisation: float = 1e-3
+    weight_buffeting: float = 0.0
+    buffeting_speeds_m_s: tuple = (10.0, 20.0, 25.0)
+    optimise_placement: bool = False
+    weight_flaps: float = 0.0
+    starts: int = 2
+    seed: int = 1
+    parallel: bool = False
+    max_iter: int = 80
+    resolve_max_iter: int = 20
+    cutting_plane_rounds: int = 2
+    b_bound: float = 15.0
+    a2_bounds: tuple = (1e-3, 5.0)
+    a1_bounds: tuple = (1e-2, 10.0)
+    min_flap_counts: tuple = (25, 21, 17, 13, 9, 7, 5, 3, 1)
+    extras: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        """Validate (one field named per error)."""
+        _num("gain_limit", self.gain_limit, positive=True)
+        for name in ("flap_width_m", "flap_chord_m", "speed_max_m_s", "design_step_m_s",
+                     "check_step_m_s", "omega_min_rad_s", "omega_max_rad_s",
+                     "robust_omega_min_rad_s", "robust_omega_max_rad_s"):
+            _num(name, getattr(self, name), positive=True)
+        for name in ("sigma_min_1_s", "sigma_per_speed_1_m", "weight_regularisation",
+                     "weight_buffeting", "weight_robust", "weight_flaps"):
+            _num(name, getattr(self, name), nonneg=True)
+        for name in ("n_modes", "verification_modes", "flap_count", "n_eig", "n_omega",
+                     "n_robust_omega", "starts", "max_iter", "resolve_max_iter"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise BridgeflapInputError(name, f"must be a positive integer, got {v!r}")
+        if self.omega_max_rad_s <= self.omega_min_rad_s:
+            raise BridgeflapInputError("omega_max_rad_s", "must exceed omega_min_rad_s")
+        if self.robust_omega_max_rad_s <= self.robust_omega_min_rad_s:
+            raise BridgeflapInputError("robust_omega_max_rad_s",
+                                       "must exceed robust_omega_min_rad_s")
+        if self.a2_bounds[0] <= 0 or self.a1_bounds[0] <= 0:
+            raise BridgeflapInputError("a2_bounds", "lower bounds of a2 and a1 must be > 0 "
+                                                    "(stable, proper compensator)")
+        if not (self.leading_edge or self.trailing_edge):
+            raise BridgeflapInputError("trailing_edge", "no flap fitted")
+        for name in ("robust_design_speeds_m_s", "robust_speeds_m_s", "buffeting_speeds_m_s"):
+            for v in getattr(self, name):
+                _num(name, v, positive=True)
+        if not isinstance(self.optimise_placement, bool):
+            raise BridgeflapInputError("optimise_placement", "must be true or false")
+
+    def positions(self, count: int | None = None) -> np.ndarray:
+        """Evenly spaced, touching flap centres from the main-span mid-point [m]."""
+        count = self.flap_count if count is None else int(count)
+        return (np.arange(count) - 0.5 * (count - 1)) * self.flap_width_m
+
+    def design_speeds(self) -> np.ndarray:
+        """Design grid [m/s], 0 .. speed_max inclusive."""
+        n = int(round(self.speed_max_m_s / self.design_step_m_s))
+        return np.unique(np.append(np.linspace(0.0, n * self.design_step_m_s, n + 1),
+                                   self.speed_max_m_s))
+
+    def check_speeds(self) -> np.ndarray:
+        """Dense verification grid [m/s]."""
+        n = int(round(self.speed_max_m_s / self.check_step_m_s))
+        return np.linspace(0.0, self.speed_max_m_s, n + 1)
+
+    def sigma_required(self, U) -> np.ndarray:
+        """Required decay rate ``min(sigma_min, sigma_per_speed U)`` [1/s] (``sigma_min`` at 0)."""
+        U = np.asarray(U, float)
+        return np.where(U > 0, np.minimum(self.sigma_min_1_s, self.sigma_per_speed_1_m * U),
+                        self.sigma_min_1_s)
+
+
+_TOML_KEYS = {f for f in DesignSettings.__dataclass_fields__ if f != "extras"}
+
+
+def load_settings(path=None, **overrides) -> DesignSettings:
+    """Defaults (embedded here) overridden by a TOML file and keyword arguments.
+
+    Raises
+    ------
+    BridgeflapInputError
+        Unknown key, bad value, missing or unreadable file.
+    """
+    data = {}
+    if path is not None:
+        p = Path(path)
+        try:
+            data = tomllib.loads(p.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise BridgeflapInputError("design", f"file not found: {p}") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise BridgeflapInputError("design", f"invalid TOML in {p}: {exc}") from None
+    flat = {}
+    for key, value in data.items():
+        if isinstance(value, dict):         # allow [tables] for grouping
+            for k, v in value.items():
+                flat[k] = v
+        else:
+            flat[key] = value
+    flat.update(overrides)
+    unknown = sorted(set(flat) - _TOML_KEYS)
+    if unknown:
+        raise BridgeflapInputError(unknown[0], "unknown design setting")
+    for key in ("a2_bounds", "a1_bounds", "min_flap_counts", "robust_speeds_m_s",
+                "robust_design_speeds_m_s", "buffeting_speeds_m_s"):
+        if key in flat:
+            flat[key] = tuple(flat[key])
+    return DesignSettings(**flat)
+
+
+def quick_settings(settings: DesignSettings) -> DesignSettings:
+    """Reduced settings for CI/--quick: one start, coarser design grid, one cut round,
+    fewer flap counts.
+
+    The design model keeps its modes (a design on 8 modes flutters at 79.75 m/s on the
+    16-mode model); the dense verification on ``verification_modes`` is unchanged and the
+    status says whether it holds.
+    """
+    return replace(settings, starts=1, design_step_m_s=max(settings.design_step_m_s, 10.0),
+                   cutting_plane_rounds=1, min_flap_counts=(25, 13, 5))
