@@ -11,6 +11,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from design.analyses import DEFAULT_MODES, DEFAULT_SPEEDS
+from design.options import parse_range
+
 if TYPE_CHECKING:
     from design.study import StudyResult
 
@@ -20,7 +23,7 @@ __all__ = ["PAPER", "fig5", "study_report"]
 PAPER = {"flutter_speed_m_s": 65.0, "divergence_speed_m_s": 74.0}
 
 
-def fig5(spec, controller, n_modes: int = 16, quick: bool = False):
+def fig5(spec, controller, n_modes: int = DEFAULT_MODES, quick: bool = False):
     """Seed Fig. 5: closed-loop root locus 0-85 m/s (left) and buffeting with and without
     the flaps (right; the open loop is NaN beyond its flutter speed, never clipped)."""
     import matplotlib.pyplot as plt
@@ -28,7 +31,7 @@ def fig5(spec, controller, n_modes: int = 16, quick: bool = False):
     from model.buffeting import buffeting
     from model.flaps import closed_loop_flutter
 
-    speeds = np.arange(0.0, 85.0 + 1e-9, 1.0 if quick else 0.5)
+    speeds = parse_range("0:85:1" if quick else DEFAULT_SPEEDS, "speeds", 0.0)
     cl = closed_loop_flutter(spec, controller, speeds, n_modes)
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4.5), layout="constrained")
     sw = cl.base.sweep
