@@ -212,7 +212,7 @@ def _run_erection(spec, opts, context) -> Outcome:
 
     res = erection(spec, grid(opts["fractions"], "fractions"),
                    grid(opts["speeds"], "speeds", 0.0), int(opts["modes"]),
-                   progress=lambda f: context.say(f"  erection stage {f:.3f} done"))
+                   progress=lambda f: context.say(f"erection stage {f:.3f} done"))
     bad = [st for st in res.stages if st["flutter_status"] != "converged"]
     status = "ok" if not bad else (f"{len(bad)} of {len(res.stages)} stages: flutter "
                                    + ", ".join(sorted({st['flutter_status'] for st in bad})))
@@ -234,16 +234,20 @@ def _run_sensitivity(spec, opts, context) -> Outcome:
     return Outcome(status, res.summary(), {}, _figures(context, "sensitivity", res), res)
 
 
-def _run_buffeting(spec, opts, context) -> Outcome:
-    import inspect
+#: options of :func:`model.buffeting.buffeting` a study or DOE file may set (``modes`` is its
+#: ``n_modes``)
+_BUFFETING_OPTIONS = ("speeds", "modes", "spectrum", "admittance", "coherence_decay", "method",
+                      "turbulence_intensity", "deck_height_m", "length_scale_m", "half_chord_m",
+                      "allow_unstable", "omega_max", "n_base", "peaks_per_mode", "half_widths",
+                      "convergence_tol", "mc_records", "mc_seed", "mc_points")
 
+
+def _run_buffeting(spec, opts, context) -> Outcome:
     from model.buffeting import buffeting
 
     opts = dict(opts)
-    opts["speeds"] = grid(opts["speeds"], "buffeting.speeds", 0.0)
-    opts.setdefault("n_modes", opts.pop("modes"))
-    accepted = inspect.signature(buffeting).parameters
-    res = buffeting(spec, **{k: v for k, v in opts.items() if k in accepted})
+    speeds = grid(opts.pop("speeds"), "buffeting.speeds", 0.0)
+    res = buffeting(spec, speeds, n_modes=int(opts.pop("modes")), **opts)
     s = res.summary()
     arr = {k: np.asarray(s[k], dtype=float) for k in ("speeds_m_s", "rms_vertical_m",
                                                       "rms_vertical_over_width") if k in s}
@@ -295,7 +299,8 @@ ANALYSES: Mapping[str, Analysis] = _table(
                              modes=DEFAULT_MODES),
                       ("fractions", "speeds", "modes")),
     buffeting=Analysis("buffeting", _run_buffeting,
-                       _table(speeds="4:25:1", modes=DEFAULT_MODES), None, _buffeting_case),
+                       _table(speeds="4:25:1", modes=DEFAULT_MODES), _BUFFETING_OPTIONS,
+                       _buffeting_case),
     sensitivity=Analysis("sensitivity", _run_sensitivity,
                          _table(parameters=DEFAULT_PARAMETERS, speeds="0:120:1",
                                 modes=DEFAULT_MODES, check=True),

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from design import cmd_buffeting, cmd_optimise, cmd_study
-from design.analyses import ANALYSES, DEFAULT_MODES
+from design.analyses import ANALYSES, DEFAULT_MODES, RunContext
 from design.cli_common import (
     Parser,
     add_common,
@@ -71,12 +71,18 @@ def cmd_modes(args):
     emit(args, payload, "\n".join(lines))
 
 
+def _run(name: str, spec, **options):
+    """The result of registered analysis ``name``: the runner that studies and DOE cases use."""
+    entry = ANALYSES[name]
+    context = RunContext(figures=False, progress=log)
+    return entry.run(spec, {**entry.defaults, **options}, context).result
+
+
 def cmd_frequency_ratio(args):
-    from model.analysis import frequency_ratio
     from model.spec import load_bridge
 
     check_plot_target(args)
-    res = frequency_ratio(load_bridge(args.bridge), parse_range(args.fractions, "fractions"))
+    res = _run("frequency_ratio", load_bridge(args.bridge), fractions=args.fractions)
     lines = ["erected  ratio(full GJ)  ratio(half GJ)"]
     lines += [f"{s['erected_fraction']:7.3f}  {s['ratio_full_gj']:14.3f}  "
               f"{s['ratio_half_gj']:14.3f}"
@@ -89,20 +95,19 @@ def cmd_frequency_ratio(args):
 def cmd_flutter(args):
     import dataclasses
 
-    from model.analysis import flutter
-
     check_plot_target(args)
     spec = spec_from_args(args)
     if args.no_added_inertia:
         spec = dataclasses.replace(spec, aero=dataclasses.replace(spec.aero, added_inertia=False))
-    speeds = parse_range(args.speeds, "speeds", 0.0)
     controller = controller_from_args(args)
     if controller is not None:
         from model.flaps import closed_loop_flutter
 
-        res = closed_loop_flutter(spec, controller, speeds, n_modes=args.modes)
+        res = closed_loop_flutter(spec, controller, parse_range(args.speeds, "speeds", 0.0),
+                                  n_modes=args.modes)
     else:
-        res = flutter(spec, speeds, n_modes=args.modes, order=args.order, rfa=args.rfa)
+        res = _run("flutter", spec, speeds=args.speeds, modes=args.modes, order=args.order,
+                   rfa=args.rfa)
     s = res.summary()
     text = (f"{spec.name} (erected {spec.erected_fraction:.2f}, {s['modes_retained']} modes, "
             f"{s['order']} RFA {s['rfa']}, b = {spec.deck.half_chord_m} m)\n"
@@ -116,13 +121,11 @@ def cmd_flutter(args):
 
 
 def cmd_erection(args):
-    from model.analysis import erection
     from model.spec import load_bridge
 
     check_plot_target(args)
-    res = erection(load_bridge(args.bridge), parse_range(args.fractions, "fractions"),
-                   parse_range(args.speeds, "speeds", 0.0), args.modes,
-                   progress=lambda f: log(f"erection stage {f:.3f} done"))
+    res = _run("erection", load_bridge(args.bridge), fractions=args.fractions,
+               speeds=args.speeds, modes=args.modes)
     lines = ["erected  flutter [m/s]  status         divergence [m/s]  status"]
     for s in res.stages:
         lines.append(f"{s['erected_fraction']:7.3f}  {s['flutter_speed_m_s']:13.2f}  "

@@ -499,20 +499,6 @@ def test_bad_grids_raise(coarse, grid):
         assert "speeds" in str(info.value)
 
 
-@pytest.mark.parametrize("text", ["5:1:1", "0:10:0", "0:10:-1", "abc", "1:2", ""])
-def test_bad_grid_text_raises(text):
-    """``parse_range`` (the CLI's grid reader) names the field."""
-    with pytest.raises(BridgeflapInputError) as info:
-        parse_range(text, "speeds", 0.0)
-    assert info.value.field == "speeds"
-
-
-def test_empty_grid_reason():
-    """'5:1:1' is an empty grid, not a non-numeric one: the message should say so."""
-    with pytest.raises(BridgeflapInputError, match="empty"):
-        parse_range("5:1:1", "speeds", 0.0)
-
-
 # ----------------------------------------------------------------------- erection
 
 

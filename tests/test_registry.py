@@ -18,7 +18,9 @@ import model.analysis
 from design.analyses import ANALYSES, DEFAULT_MODES, DEFAULT_SPEEDS, RunContext
 from design.cli import COMMANDS, build_parser, main
 from design.experiments import doe_from_dict
+from design.options import parse_range
 from design.study import study_from_dict
+from model.errors import BridgeflapInputError
 
 
 def test_default_modes_are_defined_once():
@@ -102,3 +104,26 @@ def test_library_import_leaves_the_environment_alone():
     r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                        timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
+
+
+# ------------------------------------------------------------------ grid text (design.options)
+
+
+@pytest.mark.parametrize("text", ["5:1:1", "0:10:0", "0:10:-1", "abc", "1:2", ""])
+def test_bad_grid_text_raises(text):
+    """``parse_range`` (the CLI's grid reader) names the field."""
+    with pytest.raises(BridgeflapInputError) as info:
+        parse_range(text, "speeds", 0.0)
+    assert info.value.field == "speeds"
+
+
+def test_empty_grid_reason():
+    """'5:1:1' is an empty grid, not a non-numeric one: the message should say so."""
+    with pytest.raises(BridgeflapInputError, match="empty"):
+        parse_range("5:1:1", "speeds", 0.0)
+
+
+def test_default_grid_is_the_seed_range():
+    """0 to 85 m/s by 0.5 (seed Fig. 3), both ends included: 171 speeds."""
+    u = parse_range(DEFAULT_SPEEDS, "speeds", 0.0)
+    assert u.size == 171 and u[0] == 0.0 and u[-1] == 85.0
