@@ -113,22 +113,33 @@ def flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
 
 
 @dataclass(frozen=True)
-class ErectionResult:
-    """Flutter and divergence against the erected fraction of the main span."""
+class _StagesResult:
+    """Rows of numbers (units in the key names) per erected fraction of one bridge."""
 
     bridge: str
     stages: tuple
 
     def summary(self) -> dict:
-        """JSON-ready stages: flutter/divergence speeds [m/s] and statuses per fraction."""
+        """JSON-ready ``{"bridge", "stages"}``, one dict per erected fraction."""
         return {"bridge": self.bridge, "stages": list(self.stages)}
+
+
+def _axes(ax):
+    """``ax``, or the axes of a new 6 x 4 in figure."""
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        _, ax = plt.subplots(figsize=(6, 4))
+    return ax
+
+
+@dataclass(frozen=True)
+class ErectionResult(_StagesResult):
+    """Flutter and divergence speeds [m/s] and statuses against the erected fraction."""
 
     def plot(self, ax=None):
         """Flutter and divergence speed against deck completion (seed Fig. 3 right)."""
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            _, ax = plt.subplots(figsize=(6, 4))
+        ax = _axes(ax)
         f = np.array([s["erected_fraction"] for s in self.stages]) * 100
         uf = np.array([np.nan if s["flutter_speed_m_s"] is None else s["flutter_speed_m_s"]
                        for s in self.stages], dtype=float)
@@ -170,22 +181,12 @@ def erection(spec: BridgeSpec, fractions, speeds, n_modes: int = DEFAULT_MODES,
 
 
 @dataclass(frozen=True)
-class FrequencyRatioResult:
-    """First torsional over first vertical symmetric frequency against erected fraction."""
-
-    bridge: str
-    stages: tuple
-
-    def summary(self) -> dict:
-        """JSON-ready stages: frequency ratios [-] and TS1/VS1 frequencies [Hz] per fraction."""
-        return {"bridge": self.bridge, "stages": list(self.stages)}
+class FrequencyRatioResult(_StagesResult):
+    """First torsional over first vertical symmetric frequency [-] against erected fraction."""
 
     def plot(self, ax=None):
         """Seed Fig. 2 style plot."""
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            _, ax = plt.subplots(figsize=(6, 4))
+        ax = _axes(ax)
         f = [100 * s["erected_fraction"] for s in self.stages]
         ax.plot(f, [s["ratio_full_gj"] for s in self.stages], "o-", label="full GJ")
         ax.plot(f, [s["ratio_half_gj"] for s in self.stages], "s--", label="half GJ")
