@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,6 +31,7 @@ from design.cli_common import (
     save_plot,
     spec_from_args,
 )
+from design.io import atomic_write
 from design.options import parse_range
 from model.errors import BridgeflapError, BridgeflapInputError
 
@@ -216,20 +216,12 @@ def cmd_state_space(args):
     data = {"A": A, "B": B, "C": C, "D": D, "state_names": np.array(names),
             "input_names": np.array(inputs), "output_names": np.array(outputs),
             "wind_speed_m_s": np.array(args.speed)}
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=out.suffix)
-    os.close(fd)
-    try:
-        if out.suffix.lower() == ".npz":
-            with open(tmp, "wb") as fh:
-                np.savez(fh, **data)
-        else:
-            import scipy.io
+    if out.suffix.lower() == ".npz":
+        atomic_write(out, lambda fh: np.savez(fh, **data))
+    else:
+        import scipy.io
 
-            scipy.io.savemat(tmp, data)
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        atomic_write(out, lambda fh: scipy.io.savemat(fh, data))
     payload = {"out": str(out), "states": int(A.shape[0]), "inputs": int(B.shape[1]),
                "outputs": int(C.shape[0]), "wind_speed_m_s": args.speed,
                "spectral_abscissa_1_s": float(np.linalg.eigvals(A).real.max())}

@@ -12,12 +12,11 @@ import argparse
 import json
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from design.io import to_jsonable
+from design.io import atomic_write, to_jsonable
 from model.errors import BridgeflapInputError
 
 __all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",
@@ -103,15 +102,8 @@ def save_figure(fig, path: str | Path) -> Path:
     """Save a matplotlib figure atomically (temp file in the same folder, then rename)."""
     path = Path(path)
     _check_figure_path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=130, bbox_inches="tight")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    return atomic_write(path, lambda fh: fig.savefig(fh, format=path.suffix[1:].lower(), dpi=130,
+                                                     bbox_inches="tight"))
 
 
 def save_plot(result, path) -> None:

@@ -34,6 +34,7 @@ from model.errors import BridgeflapInputError
 
 __all__ = [
     "atomic_savez",
+    "atomic_write",
     "atomic_write_json",
     "atomic_write_text",
     "default_out_dir",
@@ -118,8 +119,21 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
-def _atomic_write(path: str | os.PathLike, write: Callable[[BinaryIO], None]) -> Path:
-    """Write through ``write(file)`` into a temporary sibling of ``path``, then replace."""
+def atomic_write(path: str | os.PathLike, write: Callable[[BinaryIO], None]) -> Path:
+    """Write through ``write(file)`` into a temporary sibling of ``path``, then replace.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Target file; its folder must exist.
+    write : callable
+        ``write(handle)`` writes the content to a binary file handle.
+
+    Returns
+    -------
+    pathlib.Path
+        The target path.
+    """
     target = Path(path)
     folder = target.parent
     # os.open with mode 0o666 lets the process umask set the permissions, as for open(); a
@@ -158,7 +172,7 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
         The target path.
     """
     data = text.encode("utf-8")
-    return _atomic_write(path, lambda handle: handle.write(data))
+    return atomic_write(path, lambda handle: handle.write(data))
 
 
 def atomic_write_json(path: str | os.PathLike, obj: Any, *, indent: int | None = 2) -> Path:
@@ -204,7 +218,7 @@ def atomic_savez(path: str | os.PathLike, **arrays: Any) -> Path:
     pathlib.Path
         The target path.
     """
-    return _atomic_write(path, lambda handle: np.savez(handle, **arrays))
+    return atomic_write(path, lambda handle: np.savez(handle, **arrays))
 
 
 def ensure_writable_dir(path: str | os.PathLike, field: str = "out") -> Path:
