@@ -26,7 +26,8 @@ from design.options import check_int, check_keys, plain_name, read_definition, r
 from model.errors import BridgeflapInputError
 from model.spec import PARAMETER_PATHS
 
-__all__ = ["DOE_ANALYSES", "DoeConfig", "DoeResult", "doe_from_dict", "load_doe", "run_doe"]
+__all__ = ["DOE_ANALYSES", "DoeConfig", "DoeParameter", "DoeResult", "doe_from_dict", "load_doe",
+           "run_doe"]
 
 #: registered analyses with a DOE case row
 DOE_ANALYSES = tuple(name for name, entry in ANALYSES.items() if entry.case is not None)
@@ -39,6 +40,27 @@ _DOE_KEYS = {"name", "bridge", "analysis", "options", "design", "parameters", "q
 
 
 @dataclass(frozen=True)
+class DoeParameter:
+    """One varied input: a range ``[low, high]`` in its SI unit, or explicit levels."""
+
+    low: float | None = None
+    high: float | None = None
+    values: tuple[float, ...] | None = None
+
+    def levels(self, count: int) -> list[float]:
+        """The explicit levels, or ``count`` equally spaced points of the range."""
+        if self.values is not None:
+            return list(self.values)
+        return np.linspace(self.low, self.high, count).tolist()
+
+    def as_dict(self) -> dict:
+        """``{"values": [...]}`` or ``{"range": (low, high)}`` (the file's spelling)."""
+        if self.values is not None:
+            return {"values": list(self.values)}
+        return {"range": (self.low, self.high)}
+
+
+@dataclass(frozen=True)
 class DoeConfig:
     """A resolved DOE definition: bridge, analysis and its options, design and parameters."""
 
@@ -47,7 +69,7 @@ class DoeConfig:
     analysis: str
     options: dict
     kind: str
-    parameters: dict  # path -> {"range": (lo, hi)} or {"values": [...]}
+    parameters: dict  # dotted path -> DoeParameter
     levels: int = 3
     n: int = 16
     seed: int = 1
@@ -58,7 +80,7 @@ class DoeConfig:
         """JSON-ready resolved configuration."""
         return {"name": self.name, "bridge": self.bridge, "analysis": self.analysis,
                 "options": dict(self.options), "kind": self.kind,
-                "parameters": {k: dict(v) for k, v in self.parameters.items()},
+                "parameters": {k: v.as_dict() for k, v in self.parameters.items()},
                 "levels": self.levels, "n": self.n, "seed": self.seed, "quick": self.quick,
                 "source": self.source}
 
@@ -67,12 +89,9 @@ class DoeConfig:
         from design.designs import make_design
 
         if self.kind == "full_factorial":
-            levels = {}
-            for p, d in self.parameters.items():
-                levels[p] = (list(d["values"]) if "values" in d else
-                             np.linspace(d["range"][0], d["range"][1], self.levels).tolist())
-            return make_design("full_factorial", levels=levels)
-        return make_design(self.kind, ranges={p: tuple(d["range"])
+            return make_design("full_factorial", levels={
+                p: d.levels(self.levels) for p, d in self.parameters.items()})
+        return make_design(self.kind, ranges={p: (d.low, d.high)
                                               for p, d in self.parameters.items()},
                            n=self.n, seed=self.seed)
 
@@ -163,7 +182,7 @@ def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
             if kind != "full_factorial":
                 raise BridgeflapInputError(fld, f"explicit values need a full-factorial design, "
                                                 f"not {kind}")
-            params[path] = {"values": [float(v) for v in vals]}
+            params[path] = DoeParameter(values=tuple(float(v) for v in vals))
             continue
         if not (isinstance(spec, list) and len(spec) == 2 and all(
                 isinstance(v, int | float) and not isinstance(v, bool) for v in spec)):
@@ -171,7 +190,7 @@ def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
         lo, hi = float(spec[0]), float(spec[1])
         if not (np.isfinite(lo) and np.isfinite(hi)) or not lo < hi:
             raise BridgeflapInputError(fld, f"empty range [{lo}, {hi}] (need lo < hi)")
-        params[path] = {"range": (lo, hi)}
+        params[path] = DoeParameter(low=lo, high=hi)
     return DoeConfig(name=name, bridge=bridge, analysis=analysis, options=options, kind=kind,
                      parameters=params, levels=levels, n=n, seed=seed, quick=bool(quick),
                      source=source)
