@@ -19,7 +19,8 @@ import tempfile
 import time
 
 from design.cases import flutter_case
-from design.doe import latin_hypercube, run_batch
+from design.designs import latin_hypercube
+from design.doe import run_batch
 
 OPTIONS = {"speeds": "0:120:2", "modes": 8}
 RANGES = {"deck.gj_nm2": (2.8e11, 4.7e11), "cable.main_sag_m": (110.0, 125.0)}

@@ -39,9 +39,11 @@ from pathlib import Path
 import numpy as np
 import scipy
 
+from design.analyses import DEFAULT_SPEEDS
 from design.io import to_jsonable
+from design.options import parse_range
 from model import stability
-from model.analysis import DEFAULT_SPEEDS, bridge_system, modal_model, parse_range
+from model.analysis import bridge_system, modal_model
 from model.rfa import get_rfa
 from model.spec import load_bridge
 

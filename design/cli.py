@@ -1,102 +1,43 @@
-"""The ``bridgeflap`` command line.
+"""The ``bridgeflap`` command line: an explicit table of commands (:data:`COMMANDS`).
 
 Every command takes ``--json`` and then prints exactly one JSON object on stdout (numbers with
 units in the key names, statuses; NaN as ``null``); progress and logs go to stderr. Bad input
 gives one line ``bridgeflap: error: <field>: <reason>`` on stderr and exit status 2, with nothing
-written.
+written. Option defaults shared with studies and DOE files come from the registry
+:data:`design.analyses.ANALYSES`.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
-import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from design import cmd_buffeting, cmd_optimise, cmd_study
+from design.analyses import ANALYSES, DEFAULT_MODES, RunContext
+from design.cli_common import (
+    Parser,
+    add_common,
+    check_plot_target,
+    check_writable_parent,
+    controller_from_args,
+    emit,
+    log,
+    save_plot,
+    spec_from_args,
+)
+from design.io import atomic_write
+from design.options import parse_range
 from model.errors import BridgeflapError, BridgeflapInputError
 
+__all__ = ["COMMANDS", "Command", "build_parser", "main"]
+
 EXIT_BAD_INPUT = 2
-
-
-class _Parser(argparse.ArgumentParser):
-    """Argument parser whose errors are one line and exit status 2."""
-
-    def error(self, message):  # noqa: D102 - argparse API
-        raise BridgeflapInputError("arguments", message)
-
-
-def _emit(args, payload: dict, text: str) -> None:
-    from design.io import to_jsonable
-
-    if getattr(args, "json", False):
-        sys.stdout.write(json.dumps(to_jsonable(payload), allow_nan=False) + "\n")
-    else:
-        sys.stdout.write(text.rstrip("\n") + "\n")
-
-
-def _log(msg: str) -> None:
-    sys.stderr.write(msg + "\n")
-    sys.stderr.flush()
-
-
-def _spec(args):
-    from model.spec import load_bridge
-
-    spec = load_bridge(args.bridge)
-    if getattr(args, "erection", None) is not None:
-        spec = spec.erected(args.erection)
-    return spec
-
-
-def save_figure(fig, path: str | Path) -> Path:
-    """Save a matplotlib figure atomically (temp file in the same folder, then rename)."""
-    path = Path(path)
-    if path.suffix.lower() not in (".png", ".pdf", ".svg"):
-        raise BridgeflapInputError("plot", f"unsupported figure type {path.suffix!r} "
-                                           "(use .png, .pdf or .svg)")
-    _check_writable_parent("plot", path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=130, bbox_inches="tight")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
-
-
-def _check_writable_parent(field: str, path: Path) -> None:
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir() or not os.access(parent, os.W_OK):
-        raise BridgeflapInputError(field, f"folder missing or not writable: {parent}")
-    if path.is_dir():
-        raise BridgeflapInputError(field, f"is a folder, not a file: {path}")
-
-
-def _check_plot_target(args) -> None:
-    if getattr(args, "plot", None):
-        p = Path(args.plot)
-        if p.suffix.lower() not in (".png", ".pdf", ".svg"):
-            raise BridgeflapInputError("plot", f"unsupported figure type {p.suffix!r}")
-        _check_writable_parent("plot", p)
-
-
-def _plot(result, path):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    ax = result.plot()
-    fig = (ax[0] if isinstance(ax, list | tuple | np.ndarray) else ax).figure
-    save_figure(fig, path)
-    plt.close(fig)
-    _log(f"figure written: {path}")
 
 
 # ------------------------------------------------------------------------------ commands
@@ -105,7 +46,7 @@ def _plot(result, path):
 def cmd_modes(args):
     from model.analysis import modal_model
 
-    spec = _spec(args)
+    spec = spec_from_args(args)
     if args.count < 1:
         raise BridgeflapInputError("count", "must be at least 1")
     modal = modal_model(spec)
@@ -126,50 +67,47 @@ def cmd_modes(args):
                      f"{m['frequency_hz']:8.4f} {100 * m['damping_ratio']:8.3f}"
                      f" {m['main_span_share']:9.2f}")
     if args.plot:
-        _plot(modal, args.plot)
-    _emit(args, payload, "\n".join(lines))
+        save_plot(modal, args.plot)
+    emit(args, payload, "\n".join(lines))
+
+
+def _run(name: str, spec, **options):
+    """The result of registered analysis ``name``: the runner that studies and DOE cases use."""
+    entry = ANALYSES[name]
+    context = RunContext(figures=False, progress=log)
+    return entry.run(spec, {**entry.defaults, **options}, context).result
 
 
 def cmd_frequency_ratio(args):
-    from model.analysis import frequency_ratio
     from model.spec import load_bridge
 
-    _check_plot_target(args)
-    res = frequency_ratio(load_bridge(args.bridge), args.fractions)
+    check_plot_target(args)
+    res = _run("frequency_ratio", load_bridge(args.bridge), fractions=args.fractions)
     lines = ["erected  ratio(full GJ)  ratio(half GJ)"]
     lines += [f"{s['erected_fraction']:7.3f}  {s['ratio_full_gj']:14.3f}  "
               f"{s['ratio_half_gj']:14.3f}"
               for s in res.stages]
     if args.plot:
-        _plot(res, args.plot)
-    _emit(args, res.summary(), "\n".join(lines))
-
-
-def _controller(args):
-    if getattr(args, "controller", None):
-        from model.control import load_controller
-
-        return load_controller(args.controller)
-    return None
+        save_plot(res, args.plot)
+    emit(args, res.summary(), "\n".join(lines))
 
 
 def cmd_flutter(args):
     import dataclasses
 
-    from model.analysis import flutter, parse_range
-
-    _check_plot_target(args)
-    spec = _spec(args)
+    check_plot_target(args)
+    spec = spec_from_args(args)
     if args.no_added_inertia:
         spec = dataclasses.replace(spec, aero=dataclasses.replace(spec.aero, added_inertia=False))
-    speeds = parse_range(args.speeds, "speeds", 0.0)
-    controller = _controller(args)
+    controller = controller_from_args(args)
     if controller is not None:
         from model.flaps import closed_loop_flutter
 
-        res = closed_loop_flutter(spec, controller, speeds, n_modes=args.modes)
+        res = closed_loop_flutter(spec, controller, parse_range(args.speeds, "speeds", 0.0),
+                                  n_modes=args.modes)
     else:
-        res = flutter(spec, speeds, n_modes=args.modes, order=args.order, rfa=args.rfa)
+        res = _run("flutter", spec, speeds=args.speeds, modes=args.modes, order=args.order,
+                   rfa=args.rfa)
     s = res.summary()
     text = (f"{spec.name} (erected {spec.erected_fraction:.2f}, {s['modes_retained']} modes, "
             f"{s['order']} RFA {s['rfa']}, b = {spec.deck.half_chord_m} m)\n"
@@ -178,25 +116,24 @@ def cmd_flutter(args):
             f"divergence: {s['divergence_speed_m_s']:.2f} m/s [{s['divergence_status']}]"
             f" (static check {s['divergence_static_speed_m_s']:.2f} m/s)")
     if args.plot:
-        _plot(res, args.plot)
-    _emit(args, s, text)
+        save_plot(res, args.plot)
+    emit(args, s, text)
 
 
 def cmd_erection(args):
-    from model.analysis import erection
     from model.spec import load_bridge
 
-    _check_plot_target(args)
-    res = erection(load_bridge(args.bridge), args.fractions, args.speeds, args.modes,
-                   progress=lambda f: _log(f"erection stage {f:.3f} done"))
+    check_plot_target(args)
+    res = _run("erection", load_bridge(args.bridge), fractions=args.fractions,
+               speeds=args.speeds, modes=args.modes)
     lines = ["erected  flutter [m/s]  status         divergence [m/s]  status"]
     for s in res.stages:
         lines.append(f"{s['erected_fraction']:7.3f}  {s['flutter_speed_m_s']:13.2f}  "
                      f"{s['flutter_status']:13s}  {s['divergence_speed_m_s']:16.2f}  "
                      f"{s['divergence_status']}")
     if args.plot:
-        _plot(res, args.plot)
-    _emit(args, res.summary(), "\n".join(lines))
+        save_plot(res, args.plot)
+    emit(args, res.summary(), "\n".join(lines))
 
 
 def cmd_section(args):
@@ -227,7 +164,7 @@ def cmd_section(args):
             f"[{out['flutter_status']}] at {out['flutter_frequency_hz']:.4f} Hz; divergence "
             f"{out['divergence_speed_m_s']:.3f} m/s [{out['divergence_status']}]; "
             f"Selberg estimate {out['selberg_flutter_speed_m_s']:.3f} m/s")
-    _emit(args, out, text)
+    emit(args, out, text)
 
 
 def _selberg(args) -> float:
@@ -243,8 +180,6 @@ def _selberg(args) -> float:
 
 
 def _speeds_for_section(args):
-    from model.analysis import parse_range
-
     if args.speeds:
         return parse_range(args.speeds, "speeds", 0.0)
     # default grid: up to 3x Selberg's estimate or 20 b omega_theta, 400 points
@@ -255,14 +190,14 @@ def _speeds_for_section(args):
 def cmd_state_space(args):
     from model.analysis import bridge_system
 
-    spec = _spec(args)
+    spec = spec_from_args(args)
     if not (np.isfinite(args.speed) and args.speed >= 0):
         raise BridgeflapInputError("speed", f"must be a non-negative number, got {args.speed}")
     out = Path(args.out)
     if out.suffix.lower() not in (".npz", ".mat"):
         raise BridgeflapInputError("out", "must end in .npz or .mat")
-    _check_writable_parent("out", out)
-    controller = _controller(args)
+    check_writable_parent("out", out)
+    controller = controller_from_args(args)
     if controller is not None:
         from model.flaps import closed_loop_state_space
 
@@ -281,24 +216,16 @@ def cmd_state_space(args):
     data = {"A": A, "B": B, "C": C, "D": D, "state_names": np.array(names),
             "input_names": np.array(inputs), "output_names": np.array(outputs),
             "wind_speed_m_s": np.array(args.speed)}
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=out.suffix)
-    os.close(fd)
-    try:
-        if out.suffix.lower() == ".npz":
-            with open(tmp, "wb") as fh:
-                np.savez(fh, **data)
-        else:
-            import scipy.io
+    if out.suffix.lower() == ".npz":
+        atomic_write(out, lambda fh: np.savez(fh, **data))
+    else:
+        import scipy.io
 
-            scipy.io.savemat(tmp, data)
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        atomic_write(out, lambda fh: scipy.io.savemat(fh, data))
     payload = {"out": str(out), "states": int(A.shape[0]), "inputs": int(B.shape[1]),
                "outputs": int(C.shape[0]), "wind_speed_m_s": args.speed,
                "spectral_abscissa_1_s": float(np.linalg.eigvals(A).real.max())}
-    _emit(args, payload, f"wrote {out}: {A.shape[0]} states, {B.shape[1]} inputs, "
+    emit(args, payload, f"wrote {out}: {A.shape[0]} states, {B.shape[1]} inputs, "
                          f"{C.shape[0]} outputs at U = {args.speed} m/s")
 
 
@@ -311,60 +238,53 @@ def cmd_rfa(args):
              f"at k = {rep['k_at_max_error']:.4f}"]
     lines += [f"  A = {a:.8f}  beta = {p:.8f}" for a, p in zip(rep["gains"], rep["poles"],
                                                                  strict=True)]
-    _emit(args, rep, "\n".join(lines))
+    emit(args, rep, "\n".join(lines))
 
 
-# ------------------------------------------------------------------------------ parser
+# ------------------------------------------------------------------------------ arguments
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser (also used for the README's command list)."""
-    p = _Parser(prog="bridgeflap", description=__doc__.splitlines()[0])
-    sub = p.add_subparsers(dest="command", parser_class=_Parser)
+def _default(analysis: str, option: str):
+    """The registry's default of ``option`` of ``analysis`` (shared with studies and DOEs)."""
+    return ANALYSES[analysis].defaults[option]
 
-    def common(sp, bridge=True, erection=True):
-        sp.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-        if bridge:
-            sp.add_argument("--bridge", default="humber",
-                            help="built-in name (humber) or path to a bridge .toml")
-        if erection:
-            sp.add_argument("--erection", type=float, default=None,
-                            help="erected fraction of the main span in (0, 1]")
 
-    sp = sub.add_parser("modes", help="structural modes")
-    common(sp)
-    sp.add_argument("--count", type=int, default=30)
+def _modes_arguments(sp):
+    add_common(sp)
+    sp.add_argument("--count", type=int, default=_default("modes", "count"))
     sp.add_argument("--plot", default=None, help="mode-shape figure (.png/.pdf/.svg)")
-    sp.set_defaults(func=cmd_modes)
 
-    sp = sub.add_parser("frequency-ratio", help="f(TS1)/f(VS1) against erected fraction")
-    common(sp, erection=False)
-    sp.add_argument("--fractions", default="0.1:1.0:0.05")
+
+def _frequency_ratio_arguments(sp):
+    add_common(sp, erection=False)
+    sp.add_argument("--fractions", default=_default("frequency_ratio", "fractions"))
     sp.add_argument("--plot", default=None)
-    sp.set_defaults(func=cmd_frequency_ratio)
 
-    sp = sub.add_parser("flutter", help="flutter and torsional divergence")
-    common(sp)
-    sp.add_argument("--speeds", default="0:85:0.5", help="start:stop:step [m/s]")
-    sp.add_argument("--modes", type=int, default=16, help="retained vertical+torsional modes")
-    sp.add_argument("--order", choices=("modal", "full"), default="modal")
-    sp.add_argument("--rfa", choices=("rfa4", "jones"), default="rfa4")
+
+def _flutter_arguments(sp):
+    add_common(sp)
+    sp.add_argument("--speeds", default=_default("flutter", "speeds"),
+                    help="start:stop:step [m/s]")
+    sp.add_argument("--modes", type=int, default=_default("flutter", "modes"),
+                    help="retained vertical+torsional modes")
+    sp.add_argument("--order", choices=("modal", "full"), default=_default("flutter", "order"))
+    sp.add_argument("--rfa", choices=("rfa4", "jones"), default=_default("flutter", "rfa"))
     sp.add_argument("--controller", default=None, help="controller .toml (closed loop)")
     sp.add_argument("--no-added-inertia", action="store_true",
                     help="drop the apparent-inertia moment pi rho b^4 alpha''/8 (Scanlan)")
     sp.add_argument("--plot", default=None)
-    sp.set_defaults(func=cmd_flutter)
 
-    sp = sub.add_parser("erection", help="flutter/divergence against erected fraction")
-    common(sp, erection=False)
-    sp.add_argument("--fractions", default="0.1:1.0:0.1")
-    sp.add_argument("--speeds", default="0:85:0.5")
-    sp.add_argument("--modes", type=int, default=16)
+
+def _erection_arguments(sp):
+    add_common(sp, erection=False)
+    sp.add_argument("--fractions", default=_default("erection", "fractions"))
+    sp.add_argument("--speeds", default=_default("erection", "speeds"))
+    sp.add_argument("--modes", type=int, default=_default("erection", "modes"))
     sp.add_argument("--plot", default=None)
-    sp.set_defaults(func=cmd_erection)
 
-    sp = sub.add_parser("section", help="rigid 2-DOF deck section")
-    common(sp, bridge=False, erection=False)
+
+def _section_arguments(sp):
+    add_common(sp, bridge=False, erection=False)
     sp.add_argument("--mass", type=float, required=True, help="[kg/m]")
     sp.add_argument("--inertia", type=float, required=True, help="about mid-chord [kg m2/m]")
     sp.add_argument("--f-heave", type=float, required=True, help="[Hz]")
@@ -375,45 +295,68 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--no-added-inertia", action="store_true")
     sp.add_argument("--aero", choices=("exact", "rfa4", "jones"), default="rfa4")
     sp.add_argument("--speeds", default=None, help="start:stop:step [m/s]")
-    sp.set_defaults(func=cmd_section)
 
-    sp = sub.add_parser("state-space", help="write A, B, C, D at one speed (.npz or .mat)")
-    common(sp)
+
+def _state_space_arguments(sp):
+    add_common(sp)
     sp.add_argument("--speed", type=float, required=True, help="[m/s]")
-    sp.add_argument("--modes", type=int, default=16)
+    sp.add_argument("--modes", type=int, default=DEFAULT_MODES)
     sp.add_argument("--controller", default=None)
     sp.add_argument("--out", required=True)
-    sp.set_defaults(func=cmd_state_space)
 
-    sp = sub.add_parser("rfa", help="fit report of the rational approximation of C(k)")
-    common(sp, bridge=False, erection=False)
+
+def _rfa_arguments(sp):
+    add_common(sp, bridge=False, erection=False)
     sp.add_argument("--name", choices=("rfa4", "jones"), default="rfa4")
-    sp.set_defaults(func=cmd_rfa)
 
-    for register in _EXTRA_COMMANDS:
-        register(sub, common)
+
+# ------------------------------------------------------------------------------ table
+
+
+@dataclass(frozen=True)
+class Command:
+    """One ``bridgeflap`` subcommand: its name, help line, arguments and function."""
+
+    name: str
+    help: str
+    arguments: Callable[[argparse.ArgumentParser], None]
+    run: Callable[[argparse.Namespace], None]
+
+
+#: every subcommand, in the order of ``bridgeflap --help``
+COMMANDS: tuple[Command, ...] = (
+    Command("modes", "structural modes", _modes_arguments, cmd_modes),
+    Command("frequency-ratio", "f(TS1)/f(VS1) against erected fraction",
+            _frequency_ratio_arguments, cmd_frequency_ratio),
+    Command("flutter", "flutter and torsional divergence", _flutter_arguments, cmd_flutter),
+    Command("erection", "flutter/divergence against erected fraction", _erection_arguments,
+            cmd_erection),
+    Command("section", "rigid 2-DOF deck section", _section_arguments, cmd_section),
+    Command("state-space", "write A, B, C, D at one speed (.npz or .mat)",
+            _state_space_arguments, cmd_state_space),
+    Command("rfa", "fit report of the rational approximation of C(k)", _rfa_arguments, cmd_rfa),
+    Command("buffeting", "RMS deck response to vertical turbulence", cmd_buffeting.arguments,
+            cmd_buffeting.cmd_buffeting),
+    Command("optimise", "design the flap compensator (seed section 6)", cmd_optimise.arguments,
+            cmd_optimise.cmd_optimise),
+    Command("study", "run a study (default: the paper's reproduction)",
+            cmd_study.study_arguments, cmd_study.cmd_study),
+    Command("doe", "design of experiments through the batch runner", cmd_study.doe_arguments,
+            cmd_study.cmd_doe),
+    Command("sensitivity", "derivatives of flutter/divergence speed",
+            cmd_study.sensitivity_arguments, cmd_study.cmd_sensitivity),
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of :data:`COMMANDS` (also used for the README's command list)."""
+    p = Parser(prog="bridgeflap", description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="command", parser_class=Parser)
+    for command in COMMANDS:
+        sp = sub.add_parser(command.name, help=command.help)
+        command.arguments(sp)
+        sp.set_defaults(func=command.run)
     return p
-
-
-_EXTRA_COMMANDS: list = []
-
-
-def register_command(fn):
-    """Decorator for modules that add subcommands: ``fn(subparsers, common)``."""
-    _EXTRA_COMMANDS.append(fn)
-    return fn
-
-
-def _load_extras() -> None:
-    # Commands defined next to their analyses (imported lazily to keep start-up fast).
-    import importlib
-
-    for mod in ("design.cmd_buffeting", "design.cmd_optimise", "design.cmd_study"):
-        try:
-            importlib.import_module(mod)
-        except ModuleNotFoundError as exc:
-            if exc.name != mod:
-                raise
 
 
 def _limit_blas_threads() -> None:
@@ -422,6 +365,7 @@ def _limit_blas_threads() -> None:
     bridgeflap's dense matrices are small (at most a few hundred rows): multithreaded BLAS only
     adds synchronisation, and on a loaded 2-core machine it made ``eig`` up to 80x slower.
     Worker processes (DOE batches, multistart) inherit the setting through the environment.
+    Called only by :func:`main`, the entry point: library code never sets the environment.
     """
     if any(v in os.environ for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS",
                                      "MKL_NUM_THREADS")):
@@ -436,7 +380,6 @@ def _limit_blas_threads() -> None:
 def main(argv=None) -> int:
     """Entry point of the ``bridgeflap`` console script."""
     _limit_blas_threads()
-    _load_extras()
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
@@ -444,20 +387,14 @@ def main(argv=None) -> int:
             parser.print_help(sys.stderr)
             return EXIT_BAD_INPUT
         args.func(args)
-    except BridgeflapInputError as exc:
-        _log(f"bridgeflap: error: {exc}")
-        return EXIT_BAD_INPUT
-    except BridgeflapError as exc:
-        _log(f"bridgeflap: error: {exc}")
+    except BridgeflapError as exc:  # BridgeflapInputError included
+        log(f"bridgeflap: error: {exc}")
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
-        _log("bridgeflap: interrupted")
+        log("bridgeflap: interrupted")
         return 130
     return 0
 
 
 if __name__ == "__main__":  # pragma: no cover
-    # run through the imported module so that command modules register into the same registry
-    from design.cli import main as _main
-
-    sys.exit(_main())
+    sys.exit(main())

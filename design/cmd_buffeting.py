@@ -10,19 +10,28 @@ from __future__ import annotations
 
 import numpy as np
 
-from design.cli import _check_plot_target, _controller, _emit, _log, _plot, _spec, register_command
+from design.analyses import ANALYSES
+from design.cli_common import (
+    add_common,
+    check_plot_target,
+    controller_from_args,
+    emit,
+    log,
+    save_plot,
+    spec_from_args,
+)
+from design.options import parse_range
 from model.errors import BridgeflapInputError
 from model.wind import ADMITTANCE_KINDS, SPECTRUM_KINDS
 
-DEFAULT_SPEEDS = "4:25:1"
+__all__ = ["arguments", "cmd_buffeting"]
 
 
 def cmd_buffeting(args):
     """Run the buffeting analysis of a bridge over a speed grid."""
-    from model.analysis import parse_range
     from model.buffeting import buffeting
 
-    _check_plot_target(args)
+    check_plot_target(args)
     speeds = parse_range(args.speeds, "speeds")
     if np.any(speeds <= 0):
         raise BridgeflapInputError("speeds", "mean wind speeds must be > 0 [m/s]")
@@ -35,8 +44,8 @@ def cmd_buffeting(args):
         raise BridgeflapInputError("coherence-decay", f"must be >= 0, got {args.coherence_decay}")
     if args.modes < 1:
         raise BridgeflapInputError("modes", f"must be at least 1, got {args.modes}")
-    spec = _spec(args)
-    controller = _controller(args)
+    spec = spec_from_args(args)
+    controller = controller_from_args(args)
     res = buffeting(spec, speeds, spectrum=args.spectrum, admittance=args.admittance,
                     coherence_decay=args.coherence_decay, n_modes=args.modes,
                     method=args.method, turbulence_intensity=args.turbulence_intensity,
@@ -57,16 +66,16 @@ def cmd_buffeting(args):
         lines.append(f"{u:8.2f} {res.rms_vertical[i]:11.4e} {res.rms_vertical_over_width[i]:10.3e}"
                      f" {res.rms_torsion[i]:12.4e} {res.convergence[i]:9.2e}  {res.status[i]}")
     if args.plot:
-        _plot(res, args.plot)
-    _log(f"buffeting: {res.speeds.size} speeds in {res.elapsed_s:.2f} s")
-    _emit(args, s, "\n".join(lines))
+        save_plot(res, args.plot)
+    log(f"buffeting: {res.speeds.size} speeds in {res.elapsed_s:.2f} s")
+    emit(args, s, "\n".join(lines))
 
 
-@register_command
-def _register(sub, common):
-    sp = sub.add_parser("buffeting", help="RMS deck response to vertical turbulence")
-    common(sp)
-    sp.add_argument("--speeds", default=DEFAULT_SPEEDS, help="start:stop:step or list [m/s]")
+def arguments(sp) -> None:
+    """The options of ``bridgeflap buffeting`` (grid and modes defaults: the registry's)."""
+    defaults = ANALYSES["buffeting"].defaults
+    add_common(sp)
+    sp.add_argument("--speeds", default=defaults["speeds"], help="start:stop:step or list [m/s]")
     sp.add_argument("--spectrum", choices=SPECTRUM_KINDS, default="busch-panofsky")
     sp.add_argument("--admittance", choices=ADMITTANCE_KINDS, default="liepmann")
     sp.add_argument("--coherence-decay", type=float, default=None,
@@ -77,8 +86,8 @@ def _register(sub, common):
     sp.add_argument("--method", choices=("spectral", "monte-carlo"), default="spectral")
     sp.add_argument("--records", type=int, default=16, help="Monte-Carlo records")
     sp.add_argument("--seed", type=int, default=0, help="Monte-Carlo random seed")
-    sp.add_argument("--modes", type=int, default=16, help="retained vertical+torsional modes")
+    sp.add_argument("--modes", type=int, default=defaults["modes"],
+                    help="retained vertical+torsional modes")
     sp.add_argument("--allow-unstable", action="store_true",
                     help="report speeds at/after flutter as NaN with status 'unstable'")
     sp.add_argument("--plot", default=None, help="Fig. 4 style figure (.png/.pdf/.svg)")
-    sp.set_defaults(func=cmd_buffeting)

@@ -7,8 +7,10 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from design.cli import _emit, _log, register_command, save_figure
+from design.cli_common import add_common, emit, log, save_figure
 from model.errors import BridgeflapInputError
+
+__all__ = ["arguments", "cmd_optimise"]
 
 DEFAULT_DEFINITION = Path(__file__).resolve().parents[1] / "runs" / "humber_flaps.toml"
 
@@ -16,7 +18,6 @@ DEFAULT_DEFINITION = Path(__file__).resolve().parents[1] / "runs" / "humber_flap
 def cmd_optimise(args):
     """Run the design, write the controller TOML and figures to ``--out`` atomically."""
     from design.driver import design
-    from design.io import to_jsonable  # noqa: F401 - JSON conversion used by _emit
     from design.settings import load_settings, quick_settings
     from model.control import save_controller
 
@@ -28,7 +29,7 @@ def cmd_optimise(args):
     parent = out.resolve().parent
     if not parent.exists() or not os.access(parent, os.W_OK):
         raise BridgeflapInputError("out", f"folder not writable: {parent}")
-    result = design(settings, progress=_log)
+    result = design(settings, progress=log)
     tmp = Path(tempfile.mkdtemp(dir=parent, prefix=f".{out.name}."))
     try:
         payload = result.summary()
@@ -81,15 +82,13 @@ def cmd_optimise(args):
     lines += [f"{s['start']} | {s['status']} | {s['iterations']} | {s['cut_rounds']} | "
               f"{s['time_s']:.1f} | {s['robust_margin']:.3g} | {s['max_gain']:.4g} | "
               f"{s['verified']} | {s['chosen']}" for s in payload["start_table"]]
-    _emit(args, payload, "\n".join(lines))
+    emit(args, payload, "\n".join(lines))
 
 
-@register_command
-def _register(sub, common):
-    sp = sub.add_parser("optimise", help="design the flap compensator (seed section 6)")
-    common(sp, bridge=False, erection=False)
+def arguments(sp) -> None:
+    """The options of ``bridgeflap optimise``."""
+    add_common(sp, bridge=False, erection=False)
     sp.add_argument("definition", nargs="?", default=None,
                     help="design definition .toml (default runs/humber_flaps.toml / built-in)")
     sp.add_argument("--out", default="optimise_out", help="output folder")
     sp.add_argument("--quick", action="store_true", help="reduced problem (CI)")
-    sp.set_defaults(func=cmd_optimise)

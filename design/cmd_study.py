@@ -1,4 +1,4 @@
-"""CLI commands ``study``, ``doe`` and ``sensitivity`` (via :func:`design.cli.register_command`).
+"""CLI commands ``study``, ``doe`` and ``sensitivity`` (listed in :data:`design.cli.COMMANDS`).
 
 Contracts (``--json``: one JSON object on stdout; progress on stderr; bad input one line and
 exit status 2 with nothing written):
@@ -14,15 +14,20 @@ exit status 2 with nothing written):
 
 from __future__ import annotations
 
-from design.cli import _check_plot_target, _emit, _log, _spec, register_command, save_figure
+from design.analyses import ANALYSES
+from design.cli_common import add_common, check_plot_target, emit, log, save_plot, spec_from_args
+from design.options import parse_range
 from model.errors import BridgeflapInputError
+
+__all__ = ["cmd_doe", "cmd_sensitivity", "cmd_study", "doe_arguments", "sensitivity_arguments",
+           "study_arguments"]
 
 
 def cmd_study(args):
     from design.study import load_study, run_study
 
     config = load_study(args.file, quick=args.quick)
-    res = run_study(config, out=args.out, progress=_log)
+    res = run_study(config, out=args.out, progress=log)
     s = res.summary()
     r = s["results"]
 
@@ -33,11 +38,11 @@ def cmd_study(args):
     lines += [f"  {k:16s} {v}" for k, v in s["statuses"].items()]
     lines.append(f"  flutter {f(r['flutter_speed_m_s'])} m/s (paper 65), divergence "
                  f"{f(r['divergence_speed_m_s'])} m/s (paper 74); report {s['report']}")
-    _emit(args, s, "\n".join(lines))
+    emit(args, s, "\n".join(lines))
 
 
 def cmd_doe(args):
-    from design.study import load_doe, run_doe
+    from design.experiments import load_doe, run_doe
 
     if args.workers < 1:
         raise BridgeflapInputError("workers", f"must be at least 1, got {args.workers}")
@@ -47,31 +52,34 @@ def cmd_doe(args):
     s = res.summary()
     text = (f"doe {s['name']} ({s['analysis']}): {s['cases']} cases, {s['succeeded']} ok, "
             f"{s['failed']} failed, {s['reused']} reused; table {s['table']}")
-    _emit(args, s, text)
+    emit(args, s, text)
 
 
 def cmd_sensitivity(args):
-    _check_plot_target(args)
+    check_plot_target(args)
     if args.global_method:
         return _global(args)
-    from design.sensitivity import DEFAULT_PARAMETERS, local_sensitivity
+    # design/sensitivity.py (H1): one import line
+    from design.sensitivity import local_sensitivity
 
-    spec = _spec(args)
-    params = args.parameters if args.parameters else ",".join(DEFAULT_PARAMETERS)
-    res = local_sensitivity(spec, params, speeds=args.speeds, n_modes=args.modes,
-                            check=not args.no_check,
-                            progress=lambda p: _log(f"sensitivity: {p} done"))
+    spec = spec_from_args(args)
+    params = (args.parameters if args.parameters
+              else ",".join(ANALYSES["sensitivity"].defaults["parameters"]))
+    res = local_sensitivity(spec, params, speeds=parse_range(args.speeds, "speeds", 0.0),
+                            n_modes=args.modes, check=not args.no_check,
+                            progress=lambda p: log(f"sensitivity: {p} done"))
     if args.plot:
-        _save(res, args.plot)
+        save_plot(res, args.plot)
     text = (f"{spec.name}: flutter {res.flutter_speed_m_s:.3f} m/s [{res.flutter_status}], "
             f"divergence {res.divergence_speed_m_s:.3f} m/s [{res.divergence_status}]\n"
             + res.table())
-    _emit(args, res.summary(), text)
+    emit(args, res.summary(), text)
 
 
 def _global(args):
     from pathlib import Path
 
+    # design/sensitivity.py (H1 may move these to design/screening.py): one import line
     from design.sensitivity import DEFAULT_UNCERTAIN_RANGES, global_sensitivity
 
     ranges = DEFAULT_UNCERTAIN_RANGES
@@ -89,38 +97,24 @@ def _global(args):
                              case_options={"speeds": args.speeds, "modes": args.modes},
                              progress=not args.json)
     if args.plot:
-        _save(res, args.plot)
+        save_plot(res, args.plot)
     lines = [f"{res.method}: {res.succeeded}/{res.cases} cases ok ({res.out_dir})"]
     for out_name, b in res.band.items():
         lines.append(f"  {out_name}: 5-50-95 % = {b['p05']:.2f} / {b['p50']:.2f} / "
                      f"{b['p95']:.2f} m/s")
-    _emit(args, res.summary(), "\n".join(lines))
+    emit(args, res.summary(), "\n".join(lines))
 
 
-def _save(res, path):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    ax = res.plot()
-    fig = (np.ravel(ax)[0] if isinstance(ax, list | tuple | np.ndarray) else ax).figure
-    save_figure(fig, path)
-    plt.close(fig)
-    _log(f"figure written: {path}")
-
-
-@register_command
-def _register(sub, common):
-    sp = sub.add_parser("study", help="run a study (default: the paper's reproduction)")
+def study_arguments(sp) -> None:
+    """The options of ``bridgeflap study``."""
     sp.add_argument("file", nargs="?", default=None, help="study .toml (default: built-in humber)")
     sp.add_argument("--out", default=None, help="output folder (default runs/<name>/output)")
     sp.add_argument("--quick", action="store_true", help="coarse settings (CI)")
-    sp.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    sp.set_defaults(func=cmd_study)
+    add_common(sp, bridge=False, erection=False)
 
-    sp = sub.add_parser("doe", help="design of experiments through the batch runner")
+
+def doe_arguments(sp) -> None:
+    """The options of ``bridgeflap doe``."""
     sp.add_argument("file", help="DOE .toml")
     sp.add_argument("--out", default=None, help="output folder (default runs/<name>/output)")
     sp.add_argument("--workers", type=int, default=1)
@@ -128,14 +122,16 @@ def _register(sub, common):
                     help="Dask scheduler address, or 'serial' (default: a local cluster)")
     sp.add_argument("--resume", action="store_true", help="reuse finished cases")
     sp.add_argument("--quick", action="store_true", help="apply the file's [quick] overrides")
-    sp.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    sp.set_defaults(func=cmd_doe)
+    add_common(sp, bridge=False, erection=False)
 
-    sp = sub.add_parser("sensitivity", help="derivatives of flutter/divergence speed")
-    common(sp)
+
+def sensitivity_arguments(sp) -> None:
+    """The options of ``bridgeflap sensitivity`` (grid and modes defaults: the registry's)."""
+    defaults = ANALYSES["sensitivity"].defaults
+    add_common(sp)
     sp.add_argument("--parameters", default=None, help="comma-separated dotted paths")
-    sp.add_argument("--speeds", default="0:120:1", help="start:stop:step [m/s]")
-    sp.add_argument("--modes", type=int, default=16)
+    sp.add_argument("--speeds", default=defaults["speeds"], help="start:stop:step [m/s]")
+    sp.add_argument("--modes", type=int, default=defaults["modes"])
     sp.add_argument("--no-check", action="store_true", help="skip the finite-difference checks")
     sp.add_argument("--plot", default=None, help="tornado (or global) figure .png/.pdf/.svg")
     sp.add_argument("--global", dest="global_method", choices=("morris", "sobol"), default=None,
@@ -146,4 +142,3 @@ def _register(sub, common):
     sp.add_argument("--scheduler", default=None)
     sp.add_argument("--resume", action="store_true")
     sp.add_argument("--out", default=None, help="batch folder of --global")
-    sp.set_defaults(func=cmd_sensitivity)

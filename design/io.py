@@ -1,4 +1,4 @@
-"""Atomic, self-describing output files.
+"""Output folders and atomic, self-describing output files.
 
 Every file a run writes goes through this module so that an interrupted run never leaves a
 half-written file behind: the data are written to a temporary file in the *same* folder
@@ -13,12 +13,15 @@ number" (failed solve, no flutter in the range, ...); the status field next to i
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import datetime as _dt
 import enum
 import json
 import math
 import os
+import shutil
+import sys
 import tempfile
 import uuid
 from collections.abc import Callable, Mapping
@@ -31,9 +34,15 @@ from model.errors import BridgeflapInputError
 
 __all__ = [
     "atomic_savez",
+    "atomic_write",
     "atomic_write_json",
     "atomic_write_text",
+    "default_out_dir",
     "ensure_writable_dir",
+    "new_sibling",
+    "output_folder",
+    "stdout_to_stderr",
+    "swap_into_place",
     "to_jsonable",
 ]
 
@@ -110,8 +119,21 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
-def _atomic_write(path: str | os.PathLike, write: Callable[[BinaryIO], None]) -> Path:
-    """Write through ``write(file)`` into a temporary sibling of ``path``, then replace."""
+def atomic_write(path: str | os.PathLike, write: Callable[[BinaryIO], None]) -> Path:
+    """Write through ``write(file)`` into a temporary sibling of ``path``, then replace.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Target file; its folder must exist.
+    write : callable
+        ``write(handle)`` writes the content to a binary file handle.
+
+    Returns
+    -------
+    pathlib.Path
+        The target path.
+    """
     target = Path(path)
     folder = target.parent
     # os.open with mode 0o666 lets the process umask set the permissions, as for open(); a
@@ -150,7 +172,7 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
         The target path.
     """
     data = text.encode("utf-8")
-    return _atomic_write(path, lambda handle: handle.write(data))
+    return atomic_write(path, lambda handle: handle.write(data))
 
 
 def atomic_write_json(path: str | os.PathLike, obj: Any, *, indent: int | None = 2) -> Path:
@@ -196,7 +218,7 @@ def atomic_savez(path: str | os.PathLike, **arrays: Any) -> Path:
     pathlib.Path
         The target path.
     """
-    return _atomic_write(path, lambda handle: np.savez(handle, **arrays))
+    return atomic_write(path, lambda handle: np.savez(handle, **arrays))
 
 
 def ensure_writable_dir(path: str | os.PathLike, field: str = "out") -> Path:
@@ -245,3 +267,59 @@ def ensure_writable_dir(path: str | os.PathLike, field: str = "out") -> Path:
         reason = exc.strerror or type(exc).__name__
         raise BridgeflapInputError(field, f"cannot write to {folder}: {reason}") from exc
     return folder
+
+
+def default_out_dir(name: str) -> Path:
+    """``runs/<name>/output`` relative to the current directory."""
+    return Path.cwd() / "runs" / name / "output"
+
+
+def output_folder(out: str | os.PathLike | None, name: str) -> Path:
+    """The absolute output folder ``out`` (default :func:`default_out_dir`), not a file."""
+    target = Path(out).expanduser().absolute() if out is not None else default_out_dir(name)
+    if target.exists() and not target.is_dir():
+        raise BridgeflapInputError("out", f"{target} exists and is not a folder")
+    return target
+
+
+def new_sibling(target: Path, tag: str) -> Path:
+    """A fresh hidden path next to ``target`` (``.<name>.<tag>-<random>``), not created."""
+    return target.parent / f".{target.name}.{tag}-{uuid.uuid4().hex[:10]}"
+
+
+def swap_into_place(tmp: Path, target: Path) -> None:
+    """Replace ``target`` by the complete folder ``tmp``; the old folder is kept until then."""
+    old = None
+    if target.exists():
+        old = new_sibling(target, "old")
+        os.rename(target, old)
+    try:
+        os.rename(tmp, target)
+    except OSError:
+        if old is not None:
+            os.rename(old, target)
+        raise
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def stdout_to_stderr():
+    """Send file descriptor 1 to stderr meanwhile (solvers such as Ipopt print from C), so
+    that ``--json`` keeps stdout to exactly one JSON object."""
+    try:
+        sys.stdout.flush()
+        saved = os.dup(1)
+    except (OSError, ValueError, AttributeError):
+        yield
+        return
+    try:
+        os.dup2(2, 1)
+        yield
+    finally:
+        try:
+            sys.stdout.flush()
+        except (OSError, ValueError):
+            pass
+        os.dup2(saved, 1)
+        os.close(saved)

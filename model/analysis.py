@@ -1,10 +1,13 @@
-"""High-level analyses on a bridge definition: the operations of the CLI as plain functions.
+"""High-level analyses on a bridge definition: modes, flutter, erection, frequency ratio.
 
-Each returns a frozen result object with ``summary()`` (JSON-ready numbers with units in the key
-names and statuses) and ``plot()``. Conventions: see :mod:`model`.
+Plain functions of a :class:`~model.spec.BridgeSpec` and numeric grids (arrays of wind speeds
+[m/s] and erected fractions [-]); reading grid text and the default grids belong to
+:mod:`design` (:mod:`design.options`, :mod:`design.analyses`). Each returns a frozen result
+object with ``summary()`` (JSON-ready numbers with units in the key names and statuses) and
+``plot()``. Conventions: see :mod:`model`.
 
 >>> from model.spec import load_bridge                    # doctest: +SKIP
->>> res = flutter(load_bridge("humber"))                   # doctest: +SKIP
+>>> res = flutter(load_bridge("humber"), np.arange(0.0, 85.5, 0.5))  # doctest: +SKIP
 >>> res.summary()["flutter_speed_m_s"]                     # doctest: +SKIP
 """
 
@@ -21,39 +24,19 @@ from model.modes import ModalModel, solve
 from model.spec import BridgeSpec, check_fraction
 from model.stability import StabilitySweep, check_speeds, sweep
 
+#: retained vertical + torsional modes of every analysis unless told otherwise
 DEFAULT_MODES = 16  # truncation study (bench/stability.py): 66.12 m/s at 16-20, 66.14 at 24-60
-DEFAULT_SPEEDS = "0:85:0.5"
-DEFAULT_FRACTIONS = "0.1:1.0:0.1"
 
 
-def parse_range(text: str, field: str, minimum: float | None = None) -> np.ndarray:
-    """Parse ``start:stop:step`` (inclusive of ``stop``) or a comma list into an array."""
-    try:
-        if ":" in str(text):
-            parts = [float(p) for p in str(text).split(":")]
-            if len(parts) != 3:
-                raise ValueError
-            start, stop, step = parts
-            if not (np.isfinite(step) and step > 0) or stop < start:
-                raise BridgeflapInputError(
-                    field, f"empty grid {text!r} (need start <= stop, step > 0)")
-            n = int(np.floor((stop - start) / step + 1e-9)) + 1
-            if n > 100000:
-                raise BridgeflapInputError(field, f"grid {text!r} has too many points")
-            values = start + step * np.arange(n)
-        else:
-            values = np.array([float(p) for p in str(text).split(",") if p.strip()])
-    except BridgeflapInputError:
-        raise
-    except ValueError:
-        raise BridgeflapInputError(field, f"not a number grid: {text!r}") from None
-    if values.size == 0:
-        raise BridgeflapInputError(field, "empty grid")
-    if not np.all(np.isfinite(values)):
-        raise BridgeflapInputError(field, "values must be finite")
-    if minimum is not None and np.any(values < minimum):
-        raise BridgeflapInputError(field, f"values must be >= {minimum} (got {values.min()})")
-    return values
+def parse_range(text, field, minimum=None):
+    """TEMPORARY forwarder to :func:`design.options.parse_range` (model/ parses no text).
+
+    Remove when model/flaps.py (closed_loop_flutter) and design/sensitivity.py import
+    ``design.options.parse_range`` or take arrays only.
+    """
+    from design.options import parse_range as parse
+
+    return parse(text, field, minimum)
 
 
 def modal_model(spec: BridgeSpec, count: int | None = None,
@@ -91,7 +74,7 @@ class FlutterResult:
     modes: tuple = ()
 
     def summary(self) -> dict:
-        """The ``bridgeflap flutter`` JSON contract."""
+        """JSON-ready numbers (units in the key names) and statuses of the sweep."""
         s = self.sweep.summary()
         label = self.sweep.critical_branch
         crit = {"label": label, "family": "", "symmetry": "", "frequency_hz": float("nan")}
@@ -120,32 +103,43 @@ class FlutterResult:
                                            f"{self.spec.erected_fraction:.2f}):")
 
 
-def flutter(spec: BridgeSpec, speeds=DEFAULT_SPEEDS, n_modes: int = DEFAULT_MODES,
+def flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
             order: str = "modal", rfa: str = "rfa4") -> FlutterResult:
-    """Flutter and torsional divergence of ``spec`` over a speed grid [m/s]."""
-    u = parse_range(speeds, "speeds", 0.0) if isinstance(speeds, str) else check_speeds(speeds)
+    """Flutter and torsional divergence of ``spec`` over a grid of wind speeds [m/s]."""
+    u = check_speeds(speeds)
     modal, system = bridge_system(spec, n_modes, order, rfa)
     return FlutterResult(spec, sweep(system, u), int(n_modes), order, rfa, system.n_states,
                          modal.modes)
 
 
 @dataclass(frozen=True)
-class ErectionResult:
-    """Flutter and divergence against the erected fraction of the main span."""
+class _StagesResult:
+    """Rows of numbers (units in the key names) per erected fraction of one bridge."""
 
     bridge: str
     stages: tuple
 
     def summary(self) -> dict:
-        """The ``bridgeflap erection`` JSON contract."""
+        """JSON-ready ``{"bridge", "stages"}``, one dict per erected fraction."""
         return {"bridge": self.bridge, "stages": list(self.stages)}
+
+
+def _axes(ax):
+    """``ax``, or the axes of a new 6 x 4 in figure."""
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        _, ax = plt.subplots(figsize=(6, 4))
+    return ax
+
+
+@dataclass(frozen=True)
+class ErectionResult(_StagesResult):
+    """Flutter and divergence speeds [m/s] and statuses against the erected fraction."""
 
     def plot(self, ax=None):
         """Flutter and divergence speed against deck completion (seed Fig. 3 right)."""
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            _, ax = plt.subplots(figsize=(6, 4))
+        ax = _axes(ax)
         f = np.array([s["erected_fraction"] for s in self.stages]) * 100
         uf = np.array([np.nan if s["flutter_speed_m_s"] is None else s["flutter_speed_m_s"]
                        for s in self.stages], dtype=float)
@@ -162,13 +156,12 @@ class ErectionResult:
         return ax
 
 
-def erection(spec: BridgeSpec, fractions=DEFAULT_FRACTIONS, speeds=DEFAULT_SPEEDS,
-             n_modes: int = DEFAULT_MODES, progress=None) -> ErectionResult:
-    """Flutter/divergence at each erected fraction (mid-span outwards, half GJ, zero EI)."""
-    fr = (parse_range(fractions, "fractions") if isinstance(fractions, str)
-          else np.asarray(fractions))
-    for f in fr:
-        check_fraction(f)
+def erection(spec: BridgeSpec, fractions, speeds, n_modes: int = DEFAULT_MODES,
+             progress=None) -> ErectionResult:
+    """Flutter/divergence at each erected fraction [-] (mid-span outwards, half GJ, zero EI)
+    over a grid of wind speeds [m/s]."""
+    fr = _fractions(fractions)
+    speeds = check_speeds(speeds)
     stages = []
     for f in fr:
         s = spec.erected(float(f))
@@ -188,22 +181,12 @@ def erection(spec: BridgeSpec, fractions=DEFAULT_FRACTIONS, speeds=DEFAULT_SPEED
 
 
 @dataclass(frozen=True)
-class FrequencyRatioResult:
-    """First torsional over first vertical symmetric frequency against erected fraction."""
-
-    bridge: str
-    stages: tuple
-
-    def summary(self) -> dict:
-        """The ``bridgeflap frequency-ratio`` JSON contract."""
-        return {"bridge": self.bridge, "stages": list(self.stages)}
+class FrequencyRatioResult(_StagesResult):
+    """First torsional over first vertical symmetric frequency [-] against erected fraction."""
 
     def plot(self, ax=None):
         """Seed Fig. 2 style plot."""
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            _, ax = plt.subplots(figsize=(6, 4))
+        ax = _axes(ax)
         f = [100 * s["erected_fraction"] for s in self.stages]
         ax.plot(f, [s["ratio_full_gj"] for s in self.stages], "o-", label="full GJ")
         ax.plot(f, [s["ratio_half_gj"] for s in self.stages], "s--", label="half GJ")
@@ -215,31 +198,46 @@ class FrequencyRatioResult:
         return ax
 
 
-def _first(modal: ModalModel, family: str) -> float:
+def _fractions(fractions) -> np.ndarray:
+    try:
+        fr = np.asarray(fractions, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise BridgeflapInputError("fractions", "not numeric") from None
+    if fr.size == 0:
+        raise BridgeflapInputError("fractions", "empty grid")
+    for f in fr:
+        check_fraction(f)
+    return fr
+
+
+def first_symmetric_frequency_hz(modal: ModalModel, family: str) -> float:
+    """Frequency [Hz] of the first symmetric ``family`` mode living mainly in the main span.
+
+    Main-span share above 0.5; NaN when there is none.
+    """
     for m in modal.modes:
         if m.family == family and m.symmetry == "symmetric" and m.main_span_share > 0.5:
             return m.frequency_hz
     return float("nan")
 
 
-def frequency_ratio(spec: BridgeSpec, fractions="0.1:1.0:0.05") -> FrequencyRatioResult:
-    """``f(TS1)/f(VS1)`` with half and full deck GJ during erection (seed Fig. 2).
+def frequency_ratio(spec: BridgeSpec, fractions) -> FrequencyRatioResult:
+    """``f(TS1)/f(VS1)`` with half and full deck GJ against erected fraction [-] (seed Fig. 2).
 
     Symmetric modes living mainly in the main span are used (main-span share > 0.5).
     """
-    fr = (parse_range(fractions, "fractions") if isinstance(fractions, str)
-          else np.asarray(fractions))
-    for f in fr:
-        check_fraction(f)
+    fr = _fractions(fractions)
     stages = []
     for f in fr:
         s = spec.erected(float(f))
         row = {"erected_fraction": float(f)}
         for key, factor in (("ratio_full_gj", 1.0), ("ratio_half_gj", 0.5)):
             m = modal_model(s, erection_gj_factor=factor)
-            row[key] = _first(m, "torsional") / _first(m, "vertical")
+            ts1 = first_symmetric_frequency_hz(m, "torsional")
+            vs1 = first_symmetric_frequency_hz(m, "vertical")
+            row[key] = ts1 / vs1
             if key == "ratio_half_gj":
-                row["ts1_hz"] = _first(m, "torsional")
-                row["vs1_hz"] = _first(m, "vertical")
+                row["ts1_hz"] = ts1
+                row["vs1_hz"] = vs1
         stages.append(row)
     return FrequencyRatioResult(spec.name, tuple(stages))

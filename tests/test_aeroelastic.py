@@ -25,7 +25,9 @@ import pytest
 import scipy.linalg as sla
 from scipy.optimize import linear_sum_assignment, root
 
+from design.analyses import DEFAULT_SPEEDS
 from design.cli import main as cli_main
+from design.options import parse_range
 from model import analysis, stability, statespace
 from model.errors import BridgeflapInputError
 from model.rfa import get_rfa
@@ -85,8 +87,8 @@ def humber():
     """Humber (complete, default mesh and 16 modes): RFA flutter result and its system."""
     spec = load_bridge("humber")
     modal, system = analysis.bridge_system(spec, analysis.DEFAULT_MODES)
-    res = analysis.FlutterResult(spec, stability.sweep(system, analysis.parse_range(
-        analysis.DEFAULT_SPEEDS, "speeds", 0.0)), analysis.DEFAULT_MODES, "modal", "rfa4",
+    res = analysis.FlutterResult(spec, stability.sweep(system, parse_range(
+        DEFAULT_SPEEDS, "speeds", 0.0)), analysis.DEFAULT_MODES, "modal", "rfa4",
         system.n_states)
     return {"spec": spec, "modal": modal, "system": system, "result": res}
 
@@ -497,26 +499,12 @@ def test_bad_grids_raise(coarse, grid):
         assert "speeds" in str(info.value)
 
 
-@pytest.mark.parametrize("text", ["5:1:1", "0:10:0", "0:10:-1", "abc", "1:2", ""])
-def test_bad_grid_text_raises(text):
-    """``parse_range`` (the CLI's grid reader) names the field."""
-    with pytest.raises(BridgeflapInputError) as info:
-        analysis.parse_range(text, "speeds", 0.0)
-    assert info.value.field == "speeds"
-
-
-def test_empty_grid_reason():
-    """'5:1:1' is an empty grid, not a non-numeric one: the message should say so."""
-    with pytest.raises(BridgeflapInputError, match="empty"):
-        analysis.parse_range("5:1:1", "speeds", 0.0)
-
-
 # ----------------------------------------------------------------------- erection
 
 
 @pytest.fixture(scope="module")
 def erection_result(humber):
-    return analysis.erection(humber["spec"], [0.5, 1.0])
+    return analysis.erection(humber["spec"], [0.5, 1.0], parse_range(DEFAULT_SPEEDS, "speeds"))
 
 
 def test_erection_complete_equals_flutter(humber, erection_result):
@@ -553,7 +541,7 @@ def test_erection_half_statuses(erection_result):
 
 def test_frequency_ratio_gj():
     """Half vs full deck GJ: equal for the complete bridge, full GJ stiffer while erecting."""
-    res = analysis.frequency_ratio(load_bridge("humber"), "0.25,0.5,1.0")
+    res = analysis.frequency_ratio(load_bridge("humber"), [0.25, 0.5, 1.0])
     by = {s["erected_fraction"]: s for s in res.stages}
     # the complete bridge keeps its full GJ whatever the erection factor: same model, so the
     # two ratios are the same numbers to roundoff

@@ -19,7 +19,9 @@ import numpy as np
 import pytest
 import scipy.io
 
+from design.analyses import DEFAULT_SPEEDS
 from design.cli import main
+from design.options import parse_range
 from model.analysis import bridge_system, flutter
 from model.spec import load_bridge
 
@@ -92,7 +94,7 @@ def test_flutter_json_matches_library(capsys):
     assert r["critical_branch"]["family"] == "torsional"
     # the CLI is a thin layer over model.analysis.flutter with the same defaults: the same
     # deterministic computation, so the same number to roundoff (JSON keeps 17 digits)
-    lib = flutter(load_bridge("humber")).summary()
+    lib = flutter(load_bridge("humber"), parse_range(DEFAULT_SPEEDS, "speeds")).summary()
     assert r["flutter_speed_m_s"] == pytest.approx(lib["flutter_speed_m_s"], rel=1e-12)
     assert r["divergence_speed_m_s"] == pytest.approx(lib["divergence_speed_m_s"], rel=1e-12)
 

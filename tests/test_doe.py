@@ -20,13 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from design.doe import (
-    full_factorial,
-    latin_hypercube,
-    make_design,
-    run_batch,
-    sobol,
-)
+from design.designs import full_factorial, latin_hypercube, make_design, sobol
+from design.doe import run_batch
 from design.io import (
     atomic_savez,
     atomic_write_json,

@@ -100,7 +100,7 @@ def test_earlier_output_survives_a_failed_run(small, tmp_path, monkeypatch):
     def broken(*args, **kwargs):
         raise RuntimeError("disk full while writing the report")
 
-    monkeypatch.setattr(study_mod, "_report", broken)
+    monkeypatch.setattr(study_mod, "study_report", broken)
     with pytest.raises(RuntimeError):
         run_study(small, out=out, quick=True)
     assert _tree(out) == before

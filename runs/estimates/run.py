@@ -17,6 +17,7 @@ import sys
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from design.options import parse_range
 from model.analysis import flutter, modal_model
 from model.spec import get_path, load_bridge
 from model.validation import log_misfit
@@ -46,7 +47,7 @@ def main():
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
-    speeds = "0:100:1.0" if args.quick else "0:110:0.5"
+    speeds = parse_range("0:100:1.0" if args.quick else "0:110:0.5", "speeds", 0.0)
     base = load_bridge("humber")
     if args.quick:
         base = base.replace(**{"mesh.element_length_m": 47.0})

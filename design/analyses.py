@@ -1,0 +1,309 @@
+"""The one registry of analyses: name -> runner, defaults, options, DOE case row.
+
+The command line (:mod:`design.cli`), studies (:mod:`design.study`) and DOE cases
+(:mod:`design.cases`) all take an analysis' defaults from :data:`ANALYSES`, so a default lives
+in one place: the wind-speed grid of flutter and erection is :data:`DEFAULT_SPEEDS`, the number
+of retained modes :data:`DEFAULT_MODES` (the same object as :data:`model.analysis.DEFAULT_MODES`).
+
+Each :class:`Analysis` runs on a bridge definition with its resolved options
+(:meth:`Analysis.resolve`: defaults, then the given options) and returns an :class:`Outcome`:
+an overall status, the JSON-ready summary, arrays to store, figures and the result object.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from design.options import check_int, check_option_names, grid
+from design.sensitivity import DEFAULT_PARAMETERS  # design/sensitivity.py (H1): one line
+from model.analysis import DEFAULT_MODES
+from model.errors import BridgeflapInputError
+from model.spec import BridgeSpec
+
+__all__ = ["ANALYSES", "DEFAULT_MODES", "DEFAULT_SPEEDS", "Analysis", "Outcome", "RunContext",
+           "check_options", "figure_of"]
+
+#: default wind-speed grid [m/s] of flutter and erection (seed Fig. 3: 0-85 m/s)
+DEFAULT_SPEEDS = "0:85:0.5"
+
+
+@dataclass(frozen=True)
+class RunContext:
+    """How an analysis is run: the bridge it came from, quick mode, figures, progress."""
+
+    bridge: str = "humber"
+    quick: bool = False
+    figures: bool = True
+    progress: Callable[[str], None] | None = None
+
+    def say(self, msg: str) -> None:
+        """Report one line of progress (if anyone listens)."""
+        if self.progress is not None:
+            self.progress(msg)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What one analysis produced.
+
+    Attributes
+    ----------
+    status : str
+        ``"ok"``, or why not (``"failed: ..."``, ``"2 of 7 stages: flutter ..."``).
+    summary : Mapping
+        JSON-ready numbers (units in the key names) and solver statuses.
+    arrays : Mapping
+        Named arrays to store (``results/<analysis>.npz``).
+    figures : Mapping
+        Figure name -> matplotlib figure (empty when figures are off).
+    result : Any
+        The analysis' own result object.
+    """
+
+    status: str
+    summary: Mapping = field(default_factory=dict)
+    arrays: Mapping = field(default_factory=dict)
+    figures: Mapping = field(default_factory=dict)
+    result: Any = None
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """One registered analysis.
+
+    Attributes
+    ----------
+    name : str
+        Registry key (study and DOE files use it).
+    run : callable
+        ``run(spec, options, context) -> Outcome`` with resolved ``options``.
+    defaults : Mapping
+        Option name -> default value (grids as text, ``start:stop:step``).
+    options : tuple of str or None
+        Accepted option names; ``None`` passes any option through to the analysis.
+    case : callable or None
+        ``case(outcome) -> dict``, the row of a DOE case; ``None`` if not a DOE analysis.
+    """
+
+    name: str
+    run: Callable[[BridgeSpec, dict, RunContext], Outcome]
+    defaults: Mapping
+    options: tuple | None
+    case: Callable[[Outcome], dict] | None = None
+
+    def resolve(self, options: Mapping | None = None, what: str | None = None) -> dict:
+        """The defaults updated with ``options`` (names and values checked)."""
+        options = dict(options or {})
+        check_option_names(self.name, options, self.options, what or self.name)
+        check_options(self.name, options, what or self.name)
+        return {**self.defaults, **options}
+
+    def __call__(self, spec: BridgeSpec, options: Mapping | None = None,
+                 context: RunContext | None = None) -> Outcome:
+        """Run on ``spec`` with the defaults updated by ``options``."""
+        return self.run(spec, self.resolve(options), context or RunContext())
+
+
+def check_options(kind: str, opts: Mapping, what: str | None = None) -> None:
+    """Validate option values now, so that bad input exits before anything is written."""
+    what = what or kind
+    for key in ("speeds", "fractions"):
+        if isinstance(opts.get(key), str):
+            grid(opts[key], f"{what}.{key}", 0.0)
+    for key in ("modes", "count"):
+        if key in opts:
+            check_int(opts[key], f"{what}.{key}")
+    if kind == "sensitivity" and "parameters" in opts:
+        # design/sensitivity.py (H1): one import line
+        from design.sensitivity import _check_parameters
+
+        try:
+            _check_parameters(opts["parameters"])
+        except BridgeflapInputError as exc:
+            raise BridgeflapInputError(f"{what}.parameters", exc.reason) from None
+
+
+def figure_of(ax):
+    """The figure of an axis or of the first of several axes."""
+    if isinstance(ax, list | tuple | np.ndarray):
+        return np.ravel(ax)[0].figure
+    return ax.figure
+
+
+def _figures(context: RunContext, name: str, result) -> dict:
+    return {name: figure_of(result.plot())} if context.figures else {}
+
+
+def aggregate_status(status) -> str:
+    """One status from a per-point list: ``ok`` or ``k of n points: <statuses>``."""
+    if isinstance(status, list | tuple):
+        bad = [str(x) for x in status if x not in ("ok", "converged")]
+        return "ok" if not bad else f"{len(bad)} of {len(status)} points: " + ", ".join(
+            sorted(set(bad)))
+    return str(status)
+
+
+# ------------------------------------------------------------------------------ runners
+
+
+def _run_modes(spec, opts, context) -> Outcome:
+    from model.analysis import modal_model
+    from model.validation import compare_table1
+
+    modal = modal_model(spec)
+    s = {"cable_horizontal_tension_n": modal.structure.statics.horizontal_tension_n,
+         "cable_main_sag_m": modal.structure.statics.main_sag_m,
+         "modes": modal.table()[: int(opts["count"])], "table1": compare_table1(modal)}
+    freq = np.array([m["frequency_hz"] for m in s["modes"]])
+    return Outcome("ok", s, {"frequency_hz": freq}, _figures(context, "modes", modal), modal)
+
+
+def _modes_case(outcome: Outcome) -> dict:
+    from model.analysis import first_symmetric_frequency_hz
+
+    modal = outcome.result
+    fv = first_symmetric_frequency_hz(modal, "vertical")
+    ft = first_symmetric_frequency_hz(modal, "torsional")
+    return {"vs1_hz": fv, "ts1_hz": ft, "frequency_ratio": ft / fv,
+            "cable_horizontal_tension_n": modal.structure.statics.horizontal_tension_n}
+
+
+def _run_frequency_ratio(spec, opts, context) -> Outcome:
+    from model.analysis import frequency_ratio
+
+    res = frequency_ratio(spec, grid(opts["fractions"], "fractions"))
+    bad = [st for st in res.stages if not np.isfinite(st["ratio_half_gj"])]
+    status = "ok" if not bad else f"partial: {len(bad)} stages without a symmetric pair"
+    arr = {k: np.array([st[k] for st in res.stages], dtype=float)
+           for k in ("erected_fraction", "ratio_full_gj", "ratio_half_gj")}
+    return Outcome(status, res.summary(), arr, _figures(context, "frequency_ratio", res), res)
+
+
+def _run_flutter(spec, opts, context) -> Outcome:
+    from model.analysis import flutter
+
+    res = flutter(spec, grid(opts["speeds"], "speeds", 0.0), n_modes=int(opts["modes"]),
+                  order=opts["order"], rfa=opts["rfa"])
+    s = res.summary()
+    status = ("ok" if s["flutter_status"] == "converged" and s["divergence_status"] == "converged"
+              else f"flutter {s['flutter_status']}, divergence {s['divergence_status']}")
+    sw = res.sweep
+    arr = {"speeds_m_s": sw.speeds, "eigenvalues": sw.eigenvalues, "branches": sw.branches,
+           "branch_labels": np.array(sw.branch_labels)}
+    return Outcome(status, s, arr, _figures(context, "flutter", res), res)
+
+
+_FLUTTER_CASE_KEYS = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
+                      "divergence_speed_m_s", "divergence_status", "divergence_static_speed_m_s",
+                      "critical_branch_label")
+
+
+def _flutter_case(outcome: Outcome) -> dict:
+    return {k: outcome.summary[k] for k in _FLUTTER_CASE_KEYS}
+
+
+def _run_erection(spec, opts, context) -> Outcome:
+    from model.analysis import erection
+
+    res = erection(spec, grid(opts["fractions"], "fractions"),
+                   grid(opts["speeds"], "speeds", 0.0), int(opts["modes"]),
+                   progress=lambda f: context.say(f"erection stage {f:.3f} done"))
+    bad = [st for st in res.stages if st["flutter_status"] != "converged"]
+    status = "ok" if not bad else (f"{len(bad)} of {len(res.stages)} stages: flutter "
+                                   + ", ".join(sorted({st['flutter_status'] for st in bad})))
+    arr = {k: np.array([np.nan if st.get(k) is None else st.get(k, np.nan)
+                        for st in res.stages], dtype=float)
+           for k in ("erected_fraction", "flutter_speed_m_s", "divergence_speed_m_s")}
+    return Outcome(status, res.summary(), arr, _figures(context, "erection", res), res)
+
+
+def _run_sensitivity(spec, opts, context) -> Outcome:
+    # design/sensitivity.py (H1): one import line
+    from design.sensitivity import local_sensitivity
+
+    res = local_sensitivity(spec, opts["parameters"], speeds=grid(opts["speeds"], "speeds", 0.0),
+                            n_modes=int(opts["modes"]), check=bool(opts["check"]))
+    bad = [r["parameter"] for r in res.rows
+           if r["flutter_status"] != "ok" or r["divergence_status"] != "ok"]
+    status = "ok" if not bad else f"IFT not available for {', '.join(bad)}"
+    return Outcome(status, res.summary(), {}, _figures(context, "sensitivity", res), res)
+
+
+#: options of :func:`model.buffeting.buffeting` a study or DOE file may set (``modes`` is its
+#: ``n_modes``)
+_BUFFETING_OPTIONS = ("speeds", "modes", "spectrum", "admittance", "coherence_decay", "method",
+                      "turbulence_intensity", "deck_height_m", "length_scale_m", "half_chord_m",
+                      "allow_unstable", "omega_max", "n_base", "peaks_per_mode", "half_widths",
+                      "convergence_tol", "mc_records", "mc_seed", "mc_points")
+
+
+def _run_buffeting(spec, opts, context) -> Outcome:
+    from model.buffeting import buffeting
+
+    opts = dict(opts)
+    speeds = grid(opts.pop("speeds"), "buffeting.speeds", 0.0)
+    res = buffeting(spec, speeds, n_modes=int(opts.pop("modes")), **opts)
+    s = res.summary()
+    arr = {k: np.asarray(s[k], dtype=float) for k in ("speeds_m_s", "rms_vertical_m",
+                                                      "rms_vertical_over_width") if k in s}
+    return Outcome(aggregate_status(s.get("status", "unknown")), s, arr,
+                   _figures(context, "buffeting", res), res)
+
+
+def _buffeting_case(outcome: Outcome) -> dict:
+    rms = np.asarray(outcome.summary.get("rms_vertical_m", []), dtype=float)
+    return {"max_rms_vertical_m": float(np.nanmax(rms)) if rms.size else float("nan"),
+            "status": outcome.summary.get("status", "unknown")}
+
+
+def _run_design(spec, opts, context) -> Outcome:
+    from design.driver import design
+    from design.settings import load_settings, quick_settings
+
+    settings = load_settings(**{"bridge": context.bridge, **opts})
+    if context.quick:
+        settings = quick_settings(settings)
+    res = design(settings, progress=lambda msg: context.say(f"  design: {msg}"))
+    s = res.summary()
+    figs = {}
+    if context.figures and res.controller is not None:
+        from design.report import fig5
+
+        context.say("  design: closed-loop root locus and buffeting (Fig. 5)")
+        figs["design"] = fig5(spec, res.controller, n_modes=settings.n_modes, quick=context.quick)
+        figs["design_margins"] = figure_of(res.plot_margins())
+        figs["design_bode"] = figure_of(res.plot_bode())
+    return Outcome(aggregate_status(s.get("status", "unknown")), s, {}, figs, res)
+
+
+def _table(**entries) -> Mapping:
+    return MappingProxyType(entries)
+
+
+#: every analysis, by name: the CLI, studies and DOE cases take their defaults from here
+ANALYSES: Mapping[str, Analysis] = _table(
+    modes=Analysis("modes", _run_modes, _table(count=30), ("count",), _modes_case),
+    frequency_ratio=Analysis("frequency_ratio", _run_frequency_ratio,
+                             _table(fractions="0.1:1.0:0.05"), ("fractions",)),
+    flutter=Analysis("flutter", _run_flutter,
+                     _table(speeds=DEFAULT_SPEEDS, modes=DEFAULT_MODES, rfa="rfa4",
+                            order="modal"),
+                     ("speeds", "modes", "rfa", "order"), _flutter_case),
+    erection=Analysis("erection", _run_erection,
+                      _table(fractions="0.1:1.0:0.1", speeds=DEFAULT_SPEEDS,
+                             modes=DEFAULT_MODES),
+                      ("fractions", "speeds", "modes")),
+    buffeting=Analysis("buffeting", _run_buffeting,
+                       _table(speeds="4:25:1", modes=DEFAULT_MODES), _BUFFETING_OPTIONS,
+                       _buffeting_case),
+    sensitivity=Analysis("sensitivity", _run_sensitivity,
+                         _table(parameters=DEFAULT_PARAMETERS, speeds="0:120:1",
+                                modes=DEFAULT_MODES, check=True),
+                         ("parameters", "speeds", "modes", "check")),
+    design=Analysis("design", _run_design, _table(), None),
+)

@@ -1,0 +1,120 @@
+"""What every ``bridgeflap`` command shares: the parser, common options, output and figures.
+
+Every command takes ``--json`` and then prints exactly one JSON object on stdout (numbers with
+units in the key names, statuses; NaN as ``null``); progress and logs go to stderr. Bad input
+raises :class:`~model.errors.BridgeflapInputError`, which :func:`design.cli.main` turns into
+one line on stderr and exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from design.io import atomic_write, to_jsonable
+from model.errors import BridgeflapInputError
+
+__all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",
+           "controller_from_args", "emit", "log", "save_figure", "save_plot", "spec_from_args"]
+
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+class Parser(argparse.ArgumentParser):
+    """Argument parser whose errors are one line and exit status 2."""
+
+    def error(self, message):  # noqa: D102 - argparse API
+        raise BridgeflapInputError("arguments", message)
+
+
+def add_common(sp: argparse.ArgumentParser, bridge: bool = True, erection: bool = True) -> None:
+    """``--json``, and ``--bridge`` / ``--erection`` where the command takes a bridge."""
+    sp.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    if bridge:
+        sp.add_argument("--bridge", default="humber",
+                        help="built-in name (humber) or path to a bridge .toml")
+    if erection:
+        sp.add_argument("--erection", type=float, default=None,
+                        help="erected fraction of the main span in (0, 1]")
+
+
+def emit(args, payload: dict, text: str) -> None:
+    """Print ``payload`` as one JSON object with ``--json``, else ``text``."""
+    if getattr(args, "json", False):
+        sys.stdout.write(json.dumps(to_jsonable(payload), allow_nan=False) + "\n")
+    else:
+        sys.stdout.write(text.rstrip("\n") + "\n")
+
+
+def log(msg: str) -> None:
+    """One line of progress on stderr."""
+    sys.stderr.write(msg + "\n")
+    sys.stderr.flush()
+
+
+def spec_from_args(args):
+    """The bridge of ``--bridge``, erected to ``--erection`` when given."""
+    from model.spec import load_bridge
+
+    spec = load_bridge(args.bridge)
+    if getattr(args, "erection", None) is not None:
+        spec = spec.erected(args.erection)
+    return spec
+
+
+def controller_from_args(args):
+    """The controller of ``--controller`` (a .toml), or ``None``."""
+    if getattr(args, "controller", None):
+        from model.control import load_controller
+
+        return load_controller(args.controller)
+    return None
+
+
+def check_writable_parent(field: str, path: Path) -> None:
+    """Raise unless ``path``'s folder exists and is writable and ``path`` is not a folder."""
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir() or not os.access(parent, os.W_OK):
+        raise BridgeflapInputError(field, f"folder missing or not writable: {parent}")
+    if path.is_dir():
+        raise BridgeflapInputError(field, f"is a folder, not a file: {path}")
+
+
+def _check_figure_path(path: Path) -> None:
+    if path.suffix.lower() not in FIGURE_SUFFIXES:
+        raise BridgeflapInputError("plot", f"unsupported figure type {path.suffix!r} "
+                                           "(use .png, .pdf or .svg)")
+    check_writable_parent("plot", path)
+
+
+def check_plot_target(args) -> None:
+    """Check ``--plot`` before any work, so that bad input writes nothing."""
+    if getattr(args, "plot", None):
+        _check_figure_path(Path(args.plot))
+
+
+def save_figure(fig, path: str | Path) -> Path:
+    """Save a matplotlib figure atomically (temp file in the same folder, then rename)."""
+    path = Path(path)
+    _check_figure_path(path)
+    return atomic_write(path, lambda fh: fig.savefig(fh, format=path.suffix[1:].lower(), dpi=130,
+                                                     bbox_inches="tight"))
+
+
+def save_plot(result, path) -> None:
+    """``result.plot()`` saved to ``path`` (first figure when it returns several axes)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ax = result.plot()
+    fig = (np.ravel(ax)[0] if isinstance(ax, list | tuple | np.ndarray) else ax).figure
+    save_figure(fig, path)
+    plt.close(fig)
+    log(f"figure written: {path}")

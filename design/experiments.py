@@ -1,0 +1,284 @@
+"""DOE definition files: configuration, run through the batch runner, result.
+
+A **DOE** file (:func:`load_doe`, :func:`run_doe`) names the bridge, the analysis (one of the
+registry :data:`design.analyses.ANALYSES` that has a case row: flutter, modes, buffeting), its
+options, the design kind and the parameter ranges (dotted paths of
+:data:`model.spec.PARAMETER_PATHS`); it runs through :func:`design.doe.run_batch` (per-case
+status, resumable). An option the file does not give takes the registry's default, the same as
+the command line's.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from design.analyses import ANALYSES
+from design.cases import ERECTED_FRACTION, analysis_case
+from design.io import atomic_write_json, ensure_writable_dir, output_folder
+from design.options import check_int, check_keys, plain_name, read_definition, resolve_bridge, table
+from model.errors import BridgeflapInputError
+from model.spec import PARAMETER_PATHS
+
+__all__ = ["DOE_ANALYSES", "DoeConfig", "DoeParameter", "DoeResult", "doe_from_dict", "load_doe",
+           "run_doe"]
+
+#: registered analyses with a DOE case row
+DOE_ANALYSES = tuple(name for name, entry in ANALYSES.items() if entry.case is not None)
+
+_DESIGN_ALIASES = {"full-factorial": "full_factorial", "full_factorial": "full_factorial",
+                   "latin-hypercube": "latin_hypercube", "latin_hypercube": "latin_hypercube",
+                   "lhs": "latin_hypercube", "sobol": "sobol"}
+_DOE_KEYS = {"name", "bridge", "analysis", "options", "design", "parameters", "quick",
+             "description"}
+
+
+@dataclass(frozen=True)
+class DoeParameter:
+    """One varied input: a range ``[low, high]`` in its SI unit, or explicit levels."""
+
+    low: float | None = None
+    high: float | None = None
+    values: tuple[float, ...] | None = None
+
+    def levels(self, count: int) -> list[float]:
+        """The explicit levels, or ``count`` equally spaced points of the range."""
+        if self.values is not None:
+            return list(self.values)
+        return np.linspace(self.low, self.high, count).tolist()
+
+    def as_dict(self) -> dict:
+        """``{"values": [...]}`` or ``{"range": (low, high)}`` (the file's spelling)."""
+        if self.values is not None:
+            return {"values": list(self.values)}
+        return {"range": (self.low, self.high)}
+
+
+@dataclass(frozen=True)
+class DoeConfig:
+    """A resolved DOE definition: bridge, analysis and its options, design and parameters."""
+
+    name: str
+    bridge: str
+    analysis: str
+    options: dict
+    kind: str
+    parameters: dict  # dotted path -> DoeParameter
+    levels: int = 3
+    n: int = 16
+    seed: int = 1
+    quick: bool = False
+    source: str = ""
+
+    def as_dict(self) -> dict:
+        """JSON-ready resolved configuration."""
+        return {"name": self.name, "bridge": self.bridge, "analysis": self.analysis,
+                "options": dict(self.options), "kind": self.kind,
+                "parameters": {k: v.as_dict() for k, v in self.parameters.items()},
+                "levels": self.levels, "n": self.n, "seed": self.seed, "quick": self.quick,
+                "source": self.source}
+
+    def cases(self) -> list[dict]:
+        """The design's cases (``case_id`` + parameter values)."""
+        from design.designs import make_design
+
+        if self.kind == "full_factorial":
+            return make_design("full_factorial", levels={
+                p: d.levels(self.levels) for p, d in self.parameters.items()})
+        return make_design(self.kind, ranges={p: (d.low, d.high)
+                                              for p, d in self.parameters.items()},
+                           n=self.n, seed=self.seed)
+
+    def case_function(self):
+        """The picklable case function with its settings bound."""
+        return functools.partial(analysis_case, analysis=self.analysis, bridge=self.bridge,
+                                 **self.options)
+
+
+def load_doe(path: str | os.PathLike, quick: bool = False) -> DoeConfig:
+    """Read and validate a DOE TOML file.
+
+    Format::
+
+        name = "doe_gj_sag"
+        bridge = "humber"
+        analysis = "flutter"                  # flutter | modes | buffeting
+        [options]                             # options of the case function
+        speeds = "0:120:1"
+        modes = 10                            # (default: the registry's, as `bridgeflap flutter`)
+        [design]
+        kind = "full-factorial"               # | "latin-hypercube" | "sobol"
+        levels = 3                            # full factorial: points per range
+        n = 16                                # latin hypercube / sobol: cases
+        seed = 1
+        [parameters]                          # dotted paths of model.spec.PARAMETER_PATHS
+        "deck.gj_nm2" = [3.0e11, 4.5e11]      # range [lo, hi]
+        "cable.main_sag_m" = { values = [110.0, 115.0, 120.0] }   # explicit levels
+        [quick]                               # --quick overrides
+        design = { levels = 2 }
+        options = { speeds = "0:120:2" }
+
+    Raises
+    ------
+    BridgeflapInputError
+        Unknown key, analysis, design kind or parameter, empty range or level list.
+    """
+    data, base, source = read_definition(Path(path), "doe")
+    return doe_from_dict(data, base=base, quick=quick, source=source)
+
+
+def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
+                  source: str = "<dict>") -> DoeConfig:
+    """Build a :class:`DoeConfig` from parsed TOML (see :func:`load_doe`)."""
+    check_keys(data, _DOE_KEYS, "DOE")
+    base = Path.cwd() if base is None else base
+    name = plain_name(data.get("name"))
+    bridge = resolve_bridge(data.get("bridge", "humber"), base)
+    analysis = data.get("analysis", "flutter")
+    if analysis not in DOE_ANALYSES:
+        raise BridgeflapInputError("analysis", f"unknown analysis {analysis!r} (known: "
+                                               f"{', '.join(DOE_ANALYSES)})")
+    qk = data.get("quick", {})
+    if not isinstance(qk, dict) or set(qk) - {"design", "options"}:
+        raise BridgeflapInputError("quick", "must be a table with 'design' and/or 'options'")
+    options = table(data, "options")
+    design = table(data, "design")
+    if quick:
+        options.update(qk.get("options", {}))
+        design.update(qk.get("design", {}))
+    ANALYSES[analysis].resolve(options, what="options")
+    if set(design) - {"kind", "levels", "n", "seed"}:
+        bad = sorted(set(design) - {"kind", "levels", "n", "seed"})[0]
+        raise BridgeflapInputError(f"design.{bad}", "unknown design option")
+    kind = _DESIGN_ALIASES.get(design.get("kind", "full-factorial"))
+    if kind is None:
+        raise BridgeflapInputError("design.kind", f"unknown design {design.get('kind')!r} "
+                                                  "(full-factorial, latin-hypercube, sobol)")
+    levels = check_int(design.get("levels", 3), "design.levels")
+    n = check_int(design.get("n", 16), "design.n")
+    seed = check_int(design.get("seed", 1), "design.seed", 0)
+    raw = data.get("parameters")
+    if not isinstance(raw, dict) or not raw:
+        raise BridgeflapInputError("parameters", "at least one parameter range is needed")
+    params = {}
+    for path, spec in raw.items():
+        fld = f"parameters.{path}"
+        if path not in PARAMETER_PATHS and path != ERECTED_FRACTION:
+            raise BridgeflapInputError(fld, f"unknown parameter (known: "
+                                            f"{', '.join(PARAMETER_PATHS)}, {ERECTED_FRACTION})")
+        if isinstance(spec, dict) and set(spec) == {"values"}:
+            vals = spec["values"]
+            if not isinstance(vals, list) or not vals:
+                raise BridgeflapInputError(fld, "empty list of values")
+            if not all(isinstance(v, int | float) and not isinstance(v, bool)
+                       and np.isfinite(v) for v in vals):
+                raise BridgeflapInputError(fld, "values must be finite numbers")
+            if kind != "full_factorial":
+                raise BridgeflapInputError(fld, f"explicit values need a full-factorial design, "
+                                                f"not {kind}")
+            params[path] = DoeParameter(values=tuple(float(v) for v in vals))
+            continue
+        if not (isinstance(spec, list) and len(spec) == 2 and all(
+                isinstance(v, int | float) and not isinstance(v, bool) for v in spec)):
+            raise BridgeflapInputError(fld, "expected a range [lo, hi] or {values = [...]}")
+        lo, hi = float(spec[0]), float(spec[1])
+        if not (np.isfinite(lo) and np.isfinite(hi)) or not lo < hi:
+            raise BridgeflapInputError(fld, f"empty range [{lo}, {hi}] (need lo < hi)")
+        params[path] = DoeParameter(low=lo, high=hi)
+    return DoeConfig(name=name, bridge=bridge, analysis=analysis, options=options, kind=kind,
+                     parameters=params, levels=levels, n=n, seed=seed, quick=bool(quick),
+                     source=source)
+
+
+@dataclass(frozen=True)
+class DoeResult:
+    """Outcome of :func:`run_doe`: counts, the table and the case records."""
+
+    config: DoeConfig
+    out_dir: Path
+    cases: int
+    succeeded: int
+    failed: int
+    reused: int
+    table: Path
+    rows: tuple
+
+    def summary(self) -> dict:
+        """The ``bridgeflap doe --json`` contract."""
+        return {"name": self.config.name, "analysis": self.config.analysis,
+                "cases": self.cases, "succeeded": self.succeeded, "failed": self.failed,
+                "reused": self.reused, "table": str(self.table), "out_dir": str(self.out_dir),
+                "statuses": {r["case_id"]: r["status"] for r in self.rows}}
+
+    def plot(self, ax=None, output: str | None = None):
+        """Scatter of an output over the first two parameters (failed cases as crosses)."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 4.5))
+        names = list(self.config.parameters)
+        ok = [r for r in self.rows if r["status"] == "ok"]
+        if output is None:
+            keys = [k for k in (ok[0]["result"] if ok else {})
+                    if isinstance(ok[0]["result"][k], int | float)]
+            output = keys[0] if keys else None
+        x = np.array([r["params"][names[0]] for r in self.rows], dtype=float)
+        y = (np.array([r["params"][names[1]] for r in self.rows], dtype=float)
+             if len(names) > 1 else np.zeros_like(x))
+        val = np.array([np.nan if r["result"] is None or r["result"].get(output) is None
+                        else r["result"][output] for r in self.rows], dtype=float)
+        good = np.isfinite(val)
+        sc = ax.scatter(x[good], y[good], c=val[good], cmap="viridis", s=40)
+        if good.any():
+            plt.colorbar(sc, ax=ax, label=output)
+        ax.plot(x[~good], y[~good], "rx", ms=9, label="failed / no crossing")
+        ax.set_xlabel(names[0])
+        ax.set_ylabel(names[1] if len(names) > 1 else "-")
+        ax.set_title(f"{self.config.name}: {self.succeeded}/{self.cases} cases ok", fontsize=9)
+        if (~good).any():
+            ax.legend(fontsize=8)
+        return ax
+
+
+def run_doe(config: DoeConfig | str | os.PathLike, out: str | os.PathLike | None = None,
+            workers: int = 1, scheduler: str | None = None, resume: bool = False,
+            quick: bool = False, progress: bool = True) -> DoeResult:
+    """Run a DOE through :func:`design.doe.run_batch` (per-case files; resumable).
+
+    The resolved configuration is written as ``doe.json`` next to the batch files; ``resume``
+    refuses a folder whose ``doe.json`` has other settings (their stored cases would not
+    belong to this DOE).
+    """
+    from design.doe import run_batch
+    from design.manifest import build_manifest
+
+    if not isinstance(config, DoeConfig):
+        config = load_doe(config, quick=quick)
+    cases = config.cases()
+    target = output_folder(out, config.name)
+    stored_cfg = target / "doe.json"
+    if resume and stored_cfg.is_file():
+        try:
+            stored = json.loads(stored_cfg.read_text("utf-8"))
+        except (OSError, ValueError):
+            stored = None
+        keys = ("bridge", "analysis", "options")
+        now = json.loads(json.dumps(config.as_dict()))
+        if stored is None or any(stored.get(k) != now[k] for k in keys):
+            raise BridgeflapInputError("resume", f"{target} holds a DOE with other settings; "
+                                                 "use another --out")
+    ensure_writable_dir(target, "out")
+    atomic_write_json(stored_cfg, config.as_dict())
+    atomic_write_json(target / "manifest.json", build_manifest(config.as_dict()))
+    batch = run_batch(config.case_function(), cases, target, workers=workers,
+                      scheduler=scheduler, resume=resume, progress=progress)
+    reused = json.loads((target / "batch.json").read_text("utf-8")).get("reused", 0)
+    return DoeResult(config=config, out_dir=target, cases=batch.cases,
+                     succeeded=batch.succeeded, failed=batch.failed, reused=int(reused),
+                     table=batch.table_path, rows=batch.rows)
