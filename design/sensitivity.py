@@ -59,13 +59,13 @@ import numpy as np
 import scipy.linalg as sla
 
 from model import statespace
-from model.aero import StructuralBasis
 from model.analysis import DEFAULT_MODES, bridge_system, modal_model, parse_range
+from model.basis import StructuralBasis
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import assemble
 from model.modes import ModalModel, rayleigh_coefficients
 from model.spec import PARAMETER_PATHS, BridgeSpec, get_path
-from model.stability import CONVERGED, _osc_tol, sweep
+from model.stability import CONVERGED, oscillation_tolerance, sweep
 
 __all__ = [
     "DEFAULT_PARAMETERS",
@@ -451,7 +451,7 @@ def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARA
     u = parse_range(speeds, "speeds", 0.0) if isinstance(speeds, str) else np.asarray(speeds)
     nominal = modal_model(spec)
     _, system0 = bridge_system(spec, n_modes, order, rfa, modal=nominal)
-    omega_tol = _osc_tol(system0)
+    omega_tol = oscillation_tolerance(system0)
     crit = critical_speeds(system0, u)
     ritz = functools.partial(ritz_system, nominal=nominal, n_modes=n_modes, rfa=rfa, order=order)
     rows = []

@@ -14,8 +14,8 @@ from scipy.integrate import quad
 
 from design.cli import main
 from model import statespace
-from model.aero import StructuralBasis
 from model.analysis import bridge_system
+from model.basis import StructuralBasis
 from model.buffeting import (
     CONVERGENCE_TOL,
     GustField,

@@ -5,13 +5,13 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
+from model.aero import flap_section_loads
 from model.control import Compensator, Controller
 from model.errors import BridgeflapInputError
 from model.flaps import (
     closed_loop_model,
     closed_loop_pk_flutter,
     closed_loop_system,
-    flap_section_loads,
     section_model,
 )
 from model.section import section_basis
