@@ -25,11 +25,12 @@ the whole chord about ``x = e b`` (the deck loads with ``h = -e b delta``, ``alp
 plus a TE flap ``beta = -delta`` hinged at ``c = e`` (HUMBER_DATA §4(c)); the drive signs of the
 LE+TE pair are described in :mod:`model.flaps`.
 
-Projection (:func:`project`): strips of length ``dl_i`` with heave ``phi_h[i] q`` and pitch
-``phi_a[i] q`` give the generalised force ``-M_nc q'' - U D_nc q' + U P [C(k) (G1 q' + U G0 q)]
-+ U P_g w`` with ``P[:, i] = dl_i (-2 pi rho b phi_h[i] + pi rho b^2 phi_a[i])^T``, ``G1 = phi_h
-+ b/2 phi_a``, ``G0 = phi_a`` and the buffeting map ``P_g[:, i] = dl_i (-rho b C_L' phi_h[i] + 2
-rho b^2 C_M' phi_a[i])^T`` for the vertical gust ``w`` (up positive) from seed Eqs. (7)-(8) with
+Projection (:func:`project` for the deck strips, :func:`load_map` for the flap strips): strips
+of length ``dl_i`` with heave ``phi_h[i] q`` and pitch ``phi_a[i] q`` give the generalised
+force ``-M_nc q'' - U D_nc q' + U P [C(k) (G1 q' + U G0 q)] + U P_g w`` with
+``P[:, i] = dl_i (-2 pi rho b phi_h[i] + pi rho b^2 phi_a[i])^T``, ``G1 = phi_h + b/2 phi_a``,
+``G0 = phi_a`` and the buffeting map ``P_g[:, i] = dl_i (-rho b C_L' phi_h[i] + 2 rho b^2 C_M'
+phi_a[i])^T`` for the vertical gust ``w`` (up positive) from seed Eqs. (7)-(8) with
 ``C_L = C_M = C_D = 0``.
 
 The coefficients are plain arithmetic, so ``b`` and ``rho`` may be CasADi symbols
@@ -52,6 +53,7 @@ __all__ = [
     "circulatory_lift",
     "deck_section_loads",
     "flap_section_loads",
+    "load_map",
     "project",
     "strip_aero",
 ]
@@ -109,7 +111,7 @@ class SectionLoads:
 def circulatory_lift(half_chord, air_density) -> tuple:
     """``(-2 pi rho b, pi rho b^2)``: lift down and moment of a unit ``U C(k) Q`` (Eqs. 2-3)."""
     b, rho = half_chord, air_density
-    return (-2 * np.pi * rho * b, np.pi * rho * b * b)
+    return (-2 * np.pi * rho * b, np.pi * rho * b ** 2)
 
 
 def deck_section_loads(half_chord, air_density, kappa=1.0) -> tuple[SectionLoads, SectionLoads]:
@@ -180,26 +182,42 @@ def flap_section_loads(half_chord: float, air_density: float, flap_chord_m: floa
     return total
 
 
-def project(loads: SectionLoads, out_h, out_a, inp):
-    """Generalised loads of one input on a set of strips: ``(H2, H1, H0)``.
+def project(inputs, phi_h, phi_a, length):
+    """Generalised loads of inputs on a set of strips: ``(H2, H1, H0)``.
 
     Parameters
     ----------
-    loads : SectionLoads
-    out_h, out_a : array (n, m)
-        Length-weighted output maps ``phi_h^T diag(dl)`` and ``phi_a^T diag(dl)`` of ``m``
-        strips on ``n`` coordinates [m per unit coordinate times m].
-    inp : array (m, k)
-        The input at each strip per unit of ``k`` variables.
+    inputs : sequence of (SectionLoads, array (m, k))
+        The loads of each unit input and the input at each strip per unit of ``k`` variables.
+    phi_h, phi_a : array (m, n)
+        Strip heave [m] and pitch [rad] per unit coordinate (the virtual displacements).
+    length : array (m,)
+        Strip lengths [m].
 
     Returns
     -------
     tuple
-        ``H_j = e_j[0] out_h inp + e_j[1] out_a inp`` for ``j = 2, 1, 0``: the generalised force
-        per ``x''``, ``U x'`` and ``U^2 x``.
+        ``H_j = sum_inputs e_j[0] phi_h^T diag(dl) X + e_j[1] phi_a^T diag(dl) X`` for
+        ``j = 2, 1, 0``: the generalised force per ``x''``, ``U x'`` and ``U^2 x``.
     """
-    Gh, Ga = out_h @ inp, out_a @ inp
-    return tuple(e[0] * Gh + e[1] * Ga for e in (loads.e2, loads.e1, loads.e0))
+    dl = np.asarray(length)[:, None]
+    grams = [(ld, phi_h.T @ (dl * X), phi_a.T @ (dl * X)) for ld, X in inputs]
+    out = []
+    for name in ("e2", "e1", "e0"):
+        total = 0.0
+        for ld, Gh, Ga in grams:
+            e = getattr(ld, name)
+            total = total + (e[0] * Gh + e[1] * Ga)
+        out.append(total)
+    return tuple(out)
+
+
+def load_map(loads: SectionLoads, phi_h, phi_a) -> tuple:
+    """``(E2, E1, E0)``: generalised force per unit load input at each of ``m`` strips.
+
+    ``E_j[:, i] = e_j[0] phi_h[i] + e_j[1] phi_a[i]`` (n, m), per unit strip length.
+    """
+    return tuple(phi_h.T * e[0] + phi_a.T * e[1] for e in (loads.e2, loads.e1, loads.e0))
 
 
 @dataclass(frozen=True)
@@ -243,15 +261,13 @@ def strip_aero(basis: StructuralBasis, half_chord, air_density, added_inertia: b
         air_density, int | float | np.floating)
     b, rho = (float(half_chord), float(air_density)) if numeric else (half_chord, air_density)
     heave, pitch = deck_section_loads(b, rho, 1.0 if added_inertia else 0.0)
-    dl = basis.strip_length
+    dl = basis.strip_length[:, None]
     ph, pa = basis.phi_h, basis.phi_a
-    out_h, out_a = ph.T * dl, pa.T * dl
-    Hh, Ha = project(heave, out_h, out_a, ph), project(pitch, out_h, out_a, pa)
+    H2, H1, _ = project(((heave, ph), (pitch, pa)), ph, pa, basis.strip_length)
     circ = circulatory_lift(b, rho)
-    P_gust = (-rho * b * lift_slope_buffeting) * out_h \
-        + (2 * rho * b ** 2 * moment_slope_buffeting) * out_a
-    return StripAero(M_nc=-(Hh[0] + Ha[0]), D_nc=-(Hh[1] + Ha[1]),
-                     P=circ[0] * out_h + circ[1] * out_a,
+    P_gust = (dl * (-rho * b * lift_slope_buffeting * ph
+                    + 2 * rho * b ** 2 * moment_slope_buffeting * pa)).T
+    return StripAero(M_nc=-H2, D_nc=-H1, P=(dl * (circ[0] * ph + circ[1] * pa)).T,
                      G0=heave.g0 * ph + pitch.g0 * pa,
                      G1=(b * heave.g1) * ph + (b * pitch.g1) * pa,
                      P_gust=P_gust, half_chord=b, air_density=rho)

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from model import backend as bk
-from model.aero import StripAero, circulatory_lift, project
+from model.aero import StripAero, circulatory_lift, load_map
 from model.basis import StructuralBasis
 from model.errors import BridgeflapInputError
 
@@ -70,12 +70,13 @@ class OpenPieces:
         ``F0, F1, F2``: structural and non-circulatory forces per ``U^0, U^1, U^2``.
     W : tuple of 2 (m, 2n)
         ``W_v, W_q``: downwash per ``U^0, U^1`` (``m = n`` modal, strips in full order).
-    R : (n, m)
-        Force of a unit circulatory downwash times ``U C``.
+    R : (n, m) or None
+        Force of a unit circulatory downwash times ``U C`` (``None``: identity, modal order).
     H : tuple of 3 (n, nF) or None
         Flap forces per ``beta''``, ``U beta'``, ``U^2 beta`` (``H2, H1, H0``).
-    W_beta : tuple of 2 (m, nF) or None
-        Flap downwash per ``beta'`` and ``U beta`` (``b g1 PF, g0 PF``).
+    W_beta : tuple (PF, (b g1, g0)) or None
+        Flap circulatory force map (n, nF) and downwash coefficients per ``beta'`` and
+        ``U beta``.
     phi_a_flaps : (nF, n) or None
         Deck pitch at the flaps per unit coordinate [rad].
     half_chord : float
@@ -105,7 +106,7 @@ class OpenPieces:
 
 
 def flap_inputs(flaps, weights, half_chord, air_density) -> tuple:
-    """``(H, W_beta)`` of a flap set: the flap strip loads of :mod:`model.aero` projected.
+    """``(H, PF, q)`` of a flap set: the flap strip loads of :mod:`model.aero` projected.
 
     Parameters
     ----------
@@ -113,15 +114,23 @@ def flap_inputs(flaps, weights, half_chord, air_density) -> tuple:
         Mode shapes at the flap strips, spanwise widths [m] and per-unit-span loads.
     weights : array (nF,) or casadi.SX
         Per-flap load factor [-] (1 fitted, 0 absent).
+
+    Returns
+    -------
+    H : tuple of 3 (n, nF)
+        Force per ``beta''``, ``U beta'``, ``U^2 beta``.
+    PF : (n, nF)
+        Force per unit ``U C Q_f``.
+    q : tuple of 2
+        ``(b g1, g0)``: flap downwash per ``beta'`` and per ``U beta``.
     """
-    scale = bk.diag(flaps.width_m * weights if not bk.is_symbolic(weights)
-                    else bk.mtimes(bk.diag(flaps.width_m), weights))
-    out_h, out_a = bk.mtimes(flaps.phi_h.T, scale), bk.mtimes(flaps.phi_a.T, scale)
+    width = np.asarray(flaps.width_m, float)
+    scale = bk.diag(width[:, None] * weights if bk.is_symbolic(weights) else width * weights)
     ld = flaps.loads
-    H = project(ld, out_h, out_a, np.eye(flaps.n_flaps))
+    H = tuple(bk.mtimes(E, scale) for E in load_map(ld, flaps.phi_h, flaps.phi_a))
     circ = circulatory_lift(half_chord, air_density)
-    PF = circ[0] * out_h + circ[1] * out_a
-    return H, (half_chord * ld.g1 * PF, ld.g0 * PF)
+    PF = bk.mtimes(circ[0] * flaps.phi_h.T + circ[1] * flaps.phi_a.T, scale)
+    return H, PF, (half_chord * ld.g1, ld.g0)
 
 
 def open_pieces(basis: StructuralBasis, aero: StripAero, order: str = "modal", flaps=None,
@@ -149,7 +158,7 @@ def open_pieces(basis: StructuralBasis, aero: StripAero, order: str = "modal", f
     F = (on_qv(-basis.K, -basis.C, n), on_qv(None, -aero.D_nc, n), bk.zeros(n, 2 * n, like))
     if order == "modal":
         W = (on_qv(None, aero.P @ aero.G1, n), on_qv(aero.P @ aero.G0, None, n))
-        R = np.eye(n)
+        R = None
     else:
         ns = basis.n_strip
         W = (on_qv(None, aero.G1, ns), on_qv(aero.G0, None, ns))
@@ -157,7 +166,8 @@ def open_pieces(basis: StructuralBasis, aero: StripAero, order: str = "modal", f
     H = W_beta = phi_a = None
     if flaps is not None:
         w = np.ones(flaps.n_flaps) if weights is None else weights
-        H, W_beta = flap_inputs(flaps, w, aero.half_chord, aero.air_density)
+        H, PF, q = flap_inputs(flaps, w, aero.half_chord, aero.air_density)
+        W_beta = (PF, q)
         phi_a = flaps.phi_a
     return OpenPieces(M=basis.M + aero.M_nc, F=F, W=W, R=R, H=H, W_beta=W_beta,
                       phi_a_flaps=phi_a, half_chord=aero.half_chord, order=order)
@@ -181,13 +191,15 @@ def compensator_matrices(theta):
 class ClosedPieces:
     """The pieces with the compensator fed back, on ``x = (q, q', lag columns, xc)``.
 
-    ``F`` (3 x (n, nx)), ``W`` (2 x (m, nx)), ``M`` = ``M_eff``; ``comp_rows`` (nc nF, nx) the
-    compensator dynamics; ``beta_map`` (nF, nx) the flap angles ``beta = S0 x`` [rad];
-    ``n_lag`` the number of (zero) lag columns reserved after ``q'``.
+    ``F`` (3 x (n, nx)) the structural and deck non-circulatory forces, ``HS`` (3 x (n, nx))
+    the flap non-circulatory forces, ``W`` (2 x (m, nx)) the downwash (deck and flaps), ``M``
+    = ``M_eff``; ``comp_rows`` (nc nF, nx) the compensator dynamics; ``beta_map`` (nF, nx) the
+    flap angles ``beta = S0 x`` [rad]; ``n_lag`` the number of (zero) lag columns after ``q'``.
     """
 
     M: object
     F: tuple
+    HS: tuple
     W: tuple
     R: object
     comp_rows: object
@@ -195,6 +207,10 @@ class ClosedPieces:
     n: int
     n_lag: int
     half_chord: object
+
+    def RW(self, k: int):
+        """``R W_k``: generalised circulatory force per unit ``U C`` (k = 0: ``W_v``, 1)."""
+        return self.W[k] if self.R is None else bk.mtimes(self.R, self.W[k])
 
 
 def close(op: OpenPieces, compensator=None, n_lag: int = 0) -> ClosedPieces:
@@ -207,7 +223,7 @@ def close(op: OpenPieces, compensator=None, n_lag: int = 0) -> ClosedPieces:
     Ac, Bc, Cc, Dc = compensator if closed else (np.zeros((0, 0)), None, None, 0.0)
     nc = int(Ac.shape[0])
     nx = 2 * n + n_lag + nc * nF
-    like = (op.M, op.R, *op.F, *op.W, *(op.H or ()), Ac, Cc, Dc)
+    like = (op.M, *op.F, *op.W, *(op.H or ()), *(op.W_beta or (None,))[:1], Ac, Cc, Dc)
     iq, iv, icomp = slice(0, n), slice(n, 2 * n), slice(2 * n + n_lag, nx)
 
     def embed(block):                 # (rows, 2n) on (q, q') -> (rows, nx)
@@ -216,6 +232,7 @@ def close(op: OpenPieces, compensator=None, n_lag: int = 0) -> ClosedPieces:
         return out
 
     F, W = [embed(f) for f in op.F], [embed(w) for w in op.W]
+    HS = [bk.zeros(n, nx, like)] * 3
     M = op.M
     comp_rows = bk.zeros(nc * nF, nx, like)
     S0 = bk.zeros(nF if closed else 0, nx, like)
@@ -236,13 +253,15 @@ def close(op: OpenPieces, compensator=None, n_lag: int = 0) -> ClosedPieces:
         S1 = beta_map(cb, Dc, CA)
         S2 = beta_map(cab, cb, bk.mtimes(CA, Ac))      # without Dc alpha''
         H2, H1, H0 = op.H
-        F = [F[0] + bk.mtimes(H2, S2), F[1] + bk.mtimes(H1, S1), F[2] + bk.mtimes(H0, S0)]
-        W = [W[0] + bk.mtimes(op.W_beta[0], S1), W[1] + bk.mtimes(op.W_beta[1], S0)]
+        HS = [bk.mtimes(H2, S2), bk.mtimes(H1, S1), bk.mtimes(H0, S0)]
+        PF, (q1, q0) = op.W_beta
+        W = [W[0] + q1 * bk.mtimes(PF, S1), W[1] + q0 * bk.mtimes(PF, S0)]
         M = M - Dc * bk.mtimes(H2, PhA)
         comp_rows[:, icomp] = bk.kron(eye_f, Ac)
         comp_rows[:, iq] = bk.mtimes(bk.kron(eye_f, Bc), PhA)
-    return ClosedPieces(M=M, F=tuple(F), W=tuple(W), R=op.R, comp_rows=comp_rows,
-                        beta_map=S0, n=n, n_lag=n_lag, half_chord=op.half_chord)
+    return ClosedPieces(M=M, F=tuple(F), HS=tuple(HS), W=tuple(W), R=op.R,
+                        comp_rows=comp_rows, beta_map=S0, n=n, n_lag=n_lag,
+                        half_chord=op.half_chord)
 
 
 def _first_order(cp: ClosedPieces, rows_v, lag_rows=None) -> tuple:
@@ -266,22 +285,22 @@ def _first_order(cp: ClosedPieces, rows_v, lag_rows=None) -> tuple:
 def rfa_parts(op: OpenPieces, rfa, compensator=None) -> tuple:
     """``(A0, A1, A2, M_eff, beta_map)`` with the lag-form RFA of ``C`` (module docstring)."""
     nl = rfa.n_lags
-    m = op.R.shape[1]
+    m = op.n if op.R is None else op.R.shape[1]
     cp = close(op, compensator, n_lag=nl * m)
     n, nx = cp.n, cp.F[0].shape[1]
-    like = (cp.M, *cp.F, *cp.W, cp.R)
-    gains = bk.zeros(n, nx, like)
+    like = (cp.M, *cp.F, *cp.HS, *cp.W)
+    F1 = cp.F[1] + bk.zeros(n, nx, like)
     lag_rows1, lag_rows2 = [], []
     for j in range(nl):
         lj = slice(2 * n + j * m, 2 * n + (j + 1) * m)
-        gains[:, lj] = float(rfa.gains[j]) * cp.R
+        F1[:, lj] = float(rfa.gains[j]) * (np.eye(n) if cp.R is None else cp.R)
         rate = float(rfa.poles[j]) / cp.half_chord
         E = np.zeros((m, nx))
         E[:, lj] = np.eye(m)
         lag_rows1.append(rate * (cp.W[0] - E))
         lag_rows2.append(rate * cp.W[1])
-    RW = [bk.mtimes(cp.R, w) for w in cp.W]
-    rhs = bk.hcat([cp.F[0], cp.F[1] + 0.5 * RW[0] + gains, cp.F[2] + 0.5 * RW[1]])
+    rhs = bk.hcat([cp.F[0] + cp.HS[0], F1 + 0.5 * cp.RW(0) + cp.HS[1],
+                   cp.F[2] + 0.5 * cp.RW(1) + cp.HS[2]])
     rows = bk.solve(cp.M, rhs)
     rows_v = [rows[:, :nx], rows[:, nx:2 * nx], rows[:, 2 * nx:]]
     lags = None
@@ -316,8 +335,8 @@ def frozen_parts(op: OpenPieces, compensator=None) -> FrozenParts:
     """:class:`FrozenParts` of the pieces (numeric), open or closed loop."""
     cp = close(op, compensator)
     nx = cp.F[0].shape[1]
-    RW = [cp.R @ w for w in cp.W]
-    rows = np.linalg.solve(cp.M, np.hstack([*cp.F, *RW]))
+    F = [f + hs for f, hs in zip(cp.F, cp.HS, strict=True)]
+    rows = np.linalg.solve(cp.M, np.hstack([*F, cp.RW(0), cp.RW(1)]))
     blocks = [rows[:, k * nx:(k + 1) * nx] for k in range(5)]
     A0, A1, A2 = _first_order(cp, blocks[:3])
     zero = np.zeros_like(blocks[0])
@@ -336,11 +355,11 @@ def dynamic_matrices(op: OpenPieces, wind_speed: float, s: complex, c_value: com
     if op.order != "modal":
         raise BridgeflapInputError("order", "the frozen-C dynamic matrix is built in modal order")
     U, c, n = float(wind_speed), complex(c_value), op.n
-    F = op.F[0] + U * op.F[1] + U * U * op.F[2] + U * c * (op.R @ (op.W[0] + U * op.W[1]))
+    F = op.F[0] + U * op.F[1] + U * U * op.F[2] + U * c * (op.W[0] + U * op.W[1])
     D = s * s * op.M - s * F[:, n:] - F[:, :n]
     if op.H is None:
         return D, None
     H2, H1, H0 = op.H
-    Fb = (s * s * H2 + U * s * H1 + U * U * H0
-          + U * c * (op.R @ (s * op.W_beta[0] + U * op.W_beta[1])))
+    PF, (q1, q0) = op.W_beta
+    Fb = s * s * H2 + U * s * H1 + U * U * H0 + U * c * PF * (U * q0 + q1 * s)
     return D, Fb

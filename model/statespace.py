@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from model import backend as bk
 from model.aero import StripAero, strip_aero
 from model.assembly import (
     ORDERS,
@@ -136,7 +137,7 @@ def build(basis: StructuralBasis, half_chord: float, air_density: float,
     nx = A0.shape[0]
     iq, iv = slice(0, n), slice(n, 2 * n)
     Bw1 = np.zeros((nx, ns))
-    Bw1[iv, :] = np.linalg.solve(M_t, aero.P_gust)
+    Bw1[iv, :] = bk.solve(M_t, aero.P_gust)
     C_out = np.zeros((2 * ns, nx))
     C_out[:ns, iq] = basis.phi_h
     C_out[ns:, iq] = basis.phi_a

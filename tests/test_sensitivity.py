@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from design.cli import main
+from design.screening import global_sensitivity
 from design.sensitivity import (
-    global_sensitivity,
     local_sensitivity,
     ritz_system,
     speed_derivative_ift,
