@@ -32,7 +32,7 @@ Busch & Panofsky (1968) QJRMS 94; Massaro, Limebeer et al. (seed paper) Eqs. (7)
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -45,17 +45,17 @@ from model.spectral import (
     simulate_monte_carlo,
     trapezoid_weights,
 )
+from model.spectrum import spectral_abscissa
 from model.wind import ADMITTANCE_KINDS, SPECTRUM_KINDS, admittance_sq, vertical_spectrum
 
 __all__ = [
     "BuffetingResult",
     "GustField",
     "buffeting",
-    "buffeting_casadi",
     "coherence_projection",
     "gust_field",
     "reduced_response",
-    "spectral_abscissa",
+    "row_factor",
 ]
 
 METHODS = ("spectral", "monte-carlo")
@@ -229,17 +229,12 @@ def coherence_projection(positions, V, omegas, wind_speed, decay) -> np.ndarray:
     return 0.5 * (out + np.swapaxes(out, 1, 2))
 
 
-def _row_factor(M, rtol=1e-12):
+def row_factor(M, rtol=1e-12):
     """``M = L R`` with ``R`` orthonormal rows spanning the row space of ``M`` (SVD)."""
     U_, s, Vt = np.linalg.svd(M, full_matrices=False)
     r = int(np.sum(s > rtol * (s[0] if s.size else 0.0))) if s.size and s[0] > 0 else 0
     r = max(r, 1)
     return U_[:, :r] * s[:r], Vt[:r]
-
-
-def spectral_abscissa(A) -> float:
-    """``max Re eig(A)`` [1/s]."""
-    return float(np.max(np.linalg.eigvals(np.asarray(A, dtype=float)).real))
 
 
 @dataclass(frozen=True)
@@ -295,7 +290,7 @@ def reduced_response(A, B, C, positions, wind_speed, gust: GustField, *, omega_m
     U = float(wind_speed)
     lam = np.linalg.eigvals(A)
     abscissa = float(np.max(lam.real))
-    Cl, Cr = _row_factor(C)
+    Cl, Cr = row_factor(C)
     if abscissa >= 0.0:  # at or beyond flutter/divergence: report, never clip
         grid = np.zeros(1) if omegas is None else np.asarray(omegas, dtype=float)
         return _SpeedResponse(np.full(C.shape[0], np.nan), float("nan"), int(grid.size), grid,
@@ -305,7 +300,7 @@ def reduced_response(A, B, C, positions, wind_speed, gust: GustField, *, omega_m
         omega_max = OMEGA_MAX_FACTOR * float(np.abs(lam.imag).max())
         if omega_max <= 0:  # no oscillatory root: scale on the fastest real root
             omega_max = 10.0 * float(np.abs(lam).max())
-    Bl, Vt = _row_factor(B)
+    Bl, Vt = row_factor(B)
     # near flutter the peaks narrow: refine the adaptive grid (twice at most) until converged
     for attempt in range(3 if omegas is None else 1):
         if omegas is None:
@@ -705,111 +700,3 @@ def _monte_carlo(A, B, C, strip_x, U, gust, main, ns, n_records, seed, n_points,
     j = int(np.argmax(np.where(main, res.rms[:ns], -np.inf)))
     return {"rms": res.rms, "se_vertical": float(res.standard_error[j]), "points": n_points,
             "rel_se": float(res.standard_error[j] / res.rms[j]), "status": res.status}
-
-
-# ----------------------------------------------------------------------------------------------
-# differentiable form
-# ----------------------------------------------------------------------------------------------
-CASADI_PARAMETERS = ("damping_scale", "air_density_scale")
-
-
-def buffeting_casadi(system, wind_speed, gust: GustField, outputs: Sequence[int], *,
-                     omegas=None, n_base=40, peaks_per_mode=15, half_widths=20.0,
-                     linear_solver="lapacklu"):
-    """Buffeting RMS of selected outputs as a CasADi Function of design parameters.
-
-    The same spectral integral as :func:`reduced_response` (one-sided, trapezoid rule on a
-    fixed grid, load CSD projected on the row space of ``B_gust``), written with
-    :func:`model.spectral_casadi.casadi_spectral_variance` so that it is differentiable in
-    ``p = (damping_scale, air_density_scale)`` (both 1 at nominal):
-
-    * ``damping_scale`` multiplies the structural damping matrix ``C`` of the basis;
-    * ``air_density_scale`` multiplies ``rho`` in every aerodynamic term: ``M_nc``, ``D_nc``,
-      ``P`` (hence the lag-state inputs in modal lag order) and the buffeting map ``P_gust``.
-
-    With ``M_t(p) = M + rho_s M_nc`` the rows of ``A`` and ``B`` on ``q'`` are
-    ``M_t^{-1} (F_struct(zeta_s) + rho_s F_motion + F_lag)``, recovered exactly from the
-    nominal ``A(U)``; the lag-state rows on ``(q, q')`` scale with ``rho_s`` in modal lag order
-    (the lags filter ``P Q``), the lag-force columns in full order (``R = P``). This is an exact
-    reparametrisation of :func:`model.statespace.build` (checked in the tests).
-
-    Parameters
-    ----------
-    system : AeroelasticSystem
-        Open-loop system of :mod:`model.statespace` (uses ``index``, ``basis``, ``aero``).
-    wind_speed : float
-        ``U`` [m/s].
-    gust : GustField
-        Wind inputs.
-    outputs : sequence of int
-        Rows of ``system.C_out`` (strip heave 0..n_strip-1, then pitch).
-    omegas : array_like, optional
-        Fixed grid [rad/s]; adaptive at the nominal ``A(U)`` when omitted (coarser defaults
-        than the numpy path: CasADi does one dense 2n x 2n solve per frequency).
-    linear_solver : str, optional
-        CasADi linear solver for the per-frequency solves.
-
-    Returns
-    -------
-    fun : casadi.Function
-        ``"buffeting_rms"``: ``p (2,) -> rms (len(outputs),)`` [output unit].
-    omegas : ndarray
-        The frozen grid [rad/s].
-    """
-    import casadi as ca
-
-    from model.spectral_casadi import casadi_spectral_variance
-
-    U = float(wind_speed)
-    idx = system.index
-    basis, aero = system.basis, system.aero
-    A0 = np.asarray(system.A(U), dtype=float)
-    B0 = np.asarray(system.B_gust(U), dtype=float)
-    n_x = A0.shape[0]
-    iv, iq = idx.q_dot, idx.q
-    lag = idx.aero_lag
-    Mt0 = basis.M + aero.M_nc
-    F = Mt0 @ A0[iv, :]
-    Fs = np.zeros_like(F)
-    Fs[:, iq] = -basis.K
-    Fs[:, iv] = -basis.C
-    Fa = F - Fs
-    Fs_k = np.zeros_like(F)
-    Fs_k[:, iq] = -basis.K
-    Fs_c = np.zeros_like(F)
-    Fs_c[:, iv] = -basis.C
-    Gb = Mt0 @ B0[iv, :]  # = U P_gust, proportional to rho
-    _, Vt = _row_factor(B0)
-    Cr = np.asarray(system.C_out, dtype=float)[list(outputs)]
-    if omegas is None:
-        wd = np.abs(np.linalg.eigvals(A0).imag)
-        omegas = adaptive_frequency_grid(A0, OMEGA_MAX_FACTOR * wd.max(), n_base,
-                                         peaks_per_mode, half_widths)
-    omegas = np.asarray(omegas, dtype=float)
-    scale = gust.psd(omegas, U) * gust.admittance_sq(omegas, U)
-    S = scale[:, None, None] * coherence_projection(basis.strip_x, Vt.T, omegas, U,
-                                                    gust.coherence_decay)
-
-    p = ca.MX.sym("p", 2)
-    zs, rs = p[0], p[1]
-    # rho enters the motion-dependent forces (P, D_nc, M_nc) and either the lag-state inputs
-    # (modal lag order: the lags filter P Q) or the lag-state force map (full order: R = P)
-    rho_in, rho_out = (rs, 1.0) if system.order == "modal" else (1.0, rs)
-    Fa_motion = np.zeros_like(Fa)
-    Fa_motion[:, :iv.stop] = Fa[:, :iv.stop]
-    Fa_lag = Fa - Fa_motion
-    Mt = ca.DM(basis.M) + rs * ca.DM(aero.M_nc)
-    rows_v = ca.solve(Mt, ca.DM(Fs_k) + zs * ca.DM(Fs_c) + rs * ca.DM(Fa_motion)
-                      + rho_out * ca.DM(Fa_lag))
-    A_lag = ca.horzcat(rho_in * ca.DM(A0[lag, :iv.stop]), ca.DM(A0[lag, iv.stop:]))
-    A = ca.vertcat(ca.DM(A0[iq, :]), rows_v, A_lag)
-    if A.size1() != n_x:
-        raise BridgeflapError("unexpected state layout for the symbolic buffeting model")
-    Bv = ca.solve(Mt, rs * ca.DM(Gb @ Vt.T))  # B(p) V, rows q'
-    Bl = ca.vertcat(ca.DM.zeros(iv.start, Vt.shape[0]), Bv,
-                    ca.DM.zeros(n_x - iv.stop, Vt.shape[0]))
-    if np.max(np.abs(np.delete(B0, np.s_[iv], axis=0))) > 0:
-        raise BridgeflapError("B_gust has rows outside q'; not an open-loop AeroelasticSystem")
-    var = casadi_spectral_variance(A, Bl, ca.DM(Cr), omegas, S, linear_solver=linear_solver)
-    fun = ca.Function("buffeting_rms", [p], [ca.sqrt(var)], ["p"], ["rms"])
-    return fun, omegas

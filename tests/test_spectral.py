@@ -1,4 +1,4 @@
-"""Tests of the random-response engine (model/spectral.py, model/spectral_casadi.py).
+"""Tests of the random-response engine (model/spectral.py, its CasADi form in model/symbolic.py).
 
 PSD convention under test (module docstring of model.spectral): one-sided in omega >= 0,
 sigma^2 = int_0^inf G d omega; white noise of intensity Q has G0 = Q / pi (two-sided Q / 2 pi).
@@ -21,7 +21,7 @@ from model.spectral import (
     spectral_rms,
     white_noise_intensity,
 )
-from model.spectral_casadi import casadi_spectral_rms
+from model.symbolic import casadi_spectral_rms
 
 
 # ----------------------------------------------------------------------------------------------
