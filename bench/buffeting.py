@@ -22,7 +22,8 @@ import time
 import numpy as np
 
 from model.analysis import bridge_system
-from model.buffeting import buffeting, gust_field
+from model.buffeting import buffeting
+from model.gust import gust_field
 from model.spec import load_bridge
 from model.symbolic import buffeting_rms_function, build_symbolic
 

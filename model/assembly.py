@@ -47,7 +47,6 @@ __all__ = [
     "FrozenParts",
     "OpenPieces",
     "close",
-    "compensator_matrices",
     "dynamic_matrices",
     "flap_inputs",
     "frozen_parts",
@@ -171,20 +170,6 @@ def open_pieces(basis: StructuralBasis, aero: StripAero, order: str = "modal", f
         phi_a = flaps.phi_a
     return OpenPieces(M=basis.M + aero.M_nc, F=F, W=W, R=R, H=H, W_beta=W_beta,
                       phi_a_flaps=phi_a, half_chord=aero.half_chord, order=order)
-
-
-def compensator_matrices(theta):
-    """Controllable canonical realisation of ``K(s)`` for ``theta = (b2, b1, b0, a2, a1)``.
-
-    The realisation of :meth:`model.control.Compensator.state_space` (second order,
-    ``a2 > 0``) for numeric or symbolic ``theta``. Returns ``(Ac, Bc, Cc, Dc)``.
-    """
-    b2, b1, b0, a2, a1 = (theta[i] for i in range(5))
-    d1, d0 = a1 / a2, 1.0 / a2
-    c2, c1, c0 = b2 / a2, b1 / a2, b0 / a2
-    Ac = bk.matrix([[0.0, 1.0], [-d0, -d1]])
-    Cc = bk.matrix([[c0 - c2 * d0, c1 - c2 * d1]])
-    return Ac, np.array([[0.0], [1.0]]), Cc, c2
 
 
 @dataclass(frozen=True)

@@ -99,7 +99,7 @@ class FlapSet:
     @property
     def n_flaps(self) -> int:
         """Number of flap strips."""
-        return self.phi_h.shape[0]
+        return int(np.size(self.width_m))
 
 
 def _main_span_frame(spec) -> tuple[float, float]:

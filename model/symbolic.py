@@ -51,8 +51,9 @@ import casadi as ca
 import numpy as np
 
 from model.aero import strip_aero
-from model.assembly import compensator_matrices, open_pieces, rfa_parts
+from model.assembly import open_pieces, rfa_parts
 from model.basis import StructuralBasis
+from model.control import canonical_realisation
 from model.errors import BridgeflapInputError
 from model.fe import assemble
 from model.modes import ModalModel, solve
@@ -186,7 +187,7 @@ def closed_loop_functions(model) -> dict:
     theta = ca.SX.sym("theta", 5)
     w = ca.SX.sym("w", model.n_flaps)
     A0, A1, A2, M_eff, _ = rfa_parts(model.pieces(w), model.open_loop.rfa,
-                                     compensator_matrices(theta))
+                                     canonical_realisation(theta))
     B = _gust_input(M_eff, model.open_loop.aero.P_gust, A0.shape[0])
     parts = ca.Function("A_parts", [theta, w], [A0, A1, A2], ["theta", "w"],
                         ["A0", "A1", "A2"])
@@ -340,7 +341,7 @@ def buffeting_rms_function(A_fun: ca.Function, B_fun: ca.Function, nominal, C_ou
         Strip positions [m] (coherence).
     wind_speed : float
         ``U`` [m/s].
-    gust : model.buffeting.GustField
+    gust : model.gust.GustField
     outputs : sequence of int
         Rows of ``C_out``.
     omegas : array_like, optional
@@ -362,7 +363,8 @@ def buffeting_rms_function(A_fun: ca.Function, B_fun: ca.Function, nominal, C_ou
     bridge: every coordinate is a vertical or a torsional mode, so each row of ``P_gust`` is
     one mode's strip shape times a scalar that carries ``b`` and ``rho``.
     """
-    from model.buffeting import OMEGA_MAX_FACTOR, coherence_projection, row_factor
+    from model.buffeting import OMEGA_MAX_FACTOR, row_factor
+    from model.gust import coherence_projection
     from model.spectral import adaptive_frequency_grid
 
     U = float(wind_speed)

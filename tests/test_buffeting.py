@@ -16,17 +16,12 @@ from design.cli import main
 from model import statespace
 from model.analysis import bridge_system
 from model.basis import StructuralBasis
-from model.buffeting import (
-    CONVERGENCE_TOL,
-    GustField,
-    buffeting,
-    coherence_projection,
-    gust_field,
-    reduced_response,
-)
+from model.buffeting import CONVERGENCE_TOL, buffeting, reduced_response
 from model.errors import BridgeflapInputError
+from model.gust import GustField, coherence_projection, gust_field
+from model.simulation import lyapunov_rms
 from model.spec import load_bridge
-from model.spectral import lyapunov_rms, white_noise_intensity
+from model.spectral import white_noise_intensity
 from model.wind import admittance_sq
 
 
