@@ -347,8 +347,8 @@ class ClosedLoopFlutterResult:
     def summary(self) -> dict:
         """Same keys as :meth:`model.analysis.FlutterResult.summary`, plus closed-loop info.
 
-        ``divergence_static_speed_m_s`` is the open-loop static check (the closed-loop
-        divergence is the eigenvalue crossing ``divergence_speed_m_s``).
+        ``divergence_static_speed_m_s`` is the closed-loop static check (static flap loads of
+        ``beta = K(0) alpha``); the open-loop values are under ``open_loop_*``.
         """
         s = self.base.summary()
         ol = self.open_loop.summary()

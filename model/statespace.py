@@ -170,12 +170,24 @@ def exact_dynamic_matrix(system: AeroelasticSystem, p: complex, wind_speed: floa
 
 
 def divergence_speed_static(system: AeroelasticSystem) -> float:
-    """Static divergence speed [m/s]: smallest ``U`` with ``det(K - U^2 P G0) = 0`` (C(0) = 1).
+    """Static divergence speed [m/s]: smallest ``U`` with ``det(K - U^2 Q) = 0`` (C(0) = 1).
 
+    ``Q = P G0`` for the open loop; with flaps driven by a compensator ``Q = P G0 + (H0 + g0
+    PF) K(0) Phi_a`` (the static flap loads of ``beta = K(0) alpha_f``, :mod:`model.assembly`).
     Returns NaN when no positive real root exists.
     """
     K = system.basis.K
-    Q = system.aero.P @ system.aero.G0
+    n = system.basis.n
+    if system.pieces is None:
+        Q = system.aero.P @ system.aero.G0
+    else:
+        op = system.pieces
+        Q = op.W[1][:, :n] if op.R is None else op.R @ op.W[1][:, :n]
+        if system.compensator is not None and op.n_flaps:
+            Ac, Bc, Cc, Dc = system.compensator
+            k0 = float(Dc - (Cc @ np.linalg.solve(Ac, Bc))[0, 0])
+            PF, (_, q0) = op.W_beta
+            Q = Q + k0 * (op.H[2] + q0 * PF) @ op.phi_a_flaps
     mu = np.linalg.eigvals(np.linalg.solve(K, Q))
     real = mu[(np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()) & (mu.real > 0)].real
     if real.size == 0:

@@ -222,3 +222,19 @@ def test_model_never_imports_its_facade_from_below():
         top = [n for n in tree.body if isinstance(n, ast.Import | ast.ImportFrom)]
         mods = [n.module for n in top if isinstance(n, ast.ImportFrom)]
         assert "model.analysis" not in mods, path.name
+
+
+@pytest.mark.parametrize("b0", [0.0, 0.3, -0.3, 1.0])
+def test_closed_loop_static_divergence_includes_the_compensator(b0):
+    # Cross-method: the static check det(K - U^2 Q) = 0 with the static flap loads of
+    # beta = K(0) alpha equals the real eigenvalue crossing zero in the closed-loop sweep
+    # (Brent tolerance 1e-3 m/s); K(0) = b0 moves it (it used to stay at the open loop's).
+    from model.stability import sweep
+
+    basis = section_basis(7660.0, 3.75e5, 0.116, 0.30, B, 0.005)
+    m = section_model(basis, B, RHO, CHORD)
+    sw = sweep(m.system(Compensator(0.0, 0.0, b0, 0.05, 0.3)), np.linspace(0.0, 150.0, 301))
+    assert sw.divergence.status == "converged"
+    assert sw.divergence.speed == pytest.approx(sw.divergence_static_speed, abs=2e-3)
+    open_loop = sweep(m.open_loop, np.linspace(0.0, 150.0, 301)).divergence_static_speed
+    assert (sw.divergence_static_speed == pytest.approx(open_loop, rel=1e-12)) == (b0 == 0.0)
