@@ -49,6 +49,7 @@ __all__ = [
     "close",
     "dynamic_matrices",
     "flap_inputs",
+    "frozen_combination",
     "frozen_parts",
     "open_pieces",
     "rfa_parts",
@@ -295,6 +296,19 @@ def rfa_parts(op: OpenPieces, rfa, compensator=None) -> tuple:
     return A0, A1, A2, cp.M, cp.beta_map
 
 
+def frozen_combination(parts, wind_speed: float, c_value: complex):
+    """``P0 + U P1 + U^2 P2 + U c (P3 + U P4)``: the equations with ``C`` frozen at ``c``.
+
+    The one place where ``C(k)`` is frozen: ``parts`` are the non-circulatory terms per
+    ``U^0, U^1, U^2`` and the circulatory ones per ``U C`` and ``U^2 C`` (forces, solved rows
+    of a first-order matrix, or flap-input terms). Used by :class:`FrozenParts` (p-k) and
+    :func:`dynamic_matrices` (flap-loop plant, exact flutter determinant).
+    """
+    U, c = float(wind_speed), complex(c_value)
+    P0, P1, P2, P3, P4 = parts
+    return P0 + U * P1 + (U * U) * P2 + (U * c) * (P3 + U * P4)
+
+
 @dataclass(frozen=True)
 class FrozenParts:
     """``A(U, c) = A0 + U (A1 + c A1c) + U^2 (A2 + c A2c)`` on ``(q, q', xc)`` (numpy).
@@ -312,8 +326,8 @@ class FrozenParts:
 
     def matrix(self, wind_speed: float, c_value: complex) -> np.ndarray:
         """First-order matrix at ``wind_speed`` [m/s] with ``C = c_value``."""
-        U, c = float(wind_speed), complex(c_value)
-        return self.A0 + U * (self.A1 + c * self.A1c) + (U * U) * (self.A2 + c * self.A2c)
+        return frozen_combination((self.A0, self.A1, self.A2, self.A1c, self.A2c),
+                                  wind_speed, c_value)
 
 
 def frozen_parts(op: OpenPieces, compensator=None) -> FrozenParts:
@@ -337,14 +351,13 @@ def dynamic_matrices(op: OpenPieces, wind_speed: float, s: complex, c_value: com
     ``c = C(k)`` is the exact Theodorsen flutter equation; with ``c`` the RFA at ``s b/U``,
     ``D^{-1} F_beta`` is the exact transfer function of the RFA state space.
     """
-    if op.order != "modal":
-        raise BridgeflapInputError("order", "the frozen-C dynamic matrix is built in modal order")
-    U, c, n = float(wind_speed), complex(c_value), op.n
-    F = op.F[0] + U * op.F[1] + U * U * op.F[2] + U * c * (op.W[0] + U * op.W[1])
+    n = op.n
+    RW = [w if op.R is None else op.R @ w for w in op.W]
+    F = frozen_combination((*op.F, *RW), wind_speed, c_value)
     D = s * s * op.M - s * F[:, n:] - F[:, :n]
     if op.H is None:
         return D, None
     H2, H1, H0 = op.H
     PF, (q1, q0) = op.W_beta
-    Fb = s * s * H2 + U * s * H1 + U * U * H0 + U * c * PF * (U * q0 + q1 * s)
-    return D, Fb
+    return D, frozen_combination((s * s * H2, s * H1, H0, (q1 * s) * PF, q0 * PF),
+                                 wind_speed, c_value)
