@@ -219,10 +219,7 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> Stabili
     iq = system.index.q
     omega_tol = oscillation_tolerance(system)
     # structural eigenpairs at U = 0 (upper half plane)
-    Minv = np.linalg.inv(system.basis.M)
-    As = np.block([[np.zeros((n, n)), np.eye(n)],
-                   [-Minv @ system.basis.K, -Minv @ system.basis.C]])
-    lam0, V0 = _eig(As)
+    lam0, V0 = _eig(system.structural_matrix())
     up = np.argsort(np.where(lam0.imag >= 0, np.abs(lam0), np.inf))[:n]
     prev_lam = lam0[up]
     dominant = np.argmax(np.abs(V0[:n, up]) ** 2, axis=0)
@@ -331,9 +328,7 @@ def _structural_labels(system: AeroelasticSystem, lam0) -> tuple:
     """Label of the structural coordinate dominating each ``U = 0`` eigenvalue."""
     basis = system.basis
     n = basis.n
-    Minv = np.linalg.inv(basis.M)
-    As = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ basis.K, -Minv @ basis.C]])
-    l0, V0 = _eig(As)
+    l0, V0 = _eig(system.structural_matrix())
     labels = []
     for lam in lam0:
         k = np.argmin(np.abs(l0 - lam))

@@ -97,12 +97,16 @@ class AeroelasticSystem:
             raise BridgeflapInputError("order", "the frozen-C (p-k) form is built in modal order")
         return frozen_parts(self.pieces, self.compensator)
 
+    def structural_matrix(self) -> np.ndarray:
+        """First-order matrix of the structure alone on ``(q, q')`` (no air, ``U = 0``)."""
+        B = self.basis
+        n = B.n
+        Minv = np.linalg.inv(B.M)
+        return np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ B.K, -Minv @ B.C]])
+
     def structural_eigenvalues(self) -> np.ndarray:
         """Eigenvalues of the structure alone (upper half plane), ``U = 0``, no air."""
-        n = self.basis.n
-        Minv = np.linalg.inv(self.basis.M)
-        As = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ self.basis.K, -Minv @ self.basis.C]])
-        lam = np.linalg.eigvals(As)
+        lam = np.linalg.eigvals(self.structural_matrix())
         return np.sort_complex(lam[lam.imag > 0])
 
 
