@@ -52,12 +52,7 @@ def bridge_system(spec: BridgeSpec, n_modes: int = DEFAULT_MODES, order: str = "
     if int(n_modes) < 1:
         raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")
     modal = modal_model(spec) if modal is None else modal
-    basis = modal.structural_basis(int(n_modes))
-    a = spec.aero
-    system = statespace.build(basis, spec.deck.half_chord_m, a.air_density_kg_m3, rfa=rfa,
-                              order=order, added_inertia=a.added_inertia,
-                              lift_slope_buffeting=a.lift_slope_buffeting,
-                              moment_slope_buffeting=a.moment_slope_buffeting)
+    system = statespace.spec_system(spec, modal.structural_basis(int(n_modes)), order, rfa)
     return modal, system
 
 

@@ -32,30 +32,26 @@ Busch & Panofsky (1968) QJRMS 94; Massaro, Limebeer et al. (seed paper) Eqs. (7)
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from model.errors import BridgeflapError, BridgeflapInputError
+from model.gust import GustField, coherence_projection, gust_field
+from model.simulation import simulate_monte_carlo
 from model.spectral import (
     adaptive_frequency_grid,
     exponential_coherence,
     response_psd,
-    simulate_monte_carlo,
     trapezoid_weights,
 )
-from model.wind import ADMITTANCE_KINDS, SPECTRUM_KINDS, admittance_sq, vertical_spectrum
+from model.spectrum import spectral_abscissa
 
 __all__ = [
     "BuffetingResult",
-    "GustField",
     "buffeting",
-    "buffeting_casadi",
-    "coherence_projection",
-    "gust_field",
     "reduced_response",
-    "spectral_abscissa",
+    "row_factor",
 ]
 
 METHODS = ("spectral", "monte-carlo")
@@ -65,181 +61,12 @@ CONVERGENCE_TOL = 5e-3
 OMEGA_MAX_FACTOR = 3.0
 
 
-# ----------------------------------------------------------------------------------------------
-# wind input
-# ----------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class GustField:
-    """Vertical-turbulence and buffeting-load inputs, validated.
-
-    Attributes
-    ----------
-    spectrum : str or callable
-        Name in :data:`model.wind.SPECTRUM_KINDS`, or ``(omega [rad/s], U [m/s]) -> G`` one-sided
-        in ``omega`` [m^2/s^2 per rad/s] (used for analytic checks).
-    admittance : str or callable
-        Name in :data:`model.wind.ADMITTANCE_KINDS`, or ``k -> |chi(k)|^2`` [-].
-    turbulence_intensity : float
-        ``sigma_w / U`` [-], > 0 (seed: 0.07).
-    deck_height_m : float
-        Deck height above water ``z`` [m] (Busch-Panofsky and Kaimal scale with ``n z / U``).
-    coherence_decay : float
-        Davenport decay constant ``c`` [-], >= 0 (0: full span-wise coherence).
-    half_chord_m : float
-        ``b`` [m], for ``k = omega b / U`` in the admittance.
-    length_scale_m : float or None
-        ``L_w^x`` [m] for the von Karman spectrum
-        (default :func:`model.wind.default_length_scale_w`).
-    """
-
-    spectrum: str | Callable = "busch-panofsky"
-    admittance: str | Callable = "liepmann"
-    turbulence_intensity: float = 0.07
-    deck_height_m: float = 30.0
-    coherence_decay: float = 8.0
-    half_chord_m: float = 11.0
-    length_scale_m: float | None = None
-
-    def __post_init__(self):
-        if isinstance(self.spectrum, str):
-            key = self.spectrum.strip().lower().replace("_", "-")
-            if key not in SPECTRUM_KINDS:
-                raise BridgeflapInputError(
-                    "spectrum", f"unknown kind {self.spectrum!r}; expected one of {SPECTRUM_KINDS}")
-            object.__setattr__(self, "spectrum", key)
-        elif not callable(self.spectrum):
-            raise BridgeflapInputError("spectrum", "must be a name or a callable")
-        if isinstance(self.admittance, str):
-            key = self.admittance.strip().lower()
-            if key not in ADMITTANCE_KINDS:
-                raise BridgeflapInputError(
-                    "admittance",
-                    f"unknown kind {self.admittance!r}; expected one of {ADMITTANCE_KINDS}")
-            object.__setattr__(self, "admittance", key)
-        elif not callable(self.admittance):
-            raise BridgeflapInputError("admittance", "must be a name or a callable")
-        for name in ("turbulence_intensity", "deck_height_m", "half_chord_m"):
-            v = getattr(self, name)
-            if not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
-                raise BridgeflapInputError(name, f"must be finite and > 0, got {v!r}")
-        c = self.coherence_decay
-        if not (isinstance(c, int | float) and np.isfinite(c) and c >= 0):
-            raise BridgeflapInputError("coherence_decay", f"must be finite and >= 0, got {c!r}")
-        if self.length_scale_m is not None and not (
-                np.isfinite(self.length_scale_m) and self.length_scale_m > 0):
-            raise BridgeflapInputError("length_scale_m", "must be finite and > 0")
-
-    def psd(self, omega, wind_speed: float) -> np.ndarray:
-        """One-sided gust PSD ``s_w(omega)`` [m^2/s^2 per rad/s] (admittance not included)."""
-        omega = np.abs(np.asarray(omega, dtype=float))
-        if callable(self.spectrum):
-            return np.asarray(self.spectrum(omega, wind_speed), dtype=float) * np.ones_like(omega)
-        kw = {} if self.length_scale_m is None or self.spectrum != "von-karman" else {
-            "length_scale": self.length_scale_m}
-        # one-sided in n [Hz] -> one-sided in omega: G(omega) = S(n) dn/domega = S(n) / (2 pi)
-        return vertical_spectrum(self.spectrum, omega / (2 * np.pi), wind_speed,
-                                 self.deck_height_m, self.turbulence_intensity, **kw) / (2 * np.pi)
-
-    def admittance_sq(self, omega, wind_speed: float) -> np.ndarray:
-        """``|chi(k)|^2`` at ``k = omega b / U`` [-]."""
-        k = np.abs(np.asarray(omega, dtype=float)) * self.half_chord_m / float(wind_speed)
-        if callable(self.admittance):
-            return np.asarray(self.admittance(k), dtype=float) * np.ones_like(k)
-        return admittance_sq(self.admittance, k)
-
-    def summary(self) -> dict:
-        """JSON-ready description of the inputs."""
-        def name(v):
-            return v if isinstance(v, str) else getattr(v, "__name__", "callable")
-
-        return {"spectrum": name(self.spectrum), "admittance": name(self.admittance),
-                "turbulence_intensity": float(self.turbulence_intensity),
-                "deck_height_m": float(self.deck_height_m),
-                "coherence_decay": float(self.coherence_decay),
-                "half_chord_m": float(self.half_chord_m),
-                "length_scale_m": self.length_scale_m}
-
-
-def gust_field(spec=None, **overrides) -> GustField:
-    """A :class:`GustField` from ``spec.aero`` and ``spec.deck``; non-None keywords override."""
-    base = {}
-    if spec is not None:
-        base = {"turbulence_intensity": spec.aero.turbulence_intensity,
-                "deck_height_m": spec.aero.deck_height_m,
-                "coherence_decay": spec.aero.coherence_decay,
-                "half_chord_m": spec.deck.half_chord_m}
-    base.update({k: v for k, v in overrides.items() if v is not None})
-    return GustField(**base)
-
-
-# ----------------------------------------------------------------------------------------------
-# numerical kernels
-# ----------------------------------------------------------------------------------------------
-def coherence_projection(positions, V, omegas, wind_speed, decay) -> np.ndarray:
-    """``V^T R(omega) V`` for the exponential coherence, by an O(m) recursion per frequency.
-
-    Parameters
-    ----------
-    positions : array_like, shape (m,)
-        Strip coordinates along the span [m] (any order).
-    V : array_like, shape (m, r)
-        Projection (real).
-    omegas : array_like, shape (n_omega,)
-        Circular frequencies [rad/s], >= 0.
-    wind_speed : float
-        ``U`` [m/s], > 0.
-    decay : float
-        Decay constant ``c`` [-], >= 0.
-
-    Returns
-    -------
-    ndarray, shape (n_omega, r, r)
-        Real symmetric ``V^T R V`` with ``R_ij = exp(-c omega |y_i - y_j| / (2 pi U))``
-        (seed Eq. (16)).
-
-    Notes
-    -----
-    For sorted ``y`` the matrix ``R`` is the covariance of a first-order Markov process in
-    ``y``, so ``(R v)_i = f_i + g_i - v_i`` with ``f_i = v_i + a_i f_{i-1}`` and
-    ``g_i = v_i + a_{i+1} g_{i+1}``, ``a_i = exp(-c omega (y_i - y_{i-1}) / (2 pi U))``.
-    """
-    y = np.asarray(positions, dtype=float).ravel()
-    V = np.asarray(V, dtype=float)
-    order = np.argsort(y, kind="stable")
-    y, V = y[order], V[order]
-    omegas = np.asarray(omegas, dtype=float).ravel()
-    m = y.size
-    a = np.exp(-float(decay) * np.abs(omegas)[:, None] * np.diff(y)[None, :]
-               / (2 * np.pi * float(wind_speed)))  # (n_omega, m-1)
-    # scan along the span with the frequency axis inside: (m, n_omega, r) keeps slices contiguous
-    a = np.ascontiguousarray(a.T)  # (m-1, n_omega)
-    f = np.empty((m, omegas.size, V.shape[1]))
-    g = np.empty_like(f)
-    f[0] = V[0]
-    for i in range(1, m):
-        np.multiply(a[i - 1, :, None], f[i - 1], out=f[i])
-        f[i] += V[i]
-    g[m - 1] = V[m - 1]
-    for i in range(m - 2, -1, -1):
-        np.multiply(a[i, :, None], g[i + 1], out=g[i])
-        g[i] += V[i]
-    f += g
-    f -= V[:, None, :]  # R V, (m, n_omega, r)
-    out = np.tensordot(V, f, axes=(0, 0)).transpose(1, 0, 2)  # (n_omega, r, r), one GEMM
-    return 0.5 * (out + np.swapaxes(out, 1, 2))
-
-
-def _row_factor(M, rtol=1e-12):
+def row_factor(M, rtol=1e-12):
     """``M = L R`` with ``R`` orthonormal rows spanning the row space of ``M`` (SVD)."""
     U_, s, Vt = np.linalg.svd(M, full_matrices=False)
     r = int(np.sum(s > rtol * (s[0] if s.size else 0.0))) if s.size and s[0] > 0 else 0
     r = max(r, 1)
     return U_[:, :r] * s[:r], Vt[:r]
-
-
-def spectral_abscissa(A) -> float:
-    """``max Re eig(A)`` [1/s]."""
-    return float(np.max(np.linalg.eigvals(np.asarray(A, dtype=float)).real))
 
 
 @dataclass(frozen=True)
@@ -295,7 +122,7 @@ def reduced_response(A, B, C, positions, wind_speed, gust: GustField, *, omega_m
     U = float(wind_speed)
     lam = np.linalg.eigvals(A)
     abscissa = float(np.max(lam.real))
-    Cl, Cr = _row_factor(C)
+    Cl, Cr = row_factor(C)
     if abscissa >= 0.0:  # at or beyond flutter/divergence: report, never clip
         grid = np.zeros(1) if omegas is None else np.asarray(omegas, dtype=float)
         return _SpeedResponse(np.full(C.shape[0], np.nan), float("nan"), int(grid.size), grid,
@@ -305,7 +132,7 @@ def reduced_response(A, B, C, positions, wind_speed, gust: GustField, *, omega_m
         omega_max = OMEGA_MAX_FACTOR * float(np.abs(lam.imag).max())
         if omega_max <= 0:  # no oscillatory root: scale on the fastest real root
             omega_max = 10.0 * float(np.abs(lam).max())
-    Bl, Vt = _row_factor(B)
+    Bl, Vt = row_factor(B)
     # near flutter the peaks narrow: refine the adaptive grid (twice at most) until converged
     for attempt in range(3 if omegas is None else 1):
         if omegas is None:
@@ -570,7 +397,7 @@ def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance="lie
         Retained vertical + torsional modes.
     method : {"spectral", "monte-carlo"}
         Frequency-domain quadrature, or time-domain simulation
-        (:func:`model.spectral.simulate_monte_carlo`) as an independent check.
+        (:func:`model.simulation.simulate_monte_carlo`) as an independent check.
     spec : BridgeSpec, optional
         Wind defaults and main span when ``spec_or_system`` is a system.
     turbulence_intensity, deck_height_m, length_scale_m, half_chord_m : float, optional
@@ -681,7 +508,7 @@ def _aero_attr(system, spec, name):
 
 
 def _monte_carlo(A, B, C, strip_x, U, gust, main, ns, n_records, seed, n_points, omega_max):
-    """One speed by :func:`model.spectral.simulate_monte_carlo` with the full strip inputs."""
+    """One speed by :func:`model.simulation.simulate_monte_carlo` with the full strip inputs."""
     lam = np.linalg.eigvals(A)
     p = C.shape[0]
     if np.max(lam.real) >= 0:
@@ -705,111 +532,3 @@ def _monte_carlo(A, B, C, strip_x, U, gust, main, ns, n_records, seed, n_points,
     j = int(np.argmax(np.where(main, res.rms[:ns], -np.inf)))
     return {"rms": res.rms, "se_vertical": float(res.standard_error[j]), "points": n_points,
             "rel_se": float(res.standard_error[j] / res.rms[j]), "status": res.status}
-
-
-# ----------------------------------------------------------------------------------------------
-# differentiable form
-# ----------------------------------------------------------------------------------------------
-CASADI_PARAMETERS = ("damping_scale", "air_density_scale")
-
-
-def buffeting_casadi(system, wind_speed, gust: GustField, outputs: Sequence[int], *,
-                     omegas=None, n_base=40, peaks_per_mode=15, half_widths=20.0,
-                     linear_solver="lapacklu"):
-    """Buffeting RMS of selected outputs as a CasADi Function of design parameters.
-
-    The same spectral integral as :func:`reduced_response` (one-sided, trapezoid rule on a
-    fixed grid, load CSD projected on the row space of ``B_gust``), written with
-    :func:`model.spectral_casadi.casadi_spectral_variance` so that it is differentiable in
-    ``p = (damping_scale, air_density_scale)`` (both 1 at nominal):
-
-    * ``damping_scale`` multiplies the structural damping matrix ``C`` of the basis;
-    * ``air_density_scale`` multiplies ``rho`` in every aerodynamic term: ``M_nc``, ``D_nc``,
-      ``P`` (hence the lag-state inputs in modal lag order) and the buffeting map ``P_gust``.
-
-    With ``M_t(p) = M + rho_s M_nc`` the rows of ``A`` and ``B`` on ``q'`` are
-    ``M_t^{-1} (F_struct(zeta_s) + rho_s F_motion + F_lag)``, recovered exactly from the
-    nominal ``A(U)``; the lag-state rows on ``(q, q')`` scale with ``rho_s`` in modal lag order
-    (the lags filter ``P Q``), the lag-force columns in full order (``R = P``). This is an exact
-    reparametrisation of :func:`model.statespace.build` (checked in the tests).
-
-    Parameters
-    ----------
-    system : AeroelasticSystem
-        Open-loop system of :mod:`model.statespace` (uses ``index``, ``basis``, ``aero``).
-    wind_speed : float
-        ``U`` [m/s].
-    gust : GustField
-        Wind inputs.
-    outputs : sequence of int
-        Rows of ``system.C_out`` (strip heave 0..n_strip-1, then pitch).
-    omegas : array_like, optional
-        Fixed grid [rad/s]; adaptive at the nominal ``A(U)`` when omitted (coarser defaults
-        than the numpy path: CasADi does one dense 2n x 2n solve per frequency).
-    linear_solver : str, optional
-        CasADi linear solver for the per-frequency solves.
-
-    Returns
-    -------
-    fun : casadi.Function
-        ``"buffeting_rms"``: ``p (2,) -> rms (len(outputs),)`` [output unit].
-    omegas : ndarray
-        The frozen grid [rad/s].
-    """
-    import casadi as ca
-
-    from model.spectral_casadi import casadi_spectral_variance
-
-    U = float(wind_speed)
-    idx = system.index
-    basis, aero = system.basis, system.aero
-    A0 = np.asarray(system.A(U), dtype=float)
-    B0 = np.asarray(system.B_gust(U), dtype=float)
-    n_x = A0.shape[0]
-    iv, iq = idx.q_dot, idx.q
-    lag = idx.aero_lag
-    Mt0 = basis.M + aero.M_nc
-    F = Mt0 @ A0[iv, :]
-    Fs = np.zeros_like(F)
-    Fs[:, iq] = -basis.K
-    Fs[:, iv] = -basis.C
-    Fa = F - Fs
-    Fs_k = np.zeros_like(F)
-    Fs_k[:, iq] = -basis.K
-    Fs_c = np.zeros_like(F)
-    Fs_c[:, iv] = -basis.C
-    Gb = Mt0 @ B0[iv, :]  # = U P_gust, proportional to rho
-    _, Vt = _row_factor(B0)
-    Cr = np.asarray(system.C_out, dtype=float)[list(outputs)]
-    if omegas is None:
-        wd = np.abs(np.linalg.eigvals(A0).imag)
-        omegas = adaptive_frequency_grid(A0, OMEGA_MAX_FACTOR * wd.max(), n_base,
-                                         peaks_per_mode, half_widths)
-    omegas = np.asarray(omegas, dtype=float)
-    scale = gust.psd(omegas, U) * gust.admittance_sq(omegas, U)
-    S = scale[:, None, None] * coherence_projection(basis.strip_x, Vt.T, omegas, U,
-                                                    gust.coherence_decay)
-
-    p = ca.MX.sym("p", 2)
-    zs, rs = p[0], p[1]
-    # rho enters the motion-dependent forces (P, D_nc, M_nc) and either the lag-state inputs
-    # (modal lag order: the lags filter P Q) or the lag-state force map (full order: R = P)
-    rho_in, rho_out = (rs, 1.0) if system.order == "modal" else (1.0, rs)
-    Fa_motion = np.zeros_like(Fa)
-    Fa_motion[:, :iv.stop] = Fa[:, :iv.stop]
-    Fa_lag = Fa - Fa_motion
-    Mt = ca.DM(basis.M) + rs * ca.DM(aero.M_nc)
-    rows_v = ca.solve(Mt, ca.DM(Fs_k) + zs * ca.DM(Fs_c) + rs * ca.DM(Fa_motion)
-                      + rho_out * ca.DM(Fa_lag))
-    A_lag = ca.horzcat(rho_in * ca.DM(A0[lag, :iv.stop]), ca.DM(A0[lag, iv.stop:]))
-    A = ca.vertcat(ca.DM(A0[iq, :]), rows_v, A_lag)
-    if A.size1() != n_x:
-        raise BridgeflapError("unexpected state layout for the symbolic buffeting model")
-    Bv = ca.solve(Mt, rs * ca.DM(Gb @ Vt.T))  # B(p) V, rows q'
-    Bl = ca.vertcat(ca.DM.zeros(iv.start, Vt.shape[0]), Bv,
-                    ca.DM.zeros(n_x - iv.stop, Vt.shape[0]))
-    if np.max(np.abs(np.delete(B0, np.s_[iv], axis=0))) > 0:
-        raise BridgeflapError("B_gust has rows outside q'; not an open-loop AeroelasticSystem")
-    var = casadi_spectral_variance(A, Bl, ca.DM(Cr), omegas, S, linear_solver=linear_solver)
-    fun = ca.Function("buffeting_rms", [p], [ca.sqrt(var)], ["p"], ["rms"])
-    return fun, omegas

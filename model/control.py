@@ -10,8 +10,9 @@ anti-symmetric"; METHODS §5); that sign is applied where the flap loads are ass
 this module describes K and where the flaps are. "Gain limited to 15" is read as
 ``sup_w |K(jw)| <= 15`` (METHODS §5), see :meth:`Compensator.max_gain`.
 
-This module is numpy-only (the numerics boundary of STYLE.md): the symbolic state matrix uses
-:meth:`Compensator.state_space` and :meth:`Compensator.second_derivative_feedthrough`.
+The realisation (:func:`canonical_realisation`) is written once for numeric and CasADi
+coefficients through :mod:`model.backend`; the symbolic closed loop (:mod:`model.symbolic`) and
+the numeric one (:meth:`Compensator.state_space`) both use it.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from model import backend as bk
 from model.errors import BridgeflapInputError
 
 if sys.version_info >= (3, 11):
@@ -34,6 +36,7 @@ else:  # pragma: no cover - exercised only on Python 3.10
 __all__ = [
     "Compensator",
     "Controller",
+    "canonical_realisation",
     "DerivativeFeedthrough",
     "load_controller",
     "save_controller",
@@ -51,6 +54,21 @@ def _check_number(fieldname: str, value: Any) -> float:
     if not math.isfinite(value):
         raise BridgeflapInputError(fieldname, f"must be finite, got {value!r}")
     return value
+
+
+def canonical_realisation(theta):
+    """Controllable canonical realisation of a second-order ``K(s)``, ``theta = (b2, b1, b0, a2,
+    a1)`` with ``a2 != 0``, for numeric or CasADi-symbolic ``theta`` (:mod:`model.backend`).
+
+    Returns ``(Ac, Bc, Cc, Dc)`` with ``Dc = b2/a2`` a scalar (formulas in
+    :meth:`Compensator.state_space`).
+    """
+    b2, b1, b0, a2, a1 = (theta[i] for i in range(5))
+    d1, d0 = a1 / a2, 1.0 / a2
+    c2, c1, c0 = b2 / a2, b1 / a2, b0 / a2
+    Ac = bk.matrix([[0.0, 1.0], [-d0, -d1]])
+    Cc = bk.matrix([[c0 - c2 * d0, c1 - c2 * d1]])
+    return Ac, np.array([[0.0], [1.0]]), Cc, c2
 
 
 @dataclass(frozen=True)
@@ -228,11 +246,7 @@ class Compensator:
         ``x' = -x/a1 + alpha``, ``beta = (b0 - b1/a1)/a1 x + (b1/a1) alpha``.
         """
         if self.a2 > 0.0:
-            d1, d0 = self.a1 / self.a2, 1.0 / self.a2
-            c2, c1, c0 = self.b2 / self.a2, self.b1 / self.a2, self.b0 / self.a2
-            Ac = np.array([[0.0, 1.0], [-d0, -d1]])
-            Bc = np.array([[0.0], [1.0]])
-            Cc = np.array([[c0 - c2 * d0, c1 - c2 * d1]])
+            Ac, Bc, Cc, c2 = canonical_realisation((self.b2, self.b1, self.b0, self.a2, self.a1))
             Dc = np.array([[c2]])
         else:
             d0 = 1.0 / self.a1

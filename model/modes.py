@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from model.aero import StructuralBasis
+from model.basis import StructuralBasis
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import StructuralModel, assemble
 from model.spec import BridgeSpec

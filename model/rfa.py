@@ -147,17 +147,9 @@ class RationalApprox:
         return out[()] if out.ndim == 0 else out
 
     def evaluate(self, k: ArrayLike) -> np.complex128 | NDArray[np.complex128]:
-        """Evaluate the approximation on the imaginary axis, ``s_bar = i k``.
+        """The approximation of ``C(k)`` [-] on the imaginary axis ``s_bar = i k``.
 
-        Parameters
-        ----------
-        k : array_like
-            Reduced frequency ``k = omega b / U`` [-], real.
-
-        Returns
-        -------
-        complex or ndarray of complex
-            Approximation of ``C(k)`` [-], shape of ``k``.
+        ``k = omega b / U`` [-] is real (array_like); the result has the shape of ``k``.
         """
         return self.evaluate_s(1j * np.asarray(k, dtype=float))
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from model.aero import StructuralBasis
+from model.basis import StructuralBasis
 from model.errors import BridgeflapInputError
 
 

@@ -174,7 +174,11 @@ def _eig(A):
     return lam, V
 
 
-def _osc_tol(system: AeroelasticSystem) -> float:
+def oscillation_tolerance(system: AeroelasticSystem) -> float:
+    """Threshold [rad/s] on ``|Im lambda|`` between oscillatory and real eigenvalues.
+
+    ``1e-3`` of the lowest structural natural frequency ``sqrt(K_ii / M_ii)``.
+    """
     w = np.sqrt(np.abs(np.diag(system.basis.K) / np.diag(system.basis.M)))
     return 1e-3 * float(np.min(w[w > 0])) if np.any(w > 0) else 1e-6
 
@@ -213,12 +217,9 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> Stabili
     speeds = check_speeds(speeds)
     n = system.basis.n
     iq = system.index.q
-    omega_tol = _osc_tol(system)
+    omega_tol = oscillation_tolerance(system)
     # structural eigenpairs at U = 0 (upper half plane)
-    Minv = np.linalg.inv(system.basis.M)
-    As = np.block([[np.zeros((n, n)), np.eye(n)],
-                   [-Minv @ system.basis.K, -Minv @ system.basis.C]])
-    lam0, V0 = _eig(As)
+    lam0, V0 = _eig(system.structural_matrix())
     up = np.argsort(np.where(lam0.imag >= 0, np.abs(lam0), np.inf))[:n]
     prev_lam = lam0[up]
     dominant = np.argmax(np.abs(V0[:n, up]) ** 2, axis=0)
@@ -305,20 +306,17 @@ class PKResult:
     flutter: Crossing
 
 
-def _pk_solve(system, U, p_guess, tol=1e-10, maxit=100):
-    n = system.basis.n
-    B, a = system.basis, system.aero
-    Mt = B.M + a.M_nc
-    Minv = np.linalg.inv(Mt)
-    b = a.half_chord
+def _pk_solve(frozen, U, p_guess, tol=1e-10, maxit=100):
+    """One p-k point: eigenvalue ``p`` of ``frozen.matrix(U, C(|Im p| b / U))`` near ``p_guess``.
+
+    ``C`` is the exact Theodorsen function; returns ``(p, converged)``.
+    """
+    b = frozen.half_chord
     p = p_guess
     for _ in range(maxit):
         k = abs(p.imag) * b / U
         c = theodorsen(k) if k > 0 else 1.0 + 0j
-        Keff = B.K - U * U * c * (a.P @ a.G0)
-        Ceff = B.C + U * a.D_nc - U * c * (a.P @ a.G1)
-        Acomp = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ Keff, -Minv @ Ceff]])
-        lam = np.linalg.eigvals(Acomp)
+        lam = np.linalg.eigvals(frozen.matrix(U, c))
         p_new = lam[np.argmin(np.abs(lam - p))]
         if abs(p_new - p) < tol * max(1.0, abs(p)):
             return p_new, True
@@ -326,33 +324,41 @@ def _pk_solve(system, U, p_guess, tol=1e-10, maxit=100):
     return p, False
 
 
+def _structural_labels(system: AeroelasticSystem, lam0) -> tuple:
+    """Label of the structural coordinate dominating each ``U = 0`` eigenvalue."""
+    basis = system.basis
+    n = basis.n
+    l0, V0 = _eig(system.structural_matrix())
+    labels = []
+    for lam in lam0:
+        k = np.argmin(np.abs(l0 - lam))
+        labels.append(basis.labels[int(np.argmax(np.abs(V0[:n, k])))])
+    return tuple(labels)
+
+
 def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> PKResult:
     """p-k solution with the exact Theodorsen function on the same coordinates.
 
-    Each structural branch is continued from its U = 0 eigenvalue; at each speed the reduced
-    frequency is iterated to consistency, ``k = |Im p| b / U``. Flutter is the first speed where
-    a branch's real part changes sign, refined by Brent's method.
+    Open or closed loop: the first-order matrix with ``C(k)`` frozen
+    (:meth:`~model.statespace.AeroelasticSystem.frozen`) contains the compensator states, so
+    ``K(p)`` is exact. Each structural branch is continued from its U = 0 eigenvalue; at each
+    speed the reduced frequency is iterated to consistency, ``k = |Im p| b / U``. Flutter is the
+    first speed where an oscillatory branch's real part changes sign, refined by Brent's method
+    to ``speed_tol`` [m/s].
     """
     speeds = check_speeds(speeds)
     speeds = speeds[speeds > 0]
+    frozen = system.frozen()
     lam0 = system.structural_eigenvalues()
     n = len(lam0)
     branches = np.zeros((n, len(speeds)), dtype=complex)
     for j in range(n):
         p = lam0[j]
         for i, U in enumerate(speeds):
-            p, _ = _pk_solve(system, U, p)
+            p, _ = _pk_solve(frozen, U, p)
             branches[j, i] = p
-    n_basis = system.basis.n
-    Minv = np.linalg.inv(system.basis.M)
-    As = np.block([[np.zeros((n_basis, n_basis)), np.eye(n_basis)],
-                   [-Minv @ system.basis.K, -Minv @ system.basis.C]])
-    l0, V0 = _eig(As)
-    labels = []
-    for lam in lam0:
-        k = np.argmin(np.abs(l0 - lam))
-        labels.append(system.basis.labels[int(np.argmax(np.abs(V0[:n_basis, k])))])
-    omega_tol = _osc_tol(system)
+    labels = _structural_labels(system, lam0)
+    omega_tol = oscillation_tolerance(system)
     best = None
     for j in range(n):
         re = branches[j].real
@@ -361,22 +367,22 @@ def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> PKRe
         if idx.size and (best is None or speeds[idx[0]] < speeds[best[1]]):
             best = (j, int(idx[0]))
     if best is None:
-        return PKResult(speeds, branches, tuple(labels),
+        return PKResult(speeds, branches, labels,
                         Crossing(float("nan"), float("nan"), NO_CROSSING))
     j, i = best
 
     def f(U):
-        p, ok = _pk_solve(system, U, branches[j, i])
+        p, ok = _pk_solve(frozen, U, branches[j, i])
         return p.real if ok else np.nan
 
     a, b = speeds[i], speeds[i + 1]
     try:
         u = float(brentq(f, a, b, xtol=speed_tol))
     except ValueError:
-        return PKResult(speeds, branches, tuple(labels),
+        return PKResult(speeds, branches, labels,
                         Crossing(float("nan"), float("nan"), BRACKET_FAILED, (a, b)))
-    p, _ = _pk_solve(system, u, branches[j, i])
-    return PKResult(speeds, branches, tuple(labels),
+    p, _ = _pk_solve(frozen, u, branches[j, i])
+    return PKResult(speeds, branches, labels,
                     Crossing(u, abs(p.imag) / (2 * np.pi), CONVERGED, (a, b)))
 
 

@@ -22,11 +22,20 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.aero import StripAero, StructuralBasis, strip_aero
+from model import backend as bk
+from model.aero import StripAero, strip_aero
+from model.assembly import (
+    ORDERS,
+    FrozenParts,
+    OpenPieces,
+    dynamic_matrices,
+    frozen_parts,
+    open_pieces,
+    rfa_parts,
+)
+from model.basis import StructuralBasis
 from model.errors import BridgeflapInputError
 from model.rfa import RationalApprox, get_rfa
-
-ORDERS = ("modal", "full")
 
 
 @dataclass(frozen=True)
@@ -65,6 +74,8 @@ class AeroelasticSystem:
     rfa: RationalApprox
     order: str
     extras: dict = field(default_factory=dict, compare=False)
+    pieces: OpenPieces | None = field(default=None, compare=False, repr=False)
+    compensator: tuple | None = field(default=None, compare=False, repr=False)
 
     def A(self, wind_speed: float) -> np.ndarray:
         """State matrix at ``wind_speed`` [m/s]."""
@@ -80,12 +91,22 @@ class AeroelasticSystem:
         """Number of states."""
         return self.A0.shape[0]
 
+    def frozen(self) -> FrozenParts:
+        """First-order matrices with C(k) frozen (:func:`model.assembly.frozen_parts`), p-k."""
+        if self.pieces is None or self.pieces.order != "modal":
+            raise BridgeflapInputError("order", "the frozen-C (p-k) form is built in modal order")
+        return frozen_parts(self.pieces, self.compensator)
+
+    def structural_matrix(self) -> np.ndarray:
+        """First-order matrix of the structure alone on ``(q, q')`` (no air, ``U = 0``)."""
+        B = self.basis
+        n = B.n
+        Minv = np.linalg.inv(B.M)
+        return np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ B.K, -Minv @ B.C]])
+
     def structural_eigenvalues(self) -> np.ndarray:
         """Eigenvalues of the structure alone (upper half plane), ``U = 0``, no air."""
-        n = self.basis.n
-        Minv = np.linalg.inv(self.basis.M)
-        As = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ self.basis.K, -Minv @ self.basis.C]])
-        lam = np.linalg.eigvals(As)
+        lam = np.linalg.eigvals(self.structural_matrix())
         return np.sort_complex(lam[lam.imag > 0])
 
 
@@ -93,7 +114,7 @@ def build(basis: StructuralBasis, half_chord: float, air_density: float,
           rfa: RationalApprox | str = "rfa4", order: str = "modal", added_inertia: bool = True,
           lift_slope_buffeting: float = 2 * np.pi,
           moment_slope_buffeting: float = np.pi / 2) -> AeroelasticSystem:
-    """Assemble the aeroelastic state space of a structural basis.
+    """Assemble the aeroelastic state space of a structural basis (:mod:`model.assembly`).
 
     Parameters
     ----------
@@ -114,67 +135,63 @@ def build(basis: StructuralBasis, half_chord: float, air_density: float,
     rfa = get_rfa(rfa) if isinstance(rfa, str) else rfa
     aero = strip_aero(basis, half_chord, air_density, added_inertia, lift_slope_buffeting,
                       moment_slope_buffeting)
+    pieces = open_pieces(basis, aero, order)
+    A0, A1, A2, M_t, _ = rfa_parts(pieces, rfa)
     n, ns = basis.n, basis.n_strip
-    nl = rfa.n_lags
-    b = aero.half_chord
-    Mt = basis.M + aero.M_nc
-    Minv = np.linalg.inv(Mt)
-    if order == "modal":
-        R = np.eye(n)          # force from lag states
-        S = aero.P             # lag states filter P Q
-        m = n
-    else:
-        R = aero.P
-        S = np.eye(ns)
-        m = ns
-    nx = 2 * n + nl * m
+    nx = A0.shape[0]
     iq, iv = slice(0, n), slice(n, 2 * n)
-    A0, A1, A2 = np.zeros((nx, nx)), np.zeros((nx, nx)), np.zeros((nx, nx))
-    A0[iq, iv] = np.eye(n)
-    A0[iv, iq] = -Minv @ basis.K
-    A0[iv, iv] = -Minv @ basis.C
-    A1[iv, iv] = Minv @ (-aero.D_nc + 0.5 * aero.P @ aero.G1)
-    A2[iv, iq] = Minv @ (0.5 * aero.P @ aero.G0)
-    for j in range(nl):
-        lj = slice(2 * n + j * m, 2 * n + (j + 1) * m)
-        A1[iv, lj] = Minv @ (rfa.gains[j] * R)
-        rate = rfa.poles[j] / b
-        A1[lj, iv] = rate * (S @ aero.G1)
-        A1[lj, lj] = -rate * np.eye(m)
-        A2[lj, iq] = rate * (S @ aero.G0)
     Bw1 = np.zeros((nx, ns))
-    Bw1[iv, :] = Minv @ aero.P_gust
+    Bw1[iv, :] = bk.solve(M_t, aero.P_gust)
     C_out = np.zeros((2 * ns, nx))
     C_out[:ns, iq] = basis.phi_h
     C_out[ns:, iq] = basis.phi_a
     names = ([f"q[{lab}]" for lab in basis.labels] + [f"qdot[{lab}]" for lab in basis.labels]
-             + [f"lag{j + 1}[{k}]" for j in range(nl)
+             + [f"lag{j + 1}[{k}]" for j in range(rfa.n_lags)
                 for k in (basis.labels if order == "modal" else range(ns))])
     index = StateIndex(q=iq, q_dot=iv, aero_lag=slice(2 * n, nx), compensator=slice(nx, nx),
                        n=nx, names=tuple(str(s) for s in names))
     return AeroelasticSystem(A0=A0, A1=A1, A2=A2, Bw1=Bw1, C_out=C_out, index=index,
-                             basis=basis, aero=aero, rfa=rfa, order=order)
+                             basis=basis, aero=aero, rfa=rfa, order=order, pieces=pieces)
+
+
+def spec_system(spec, basis: StructuralBasis, order: str = "modal",
+                rfa: RationalApprox | str = "rfa4") -> AeroelasticSystem:
+    """:func:`build` with the deck half-chord and the aerodynamic inputs of a bridge spec."""
+    a = spec.aero
+    return build(basis, spec.deck.half_chord_m, a.air_density_kg_m3, rfa=rfa, order=order,
+                 added_inertia=a.added_inertia, lift_slope_buffeting=a.lift_slope_buffeting,
+                 moment_slope_buffeting=a.moment_slope_buffeting)
 
 
 def exact_dynamic_matrix(system: AeroelasticSystem, p: complex, wind_speed: float,
                          c_value: complex) -> np.ndarray:
     """``D(p) = p^2 M_t + p (C + U D_nc) + K - U C(k) P (p G1 + U G0)`` for a given ``C(k)``.
 
-    ``det D(p) = 0`` is the exact Theodorsen flutter equation used by the p-k method.
+    ``det D(p) = 0`` is the exact Theodorsen flutter equation used by the p-k method
+    (:func:`model.assembly.dynamic_matrices` of the open-loop pieces).
     """
-    B, a = system.basis, system.aero
-    U = float(wind_speed)
-    return (p * p * (B.M + a.M_nc) + p * (B.C + U * a.D_nc) + B.K
-            - U * c_value * a.P @ (p * a.G1 + U * a.G0))
+    return dynamic_matrices(system.pieces, wind_speed, p, c_value)[0]
 
 
 def divergence_speed_static(system: AeroelasticSystem) -> float:
-    """Static divergence speed [m/s]: smallest ``U`` with ``det(K - U^2 P G0) = 0`` (C(0) = 1).
+    """Static divergence speed [m/s]: smallest ``U`` with ``det(K - U^2 Q) = 0`` (C(0) = 1).
 
+    ``Q = P G0`` for the open loop; with flaps driven by a compensator ``Q = P G0 + (H0 + g0
+    PF) K(0) Phi_a`` (the static flap loads of ``beta = K(0) alpha_f``, :mod:`model.assembly`).
     Returns NaN when no positive real root exists.
     """
     K = system.basis.K
-    Q = system.aero.P @ system.aero.G0
+    n = system.basis.n
+    if system.pieces is None:
+        Q = system.aero.P @ system.aero.G0
+    else:
+        op = system.pieces
+        Q = op.W[1][:, :n] if op.R is None else op.R @ op.W[1][:, :n]
+        if system.compensator is not None and op.n_flaps:
+            Ac, Bc, Cc, Dc = system.compensator
+            k0 = float(Dc - (Cc @ np.linalg.solve(Ac, Bc))[0, 0])
+            PF, (_, q0) = op.W_beta
+            Q = Q + k0 * (op.H[2] + q0 * PF) @ op.phi_a_flaps
     mu = np.linalg.eigvals(np.linalg.solve(K, Q))
     real = mu[(np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()) & (mu.real > 0)].real
     if real.size == 0:

@@ -14,20 +14,14 @@ from scipy.integrate import quad
 
 from design.cli import main
 from model import statespace
-from model.aero import StructuralBasis
 from model.analysis import bridge_system
-from model.buffeting import (
-    CONVERGENCE_TOL,
-    GustField,
-    buffeting,
-    buffeting_casadi,
-    coherence_projection,
-    gust_field,
-    reduced_response,
-)
+from model.basis import StructuralBasis
+from model.buffeting import CONVERGENCE_TOL, buffeting, reduced_response
 from model.errors import BridgeflapInputError
+from model.gust import GustField, coherence_projection, gust_field
+from model.simulation import lyapunov_rms
 from model.spec import load_bridge
-from model.spectral import lyapunov_rms, white_noise_intensity
+from model.spectral import white_noise_intensity
 from model.wind import admittance_sq
 
 
@@ -199,14 +193,18 @@ def test_spectral_against_monte_carlo(humber, humber6):
 
 @pytest.fixture(scope="module")
 def casadi_case(humber, humber6):
+    from model.symbolic import buffeting_rms_function, build_symbolic
+
     U = 20.0
     g = gust_field(humber)
     ns = humber6.basis.n_strip
     r = reduced_response(humber6.A(U), humber6.B_gust(U), humber6.C_out, humber6.basis.strip_x,
                          U, g)
     outputs = [int(np.argmax(r.rms[:ns])), ns + int(np.argmax(r.rms[ns:]))]
-    fun, omegas = buffeting_casadi(humber6, U, g, outputs)
-    return U, g, outputs, fun, omegas
+    sm = build_symbolic(humber, 6)
+    fun, omegas = buffeting_rms_function(sm.A_fun, sm.B_fun, [_p(sm)], humber6.C_out,
+                                         humber6.basis.strip_x, U, g, outputs)
+    return U, g, outputs, fun, omegas, sm
 
 
 def _numpy_rms(system, U, g, outputs, omegas):
@@ -215,33 +213,43 @@ def _numpy_rms(system, U, g, outputs, omegas):
     return r.rms[outputs]
 
 
+def _p(sm, damping=1.0, density=1.0):
+    """Relative parameters of the symbolic model with damping and air density scaled."""
+    p = np.ones(len(sm.parameters))
+    p[sm.parameters.index("damping.ratio")] = damping
+    p[sm.parameters.index("aero.air_density_kg_m3")] = density
+    return p
+
+
 def test_casadi_matches_numpy_and_rebuilt_systems(humber, humber6, casadi_case):
-    U, g, outputs, fun, omegas = casadi_case
+    U, g, outputs, fun, omegas, sm = casadi_case
     # nominal: same grid, same trapezoid rule, different linear algebra -> round-off (1e-9)
-    nominal = np.array(fun([1.0, 1.0])).ravel()
+    nominal = np.array(fun(_p(sm))).ravel()
     np.testing.assert_allclose(nominal, _numpy_rms(humber6, U, g, outputs, omegas), rtol=1e-9)
     # exact reparametrisation: rebuild the numeric system with rho x 1.1 and C x 1.3
+    # (damping.ratio scales the Rayleigh damping, diagonal in the modes)
     basis = dataclasses.replace(humber6.basis, C=1.3 * humber6.basis.C)
     a = humber.aero
     rebuilt = statespace.build(basis, humber.deck.half_chord_m, 1.1 * a.air_density_kg_m3,
                                added_inertia=a.added_inertia,
                                lift_slope_buffeting=a.lift_slope_buffeting,
                                moment_slope_buffeting=a.moment_slope_buffeting)
-    np.testing.assert_allclose(np.array(fun([1.3, 1.1])).ravel(),
+    np.testing.assert_allclose(np.array(fun(_p(sm, 1.3, 1.1))).ravel(),
                                _numpy_rms(rebuilt, U, g, outputs, omegas), rtol=1e-9)
 
 
 def test_casadi_gradient_against_finite_differences(casadi_case):
     import casadi as ca
 
-    _, _, _, fun, _ = casadi_case
-    p = ca.MX.sym("p", 2)
+    _, _, _, fun, _, sm = casadi_case
+    p = ca.MX.sym("p", len(sm.parameters))
     jac = ca.Function("drms_dp", [p], [ca.jacobian(fun(p), p)])
-    J = np.array(jac([1.0, 1.0]))
+    cols = [sm.parameters.index("damping.ratio"), sm.parameters.index("aero.air_density_kg_m3")]
+    J = np.array(jac(_p(sm)))[:, cols]
     h = 1e-4
     fd = np.column_stack([
-        (np.array(fun(np.ones(2) + h * e)).ravel() - np.array(fun(np.ones(2) - h * e)).ravel())
-        / (2 * h) for e in np.eye(2)])
+        (np.array(fun(_p(sm) + h * e)).ravel() - np.array(fun(_p(sm) - h * e)).ravel())
+        / (2 * h) for e in np.eye(len(sm.parameters))[cols]])
     # central differences: truncation O(h^2 f''') ~ 1e-8 relative, round-off 1e-16/h ~ 1e-12
     np.testing.assert_allclose(J, fd, rtol=1e-6, atol=1e-12 * np.abs(J).max())
     # physics: more damping lowers the response, more air (C_L' rho) raises the heave

@@ -1,18 +1,18 @@
-"""Tests of design/eigen.py: eigenvalue-sensitivity callbacks and their use in Ipopt."""
+"""Tests of design/eigen.py (eigenvalue callback and its use in Ipopt) and model/spectrum.py."""
 
 import casadi as ca
 import numpy as np
 import pytest
+import scipy.linalg
 import scipy.optimize
 
-from design.eigen import (
-    PolynomialTopRealParts,
-    SmoothAbscissa,
-    TopRealParts,
-    eig_real_part_sensitivities,
-    smooth_abscissa,
-    spectral_abscissa,
-)
+from design.eigen import PolynomialTopRealParts
+from model.spectrum import eigenvalue_derivative, eigenvalue_derivatives, spectral_abscissa
+
+
+def _top(A_fun, m, **kwargs):
+    """Top-``m`` real parts of the single matrix ``A_fun(p)`` (one part, one speed)."""
+    return PolynomialTopRealParts(A_fun, [1.0], m, **kwargs)
 
 
 def _random_affine_family(seed=3, n=6, n_p=3):
@@ -69,14 +69,13 @@ def test_top_real_parts_jacobian_matches_central_differences():
     # Distinct, well-separated eigenvalues (simple, far from crossing) so the real parts are
     # smooth and sorting is stable over the FD stencil; conjugate pairs have |lambda-conj| > 0.
     assert gaps.min() > 0.05
-    cb = TopRealParts(A_fun, 6)
+    cb = _top(A_fun, 6)
     J = np.asarray(_casadi_jacobian(cb, 3)(p0).full())
     values = lambda p: np.asarray(cb(ca.DM(p)).full()).ravel()  # noqa: E731
     J_fd = _central_fd(values, p0, 1e-6)
     # Central FD: truncation O(h^2 |d3 lambda|) ~ 1e-12 and round-off eps*|lambda|/h ~ 1e-10
     # for h = 1e-6 and |lambda| ~ 3; a 1e-7 relative (to max|J|) tolerance leaves > 100x margin.
     np.testing.assert_allclose(J, J_fd, rtol=0, atol=1e-7 * np.abs(J_fd).max())
-    assert cb.last_fd_rows == ()
     assert cb.fd_fallback_count == 0
     # Values: sorted descending and equal to a dense eig (same LAPACK call, so ~ machine eps).
     v = values(p0)
@@ -84,31 +83,25 @@ def test_top_real_parts_jacobian_matches_central_differences():
     np.testing.assert_allclose(v, np.sort(lam.real)[::-1], rtol=0, atol=1e-12)
 
 
-def test_smooth_abscissa_bounds_and_gradient():
-    A_fun, p0 = _random_affine_family(seed=5)
-    tau = 0.05
-    sa = smooth_abscissa(A_fun, tau)
-    assert isinstance(sa, SmoothAbscissa)
-    alpha = spectral_abscissa(np.asarray(A_fun(p0).full()))
-    value = float(sa(ca.DM(p0)))
-    # log-sum-exp bound: alpha <= value <= alpha + tau log n (n = 6), exact inequalities.
-    assert alpha <= value <= alpha + tau * np.log(6) + 1e-14
-    J = np.asarray(_casadi_jacobian(sa, 3)(p0).full())
-    J_fd = _central_fd(lambda p: np.asarray(sa(ca.DM(p)).full()).ravel(), p0, 1e-6)
-    # Same FD error budget as above; curvature of the softmax is ~1/tau = 20, still negligible.
-    np.testing.assert_allclose(J, J_fd, rtol=0, atol=1e-7 * np.abs(J_fd).max())
-
-
 def test_sensitivity_formula_on_diagonalisable_analytic_case():
     # A(p) = [[p, 1], [-1, p]] has eigenvalues p +- i, so d Re(lambda)/dp = 1 exactly.
     A = np.array([[0.3, 1.0], [-1.0, 0.3]])
-    dA = np.zeros((2, 2, 1))
-    dA[:, :, 0] = np.eye(2)
-    lam, dre, ill = eig_real_part_sensitivities(A, dA)
+    lam, vl, vr = scipy.linalg.eig(A, left=True, right=True)
+    dlam, ill = eigenvalue_derivatives(vl, vr, np.eye(2).reshape(4, 1, order="F"))
     np.testing.assert_allclose(lam.real, [0.3, 0.3], atol=1e-15)
     # Exact value 1; LAPACK eigenvectors give it to a few ulps.
-    np.testing.assert_allclose(dre[:, 0], [1.0, 1.0], atol=1e-14)
+    np.testing.assert_allclose(dlam[:, 0], [1.0, 1.0], atol=1e-14)
     assert not ill.any()
+    # the single-pair form is the same formula: w^H dA v / (w^H v)
+    for i in range(2):
+        ref = np.vdot(vl[:, i], np.eye(2) @ vr[:, i]) / np.vdot(vl[:, i], vr[:, i])
+        assert eigenvalue_derivative(vl[:, i], vr[:, i], np.eye(2)) == pytest.approx(ref)
+    # d lambda / dp of A = [[0, 1], [-1, 0]] + p [[0, 0], [1, 0]] at p = 0: lambda = +-i
+    # sqrt(1 - p), so d lambda/dp = -+ i/2 (complex derivative, analytic)
+    lam, vl, vr = scipy.linalg.eig(np.array([[0.0, 1.0], [-1.0, 0.0]]), left=True, right=True)
+    d = [eigenvalue_derivative(vl[:, i], vr[:, i], np.array([[0.0, 0.0], [1.0, 0.0]]))
+         for i in range(2)]
+    np.testing.assert_allclose(d, -0.5j * np.sign(lam.imag), atol=1e-15)
 
 
 def test_defective_eigenvalue_falls_back_to_finite_differences():
@@ -116,9 +109,8 @@ def test_defective_eigenvalue_falls_back_to_finite_differences():
     # defective at p1 = 0 (w^H v = 0). The derivative w.r.t. p0 is exactly 1 for both.
     p = ca.SX.sym("p", 2)
     A_fun = ca.Function("A", [p], [ca.vertcat(ca.horzcat(p[0], 1.0), ca.horzcat(p[1], p[0]))])
-    cb = TopRealParts(A_fun, 2)
+    cb = _top(A_fun, 2)
     J = np.asarray(_casadi_jacobian(cb, 2)(ca.DM([0.2, 0.0])).full())
-    assert cb.last_fd_rows == (0, 1)
     assert cb.fd_fallback_count == 2
     assert np.all(np.isfinite(J))
     # Shifting p0 moves both eigenvalues rigidly, so the FD column is exact up to round-off
@@ -130,7 +122,7 @@ def test_ipopt_minimum_norm_stabilising_feedback():
     A_fun = _oscillator_family()
     assert spectral_abscissa(np.asarray(A_fun([0.0, 0.0]).full())) > 0.0  # unstable at p = 0
     margin = 0.05  # required decay rate [1/s]
-    cb = TopRealParts(A_fun, 4)  # keep alive: referenced by the solver below
+    cb = _top(A_fun, 4)  # keep alive: referenced by the solver below
     x = ca.MX.sym("x", 2)
     solver = ca.nlpsol(
         "stabilise",
@@ -177,9 +169,7 @@ def test_ipopt_minimum_norm_stabilising_feedback():
 def test_callback_rejects_bad_arguments():
     A_fun, _ = _random_affine_family()
     with pytest.raises(ValueError, match="m must be"):
-        TopRealParts(A_fun, 7)
-    with pytest.raises(ValueError, match="temperature"):
-        smooth_abscissa(A_fun, 0.0)
+        _top(A_fun, 7)
     with pytest.raises(ValueError, match="square"):
         spectral_abscissa(np.zeros((2, 3)))
 
@@ -188,7 +178,7 @@ def test_non_finite_matrix_gives_nan_not_exception():
     # "Solver failure is data": a NaN in A(p) yields NaN values and Jacobian for Ipopt to reject.
     p = ca.SX.sym("p", 1)
     A_fun = ca.Function("A", [p], [ca.vertcat(ca.horzcat(ca.log(p), 1.0), ca.horzcat(0.0, -1.0))])
-    cb = TopRealParts(A_fun, 2)
+    cb = _top(A_fun, 2)
     assert np.all(np.isnan(np.asarray(cb(ca.DM(-1.0)).full())))
     assert np.all(np.isnan(np.asarray(_casadi_jacobian(cb, 1)(-1.0).full())))
 
@@ -210,7 +200,7 @@ def test_polynomial_top_real_parts_matches_fd_and_single_speed_callbacks():
     # central FD with h = 1e-6: truncation ~1e-12, round-off eps |lambda| / h ~ 1e-9 for
     # |lambda| ~ 3; 1e-7 relative to max |J| leaves a 100x margin
     np.testing.assert_allclose(J, J_fd, rtol=0, atol=1e-7 * np.abs(J_fd).max())
-    # values equal the single-speed TopRealParts on the same matrices (same LAPACK call)
+    # values equal a dense eig of the same matrices (same LAPACK call)
     vals = np.asarray(cb(p0).full()).ravel()
     for s, u in enumerate(speeds):
         P = [a.full() for a in parts(p0)]

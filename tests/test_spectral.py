@@ -1,4 +1,4 @@
-"""Tests of the random-response engine (model/spectral.py, model/spectral_casadi.py).
+"""Random-response engine: model/spectral.py, model/simulation.py, CasADi form in model/symbolic.py.
 
 PSD convention under test (module docstring of model.spectral): one-sided in omega >= 0,
 sigma^2 = int_0^inf G d omega; white noise of intensity Q has G0 = Q / pi (two-sided Q / 2 pi).
@@ -10,18 +10,17 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from model.simulation import lyapunov_rms, simulate_monte_carlo
 from model.spectral import (
     adaptive_frequency_grid,
     exponential_coherence,
-    lyapunov_rms,
     response_psd,
     rms_from_psd,
     separable_csd,
-    simulate_monte_carlo,
     spectral_rms,
     white_noise_intensity,
 )
-from model.spectral_casadi import casadi_spectral_rms
+from model.symbolic import casadi_spectral_rms
 
 
 # ----------------------------------------------------------------------------------------------
