@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from design.options import check_int, check_option_names, grid
-from design.sensitivity import DEFAULT_PARAMETERS  # design/sensitivity.py (H1): one line
+from design.sensitivity import DEFAULT_PARAMETERS
 from model.analysis import DEFAULT_MODES
 from model.errors import BridgeflapInputError
 from model.spec import BridgeSpec
@@ -120,10 +120,10 @@ def check_options(kind: str, opts: Mapping, what: str | None = None) -> None:
             check_int(opts[key], f"{what}.{key}")
     if kind == "sensitivity" and "parameters" in opts:
         # design/sensitivity.py (H1): one import line
-        from design.sensitivity import _check_parameters
+        from design.sensitivity import check_parameters
 
         try:
-            _check_parameters(opts["parameters"])
+            check_parameters(opts["parameters"])
         except BridgeflapInputError as exc:
             raise BridgeflapInputError(f"{what}.parameters", exc.reason) from None
 

@@ -101,7 +101,7 @@ def cmd_flutter(args):
         spec = dataclasses.replace(spec, aero=dataclasses.replace(spec.aero, added_inertia=False))
     controller = controller_from_args(args)
     if controller is not None:
-        from model.flaps import closed_loop_flutter
+        from model.analysis import closed_loop_flutter
 
         res = closed_loop_flutter(spec, controller, parse_range(args.speeds, "speeds", 0.0),
                                   n_modes=args.modes)

@@ -80,7 +80,7 @@ def _global(args):
     from pathlib import Path
 
     # design/sensitivity.py (H1 may move these to design/screening.py): one import line
-    from design.sensitivity import DEFAULT_UNCERTAIN_RANGES, global_sensitivity
+    from design.screening import DEFAULT_UNCERTAIN_RANGES, global_sensitivity
 
     ranges = DEFAULT_UNCERTAIN_RANGES
     if args.parameters:

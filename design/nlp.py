@@ -431,7 +431,7 @@ class DesignProblem:
             new_gain = []
             if not gain_ok:
                 comp = Compensator(*(float(v) for v in theta))
-                wst = comp._stationary_frequencies()
+                wst = comp.stationary_frequencies()
                 new_gain = [float(x) for x in wst
                             if abs(comp.frequency_response(x)) > s.gain_limit
                             * (1.0 - GAIN_BACKOFF) and float(x) not in self.gain_cuts]

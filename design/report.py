@@ -28,8 +28,8 @@ def fig5(spec, controller, n_modes: int = DEFAULT_MODES, quick: bool = False):
     the flaps (right; the open loop is NaN beyond its flutter speed, never clipped)."""
     import matplotlib.pyplot as plt
 
+    from model.analysis import closed_loop_flutter
     from model.buffeting import buffeting
-    from model.flaps import closed_loop_flutter
 
     speeds = parse_range("0:85:1" if quick else DEFAULT_SPEEDS, "speeds", 0.0)
     cl = closed_loop_flutter(spec, controller, speeds, n_modes)

@@ -51,8 +51,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
+from design.options import parse_range
 from model import statespace
-from model.analysis import DEFAULT_MODES, bridge_system, modal_model, parse_range
+from model.analysis import DEFAULT_MODES, bridge_system, modal_model
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import assemble
 from model.modes import ModalModel
@@ -228,7 +229,7 @@ def _full_speeds(spec, speeds, n_modes, rfa, order):
     return critical_speeds(system, speeds)
 
 
-def _check_parameters(parameters: Sequence[str]) -> tuple[str, ...]:
+def check_parameters(parameters: Sequence[str]) -> tuple[str, ...]:
     if isinstance(parameters, str):
         parameters = [p.strip() for p in parameters.split(",") if p.strip()]
     parameters = tuple(parameters)
@@ -340,7 +341,7 @@ def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARA
     fd_step : float
         Relative step of the finite-difference checks of ``U`` itself.
     """
-    parameters = _check_parameters(parameters)
+    parameters = check_parameters(parameters)
     u = parse_range(speeds, "speeds", 0.0) if isinstance(speeds, str) else np.asarray(speeds)
     nominal = modal_model(spec)
     _, system0 = bridge_system(spec, n_modes, order, rfa, modal=nominal)
@@ -416,12 +417,3 @@ def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARA
                             "the projected A: on the nominal modes moved along their "
                             "out-of-subspace derivative (d_*), and on the fixed nominal modes "
                             "(d_*_fixed_basis, checked by *_ritz_fd)"})
-
-
-# The screening names were imported from here before the split; design/cmd_study.py and
-# runs/sensitivity/run.py still do (their owners switch to design.screening, then this goes).
-from design.screening import (  # noqa: E402, F401
-    DEFAULT_UNCERTAIN_RANGES,
-    GlobalSensitivityResult,
-    global_sensitivity,
-)

@@ -18,25 +18,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from model import statespace
+from model.control import Controller
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import assemble
+from model.flaps import DEFAULT_FLAP_CHORD_M, closed_loop_model
 from model.modes import ModalModel, solve
 from model.spec import BridgeSpec, check_fraction
 from model.stability import StabilitySweep, check_speeds, sweep
 
 #: retained vertical + torsional modes of every analysis unless told otherwise
 DEFAULT_MODES = 16  # truncation study (bench/stability.py): 66.12 m/s at 16-20, 66.14 at 24-60
-
-
-def parse_range(text, field, minimum=None):
-    """TEMPORARY forwarder to :func:`design.options.parse_range` (model/ parses no text).
-
-    Remove when model/flaps.py (closed_loop_flutter) and design/sensitivity.py import
-    ``design.options.parse_range`` or take arrays only.
-    """
-    from design.options import parse_range as parse
-
-    return parse(text, field, minimum)
 
 
 def modal_model(spec: BridgeSpec, count: int | None = None,
@@ -236,3 +227,59 @@ def frequency_ratio(spec: BridgeSpec, fractions) -> FrequencyRatioResult:
                 row["vs1_hz"] = vs1
         stages.append(row)
     return FrequencyRatioResult(spec.name, tuple(stages))
+
+
+# ------------------------------------------------------------------ closed loop (flaps)
+
+
+@dataclass(frozen=True)
+class ClosedLoopFlutterResult:
+    """Closed-loop stability sweep plus the open-loop reference."""
+
+    base: object            # model.analysis.FlutterResult of the closed loop
+    open_loop: object       # model.analysis.FlutterResult without flaps
+    controller: Controller
+
+    def summary(self) -> dict:
+        """Same keys as :meth:`model.analysis.FlutterResult.summary`, plus closed-loop info.
+
+        ``divergence_static_speed_m_s`` is the closed-loop static check (static flap loads of
+        ``beta = K(0) alpha``); the open-loop values are under ``open_loop_*``.
+        """
+        s = self.base.summary()
+        ol = self.open_loop.summary()
+        k = self.controller.compensator
+        s.update({
+            "closed_loop": True,
+            "flap_count": self.controller.n_flaps,
+            "compensator": {"b2": k.b2, "b1": k.b1, "b0": k.b0, "a2": k.a2, "a1": k.a1},
+            "max_gain": k.max_gain(),
+            "gain_limit": self.controller.gain_limit,
+            "open_loop_flutter_speed_m_s": ol["flutter_speed_m_s"],
+            "open_loop_flutter_status": ol["flutter_status"],
+            "open_loop_divergence_speed_m_s": ol["divergence_speed_m_s"],
+            "open_loop_divergence_status": ol["divergence_status"],
+        })
+        return s
+
+    def plot(self, axes=None):
+        """Closed-loop root locus and damping/frequency against speed."""
+        return self.base.sweep.plot(axes, title=f"{self.base.spec.name} with "
+                                                f"{self.controller.n_flaps} flap pairs:")
+
+
+def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEFAULT_MODES,
+                        flap_chord_m: float = DEFAULT_FLAP_CHORD_M) -> ClosedLoopFlutterResult:
+    """Closed-loop flutter/divergence sweep (and the open-loop one for reference).
+
+    ``speeds`` [m/s] is an array (strings are parsed by the CLI).
+    """
+    u = check_speeds(speeds)
+    model = closed_loop_model(spec, controller.flap_strip_positions_m, controller.flap_width_m,
+                              n_modes, flap_chord_m, controller.leading_edge,
+                              controller.trailing_edge)
+    system = model.open_loop
+    cl = model.system(controller.compensator)
+    base = FlutterResult(spec, sweep(cl, u), int(n_modes), "modal", "rfa4", cl.n_states)
+    ol = FlutterResult(spec, sweep(system, u), int(n_modes), "modal", "rfa4", system.n_states)
+    return ClosedLoopFlutterResult(base, ol, controller)

@@ -339,34 +339,29 @@ def _check_speeds(speeds) -> np.ndarray:
 
 
 def _resolve_system(spec_or_system, n_modes, controller, spec):
+    """``(spec, system, basis)`` from a bridge spec (open or closed loop) or a built system."""
     from model.spec import BridgeSpec
 
     if isinstance(spec_or_system, BridgeSpec):
         spec = spec_or_system
-        from model.analysis import bridge_system
+        if controller is not None:
+            from model.flaps import closed_loop_system
 
-        if controller is not None:
-            try:
-                from model.flaps import closed_loop_system
-            except ModuleNotFoundError as exc:
-                if exc.name not in ("model.flaps",):
-                    raise
-                raise BridgeflapInputError(
-                    "controller", "closed-loop buffeting needs model.flaps") from None
             system = closed_loop_system(spec, controller, n_modes)
-            basis = getattr(system, "basis", None)
-            if basis is None:
-                basis = bridge_system(spec, n_modes)[1].basis
         else:
-            _, system = bridge_system(spec, n_modes)
-            basis = system.basis
-    else:
-        system = spec_or_system
-        if controller is not None:
-            raise BridgeflapInputError("controller", "give a bridge spec with a controller")
-        basis = getattr(system, "basis", None)
-        if basis is None:
-            raise BridgeflapInputError("system", "needs a .basis with strip_x (StructuralBasis)")
+            from model import statespace
+            from model.fe import assemble
+            from model.modes import solve
+
+            basis = solve(assemble(spec)).structural_basis(int(n_modes))
+            system = statespace.spec_system(spec, basis)
+        return spec, system, system.basis
+    system = spec_or_system
+    if controller is not None:
+        raise BridgeflapInputError("controller", "give a bridge spec with a controller")
+    basis = getattr(system, "basis", None)
+    if basis is None:
+        raise BridgeflapInputError("system", "needs a .basis with strip_x (StructuralBasis)")
     return spec, system, basis
 
 

@@ -180,7 +180,7 @@ class Compensator:
             return abs(self.b2 / self.a2)
         return abs(self.b1 / self.a1)
 
-    def _stationary_frequencies(self) -> np.ndarray:
+    def stationary_frequencies(self) -> np.ndarray:
         """Frequencies [rad/s] where d|K(jw)|^2 / d(w^2) = 0, w > 0."""
         # |K|^2 = N(x)/D(x), x = w^2:
         # N = (b0 - b2 x)^2 + b1^2 x,  D = (1 - a2 x)^2 + a1^2 x.
@@ -219,7 +219,7 @@ class Compensator:
         alone give the exact value; the grid is a cheap safeguard against root round-off.
         """
         grid = _DEFAULT_OMEGA if omega_grid is None else np.asarray(omega_grid, dtype=float)
-        candidates = np.concatenate([np.ravel(grid), self._stationary_frequencies(), [0.0]])
+        candidates = np.concatenate([np.ravel(grid), self.stationary_frequencies(), [0.0]])
         gains = np.abs(self.frequency_response(candidates))
         return float(max(np.max(gains), self.high_frequency_gain()))
 

@@ -51,14 +51,13 @@ from model.errors import BridgeflapInputError
 from model.fe import assemble
 from model.modes import solve
 from model.spectrum import polynomial_abscissa
-from model.stability import check_speeds, pk_sweep, sweep
+from model.stability import pk_sweep
 from model.statespace import AeroelasticSystem, StateIndex
 
 __all__ = [
     "DEFAULT_FLAP_CHORD_M",
     "ClosedLoopModel",
     "FlapSet",
-    "closed_loop_flutter",
     "closed_loop_model",
     "closed_loop_state_space",
     "closed_loop_pk_flutter",
@@ -334,63 +333,6 @@ def closed_loop_state_space(spec, controller: Controller, speed: float, n_modes:
                + [f"beta[flap{f}] (rad, TE flap TE-down; LE flap = -beta, LE-down)"
                   for f in range(controller.n_flaps)])
     return A, B, C, D, list(sys_cl.index.names), inputs, outputs
-
-
-@dataclass(frozen=True)
-class ClosedLoopFlutterResult:
-    """Closed-loop stability sweep plus the open-loop reference."""
-
-    base: object            # model.analysis.FlutterResult of the closed loop
-    open_loop: object       # model.analysis.FlutterResult without flaps
-    controller: Controller
-
-    def summary(self) -> dict:
-        """Same keys as :meth:`model.analysis.FlutterResult.summary`, plus closed-loop info.
-
-        ``divergence_static_speed_m_s`` is the closed-loop static check (static flap loads of
-        ``beta = K(0) alpha``); the open-loop values are under ``open_loop_*``.
-        """
-        s = self.base.summary()
-        ol = self.open_loop.summary()
-        k = self.controller.compensator
-        s.update({
-            "closed_loop": True,
-            "flap_count": self.controller.n_flaps,
-            "compensator": {"b2": k.b2, "b1": k.b1, "b0": k.b0, "a2": k.a2, "a1": k.a1},
-            "max_gain": k.max_gain(),
-            "gain_limit": self.controller.gain_limit,
-            "open_loop_flutter_speed_m_s": ol["flutter_speed_m_s"],
-            "open_loop_flutter_status": ol["flutter_status"],
-            "open_loop_divergence_speed_m_s": ol["divergence_speed_m_s"],
-            "open_loop_divergence_status": ol["divergence_status"],
-        })
-        return s
-
-    def plot(self, axes=None):
-        """Closed-loop root locus and damping/frequency against speed."""
-        return self.base.sweep.plot(axes, title=f"{self.base.spec.name} with "
-                                                f"{self.controller.n_flaps} flap pairs:")
-
-
-def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = 16,
-                        flap_chord_m: float = DEFAULT_FLAP_CHORD_M) -> ClosedLoopFlutterResult:
-    """Closed-loop flutter/divergence sweep (and the open-loop one for reference).
-
-    ``speeds`` [m/s] is an array (strings are parsed by the CLI).
-    """
-    # TODO(issue 10): FlutterResult belongs to the facade; this function moves up into
-    # model/analysis.py with ClosedLoopFlutterResult (owner of analysis.py).
-    from model.analysis import FlutterResult
-
-    u = check_speeds(speeds)
-    model = closed_loop_model(spec, controller.flap_strip_positions_m, controller.flap_width_m,
-                              n_modes, flap_chord_m, controller.leading_edge,
-                              controller.trailing_edge)
-    system = model.open_loop
-    cl = model.system(controller.compensator)
-    base = FlutterResult(spec, sweep(cl, u), int(n_modes), "modal", "rfa4", cl.n_states)
-    ol = FlutterResult(spec, sweep(system, u), int(n_modes), "modal", "rfa4", system.n_states)
-    return ClosedLoopFlutterResult(base, ol, controller)
 
 
 # --------------------------------------------------------------------------- p-k cross-check

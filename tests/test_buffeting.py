@@ -5,7 +5,6 @@ Each tolerance is justified next to its assertion.
 """
 
 import dataclasses
-import importlib.util
 import json
 
 import numpy as np
@@ -293,15 +292,6 @@ def test_bad_inputs(humber6, humber):
         buffeting(humber6, [0.0, 10.0], spec=humber)
 
 
-@pytest.mark.skipif(importlib.util.find_spec("model.flaps") is not None,
-                    reason="model.flaps exists; the closed loop is tested with it")
-def test_controller_needs_flaps(humber):
-    with pytest.raises(BridgeflapInputError, match="model.flaps"):
-        buffeting(humber, [10.0], controller=object(), n_modes=4)
-
-
-@pytest.mark.skipif(importlib.util.find_spec("model.flaps") is None,
-                    reason="model.flaps (closed-loop builder) not available yet")
 def test_zero_gain_controller_equals_open_loop(humber):
     # K(s) = 0: the flaps stay at zero, so the closed loop has the open-loop response; the
     # extra (uncontrollable, unobservable) compensator states change nothing but round-off
