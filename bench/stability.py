@@ -10,7 +10,7 @@ One Humber wind-speed sweep (default ``0:85:0.5``, 171 speeds) with the same ret
 * ``modal``: :func:`model.statespace.build` with ``order="modal"`` (4 lag states per mode),
   :func:`model.stability.sweep` (dense ``eig`` per speed, branch tracking, Brent refinement);
 * ``full``: the same with ``order="full"`` (4 lag states per aerodynamic strip), the reference
-  assembly that the modal lag reduction must reproduce (METHODS.md §2);
+  assembly that the modal lag reduction must reproduce (docs/methods.md#state-space);
 * ``p-k``: :func:`model.stability.pk_sweep` with the exact Theodorsen function on the same
   modes (``states`` is the size ``2 n`` of the eigenproblem solved per p-k iteration; the
   ``U = 0`` point is skipped, where ``k`` is undefined).

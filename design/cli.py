@@ -168,7 +168,8 @@ def cmd_section(args):
 
 
 def _selberg(args) -> float:
-    """Selberg's flutter formula (HUMBER_DATA §5(b)) as an engineer's sanity check."""
+    """Selberg's flutter formula (docs/humber_data.md#selberg-formula) as an
+    engineer's sanity check."""
     b, m, inertia = args.half_chord, args.mass, args.inertia
     gamma = args.f_heave / args.f_torsion
     if gamma >= 1:

@@ -1,4 +1,5 @@
-"""A fault-tolerant batch runner (METHODS.md section 7); the designs are in :mod:`design.designs`.
+"""A fault-tolerant batch runner (docs/methods.md#batches-and-doe); the designs are
+in :mod:`design.designs`.
 
 This module knows no physics. A *case* is a flat dict of parameters with a ``case_id``; an
 *analysis* is a picklable function ``fn(params: dict) -> dict`` (defined at module level)

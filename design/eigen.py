@@ -1,4 +1,4 @@
-"""Differentiable spectral-abscissa constraints for CasADi (METHODS §4).
+"""Differentiable spectral-abscissa constraints for CasADi (docs/methods.md#eigenvalue-constraints).
 
 CasADi has no differentiable nonsymmetric eigendecomposition, so the eigenvalues of a
 parameterised real matrix ``A(U, p) = sum_j U^j A_j(p)`` are computed in numpy/scipy inside a
@@ -11,9 +11,10 @@ with ``A v_i = lambda_i v_i`` and ``w_i^H A = lambda_i w_i^H``; ``dA_j/dp`` come
 symbolic parts (``casadi.jacobian``). :class:`PolynomialTopRealParts` returns the ``m`` largest
 real parts of ``eig(A(U, p))`` at each speed of a grid, sorted descending. Constraining all of
 them (``<= -margin``) bounds the spectral abscissa while the individual branches stay smooth away
-from crossings (METHODS §4, m ~ 3-6 per speed). The constraint is nonsmooth where eigenvalues
-coalesce; always verify the final design a posteriori with
-:func:`model.spectrum.spectral_abscissa` on a finer speed grid (METHODS §4).
+from crossings (docs/methods.md#eigenvalue-constraints, m ~ 3-6 per speed). The constraint is
+nonsmooth where eigenvalues coalesce; always verify the final design a posteriori with
+:func:`model.spectrum.spectral_abscissa` on a finer speed grid
+(docs/methods.md#eigenvalue-constraints).
 
 CasADi Callback Jacobian signature (checked on CasADi 3.8.2): ``get_jacobian(name, inames,
 onames, opts)`` must return a Function with inputs ``[p, out]`` (``inames == ['i0', 'out_o0']``,

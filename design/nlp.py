@@ -1,6 +1,6 @@
 """The compensator NLP: Ipopt over K(s) (and optionally the flap layout), seed §6.
 
-Problem (METHODS §4-5)::
+Problem (docs/methods.md#compensator-design)::
 
     minimise     w_rob gamma_T + w_buf J_buf(theta)/J_buf(open loop) + w_reg |theta/scale|^2
                  + w_flaps sum(w)/n_flaps

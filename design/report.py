@@ -70,7 +70,7 @@ def study_report(res: StudyResult, figures: dict) -> str:
          f"Bridge: `{cfg.bridge}`; quick mode: {cfg.quick}"
          + (f" (mesh {cfg.element_length_m} m)" if cfg.element_length_m else "")
          + f"; run time {res.elapsed_s:.1f} s. Inputs marked NOT FOUND/ESTIMATE in "
-           "HUMBER_DATA.md (sag, cable spacing, deck inertia, half-chord; EI/GJ updated to "
+           "docs/humber_data.md (sag, cable spacing, deck inertia, half-chord; EI/GJ updated to "
            "Table 1) "
            "are the built-in estimates; none was tuned to the paper's speeds.", "",
          "## Solver and analysis statuses", "", "| analysis | status |", "|---|---|"]

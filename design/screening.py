@@ -1,10 +1,10 @@
 """Global screening of the flutter and divergence speeds (Morris, Sobol') over input ranges.
 
-:func:`global_sensitivity` samples stated ranges of the *estimated* inputs (HUMBER_DATA.md §0 and
-§2: NOT FOUND or ESTIMATE) with SALib (Morris elementary effects or Sobol'/Saltelli), runs the
-flutter case of every sample through the fault-tolerant batch runner (:func:`design.doe.run_batch`),
-and returns the indices and the 5/50/95 % band of the flutter and divergence speeds. Local
-(implicit-function) derivatives are in :mod:`design.sensitivity`.
+:func:`global_sensitivity` samples stated ranges of the *estimated* inputs
+(docs/humber_data.md#estimated-inputs: NOT FOUND or ESTIMATE) with SALib (Morris elementary effects
+or Sobol'/Saltelli), runs the flutter case of every sample through the fault-tolerant batch runner
+(:func:`design.doe.run_batch`), and returns the indices and the 5/50/95 % band of the flutter and
+divergence speeds. Local (implicit-function) derivatives are in :mod:`design.sensitivity`.
 
 References
 ----------
@@ -26,7 +26,8 @@ from model.spec import PARAMETER_PATHS
 
 __all__ = ["DEFAULT_UNCERTAIN_RANGES", "GlobalSensitivityResult", "global_sensitivity"]
 
-#: Ranges [SI] of the estimated Humber inputs (HUMBER_DATA.md §0/§2 and humber.toml sources).
+#: Ranges [SI] of the estimated Humber inputs (docs/humber_data.md#estimated-inputs
+#: and humber.toml sources).
 DEFAULT_UNCERTAIN_RANGES = {
     # r = 6.5 .. 7.6 m (7.6 m: thin-walled 22 x 4.5 m box; humber.toml uses r = 7.0 m)
     "deck.mass_inertia_kgm2_per_m": (7660.0 * 6.5 ** 2, 7660.0 * 7.6 ** 2),

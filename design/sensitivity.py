@@ -1,4 +1,5 @@
-"""Sensitivities of the flutter and divergence speeds to bridge parameters (METHODS.md §7).
+"""Sensitivities of the flutter and divergence speeds to bridge parameters
+(docs/methods.md#sensitivities).
 
 Local derivatives: implicit-function theorem (IFT)
 --------------------------------------------------

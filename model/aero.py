@@ -22,8 +22,9 @@ A trailing-edge (TE) flap hinged at ``x = c b`` (TE-down positive)::
 
 A leading-edge (LE) flap hinged at ``x = e b`` (``e < 0``, LE-up positive) is a rigid pitch of
 the whole chord about ``x = e b`` (the deck loads with ``h = -e b delta``, ``alpha = delta``)
-plus a TE flap ``beta = -delta`` hinged at ``c = e`` (HUMBER_DATA §4(c)); the drive signs of the
-LE+TE pair are described in :mod:`model.flaps`.
+plus a TE flap ``beta = -delta`` hinged at ``c = e``
+(docs/humber_data.md#flap-loads-and-t-functions); the drive signs of the LE+TE pair are
+described in :mod:`model.flaps`.
 
 Projection (:func:`project` for the deck strips, :func:`load_map` for the flap strips): strips
 of length ``dl_i`` with heave ``phi_h[i] q`` and pitch ``phi_a[i] q`` give the generalised

@@ -13,7 +13,7 @@ Model (seed Eqs. (7)-(8), (10)-(17), thin aerofoil with ``C_L = C_M = C_D = 0``)
 with ``w_tilde`` the strip gust velocities after the admittance ``chi`` (``chi_Lw = chi_Mw``),
 ``s_w`` a vertical-turbulence spectrum (:func:`model.wind.vertical_spectrum`, converted to
 ``omega``: ``G(omega) = S(n) / (2 pi)``) and ``c`` the Davenport decay constant (an estimate,
-HUMBER_DATA §4(f)).
+docs/humber_data.md#turbulence-spectrum-and-coherence).
 
 Cost (the load CSD is separable and ``B_gust`` has rank ``r <= n_modes``): ``B_gust = B_l V^T``
 and ``C_out = C_l C_r`` are factorised once per speed (SVD), the load CSD is projected,

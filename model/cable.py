@@ -4,7 +4,8 @@ Two routes are implemented:
 
 * :func:`three_step_single_span` -- the seed paper's three-step procedure for one level span
   (inextensible start, elastic cable, added deck load), using the parabolic-cable cubics
-  reconstructed in HUMBER_DATA.md §4(b). Used to cross-check the general solver.
+  reconstructed in docs/humber_data.md#cable-statics-equations. Used to
+  cross-check the general solver.
 * :func:`dead_load` -- the general "string" solution for any number of spans over
   frictionless saddles (common horizontal tension ``H``) with piecewise-uniform loads:
   the profile is ``y = M0(x)/H`` (simply supported moment diagram of the load), and ``H`` solves
@@ -264,7 +265,8 @@ def _irvine_lambda_sq_parabolic(w, L, H, d, ea):
 
 def three_step_single_span(length_m: float, cable_load_n_m: float, deck_load_n_m: float,
                            ea_n: float, sag0_m: float) -> ThreeStepResult:
-    """Seed §2 three-step procedure for one level span (parabolic cable, HUMBER_DATA §4(b)).
+    """Seed §2 three-step procedure for one level span (parabolic cable,
+    docs/humber_data.md#cable-statics-equations).
 
     Step 1: inextensible cable under its own weight at assumed sag ``sag0``:
     ``H0 = w L^2 / (8 d0)``. Step 2: elasticity on, ``(24/lambda0^2) x^3 + x^2 - 1 = 0`` for

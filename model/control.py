@@ -6,9 +6,9 @@ pitch ``alpha`` [rad] (sign conventions: see :mod:`model`)::
     K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1)
 
 The leading- and trailing-edge flaps use the same K with opposite sign (seed §6, "actually
-anti-symmetric"; METHODS §5); that sign is applied where the flap loads are assembled, not here:
-this module describes K and where the flaps are. "Gain limited to 15" is read as
-``sup_w |K(jw)| <= 15`` (METHODS §5), see :meth:`Compensator.max_gain`.
+anti-symmetric"; docs/methods.md#compensator-design); that sign is applied where the flap loads are
+assembled, not here: this module describes K and where the flaps are. "Gain limited to 15" is read
+as ``sup_w |K(jw)| <= 15`` (docs/methods.md#compensator-design), see :meth:`Compensator.max_gain`.
 
 The realisation (:func:`canonical_realisation`) is written once for numeric and CasADi
 coefficients through :mod:`model.backend`; the symbolic closed loop (:mod:`model.symbolic`) and

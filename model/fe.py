@@ -1,7 +1,7 @@
 """Finite-element model of the deck hung from two cables (Abdel-Ghaffar type).
 
-Three structurally uncoupled families on one mesh (HUMBER_DATA.md §4(a), reconstructed from
-standard linearised deflection theory; Abdel-Ghaffar 1976, 1978-80):
+Three structurally uncoupled families on one mesh (docs/humber_data.md#deflection-theory,
+reconstructed from standard linearised deflection theory; Abdel-Ghaffar 1976, 1978-80):
 
 * **vertical** ``v`` (down), Hermite cubic beam elements::
 

@@ -1,8 +1,8 @@
 """Leading- and trailing-edge deck flaps driven by a compensator: closed-loop state space.
 
 Conventions (h down, alpha nose-up, moment about mid-chord, lift in the equations positive
-down, ``b`` half-chord) are those of :mod:`model`. Seed paper §6, Eq. (18); METHODS §5;
-HUMBER_DATA §4(c).
+down, ``b`` half-chord) are those of :mod:`model`. Seed paper §6, Eq. (18);
+docs/methods.md#flap-loads; docs/humber_data.md#flap-loads-and-t-functions.
 
 Flap loads: the TR-496 strip loads of :mod:`model.aero` (:func:`model.aero.flap_section_loads`);
 the circulatory flap terms enter the same downwash that the deck's lag states filter, so the

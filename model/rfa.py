@@ -7,7 +7,7 @@ Conventions (``k = omega b / U``, ``s_bar = s b / U``, ``b`` the half-chord) are
 
 so that ``C(0) = 1`` holds identically and ``C(inf) = 1 - sum_j A_j``. Each lag becomes one
 aerodynamic state per downwash signal, ``y_j' = (beta_j U / b) (Q - y_j)`` with
-``C Q = Q/2 + sum_j A_j y_j`` when ``sum_j A_j = 1/2`` (METHODS.md section 2).
+``C Q = Q/2 + sum_j A_j y_j`` when ``sum_j A_j = 1/2`` (docs/methods.md#rational-approximation).
 
 References
 ----------
@@ -35,7 +35,8 @@ __all__ = ["RFA_NAMES", "RationalApprox", "fit_theodorsen", "get_rfa", "jones"]
 RFA_NAMES: tuple[str, ...] = ("rfa4", "jones")
 """Names accepted by :func:`get_rfa`."""
 
-# Reference 4-lag fit of HUMBER_DATA 4(d) (max |error| 0.0032 on 0 < k <= 3): starting point.
+# Reference 4-lag fit of docs/humber_data.md#lift-deficiency-approximations (max |error| 0.0032 on 0
+# < k <= 3): starting point.
 _REF4_POLES = np.array([0.013122, 0.079132, 0.246519, 0.750758])
 _JONES_GAINS = np.array([0.165, 0.335])
 _JONES_POLES = np.array([0.0455, 0.3])
@@ -222,16 +223,16 @@ def fit_theodorsen(n_lags: int = 4, k_max: float = 3.0) -> RationalApprox:
       ``[1e-3, k_max]``, unit weight per point, i.e. a uniform weight per unit ``log k``
       (weight ``1/k`` per unit ``k``), which keeps the low-``k`` region that governs bridge
       flutter (``k`` of order 0.05-0.5) as well resolved as the high-``k`` end.
-    * Starting poles: the HUMBER_DATA 4(d) reference fit for 4 lags, R. T. Jones's poles for
-      2 lags, otherwise ``geomspace(0.01, 1, n_lags)``. The fit is deterministic and cached
-      per ``(n_lags, k_max)`` for the life of the process.
+    * Starting poles: the docs/humber_data.md#lift-deficiency-approximations reference fit for 4
+      lags, R. T. Jones's poles for 2 lags, otherwise ``geomspace(0.01, 1, n_lags)``. The fit is
+      deterministic and cached per ``(n_lags, k_max)`` for the life of the process.
     * For ``n_lags = 4``, ``k_max = 3`` the result has max ``|error|`` about 1.5e-3, better
       than the 3.2e-3 of the reference fit (which is the starting point).
 
     References
     ----------
     Roger (1977), AGARD CP-228; Golub & Pereyra (1973), SIAM J. Numer. Anal. 10(2)
-    (variable projection); METHODS.md section 2.
+    (variable projection); docs/methods.md#rational-approximation.
     """
     if int(n_lags) != n_lags or n_lags < 1:
         raise BridgeflapInputError("n_lags", f"must be an integer >= 1, got {n_lags!r}")
@@ -281,7 +282,8 @@ def jones() -> RationalApprox:
 
     References
     ----------
-    R. T. Jones (1940), NACA Report 681; HUMBER_DATA 4(d) (read in [CODE-1] theosears.m).
+    R. T. Jones (1940), NACA Report 681; docs/humber_data.md#lift-deficiency-approximations (read
+    in [CODE-1] theosears.m).
     """
     err, _ = _max_error(_JONES_GAINS, _JONES_POLES, 3.0)
     return RationalApprox(_JONES_GAINS, _JONES_POLES, "jones", err, 3.0)

@@ -1,10 +1,10 @@
 """Rigid two-degree-of-freedom deck section (heave and pitch) on the same machinery.
 
 Used by engineers for quick checks (``bridgeflap section``) and by the tests (Hodges & Pierce
-typical section, HUMBER_DATA.md §5(a)). The structure is written in mid-chord coordinates
-``q = (h_mid, alpha)`` so that the bridge's strip aerodynamics (:mod:`model.aero`) applies
-unchanged; an elastic axis at ``a b`` (Theodorsen's ``a``, semichords aft of mid-chord) and a
-centre of gravity ``x_theta b`` aft of it are handled by the transformation
+typical section, docs/humber_data.md#hodges-and-pierce-typical-section). The structure is written in
+mid-chord coordinates ``q = (h_mid, alpha)`` so that the bridge's strip aerodynamics
+(:mod:`model.aero`) applies unchanged; an elastic axis at ``a b`` (Theodorsen's ``a``, semichords
+aft of mid-chord) and a centre of gravity ``x_theta b`` aft of it are handled by the transformation
 ``h_ea = h_mid + a b alpha``.
 """
 
@@ -70,7 +70,8 @@ def section_basis(mass_kg_per_m: float, inertia_kgm2_per_m: float, f_heave_hz: f
 def typical_section(mu: float, r2: float, sigma: float, a: float, x_theta: float,
                     half_chord_m: float = 1.0, omega_theta: float = 1.0,
                     air_density: float = 1.0) -> StructuralBasis:
-    """Hodges & Pierce nondimensional typical section (HUMBER_DATA.md §5(a)).
+    """Hodges & Pierce nondimensional typical section
+    (docs/humber_data.md#hodges-and-pierce-typical-section).
 
     ``mu = m / (pi rho b^2)``, ``r2 = I_ea / (m b^2)``, ``sigma = omega_h / omega_theta``.
     """

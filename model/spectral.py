@@ -1,6 +1,6 @@
 """Random (spectral) response of a stable LTI system to correlated stationary inputs.
 
-Bridge-independent engine used by the buffeting analysis (METHODS.md §6; seed paper §3,
+Bridge-independent engine used by the buffeting analysis (docs/methods.md#buffeting; seed paper §3,
 Eqs. (9)-(17)). The system is::
 
     x' = A x + B w,    y = C x

@@ -1,6 +1,6 @@
 """Stability over a wind-speed grid: eigenvalue sweep, branch tracking, flutter and divergence.
 
-Method (METHODS.md §3):
+Method (docs/methods.md#stability):
 
 * at every grid speed all eigenvalues of ``A(U)`` (dense ``eig``);
 * structural branches are tracked from ``U = 0`` by linear assignment on the distance to a

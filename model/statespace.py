@@ -5,7 +5,7 @@ function is replaced by its lag-form rational approximation (:mod:`model.rfa`)::
 
     C(s_bar) Q = Q/2 + sum_j A_j y_j,     y_j' = (beta_j U / b) (Q - y_j)
 
-(``sum_j A_j = 1/2``). Two assemblies that must agree (METHODS.md §2):
+(``sum_j A_j = 1/2``). Two assemblies that must agree (docs/methods.md#state-space):
 
 * ``order="full"``: lag states on every strip's downwash ``Q_i`` (``4 n_strip`` states);
 * ``order="modal"``: lag states on the generalised circulatory downwash ``P Q`` (``4 n``

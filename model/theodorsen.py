@@ -176,7 +176,7 @@ def liepmann_admittance_sq(k: ArrayLike) -> np.float64 | NDArray[np.float64]:
     Notes
     -----
     It underestimates the exact ``|S|^2`` by up to about 14.5 % (worst near ``k = 0.24``),
-    HUMBER_DATA 4(e).
+    docs/humber_data.md#gust-admittance.
 
     References
     ----------
@@ -223,7 +223,8 @@ def t_functions(c: ArrayLike, a: float = 0.0) -> dict[str, np.float64 | NDArray[
 
     Notes
     -----
-    With ``mu = arccos c`` and ``s = sqrt(1 - c^2)`` (HUMBER_DATA 4(c)):
+    With ``mu = arccos c`` and ``s = sqrt(1 - c^2)``
+    (docs/humber_data.md#flap-loads-and-t-functions):
 
     * ``T1 = -s (2 + c^2)/3 + c mu``
     * ``T2 = c (1 - c^2) - s (1 + c^2) mu + c mu^2``
@@ -308,7 +309,8 @@ def flap_steady_coefficients(hinge_c: float, edge: str = "trailing") -> FlapStea
 
     Notes
     -----
-    Setting ``k = 0`` (``C = 1``) and ``a = 0`` in the TR-496 loads of HUMBER_DATA 4(c):
+    Setting ``k = 0`` (``C = 1``) and ``a = 0`` in the TR-496 loads of
+    docs/humber_data.md#flap-loads-and-t-functions:
 
     * TE flap: ``L_up = 2 rho U^2 b T10 beta`` and
       ``M_mid = rho U^2 b^2 [-(T4 + T10) + T10] beta = -rho U^2 b^2 T4 beta``, so
@@ -322,7 +324,8 @@ def flap_steady_coefficients(hinge_c: float, edge: str = "trailing") -> FlapStea
     References
     ----------
     Theodorsen (1935), NACA Report 496; Abbott & von Doenhoff, *Theory of Wing Sections*
-    (1959) (steady thin-aerofoil flap theory); HUMBER_DATA 4(c) check table.
+    (1959) (steady thin-aerofoil flap theory);
+    docs/humber_data.md#flap-loads-and-t-functions check table.
     """
     c = float(hinge_c)
     if edge == "trailing":

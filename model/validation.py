@@ -1,9 +1,9 @@
 """Measured Humber natural frequencies (seed Table 1, quoted from Brownjohn et al. 1994) and
 the comparison of a modal model with them.
 
-Table 1's labels are partly inconsistent (HUMBER_DATA.md §3.1: two "VA" rows at 0.154 and
-0.177 Hz, and a first "VS" below the first "VA", which deflection theory contradicts: the first
-antisymmetric vertical mode of a main span is close to sqrt(g/(8 d))/1 Hz-scale and cannot be
+Table 1's labels are partly inconsistent (docs/humber_data.md#measured-frequencies: two "VA" rows at
+0.154 and 0.177 Hz, and a first "VS" below the first "VA", which deflection theory contradicts: the
+first antisymmetric vertical mode of a main span is close to sqrt(g/(8 d))/1 Hz-scale and cannot be
 raised to 0.154 Hz by any plausible EI). Measured and computed modes are therefore paired
 **in frequency order within each family**, using the computed modes that live mainly in the
 main span (main-span share > 0.5; the measurements were taken on the main span) and, for the

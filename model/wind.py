@@ -400,7 +400,8 @@ def coherence(
         Mean wind speed [m/s], > 0.
     decay : float
         Decay constant ``c`` [-], ``>= 0``. Not given in the seed; 6-10 is a common range for
-        ``w`` (HUMBER_DATA 4(f), treat as a sensitivity parameter).
+        ``w`` (docs/humber_data.md#turbulence-spectrum-and-coherence, treat as
+        a sensitivity parameter).
 
     Returns
     -------

@@ -6,11 +6,11 @@ function exactly); (c) cross-method agreement (exact-Theodorsen p-k vs RFA state
 modal lag order, section tool's three aerodynamic options); plus the status contract of the
 stability search. Every tolerance is justified where it is used.
 
-RFA error bound used throughout (METHODS.md §2, model/rfa.py): eps = max |C_rfa(ik) - C(ik)| on
-0 < k <= 3, about 1.5e-3 for ``rfa4`` and 1.45e-2 for ``jones``. Since 1/2 <= |C(k)| <= 1, the
-relative error of the circulatory loads is at most eps / 0.5 = 2 eps. The flutter speed
-depends on the aerodynamic load level with a sensitivity of order 1/2 (U_F ~ 1/sqrt(load) for a
-fixed reduced-frequency solution), so 2 eps is a safe bound on the relative flutter-speed and
+RFA error bound used throughout (docs/methods.md#rational-approximation, model/rfa.py): eps = max
+|C_rfa(ik) - C(ik)| on 0 < k <= 3, about 1.5e-3 for ``rfa4`` and 1.45e-2 for ``jones``. Since 1/2 <=
+|C(k)| <= 1, the relative error of the circulatory loads is at most eps / 0.5 = 2 eps. The flutter
+speed depends on the aerodynamic load level with a sensitivity of order 1/2 (U_F ~ 1/sqrt(load) for
+a fixed reduced-frequency solution), so 2 eps is a safe bound on the relative flutter-speed and
 frequency error of an RFA model against exact Theodorsen: 3.0e-3 (rfa4), 2.9e-2 (jones).
 
 Conventions (h down, alpha nose-up, b the half-chord, k = omega b / U): see :mod:`model`.
@@ -43,8 +43,9 @@ JONES_TOL = 2 * JONES_EPS
 SPEED_TOL = 1e-3  # stability.sweep / pk_sweep default Brent xtol [m/s, or U/(b omega) for HP]
 VALID_STATUSES = {stability.CONVERGED, stability.NO_CROSSING, stability.BRACKET_FAILED}
 
-# Hodges & Pierce typical sections (HUMBER_DATA.md §5(a), parameters read in AeroBeams.jl):
-# a = elastic axis [semichords aft of mid-chord], e = centre of gravity, x_theta = e - a.
+# Hodges & Pierce typical sections (docs/humber_data.md#hodges-and-pierce-typical-section,
+# parameters read in AeroBeams.jl): a = elastic axis [semichords aft of mid-chord], e = centre of
+# gravity, x_theta = e - a.
 HP_CASES = {
     "HP-1": dict(a=-1 / 5, e=-1 / 10, mu=20.0, r2=6 / 25, sigma=2 / 5),
     "HP-2": dict(a=-1 / 3, e=-1 / 10, mu=50.0, r2=4 / 25, sigma=2 / 5),
@@ -116,7 +117,8 @@ def coarse():
 
 
 def test_hp_divergence_closed_form(hp):
-    """U_D / (b omega_theta) = r sqrt(mu / (1 + 2a)) (HUMBER_DATA.md §5(a))."""
+    """U_D / (b omega_theta) = r sqrt(mu / (1 + 2a))
+    (docs/humber_data.md#hodges-and-pierce-typical-section)."""
     c = hp["case"]
     closed = np.sqrt(c["r2"] * c["mu"] / (1 + 2 * c["a"]))
     static = statespace.divergence_speed_static(hp["system"])
@@ -144,8 +146,9 @@ def test_hp_flutter_pk_vs_rfa(hp):
       (rfa4 2.7921 / 0.5825; jones 2.7745 / 0.5855); divergence 4.8990 = 2 sqrt(6).
 
     The book's own tabulated flutter numbers for these cases were NOT verified here (no copy at
-    hand; HUMBER_DATA.md §5(a) says the same), so they are not asserted. The p-k crossing is
-    instead checked against an independent solve of det D(i omega, U, C(k)) = 0 below.
+    hand; docs/humber_data.md#hodges-and-pierce-typical-section says the same), so they are not
+    asserted. The p-k crossing is instead checked against an independent solve of det D(i
+    omega, U, C(k)) = 0 below.
     """
     pk, s4, sj = hp["pk"], hp["rfa4"], hp["jones"]
     for r in (pk.flutter, s4.flutter, sj.flutter):
@@ -216,8 +219,8 @@ def test_section_tool_aero_options_agree(capsys):
         # C(0) = 1 for every RFA: divergence is exact up to Brent's xtol
         assert out[aero]["divergence_speed_m_s"] == pytest.approx(ex["divergence_speed_m_s"],
                                                                   abs=SPEED_TOL)
-    # Selberg's formula (HUMBER_DATA §5(b)) is an engineering estimate for exactly this case
-    # (mid-chord rotation, no mass offset); its stated accuracy is a few per cent
+    # Selberg's formula (docs/humber_data.md#selberg-formula) is an engineering estimate for exactly
+    # this case (mid-chord rotation, no mass offset); its stated accuracy is a few per cent
     assert ex["selberg_flutter_speed_m_s"] == pytest.approx(ex["flutter_speed_m_s"], rel=0.05)
 
 
@@ -230,7 +233,7 @@ def test_full_vs_modal_eigenvalues(coarse, speed):
 
     The per-strip lag states whose downwash pattern lies in the null space of the projection P
     never reach the generalised forces: they add the lag poles -beta_j U / b, each
-    n_strip - n times, and leave every other eigenvalue unchanged (METHODS.md §2).
+    n_strip - n times, and leave every other eigenvalue unchanged (docs/methods.md#state-space).
     """
     sm, sf = coarse["modal"], coarse["full"]
     n, ns = sm.basis.n, sm.basis.n_strip
@@ -430,9 +433,9 @@ def test_humber_table_vs_paper(humber, humber_pk, capsys):
     """Table: ours vs the seed paper's model values (65 m/s flutter, 74 m/s divergence).
 
     The seed numbers come from a model with unpublished inputs; ours uses ESTIMATE values for
-    b, GJ, I (HUMBER_DATA.md §2), and U_D scales about as 1/b. So only a sanity bound is
-    asserted on flutter (5 %: sign or unit errors move U_F by tens of per cent); the divergence
-    difference (+15 %) is reported, not asserted.
+    b, GJ, I (docs/humber_data.md#estimated-inputs), and U_D scales about as 1/b. So only a sanity
+    bound is asserted on flutter (5 %: sign or unit errors move U_F by tens of per cent); the
+    divergence difference (+15 %) is reported, not asserted.
     """
     sw = humber["result"].sweep
     rows = [("flutter speed [m/s]", sw.flutter.speed, humber_pk.flutter.speed, 65.0),
@@ -451,8 +454,9 @@ def test_humber_table_vs_paper(humber, humber_pk, capsys):
 def test_added_inertia_switch(humber):
     """Dropping the apparent-inertia moment pi rho b^4 alpha''/8 moves U_F slightly.
 
-    Measured: 66.121 -> 66.203 m/s (+0.12 %) on Humber. METHODS.md §1 quotes 0.3-0.7 % in
-    general; asserted: the change is real (more than 10 Brent tolerances) and below 2 %.
+    Measured: 66.121 -> 66.203 m/s (+0.12 %) on Humber. docs/methods.md#strip-aerodynamics quotes
+    0.3-0.7 % in general; asserted: the change is real (more than 10 Brent
+    tolerances) and below 2 %.
     """
     system = humber["system"]
     without = statespace.build(system.basis, system.aero.half_chord, system.aero.air_density,

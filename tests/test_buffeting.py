@@ -51,8 +51,9 @@ def _flat(level):
 @pytest.mark.parametrize("kind", ["busch-panofsky", "von-karman", "kaimal"])
 def test_gust_psd_in_omega_integrates_to_sigma_w(kind):
     # int_0^inf G(omega) d omega = (I U)^2 for every spectrum (seed: sigma_w/U = 0.07; the
-    # Busch-Panofsky ratio 1.6728 u*^2 is HUMBER_DATA 4(f)). quad on a log-substituted
-    # integrand (omega up to e^60: the -5/3 tail left out is ~e^-40) is accurate to ~1e-8.
+    # Busch-Panofsky ratio 1.6728 u*^2 is docs/humber_data.md#turbulence-spectrum-and-coherence).
+    # quad on a log-substituted integrand (omega up to e^60: the -5/3 tail left out is
+    # ~e^-40) is accurate to ~1e-8.
     g = GustField(spectrum=kind, turbulence_intensity=0.07, deck_height_m=30.0)
     U = 17.0
 
@@ -65,8 +66,8 @@ def test_gust_psd_in_omega_integrates_to_sigma_w(kind):
 
 
 def test_liepmann_underestimates_sears_within_published_bound():
-    # HUMBER_DATA 4(e): Liepmann underestimates |S|^2 by at most 14.5 % (worst near k = 0.24);
-    # 0.15 gives 0.5 % room for the rounding of the quoted figure.
+    # docs/humber_data.md#gust-admittance: Liepmann underestimates |S|^2 by at most 14.5 % (worst
+    # near k = 0.24); 0.15 gives 0.5 % room for the rounding of the quoted figure.
     k = np.geomspace(1e-3, 20, 400)
     lie, sea = admittance_sq("liepmann", k), admittance_sq("sears", k)
     assert np.all(lie <= sea * (1 + 1e-12))

@@ -1,4 +1,5 @@
-"""Flap loads and closed-loop assembly (model/flaps.py). Sources: HUMBER_DATA §4(c), TR-496."""
+"""Flap loads and closed-loop assembly (model/flaps.py). Sources:
+docs/humber_data.md#flap-loads-and-t-functions, TR-496."""
 
 import casadi as ca
 import numpy as np
@@ -39,14 +40,15 @@ def test_steady_limits_match_thin_aerofoil():
     ref_le = flap_steady_coefficients(-C_HINGE, "leading")
     np.testing.assert_allclose(te, ref_te, rtol=1e-12)
     np.testing.assert_allclose(le, ref_le, rtol=1e-12)
-    # HUMBER_DATA check table (4 digits quoted)
+    # docs/humber_data.md#flap-loads-and-t-functions check table (4 digits quoted)
     np.testing.assert_allclose(te, (2.886, 0.129), atol=6e-4)
     np.testing.assert_allclose(le, (0.140, 0.129), atol=6e-4)
 
 
 def test_antisymmetric_pair_is_moment_dominated():
     # LE by -K (LE-down positive) and TE by +K: same rotational sense, so the steady mid-chord
-    # moments add (equal for e = -c, HUMBER_DATA) while the LE flap adds only 5 % lift.
+    # moments add (equal for e = -c, docs/humber_data.md#flap-loads-and-t-functions) while the LE
+    # flap adds only 5 % lift.
     pair = flap_section_loads(B, RHO, CHORD).steady(RHO, B)
     te = flap_section_loads(B, RHO, CHORD, leading_edge=False).steady(RHO, B)
     le = flap_section_loads(B, RHO, CHORD, trailing_edge=False)
@@ -122,8 +124,9 @@ def test_eigenvalue_constraint_gradient_matches_finite_differences(humber_model)
 
 def test_closed_loop_flutter_matches_pk_with_exact_theodorsen():
     # 2-DOF Humber-like section with one flap strip and a deliberately weak controller that
-    # still flutters. The RFA fits C(k) to 0.0032 (HUMBER_DATA 4(d)), which moves the flutter
-    # speed by ~0.1 %; 0.3 % is the tolerance.
+    # still flutters. The RFA fits C(k) to 0.0032
+    # (docs/humber_data.md#lift-deficiency-approximations), which moves the flutter speed by ~0.1
+    # %; 0.3 % is the tolerance.
     basis = section_basis(7660.0, 3.75e5, 0.116, 0.30, B, 0.005)
     m = section_model(basis, B, RHO, CHORD)
     k = Compensator(0.05, -1.0, -1.0, 0.05, 0.3)

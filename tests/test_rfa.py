@@ -18,8 +18,8 @@ def _max_err(approx):
 def test_rfa4_error_bound_and_report():
     r = fit_theodorsen()
     err = _max_err(r)
-    # METHODS.md / HUMBER_DATA 4(d): a 4-lag fit reaches max |error| ~ 3e-3 (reference fit
-    # 3.2e-3); the brief requires <= 3.5e-3.
+    # docs/humber_data.md#lift-deficiency-approximations: a 4-lag fit reaches max |error| ~ 3e-3
+    # (reference fit 3.2e-3); the brief requires <= 3.5e-3.
     assert err <= 3.5e-3
     # The stored and reported errors come from a different (refined) grid: they must agree
     # with this independent grid to within the grid's resolution of the peak (1e-6 absolute,
@@ -76,11 +76,13 @@ def test_jones():
     np.testing.assert_array_equal(j.gains, [0.165, 0.335])
     np.testing.assert_array_equal(j.poles, [0.0455, 0.3])
     err = _max_err(j)
-    # HUMBER_DATA 4(d): max |error| = 0.0145 at k ~ 0.41; brief bound 1.6e-2.
+    # docs/humber_data.md#lift-deficiency-approximations: max |error| = 0.0145 at k ~
+    # 0.41; brief bound 1.6e-2.
     assert err <= 1.6e-2
     assert abs(err - 0.0145) < 1e-4  # quoted to 3 s.f.
     assert abs(j.report()["k_at_max_error"] - 0.41) < 0.01  # quoted to 2 s.f.
-    # HUMBER_DATA sample values (4 decimals): Jones at k = 0.1 and 0.3.
+    # docs/humber_data.md#lift-deficiency-approximations sample values (4 decimals):
+    # Jones at k = 0.1 and 0.3.
     assert abs(j.evaluate(0.1) - (0.8298 - 0.1627j)) < 1e-4
     assert abs(j.evaluate(0.3) - (0.6712 - 0.1920j)) < 1e-4
 

@@ -139,7 +139,7 @@ def test_full_csd_matches_auto_psd_and_schur_matches_modal():
 
 
 def test_monte_carlo_vs_spectral():
-    """Time-domain simulation with synthesised correlated turbulence (METHODS §6)."""
+    """Time-domain simulation with synthesised correlated turbulence (docs/methods.md#buffeting)."""
     A, B, C, _ = two_dof(zeta=0.05)
     coh = exponential_coherence(STRIP_POSITIONS, decay_coefficient=8.0, wind_speed=10.0)
 

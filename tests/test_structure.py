@@ -2,9 +2,9 @@
 model.modes (eigen-solution, labels, Rayleigh damping), against analytic results, invariants,
 cross-method agreement and the measured Humber frequencies of seed Table 1.
 
-Theory referred to (HUMBER_DATA.md §4(a)-(b)): per cable, ``H`` the dead-load horizontal
-tension, ``w`` the dead load per length, ``m`` the total mass per length (deck + both cables);
-vertical ``m v_tt + EI v'''' - 2H v'' + 2(w/H) h = 0`` with ``h = (EA/L_E)(w/H) int v dx``.
+Theory referred to (docs/humber_data.md#reconstructed-equations): per cable, ``H`` the dead-load
+horizontal tension, ``w`` the dead load per length, ``m`` the total mass per length (deck + both
+cables); vertical ``m v_tt + EI v'''' - 2H v'' + 2(w/H) h = 0`` with ``h = (EA/L_E)(w/H) int v dx``.
 Run ``pytest -s tests/test_structure.py -k table1`` to see the Table 1 comparison.
 """
 
@@ -131,7 +131,7 @@ def test_antisymmetric_vertical_modes_match_beam_string_formula():
 
 def test_antisymmetric_torsional_modes_match_analytic():
     """Torsion: ``I_m omega^2 = (GJ + 2 H (b_c/2)^2) k^2``, ``I_m = I_d + 2 m_c (b_c/2)^2``
-    (HUMBER_DATA §4(a)); antisymmetric modes again carry no cable stretching."""
+    (docs/humber_data.md#deflection-theory); antisymmetric modes again carry no cable stretching."""
     spec = single_span(element_length_m=10.0)
     st = cable.dead_load(spec)
     L, a = spec.main_span.length_m, 0.5 * spec.cable.spacing_m
@@ -493,8 +493,8 @@ def test_table1_reproduced(humber_modal):
     assert len(rows) == sum(len(v) for v in TABLE1.values())
     # Pair by label: Table 1's first "VS" (0.117 Hz) and first "TS" (0.311 Hz). 5 %: the
     # stiffnesses are updated to Table 1 but the masses, sag and cable modulus are estimates
-    # (HUMBER_DATA §2.2 gives several-percent ranges on each), and the vertical/torsional
-    # updates fit all modes of a family at once.
+    # (docs/humber_data.md#estimated-inputs gives several-percent ranges on each), and the
+    # vertical/torsional updates fit all modes of a family at once.
     for label, measured in (("VS1", 0.117), ("TS1", 0.311)):
         f = humber_modal.find(label).frequency_hz
         assert abs(f / measured - 1.0) < 0.05, (label, f)

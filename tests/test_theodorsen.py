@@ -15,8 +15,8 @@ from model.theodorsen import (
     unit_admittance_sq,
 )
 
-# (a) Published values of C(k) = F + iG. k = 0.1, 0.3: HUMBER_DATA 4(d) (4 decimals);
-# k = 0.5, 1.0: Bisplinghoff, Ashley & Halfman (1955) table of F, G (4 decimals).
+# (a) Published values of C(k) = F + iG. k = 0.1, 0.3: docs/humber_data.md#theodorsen-loads (4
+# decimals); k = 0.5, 1.0: Bisplinghoff, Ashley & Halfman (1955) table of F, G (4 decimals).
 TABULATED_C = [
     (0.1, 0.8319, -0.1723),
     (0.3, 0.6650, -0.1793),
@@ -54,8 +54,9 @@ def test_theodorsen_vectorised_no_warning_and_conjugate_symmetry():
 
 
 def test_seed_eq4_equals_hankel_form():
-    # (c) Cross-method: seed Eq. (4) in J, Y vs the Hankel form; HUMBER_DATA 4 reports a max
-    # difference of 3.5e-16, so 1e-13 leaves room for libm differences between platforms.
+    # (c) Cross-method: seed Eq. (4) in J, Y vs the Hankel form;
+    # docs/humber_data.md#theodorsen-loads reports a max difference of 3.5e-16, so 1e-13 leaves room
+    # for libm differences between platforms.
     k = np.geomspace(1e-3, 50.0, 400)
     j0, j1, y0, y1 = jv(0, k), jv(1, k), yv(0, k), yv(1, k)
     seed = (j1 - 1j * y1) / ((j1 + y0) - 1j * (y1 - j0))
@@ -70,7 +71,8 @@ def test_theodorsen_rejects_complex():
 def test_sears_limits_and_modulus():
     # S(0) = 1 exactly (J0(0) = 1, J1(0) = 0, C(0) = 1).
     assert sears(0.0) == 1.0
-    # |S|^2 values quoted in HUMBER_DATA 4(e) to 3 decimals: tolerance half a unit, 5e-4.
+    # |S|^2 values quoted in docs/humber_data.md#gust-admittance to 3 decimals:
+    # tolerance half a unit, 5e-4.
     for k, val in [(0.1, 0.701), (0.5, 0.277), (1.0, 0.152)]:
         assert abs(sears_admittance_sq(k) - val) < 5e-4
     # Large-k behaviour |S| ~ 1/sqrt(2 pi k): at k = 200 the relative correction is O(1/k).
@@ -86,7 +88,8 @@ def test_sears_leading_edge_reference_same_modulus():
 
 
 def test_liepmann_underestimates_sears_by_at_most_14_5_percent():
-    # HUMBER_DATA 4(e): Liepmann underestimates |S|^2 by up to 14.5 % near k = 0.24.
+    # docs/humber_data.md#gust-admittance: Liepmann underestimates |S|^2 by up
+    # to 14.5 % near k = 0.24.
     k = np.geomspace(1e-4, 20.0, 20000)
     ratio = liepmann_admittance_sq(k) / sears_admittance_sq(k)
     deficit = 1.0 - ratio.min()
@@ -119,7 +122,8 @@ def test_t_functions_trailing_edge_all_vanish():
 
 def test_t_functions_leading_edge_reduce_to_pitch_terms():
     # c = -1: the flap is the whole plate, so with a = -1 the flap terms equal the pitch terms
-    # of Theodorsen's loads (HUMBER_DATA 4(c) check 1). Closed-form identities: 1e-12.
+    # of Theodorsen's loads (docs/humber_data.md#flap-loads-and-t-functions check 1).
+    # Closed-form identities: 1e-12.
     a = -1.0
     t = t_functions(-1.0, a=a)
     tol = 1e-12
@@ -145,8 +149,8 @@ def test_t_functions_vectorised_and_range():
 @pytest.mark.parametrize("c", [0.0, 0.5, 8.0 / 11.0, 0.9])
 def test_steady_te_flap_thin_aerofoil(c):
     # (c) Independent steady thin-aerofoil (Glauert) flap result, as in [CODE-1] static_flap.m
-    # (HUMBER_DATA 4(c) check 3): dC_L/dbeta = 2(arccos c + sqrt(1 - c^2)) and
-    # dC_M,1/4/dbeta = -(1/2)(1 + c) sqrt(1 - c^2).
+    # (docs/humber_data.md#flap-loads-and-t-functions check 3): dC_L/dbeta = 2(arccos c + sqrt(1 -
+    # c^2)) and dC_M,1/4/dbeta = -(1/2)(1 + c) sqrt(1 - c^2).
     # Transfer to mid-chord: C_M,mid = C_M,1/4 + C_L / 4. Analytic identity: 1e-12.
     lift, moment = flap_steady_coefficients(c)
     s = np.sqrt(1 - c * c)
@@ -155,7 +159,8 @@ def test_steady_te_flap_thin_aerofoil(c):
     assert abs(moment - (cm_quarter + lift / 4)) < 1e-12
 
 
-# HUMBER_DATA 4(c) table: (hinge c, TE dCL, TE dCM_mid, LE dCL, LE dCM_mid), 3 decimals.
+# docs/humber_data.md#flap-loads-and-t-functions table: (hinge c, TE dCL, TE dCM_mid, LE dCL,
+# LE dCM_mid), 3 decimals.
 FLAP_TABLE = [
     (1 - 6.0 / 22.0, 2.886, 0.129, 0.140, 0.129),  # 3 m flap on 2b = 22 m
     (1 - 6.0 / 28.5, 2.549, 0.088, 0.094, 0.088),  # 3 m flap on 28.5 m

@@ -34,7 +34,8 @@ def _variance_hz(fun):
 
 
 def test_busch_panofsky_variance_ratio_by_quadrature():
-    # Seed text after Eq. (15): sigma_w^2 ~ 1.67 u*^2; HUMBER_DATA 4(f): 1.6728.
+    # Seed text after Eq. (15): sigma_w^2 ~ 1.67 u*^2;
+    # docs/humber_data.md#turbulence-spectrum-and-coherence: 1.6728.
     u_star = 1.3
     var = _variance_hz(lambda n: busch_panofsky(n, U, Z, u_star))
     assert var / u_star**2 == pytest.approx(busch_panofsky_variance_ratio(), rel=QUAD_RTOL)
@@ -55,7 +56,8 @@ def test_busch_panofsky_omega_is_seed_eq15_and_same_variance():
 
 
 def test_busch_panofsky_peak_and_finite_at_zero():
-    # f S(f) peaks at f = 0.15^0.6 = 0.320 (HUMBER_DATA 4(f)); grid spacing 1e-4 relative.
+    # f S(f) peaks at f = 0.15^0.6 = 0.320 (docs/humber_data.md#turbulence-spectrum-and-coherence);
+    # grid spacing 1e-4 relative.
     n = np.geomspace(1e-4, 10.0, 200001)
     fs = n * busch_panofsky(n, U, Z, 1.0)
     assert n[np.argmax(fs)] * Z / U == pytest.approx(0.15**0.6, rel=1e-3)
@@ -63,7 +65,8 @@ def test_busch_panofsky_peak_and_finite_at_zero():
 
 
 def test_friction_velocity():
-    # HUMBER_DATA 4(f): sigma_w/U = 0.07 gives u* = 0.0541 U (3 s.f.).
+    # docs/humber_data.md#turbulence-spectrum-and-coherence: sigma_w/U = 0.07
+    # gives u* = 0.0541 U (3 s.f.).
     assert friction_velocity_from_intensity(U, 0.07) / U == pytest.approx(0.0541, abs=5e-5)
     u_star = friction_velocity_from_intensity(U, 0.07)
     assert busch_panofsky_variance_ratio() * u_star**2 == pytest.approx((0.07 * U) ** 2)

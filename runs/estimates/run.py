@@ -25,7 +25,7 @@ from model.validation import log_misfit
 RANGES = {
     # path: (low, high, reasoning)
     "deck.half_chord_m": (11.0, 14.25, "22 m box vs 28.5 m overall width"),
-    "cable.main_sag_m": (110.0, 125.0, "HUMBER_DATA §1.2 derived range"),
+    "cable.main_sag_m": (110.0, 125.0, "docs/humber_data.md#cables derived range"),
     "deck.mass_inertia_kgm2_per_m": (3.0e5, 4.5e5, "r = 6.3-7.7 m about the box estimate"),
     "cable.spacing_m": (20.0, 24.0, "box width 22 m +- 2 m"),
     "cable.modulus_pa": (1.9e11, 2.05e11, "parallel-wire cables 190-205 GPa"),
