@@ -12,3 +12,31 @@ Module map (each file one job; importing this package imports nothing else):
 - :mod:`design.io` / :mod:`design.manifest`: output folders, atomic files, run manifest.
 - :mod:`design.cli` (entry point ``main``), :mod:`design.cli_common`, ``design.cmd_*``.
 """
+
+#: What a script imports: ``from design import design, load_settings, run_study, ...``;
+#: resolved on first use (PEP 562), so ``import design`` imports nothing heavy.
+_PUBLIC = {
+    "ANALYSES": "design.analyses", "DEFAULT_SPEEDS": "design.analyses",
+    "parse_range": "design.options",
+    "DesignSettings": "design.settings", "load_settings": "design.settings",
+    "quick_settings": "design.settings", "design": "design.driver",
+    "DesignResult": "design.result",
+    "local_sensitivity": "design.sensitivity", "global_sensitivity": "design.screening",
+    "load_study": "design.study", "run_study": "design.study",
+    "load_doe": "design.experiments", "run_doe": "design.experiments",
+    "run_batch": "design.doe", "make_design": "design.designs",
+    "main": "design.cli",
+}
+__all__ = sorted(_PUBLIC)
+
+
+def __getattr__(name):
+    if name in _PUBLIC:
+        import importlib
+
+        return getattr(importlib.import_module(_PUBLIC[name]), name)
+    raise AttributeError(f"module 'design' has no attribute {name!r}")
+
+
+def __dir__():
+    return __all__

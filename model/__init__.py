@@ -17,3 +17,36 @@ Conventions (stated once here and in the README; every module refers back)
 * x is measured along the bridge from the north (Hessle) anchorage [m]; spans are listed
   north to south; "symmetric" refers to the main-span mid-point.
 """
+
+# ------------------------------------------------------------------ public face (lazy)
+#: What a script imports: ``from model import load_bridge, flutter, ...``. Names resolve on
+#: first use (PEP 562), so ``import model`` stays light (no CasADi, no matplotlib).
+_PUBLIC = {
+    "BridgeSpec": "model.spec", "load_bridge": "model.spec", "spec_from_dict": "model.spec",
+    "PARAMETER_PATHS": "model.spec",
+    "BridgeflapError": "model.errors", "BridgeflapInputError": "model.errors",
+    "DEFAULT_MODES": "model.analysis", "modal_model": "model.analysis",
+    "bridge_system": "model.analysis", "flutter": "model.analysis",
+    "erection": "model.analysis", "frequency_ratio": "model.analysis",
+    "closed_loop_flutter": "model.analysis", "FlutterResult": "model.analysis",
+    "sweep": "model.stability", "pk_sweep": "model.stability",
+    "buffeting": "model.buffeting",
+    "Compensator": "model.control", "Controller": "model.control",
+    "load_controller": "model.control", "save_controller": "model.control",
+    "closed_loop_model": "model.flaps", "closed_loop_state_space": "model.flaps",
+    "build_symbolic": "model.symbolic", "closed_loop_functions": "model.symbolic",
+    "section_basis": "model.section", "typical_section": "model.section",
+}
+__all__ = sorted(_PUBLIC)
+
+
+def __getattr__(name):
+    if name in _PUBLIC:
+        import importlib
+
+        return getattr(importlib.import_module(_PUBLIC[name]), name)
+    raise AttributeError(f"module 'model' has no attribute {name!r}")
+
+
+def __dir__():
+    return __all__

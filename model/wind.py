@@ -137,6 +137,16 @@ def friction_velocity_from_intensity(U: float, intensity: float) -> float:
     return intensity * U / np.sqrt(busch_panofsky_variance_ratio())
 
 
+def _inertial_form(n_hz, U, z, u_star, a, b) -> NDArray[np.float64]:
+    """``S_w = u*^2 (z/U) a / (1 + b f^(5/3))``, ``f = n z / U``: the common form of the
+    Busch-Panofsky and Kaimal vertical spectra (``n S / u*^2 = a f / (1 + b f^(5/3))``)."""
+    U = _positive("wind_speed", U)
+    z = _positive("height", z)
+    u_star = _positive("friction_velocity", u_star)
+    f = _frequency(n_hz) * z / U
+    return u_star**2 * (z / U) * a / (1.0 + b * f ** (5.0 / 3.0))
+
+
 def busch_panofsky(n_hz: ArrayLike, U: float, z: float, u_star: float) -> NDArray[np.float64]:
     r"""One-sided Busch-Panofsky spectrum of the vertical gust velocity.
 
@@ -168,12 +178,7 @@ def busch_panofsky(n_hz: ArrayLike, U: float, z: float, u_star: float) -> NDArra
     ----------
     Busch & Panofsky (1968); Simiu & Scanlan (1996), ch. 2; seed Eq. (15).
     """
-    U = _positive("wind_speed", U)
-    z = _positive("height", z)
-    u_star = _positive("friction_velocity", u_star)
-    n = _frequency(n_hz)
-    f = n * z / U
-    return u_star**2 * (z / U) * _BP_A / (1.0 + _BP_B * f ** (5.0 / 3.0))
+    return _inertial_form(n_hz, U, z, u_star, _BP_A, _BP_B)
 
 
 def busch_panofsky_omega(
@@ -185,12 +190,9 @@ def busch_panofsky_omega(
     ----------
     omega : array_like
         Circular frequency [rad/s], either sign.
-    U : float
-        Mean wind speed [m/s].
-    z : float
-        Height [m].
-    u_star : float
-        Friction velocity [m/s].
+    U, z, u_star : float
+        Mean wind speed [m/s], height [m] and friction velocity [m/s], as for
+        :func:`busch_panofsky`.
 
     Returns
     -------
@@ -243,12 +245,7 @@ def kaimal_w(n_hz: ArrayLike, U: float, z: float, u_star: float) -> NDArray[np.f
     ----------
     Kaimal et al. (1972), Q. J. R. Meteorol. Soc. 98; Simiu & Scanlan (1996), ch. 2.
     """
-    U = _positive("wind_speed", U)
-    z = _positive("height", z)
-    u_star = _positive("friction_velocity", u_star)
-    n = _frequency(n_hz)
-    f = n * z / U
-    return u_star**2 * (z / U) * _KAIMAL_A / (1.0 + _KAIMAL_B * f ** (5.0 / 3.0))
+    return _inertial_form(n_hz, U, z, u_star, _KAIMAL_A, _KAIMAL_B)
 
 
 def von_karman_w(

@@ -105,9 +105,9 @@ def humber_pk(humber):
 
 
 @pytest.fixture(scope="module")
-def coarse():
+def coarse(coarse_humber):
     """Humber on a coarse mesh (47 m elements) with 10 modes: full vs modal lag order."""
-    spec = load_bridge("humber").replace(**{"mesh.element_length_m": 47.0})
+    spec = coarse_humber
     modal, sys_m = analysis.bridge_system(spec, 10, order="modal")
     _, sys_f = analysis.bridge_system(spec, 10, order="full", modal=modal)
     return {"spec": spec, "modal": sys_m, "full": sys_f}

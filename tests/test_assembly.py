@@ -19,20 +19,18 @@ from model.assembly import dynamic_matrices
 from model.control import Compensator
 from model.flaps import closed_loop_model, closed_loop_pk_flutter, section_model
 from model.section import section_basis
-from model.spec import load_bridge
 from model.stability import pk_sweep
 from model.statespace import build
 from model.symbolic import build_symbolic
 
 ROOT = Path(__file__).resolve().parents[1]
-COARSE = {"mesh.element_length_m": 47.0}
 THETA = (0.5, 2.0, 3.0, 0.05, 0.3)
 B, RHO, CHORD = 11.0, 1.225, 3.0
 
 
 @pytest.fixture(scope="module")
-def humber():
-    return load_bridge("humber").replace(**COARSE)
+def humber(coarse_humber):
+    return coarse_humber
 
 
 @pytest.fixture(scope="module")

@@ -19,7 +19,6 @@ from model.buffeting import CONVERGENCE_TOL, buffeting, reduced_response
 from model.errors import BridgeflapInputError
 from model.gust import GustField, coherence_projection, gust_field
 from model.simulation import lyapunov_rms
-from model.spec import load_bridge
 from model.spectral import white_noise_intensity
 from model.wind import admittance_sq
 
@@ -27,11 +26,6 @@ from model.wind import admittance_sq
 # ----------------------------------------------------------------------------------------------
 # shared cases
 # ----------------------------------------------------------------------------------------------
-@pytest.fixture(scope="module")
-def humber():
-    return load_bridge("humber")
-
-
 @pytest.fixture(scope="module")
 def humber6(humber):
     """Humber with 6 modes (VA1, VS1, VS2, VS3, VA2, TS1): small but with heave and pitch."""

@@ -94,11 +94,6 @@ def without_lateral(structure):
 
 
 @pytest.fixture(scope="module")
-def humber() -> BridgeSpec:
-    return load_bridge("humber")
-
-
-@pytest.fixture(scope="module")
 def humber_modal(humber):
     return modes.modal_model(humber)
 

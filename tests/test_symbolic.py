@@ -3,6 +3,7 @@
 import casadi as ca
 import numpy as np
 import pytest
+from conftest import coarse
 from scipy.optimize import linear_sum_assignment
 
 from model.analysis import bridge_system
@@ -16,7 +17,7 @@ N_MODES = 10
 def case():
     # coarse mesh (30 elements on the main span) keeps the module fast; the comparison is
     # between two assemblies of the same discretisation, so mesh accuracy does not matter
-    spec = load_bridge("humber").replace(**{"mesh.element_length_m": 47.0})
+    spec = coarse(load_bridge("humber"))
     return spec, build_symbolic(spec, N_MODES)
 
 
