@@ -80,10 +80,28 @@ def strip_volatile(obj):
     return obj
 
 
+#: Ipopt statuses of a converged solve; any other round is an iterate cut off by a limit
+CONVERGED_IPOPT = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
+#: tolerance for the numbers of an unconverged (iteration-capped) Ipopt round: its iterate at
+#: the cap amplifies round-off of the problem data (1e-15) by the ill-conditioning of an
+#: unfinished solve; measured 5e-9 relative after 20 capped iterations, 1e-6 leaves margin and
+#: still fails on any change of the problem itself (those move the iterate by > 1e-4)
+RTOL_UNCONVERGED = 1e-6
+
+
 def compare(a, b, rtol: float, path: str = "") -> list[str]:
-    """Differences between two JSON trees: numbers to ``rtol`` relative, the rest exactly."""
+    """Differences between two JSON trees: numbers to ``rtol`` relative, the rest exactly.
+
+    A dict with an Ipopt ``status`` that is not a converged one (a design round stopped at its
+    iteration cap) is compared to :data:`RTOL_UNCONVERGED`; its status must still match.
+    """
     out: list[str] = []
     if isinstance(a, dict) and isinstance(b, dict):
+        status = a.get("status")
+        if (isinstance(status, str) and status[:1].isupper() and "_" in status
+                and status not in CONVERGED_IPOPT
+                and status == b.get("status")):
+            rtol = max(rtol, RTOL_UNCONVERGED)
         for k in sorted(set(a) | set(b)):
             if k not in a or k not in b:
                 out.append(f"{path}/{k}: key only in {'new' if k in b else 'golden'}")
