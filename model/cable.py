@@ -134,16 +134,27 @@ def span_loads(spec: BridgeSpec, fraction: float | None = None,
     f = spec.erected_fraction if fraction is None else fraction
     p = 0.5 * spec.deck.mass_kg_per_m * G
     stretch = (1.0,) * len(spec.spans) if stretch is None else stretch
+    complete = fraction is not None and fraction >= 1.0
+    m = spec.main_span_index
     loads = []
     for i, s in enumerate(spec.spans):
         L = s.length_m
-        if i == spec.main_span_index and f < 1.0:
+        side_f = 1.0 if complete else spec.side_span_deck_fraction(i)
+        if i == m and f < 1.0:
             a, b = 0.5 * L * (1 - f), 0.5 * L * (1 + f)
             breaks = np.array([0.0, a, b, L])
             deck = np.array([False, True, False])
+        elif i != m and s.suspended_deck and 0.0 < side_f < 1.0:
+            # erected from the tower outwards: the tower is the end next to the main span
+            if i < m:
+                breaks = np.array([0.0, L * (1 - side_f), L])
+                deck = np.array([False, True])
+            else:
+                breaks = np.array([0.0, L * side_f, L])
+                deck = np.array([True, False])
         else:
             breaks = np.array([0.0, L])
-            deck = np.array([bool(s.suspended_deck)])
+            deck = np.array([bool(s.suspended_deck) and (i == m or side_f > 0.0)])
         mc = spec.span_cable_mass_kg_per_m(i)
         q = mc * G * stretch[i] + p * deck
         loads.append(SpanLoad(L, s.chord_rise_m, breaks, q.astype(float), deck,
@@ -275,7 +286,9 @@ def dead_load(spec: BridgeSpec, tol: float = 1e-12) -> CableStatics:
     h_ref, stretch = reference_state(spec)
     full = span_loads(spec, 1.0, stretch)
     s0 = unstrained_length(full, h_ref)
-    if spec.erected_fraction >= 1.0:
+    if not spec.is_erecting or all(
+            spec.side_span_deck_fraction(i) == 1.0 for i in range(len(spec.spans))) \
+            and spec.erected_fraction >= 1.0:
         return _statics(spec, full, h_ref, s0)
     H = h_ref
     for _ in range(50):

@@ -150,14 +150,21 @@ class Mesh:
         _positive("mesh.element_length_m", self.element_length_m)
 
 
+SIDE_SPAN_SEQUENCES = ("bare", "in_place", "with_main")
+
+
 @dataclass(frozen=True)
 class BridgeSpec:
-    """A complete bridge definition.
+    """A complete bridge definition, or one of its erection stages.
 
     ``erected_fraction`` is the fraction of the main span whose deck is in place, erected
-    symmetrically from mid-span outwards (1 = complete bridge). While erecting (fraction < 1)
-    the deck has half its GJ and zero EI (temporary joints, seed paper §2 after Brancaleoni);
-    side-span decks are taken as in place throughout (see README, "Erection").
+    symmetrically from mid-span outwards (seed §4). ``joints_closed`` is False for every
+    erection stage, including the closed deck at ``erected_fraction = 1`` before its joints are
+    made permanent: the deck then has half its GJ and zero EI (temporary joints, seed §2 after
+    Brancaleoni 1992). The completed bridge (:meth:`completed`) has ``erected_fraction = 1`` and
+    ``joints_closed = True``. ``side_span_decks`` says where the side-span decks are while
+    erecting: ``"bare"`` (not yet hung), ``"in_place"`` (hung throughout) or ``"with_main"``
+    (erected over the same fraction as the main span, from the towers outwards).
     """
 
     name: str
@@ -169,6 +176,8 @@ class BridgeSpec:
     aero: Aero = field(default_factory=Aero)
     mesh: Mesh = field(default_factory=Mesh)
     erected_fraction: float = 1.0
+    joints_closed: bool = True
+    side_span_decks: str = "in_place"
     sources: dict = field(default_factory=dict, compare=False, hash=False)
     deck_section: DeckSection | None = field(default=None, compare=False, hash=False)
 
@@ -182,6 +191,13 @@ class BridgeSpec:
         if abs(self.spans[self.main_span_index].chord_rise_m) > 0:
             raise BridgeflapInputError("spans.main.chord_rise_m", "the main span must be level")
         check_fraction(self.erected_fraction)
+        if self.joints_closed and self.erected_fraction < 1.0:
+            raise BridgeflapInputError("erected_fraction",
+                                       "joints can be closed only on the complete deck (1)")
+        if self.side_span_decks not in SIDE_SPAN_SEQUENCES:
+            raise BridgeflapInputError("erection.side_spans",
+                                       f"must be one of {SIDE_SPAN_SEQUENCES}, "
+                                       f"got {self.side_span_decks!r}")
         names = [s.name for s in self.spans]
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
@@ -195,10 +211,27 @@ class BridgeSpec:
         """The main span."""
         return self.spans[self.main_span_index]
 
-    def erected(self, fraction: float) -> BridgeSpec:
-        """Return a copy with the main-span deck erected over ``fraction`` (0, 1]."""
+    def erected(self, fraction: float, side_spans: str | None = None) -> BridgeSpec:
+        """An erection stage: the main-span deck over ``fraction`` (0, 1], joints temporary.
+
+        ``fraction = 1`` is the closed deck with temporary joints (half GJ, zero EI), not the
+        completed bridge (:meth:`completed`). ``side_spans`` overrides the bridge file's
+        side-span sequence (:data:`SIDE_SPAN_SEQUENCES`).
+        """
         check_fraction(fraction)
-        return dataclasses.replace(self, erected_fraction=float(fraction))
+        return dataclasses.replace(
+            self, erected_fraction=float(fraction), joints_closed=False,
+            side_span_decks=self.side_span_decks if side_spans is None else side_spans)
+
+    def completed(self) -> BridgeSpec:
+        """The completed bridge: every deck in place, joints closed (full GJ and EI)."""
+        return dataclasses.replace(self, erected_fraction=1.0, joints_closed=True)
+
+    def side_span_deck_fraction(self, span: int) -> float:
+        """Fraction of side span ``span``'s deck in place at this stage [-]."""
+        if self.joints_closed or self.side_span_decks == "in_place":
+            return 1.0
+        return 0.0 if self.side_span_decks == "bare" else self.erected_fraction
 
     def replace(self, **changes: Any) -> BridgeSpec:
         """Return a copy with dotted-path changes, e.g. ``replace(**{"deck.gj_nm2": 1e11})``."""
@@ -218,8 +251,8 @@ class BridgeSpec:
 
     @property
     def is_erecting(self) -> bool:
-        """True while the main-span deck is incomplete."""
-        return self.erected_fraction < 1.0
+        """True for every erection stage (temporary joints), False for the completed bridge."""
+        return not self.joints_closed
 
 
 def check_fraction(fraction: float) -> float:
@@ -329,7 +362,7 @@ _DECK_KEYS = ("mass_kg_per_m", "mass_inertia_kgm2_per_m", "ei_vertical_nm2", "ei
               "gj_nm2", "half_chord_m", "hanger_length_midspan_m")
 _SECTION_KEYS = ("mass_kg_per_m", "mass_inertia_kgm2_per_m")
 _TOP_KEYS = {"name", "description", "spans", "main_span", "cable", "deck", "deck_section",
-             "damping", "aero", "mesh", "variants"}
+             "damping", "aero", "mesh", "variants", "erection"}
 
 
 def _check_keys(table: dict, allowed, where: str) -> None:
@@ -447,9 +480,18 @@ def spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = Non
     mg = group("mesh", required=False)
     _check_keys(mg, ("element_length_m",), "mesh")
     mesh = Mesh(element_length_m=value(mg, "mesh", "element_length_m", 25.0))
+    eg = group("erection", required=False)
+    _check_keys(eg, ("side_spans",), "erection")
+    side = eg.get("side_spans", "in_place")
+    if isinstance(side, dict):
+        _check_keys(side, ("value", "source"), "erection.side_spans")
+        sources["erection.side_spans"] = str(side.get("source", "not stated"))
+        side = side.get("value")
+    if not isinstance(side, str):
+        raise BridgeflapInputError("erection.side_spans", f"must be a string, got {side!r}")
     spec = BridgeSpec(name=name, spans=tuple(spans), main_span_index=names.index(main_name),
                       cable=cable, deck=deck, damping=damping, aero=aero, mesh=mesh,
-                      sources=sources, deck_section=section)
+                      side_span_decks=side, sources=sources, deck_section=section)
     return _apply_variant(spec, group("variants", required=False), variant)
 
 
