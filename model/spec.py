@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from model.errors import BridgeflapInputError
+from model.section_props import DeckSection, section_from_list
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -45,16 +46,22 @@ class Span:
         (0 for the level main span; side spans rise from the anchorage to the saddle).
     suspended_deck : bool
         Whether a deck hangs from this span when the bridge is complete.
+    cable_area_m2 : float, optional
+        Steel area of each cable in this span [m^2] when it differs from ``cable.area_m2``
+        (extra wires in a side span); the cable mass per metre scales with it.
     """
 
     name: str
     length_m: float
     chord_rise_m: float = 0.0
     suspended_deck: bool = True
+    cable_area_m2: float | None = None
 
     def __post_init__(self):
         _positive(f"spans.{self.name}.length_m", self.length_m)
         _finite(f"spans.{self.name}.chord_rise_m", self.chord_rise_m)
+        if self.cable_area_m2 is not None:
+            _positive(f"spans.{self.name}.cable_area_m2", self.cable_area_m2)
         if abs(self.chord_rise_m) >= self.length_m:
             raise BridgeflapInputError(
                 f"spans.{self.name}.chord_rise_m", "chord steeper than 45 degrees is not supported"
@@ -63,7 +70,12 @@ class Span:
 
 @dataclass(frozen=True)
 class Cable:
-    """Main cables (two, at +-spacing/2 from the deck centre line); per-cable values."""
+    """Main cables (two, at +-spacing/2 from the deck centre line); per-cable values.
+
+    ``mass_kg_per_m`` is per metre **of cable** (not per horizontal metre) for a cable of steel
+    area ``area_m2``; in a span with its own ``cable_area_m2`` it scales with the area. The
+    statics and the mass matrices apply it along the cable (``m_c ds/dx``, :mod:`model.cable`).
+    """
 
     area_m2: float
     modulus_pa: float
@@ -138,14 +150,21 @@ class Mesh:
         _positive("mesh.element_length_m", self.element_length_m)
 
 
+SIDE_SPAN_SEQUENCES = ("bare", "in_place", "with_main")
+
+
 @dataclass(frozen=True)
 class BridgeSpec:
-    """A complete bridge definition.
+    """A complete bridge definition, or one of its erection stages.
 
     ``erected_fraction`` is the fraction of the main span whose deck is in place, erected
-    symmetrically from mid-span outwards (1 = complete bridge). While erecting (fraction < 1)
-    the deck has half its GJ and zero EI (temporary joints, seed paper §2 after Brancaleoni);
-    side-span decks are taken as in place throughout (see README, "Erection").
+    symmetrically from mid-span outwards (seed §4). ``joints_closed`` is False for every
+    erection stage, including the closed deck at ``erected_fraction = 1`` before its joints are
+    made permanent: the deck then has half its GJ and zero EI (temporary joints, seed §2 after
+    Brancaleoni 1992). The completed bridge (:meth:`completed`) has ``erected_fraction = 1`` and
+    ``joints_closed = True``. ``side_span_decks`` says where the side-span decks are while
+    erecting: ``"bare"`` (not yet hung), ``"in_place"`` (hung throughout) or ``"with_main"``
+    (erected over the same fraction as the main span, from the towers outwards).
     """
 
     name: str
@@ -157,7 +176,10 @@ class BridgeSpec:
     aero: Aero = field(default_factory=Aero)
     mesh: Mesh = field(default_factory=Mesh)
     erected_fraction: float = 1.0
+    joints_closed: bool = True
+    side_span_decks: str = "in_place"
     sources: dict = field(default_factory=dict, compare=False, hash=False)
+    deck_section: DeckSection | None = field(default=None, compare=False, hash=False)
 
     def __post_init__(self):
         if not self.spans:
@@ -169,6 +191,17 @@ class BridgeSpec:
         if abs(self.spans[self.main_span_index].chord_rise_m) > 0:
             raise BridgeflapInputError("spans.main.chord_rise_m", "the main span must be level")
         check_fraction(self.erected_fraction)
+        if self.joints_closed and self.erected_fraction < 1.0:
+            raise BridgeflapInputError("erected_fraction",
+                                       "joints can be closed only on the complete deck (1)")
+        if self.side_span_decks not in SIDE_SPAN_SEQUENCES:
+            raise BridgeflapInputError("erection.side_spans",
+                                       f"must be one of {SIDE_SPAN_SEQUENCES}, "
+                                       f"got {self.side_span_decks!r}")
+        names = [s.name for s in self.spans]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise BridgeflapInputError(f"spans.{dup[0]}", "duplicate span name")
         main = self.main_span
         if self.cable.main_sag_m >= 0.5 * main.length_m:
             raise BridgeflapInputError("cable.main_sag_m", "sag must be below half the span")
@@ -178,10 +211,27 @@ class BridgeSpec:
         """The main span."""
         return self.spans[self.main_span_index]
 
-    def erected(self, fraction: float) -> BridgeSpec:
-        """Return a copy with the main-span deck erected over ``fraction`` (0, 1]."""
+    def erected(self, fraction: float, side_spans: str | None = None) -> BridgeSpec:
+        """An erection stage: the main-span deck over ``fraction`` (0, 1], joints temporary.
+
+        ``fraction = 1`` is the closed deck with temporary joints (half GJ, zero EI), not the
+        completed bridge (:meth:`completed`). ``side_spans`` overrides the bridge file's
+        side-span sequence (:data:`SIDE_SPAN_SEQUENCES`).
+        """
         check_fraction(fraction)
-        return dataclasses.replace(self, erected_fraction=float(fraction))
+        return dataclasses.replace(
+            self, erected_fraction=float(fraction), joints_closed=False,
+            side_span_decks=self.side_span_decks if side_spans is None else side_spans)
+
+    def completed(self) -> BridgeSpec:
+        """The completed bridge: every deck in place, joints closed (full GJ and EI)."""
+        return dataclasses.replace(self, erected_fraction=1.0, joints_closed=True)
+
+    def side_span_deck_fraction(self, span: int) -> float:
+        """Fraction of side span ``span``'s deck in place at this stage [-]."""
+        if self.joints_closed or self.side_span_decks == "in_place":
+            return 1.0
+        return 0.0 if self.side_span_decks == "bare" else self.erected_fraction
 
     def replace(self, **changes: Any) -> BridgeSpec:
         """Return a copy with dotted-path changes, e.g. ``replace(**{"deck.gj_nm2": 1e11})``."""
@@ -190,10 +240,19 @@ class BridgeSpec:
             spec = _replace_path(spec, path, value)
         return spec
 
+    def span_cable_area_m2(self, span: int) -> float:
+        """Steel area of one cable in ``span`` [m^2]."""
+        a = self.spans[span].cable_area_m2
+        return self.cable.area_m2 if a is None else a
+
+    def span_cable_mass_kg_per_m(self, span: int) -> float:
+        """Mass of one cable per metre of cable in ``span`` [kg/m] (scaled with its area)."""
+        return self.cable.mass_kg_per_m * self.span_cable_area_m2(span) / self.cable.area_m2
+
     @property
     def is_erecting(self) -> bool:
-        """True while the main-span deck is incomplete."""
-        return self.erected_fraction < 1.0
+        """True for every erection stage (temporary joints), False for the completed bridge."""
+        return not self.joints_closed
 
 
 def check_fraction(fraction: float) -> float:
@@ -254,17 +313,30 @@ def _replace_path(spec: BridgeSpec, path: str, value: Any) -> BridgeSpec:
 def load_bridge(name_or_path: str | Path) -> BridgeSpec:
     """Load a built-in bridge by name or a TOML bridge file by path.
 
+    ``"name:variant"`` (or ``"file.toml:variant"``) applies the file's ``[variants.variant]``
+    table: dotted parameter paths with ``{ value, source }``, an alternative reading of the
+    sources kept next to the default one (e.g. ``humber:box``, the 22 m steel box as chord).
+
     Raises
     ------
     BridgeflapInputError
-        Unknown name, missing file, malformed TOML, missing or non-physical field.
+        Unknown name or variant, missing file, malformed TOML, missing, unknown or
+        non-physical field.
     """
-    text, origin = _read_source(name_or_path)
+    base, variant = _split_variant(str(name_or_path))
+    text, origin = _read_source(base)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise BridgeflapInputError("bridge", f"malformed TOML in {origin}: {exc}") from None
-    return spec_from_dict(data, origin)
+    return spec_from_dict(data, origin, variant=variant)
+
+
+def _split_variant(s: str) -> tuple[str, str | None]:
+    head, sep, tail = s.rpartition(":")
+    if sep and tail and (head in BUILTIN_BRIDGES or head.lower().endswith(".toml")):
+        return head, tail
+    return s, None
 
 
 def _read_source(name_or_path: str | Path) -> tuple[str, str]:
@@ -284,8 +356,29 @@ def _read_source(name_or_path: str | Path) -> tuple[str, str]:
         raise BridgeflapInputError("bridge", f"cannot read {path}: {exc}") from None
 
 
-def spec_from_dict(data: dict, origin: str = "<dict>") -> BridgeSpec:
-    """Build a :class:`BridgeSpec` from parsed TOML, recording each value's source."""
+_SPAN_KEYS = {"name", "length_m", "chord_rise_m", "suspended_deck", "cable_area_m2"}
+_CABLE_KEYS = ("area_m2", "modulus_pa", "mass_kg_per_m", "spacing_m", "main_sag_m")
+_DECK_KEYS = ("mass_kg_per_m", "mass_inertia_kgm2_per_m", "ei_vertical_nm2", "ei_lateral_nm2",
+              "gj_nm2", "half_chord_m", "hanger_length_midspan_m")
+_SECTION_KEYS = ("mass_kg_per_m", "mass_inertia_kgm2_per_m")
+_TOP_KEYS = {"name", "description", "spans", "main_span", "cable", "deck", "deck_section",
+             "damping", "aero", "mesh", "variants", "erection"}
+
+
+def _check_keys(table: dict, allowed, where: str) -> None:
+    unknown = sorted(set(table) - set(allowed))
+    if unknown:
+        raise BridgeflapInputError(f"{where}.{unknown[0]}", "unknown key")
+
+
+def spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = None) -> BridgeSpec:
+    """Build a :class:`BridgeSpec` from parsed TOML, recording each value's source.
+
+    Unknown sections and keys, non-boolean switches and duplicate span names are rejected with
+    the field named. A ``[[deck_section]]`` array (:mod:`model.section_props`) gives the deck
+    mass and mass moment of inertia as sums of lumped items; ``[deck]`` then must not repeat
+    them. ``variant`` applies ``[variants.<variant>]`` (see :func:`load_bridge`).
+    """
     sources: dict[str, str] = {}
 
     def value(table: dict, group: str, key: str, default: Any = _MISSING) -> Any:
@@ -296,6 +389,7 @@ def spec_from_dict(data: dict, origin: str = "<dict>") -> BridgeSpec:
             return default
         raw = table[key]
         if isinstance(raw, dict):
+            _check_keys(raw, ("value", "source"), path)
             if "value" not in raw:
                 raise BridgeflapInputError(path, "table given without 'value'")
             sources[path] = str(raw.get("source", "not stated"))
@@ -303,10 +397,14 @@ def spec_from_dict(data: dict, origin: str = "<dict>") -> BridgeSpec:
         else:
             sources[path] = "not stated"
         if isinstance(raw, bool) or not isinstance(raw, int | float):
-            if default is not _MISSING and isinstance(default, bool) and isinstance(raw, bool):
-                return raw
             raise BridgeflapInputError(path, f"must be a number, got {raw!r}")
         return float(raw)
+
+    def switch(table: dict, path: str, default: bool) -> bool:
+        raw = table.get(path.rsplit(".", 1)[1], default)
+        if not isinstance(raw, bool):
+            raise BridgeflapInputError(path, f"must be true or false, got {raw!r}")
+        return raw
 
     def group(name: str, required: bool = True) -> dict:
         g = data.get(name)
@@ -318,6 +416,11 @@ def spec_from_dict(data: dict, origin: str = "<dict>") -> BridgeSpec:
             raise BridgeflapInputError(name, "must be a table")
         return g
 
+    if not isinstance(data, dict):
+        raise BridgeflapInputError("bridge", "must be a table")
+    unknown = sorted(set(data) - _TOP_KEYS)
+    if unknown:
+        raise BridgeflapInputError(unknown[0], "unknown section")
     name = data.get("name")
     if not isinstance(name, str) or not name:
         raise BridgeflapInputError("name", "missing or not a string")
@@ -329,42 +432,97 @@ def spec_from_dict(data: dict, origin: str = "<dict>") -> BridgeSpec:
         if not isinstance(s, dict) or not isinstance(s.get("name"), str):
             raise BridgeflapInputError(f"spans[{i}].name", "missing or not a string")
         sname = s["name"]
+        where = f"spans.{sname}"
+        _check_keys(s, _SPAN_KEYS, where)
+        area = value(s, where, "cable_area_m2", None) if "cable_area_m2" in s else None
         spans.append(Span(
             name=sname,
-            length_m=value(s, f"spans.{sname}", "length_m"),
-            chord_rise_m=value(s, f"spans.{sname}", "chord_rise_m", 0.0),
-            suspended_deck=bool(s.get("suspended_deck", True)),
+            length_m=value(s, where, "length_m"),
+            chord_rise_m=value(s, where, "chord_rise_m", 0.0),
+            suspended_deck=switch(s, f"{where}.suspended_deck", True),
+            cable_area_m2=area,
         ))
     main_name = data.get("main_span")
     names = [s.name for s in spans]
     if main_name not in names:
         raise BridgeflapInputError("main_span", f"must name one of the spans {names}")
     c, d = group("cable"), group("deck")
-    cable = Cable(**{k: value(c, "cable", k) for k in
-                     ("area_m2", "modulus_pa", "mass_kg_per_m", "spacing_m", "main_sag_m")})
-    deck = Deck(**{k: value(d, "deck", k) for k in
-                   ("mass_kg_per_m", "mass_inertia_kgm2_per_m", "ei_vertical_nm2",
-                    "ei_lateral_nm2", "gj_nm2", "half_chord_m", "hanger_length_midspan_m")})
+    _check_keys(c, _CABLE_KEYS, "cable")
+    _check_keys(d, _DECK_KEYS, "deck")
+    cable = Cable(**{k: value(c, "cable", k) for k in _CABLE_KEYS})
+    section = None
+    deck_values = {k: value(d, "deck", k) for k in _DECK_KEYS
+                   if k not in _SECTION_KEYS or "deck_section" not in data}
+    if "deck_section" in data:
+        for k in _SECTION_KEYS:
+            if k in d:
+                raise BridgeflapInputError(f"deck.{k}", "given by [[deck_section]]: remove it")
+        section = section_from_list(data["deck_section"])
+        deck_values["mass_kg_per_m"] = section.mass_kg_per_m
+        deck_values["mass_inertia_kgm2_per_m"] = section.inertia_kgm2_per_m
+        items = ", ".join(i.name for i in section.items)
+        for k in _SECTION_KEYS:
+            sources[f"deck.{k}"] = f"sum over the [[deck_section]] items ({items})"
+    deck = Deck(**deck_values)
     dg = group("damping", required=False)
+    _check_keys(dg, ("ratio",), "damping")
     damping = Damping(ratio=value(dg, "damping", "ratio", 0.01))
     ag = group("aero", required=False)
+    _check_keys(ag, [f.name for f in dataclasses.fields(Aero)], "aero")
     defaults = Aero()
     aero_kwargs = {}
     for f in dataclasses.fields(Aero):
         if f.name == "added_inertia":
-            aero_kwargs[f.name] = bool(ag.get("added_inertia", True))
+            aero_kwargs[f.name] = switch(ag, "aero.added_inertia", True)
         else:
             aero_kwargs[f.name] = value(ag, "aero", f.name, getattr(defaults, f.name))
     aero = Aero(**aero_kwargs)
     mg = group("mesh", required=False)
+    _check_keys(mg, ("element_length_m",), "mesh")
     mesh = Mesh(element_length_m=value(mg, "mesh", "element_length_m", 25.0))
-    unknown = set(data) - {"name", "description", "spans", "main_span", "cable", "deck",
-                           "damping", "aero", "mesh"}
-    if unknown:
-        raise BridgeflapInputError(sorted(unknown)[0], "unknown section")
-    return BridgeSpec(name=name, spans=tuple(spans), main_span_index=names.index(main_name),
+    eg = group("erection", required=False)
+    _check_keys(eg, ("side_spans",), "erection")
+    side = eg.get("side_spans", "in_place")
+    if isinstance(side, dict):
+        _check_keys(side, ("value", "source"), "erection.side_spans")
+        sources["erection.side_spans"] = str(side.get("source", "not stated"))
+        side = side.get("value")
+    if not isinstance(side, str):
+        raise BridgeflapInputError("erection.side_spans", f"must be a string, got {side!r}")
+    spec = BridgeSpec(name=name, spans=tuple(spans), main_span_index=names.index(main_name),
                       cable=cable, deck=deck, damping=damping, aero=aero, mesh=mesh,
-                      sources=sources)
+                      side_span_decks=side, sources=sources, deck_section=section)
+    return _apply_variant(spec, group("variants", required=False), variant)
+
+
+def _apply_variant(spec: BridgeSpec, variants: dict, variant: str | None) -> BridgeSpec:
+    """Apply ``[variants.<variant>]``: dotted parameter paths with ``{ value, source }``."""
+    for vname, table in variants.items():
+        if not isinstance(table, dict):
+            raise BridgeflapInputError(f"variants.{vname}", "must be a table")
+        for path in table:
+            if path != "description" and path not in PARAMETER_PATHS:
+                raise BridgeflapInputError(f"variants.{vname}.{path}", "unknown parameter")
+    if variant is None:
+        return spec
+    if variant not in variants:
+        raise BridgeflapInputError(
+            "bridge", f"unknown variant {variant!r} of {spec.name!r} "
+            f"(variants: {', '.join(variants) or 'none'})")
+    sources = dict(spec.sources)
+    changes = {}
+    for path, raw in variants[variant].items():
+        if path == "description":
+            continue
+        if isinstance(raw, dict):
+            _check_keys(raw, ("value", "source"), f"variants.{variant}.{path}")
+            sources[path] = f"variant {variant}: {raw.get('source', 'not stated')}"
+            raw = raw.get("value")
+        if isinstance(raw, bool) or not isinstance(raw, int | float):
+            raise BridgeflapInputError(f"variants.{variant}.{path}", "must be a number")
+        changes[path] = float(raw)
+    out = spec.replace(**changes)
+    return dataclasses.replace(out, name=f"{spec.name}:{variant}", sources=sources)
 
 
 class _Missing:
