@@ -176,7 +176,8 @@ def _modes_case(outcome: Outcome) -> dict:
 def _run_frequency_ratio(spec, opts, context) -> Outcome:
     from model.analysis import frequency_ratio
 
-    res = frequency_ratio(spec, grid(opts["fractions"], "fractions"))
+    res = frequency_ratio(spec, grid(opts["fractions"], "fractions"),
+                          side_spans=opts["side_spans"] or None)
     bad = [st for st in res.stages if not np.isfinite(st["ratio_half_gj"])]
     status = "ok" if not bad else f"partial: {len(bad)} stages without a symmetric pair"
     arr = {k: np.array([st[k] for st in res.stages], dtype=float)
@@ -212,7 +213,8 @@ def _run_erection(spec, opts, context) -> Outcome:
 
     res = erection(spec, grid(opts["fractions"], "fractions"),
                    grid(opts["speeds"], "speeds", 0.0), int(opts["modes"]),
-                   progress=lambda f: context.say(f"erection stage {f:.3f} done"))
+                   progress=lambda f: context.say(f"erection stage {f:.3f} done"),
+                   side_spans=opts["side_spans"] or None)
     bad = [st for st in res.stages if st["flutter_status"] != "converged"]
     status = "ok" if not bad else (f"{len(bad)} of {len(res.stages)} stages: flutter "
                                    + ", ".join(sorted({st['flutter_status'] for st in bad})))
@@ -289,15 +291,16 @@ def _table(**entries) -> Mapping:
 ANALYSES: Mapping[str, Analysis] = _table(
     modes=Analysis("modes", _run_modes, _table(count=30), ("count",), _modes_case),
     frequency_ratio=Analysis("frequency_ratio", _run_frequency_ratio,
-                             _table(fractions="0.1:1.0:0.05"), ("fractions",)),
+                             _table(fractions="0.1:1.0:0.05", side_spans=""),
+                             ("fractions", "side_spans")),
     flutter=Analysis("flutter", _run_flutter,
                      _table(speeds=DEFAULT_SPEEDS, modes=DEFAULT_MODES, rfa="rfa4",
                             order="modal"),
                      ("speeds", "modes", "rfa", "order"), _flutter_case),
     erection=Analysis("erection", _run_erection,
                       _table(fractions="0.1:1.0:0.1", speeds=DEFAULT_SPEEDS,
-                             modes=DEFAULT_MODES),
-                      ("fractions", "speeds", "modes")),
+                             modes=DEFAULT_MODES, side_spans=""),
+                      ("fractions", "speeds", "modes", "side_spans")),
     buffeting=Analysis("buffeting", _run_buffeting,
                        _table(speeds="4:25:1", modes=DEFAULT_MODES), _BUFFETING_OPTIONS,
                        _buffeting_case),

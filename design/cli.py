@@ -34,6 +34,7 @@ from design.cli_common import (
 from design.io import atomic_write
 from design.options import parse_range
 from model.errors import BridgeflapError, BridgeflapInputError
+from model.spec import SIDE_SPAN_SEQUENCES
 
 __all__ = ["COMMANDS", "Command", "build_parser", "main"]
 
@@ -82,11 +83,16 @@ def cmd_frequency_ratio(args):
     from model.spec import load_bridge
 
     check_plot_target(args)
-    res = _run("frequency_ratio", load_bridge(args.bridge), fractions=args.fractions)
-    lines = ["erected  ratio(full GJ)  ratio(half GJ)"]
+    res = _run("frequency_ratio", load_bridge(args.bridge), fractions=args.fractions,
+               side_spans=args.side_spans or "")
+    lines = [f"side spans while erecting: {res.side_spans}",
+             "erected  ratio(full GJ)  ratio(half GJ)  modes (half GJ)"]
     lines += [f"{s['erected_fraction']:7.3f}  {s['ratio_full_gj']:14.3f}  "
-              f"{s['ratio_half_gj']:14.3f}"
+              f"{s['ratio_half_gj']:14.3f}  {s['torsional_mode']}/{s['vertical_mode']}"
               for s in res.stages]
+    c = res.completed
+    lines.append(f"completed bridge: {c['ratio']:.3f} ({c['torsional_mode']} {c['ts1_hz']:.4f} Hz"
+                 f" / {c['vertical_mode']} {c['vs1_hz']:.4f} Hz)")
     if args.plot:
         save_plot(res, args.plot)
     emit(args, res.summary(), "\n".join(lines))
@@ -125,12 +131,13 @@ def cmd_erection(args):
 
     check_plot_target(args)
     res = _run("erection", load_bridge(args.bridge), fractions=args.fractions,
-               speeds=args.speeds, modes=args.modes)
-    lines = ["erected  flutter [m/s]  status         divergence [m/s]  status"]
-    for s in res.stages:
+               speeds=args.speeds, modes=args.modes, side_spans=args.side_spans or "")
+    lines = [f"side spans while erecting: {res.side_spans}",
+             "erected  flutter [m/s]  status         divergence [m/s]  status     stage"]
+    for s in (*res.stages, res.completed):
         lines.append(f"{s['erected_fraction']:7.3f}  {s['flutter_speed_m_s']:13.2f}  "
                      f"{s['flutter_status']:13s}  {s['divergence_speed_m_s']:16.2f}  "
-                     f"{s['divergence_status']}")
+                     f"{s['divergence_status']:9s}  {s['stage']}")
     if args.plot:
         save_plot(res, args.plot)
     emit(args, res.summary(), "\n".join(lines))
@@ -256,9 +263,14 @@ def _modes_arguments(sp):
     sp.add_argument("--plot", default=None, help="mode-shape figure (.png/.pdf/.svg)")
 
 
+_SIDE_SPANS_HELP = "side-span decks while erecting: bare, in_place, with_main (default: file's)"
+
+
 def _frequency_ratio_arguments(sp):
     add_common(sp, erection=False)
     sp.add_argument("--fractions", default=_default("frequency_ratio", "fractions"))
+    sp.add_argument("--side-spans", choices=SIDE_SPAN_SEQUENCES, default=None,
+                    help=_SIDE_SPANS_HELP)
     sp.add_argument("--plot", default=None)
 
 
@@ -281,6 +293,8 @@ def _erection_arguments(sp):
     sp.add_argument("--fractions", default=_default("erection", "fractions"))
     sp.add_argument("--speeds", default=_default("erection", "speeds"))
     sp.add_argument("--modes", type=int, default=_default("erection", "modes"))
+    sp.add_argument("--side-spans", choices=SIDE_SPAN_SEQUENCES, default=None,
+                    help=_SIDE_SPANS_HELP)
     sp.add_argument("--plot", default=None)
 
 
@@ -387,14 +401,14 @@ def main(argv=None) -> int:
         if not getattr(args, "command", None):
             parser.print_help(sys.stderr)
             return EXIT_BAD_INPUT
-        args.func(args)
+        rc = args.func(args)
     except BridgeflapError as exc:  # BridgeflapInputError included
         log(f"bridgeflap: error: {exc}")
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         log("bridgeflap: interrupted")
         return 130
-    return 0
+    return int(rc or 0)  # a command may report a result that is not usable (exit 1)
 
 
 if __name__ == "__main__":  # pragma: no cover

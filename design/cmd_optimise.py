@@ -34,8 +34,9 @@ def cmd_optimise(args):
     try:
         payload = result.summary()
         ctrl_file = out / "controller.toml"
-        if result.controller is not None:
-            save_controller(result.controller, tmp / "controller.toml")
+        if result.candidate is not None:
+            if result.controller is not None:
+                save_controller(result.controller, tmp / "controller.toml")
             import matplotlib
 
             matplotlib.use("Agg")
@@ -52,7 +53,7 @@ def cmd_optimise(args):
                 from design.driver import build_model
 
                 _, model = build_model(settings)
-                cl = model.system(result.controller.compensator)
+                cl = model.system(result.candidate.compensator)
             sw = sweep(cl, settings.check_speeds())
             ax = sw.plot(title="closed loop")
             save_figure(ax[0].figure, tmp / "root_locus.png")
@@ -83,6 +84,13 @@ def cmd_optimise(args):
               f"{s['time_s']:.1f} | {s['robust_margin']:.3g} | {s['max_gain']:.4g} | "
               f"{s['verified']} | {s['chosen']}" for s in payload["start_table"]]
     emit(args, payload, "\n".join(lines))
+    if result.controller is None:
+        # the design failed its checks: its candidate is in the JSON (for diagnosis), but no
+        # controller.toml is written and the exit status says it is not usable
+        log(f"bridgeflap: design {result.status}: no usable controller (controller.toml not "
+            "written)")
+        return 1
+    return 0
 
 
 def arguments(sp) -> None:

@@ -327,7 +327,9 @@ def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
                 extras["buffeting"] = buffeting_comparison(settings, controller, spec=spec)
             except Exception as exc:  # noqa: BLE001 - a report item, not the design
                 extras["buffeting"] = BuffetingComparison(status=f"failed: {exc}")
-    return DesignResult(status=status, settings=settings, controller=controller,
+    usable = controller if status == "converged" else None
+    return DesignResult(status=status, settings=settings, controller=usable,
+                        candidate=controller,
                         starts=tuple(records), best=best, abscissa_speeds_m_s=absc_u,
                         abscissa_1_s=absc, min_flaps=min_flaps,
                         wall_time_s=time.perf_counter() - t0, extras=extras)

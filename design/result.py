@@ -24,7 +24,11 @@ class DesignResult:
         (:func:`design.driver.select_start`).
     settings : DesignSettings
     controller : model.control.Controller or None
-        The chosen compensator and layout (None when no start produced a design).
+        The designed compensator and layout, **only when** ``status == "converged"`` (it met
+        every check); None otherwise, so that an unusable design is never handed on.
+    candidate : model.control.Controller or None
+        The best start's compensator and layout whatever the status (for diagnosis only: a
+        candidate of a failed design did not pass its checks).
     starts : tuple of StartRecord
         Every start, in order.
     best : StartRecord or None
@@ -44,6 +48,7 @@ class DesignResult:
     status: str
     settings: DesignSettings
     controller: Controller | None
+    candidate: Controller | None
     starts: tuple[StartRecord, ...]
     best: StartRecord | None
     abscissa_speeds_m_s: np.ndarray
@@ -54,15 +59,16 @@ class DesignResult:
 
     def summary(self) -> dict:
         """JSON-ready summary (the ``bridgeflap optimise`` contract)."""
-        k = self.controller.compensator if self.controller else None
+        k = self.candidate.compensator if self.candidate else None
         coeffs = ({n: getattr(k, n) for n in THETA_NAMES} if k else
                   {n: NAN for n in THETA_NAMES})
         b = self.best
         margin = b.robust_margin if b is not None else NAN
         return {
             "status": self.status,
+            "controller_usable": self.controller is not None,
             "coefficients": coeffs,
-            "flap_count": self.controller.n_flaps if self.controller else 0,
+            "flap_count": self.candidate.n_flaps if self.candidate else 0,
             "max_gain": b.max_gain if b is not None else NAN,
             "gain_limit": self.settings.gain_limit,
             "robust_margin": margin,
@@ -100,7 +106,7 @@ class DesignResult:
 
         if ax is None:
             _, ax = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
-        k = self.controller.compensator
+        k = self.candidate.compensator
         w = np.logspace(-3, 2, 600)
         K = k.frequency_response(w)
         ax[0].loglog(w, np.abs(K), "b-")
@@ -112,7 +118,8 @@ class DesignResult:
         ax[1].set_xlabel("omega [rad/s]")
         for a_ in ax:
             a_.grid(alpha=0.3, which="both")
-        ax[0].set_title("designed compensator K(s)")
+        ax[0].set_title("designed compensator K(s)" if self.controller is not None else
+                        f"candidate K(s) of a design that is {self.status} (not usable)")
         return ax
 
     def plot_margins(self, ax=None):
@@ -132,8 +139,8 @@ class DesignResult:
         ax[0].set_ylabel("max Re lambda [1/s]")
         ax[0].legend()
         ax[0].grid(alpha=0.3)
-        pos = np.asarray(self.controller.flap_strip_positions_m)
-        w = self.controller.flap_width_m
+        pos = np.asarray(self.candidate.flap_strip_positions_m)
+        w = self.candidate.flap_width_m
         for x in pos:
             ax[1].add_patch(plt.Rectangle((x - w / 2, -0.5), w, 1.0, color="tab:blue", alpha=0.6))
         ax[1].set_xlim(-705, 705)

@@ -29,12 +29,13 @@ __all__ = ["DEFAULT_UNCERTAIN_RANGES", "GlobalSensitivityResult", "global_sensit
 #: Ranges [SI] of the estimated Humber inputs (docs/humber_data.md#estimated-inputs
 #: and humber.toml sources).
 DEFAULT_UNCERTAIN_RANGES = {
-    # r = 6.5 .. 7.6 m (7.6 m: thin-walled 22 x 4.5 m box; humber.toml uses r = 7.0 m)
-    "deck.mass_inertia_kgm2_per_m": (7660.0 * 6.5 ** 2, 7660.0 * 7.6 ** 2),
-    # updated GJ 3.73e11; initial Bredt estimate 4.7e11; -25 % below the updated value
-    "deck.gj_nm2": (2.8e11, 4.7e11),
-    # updated EI 1.54e12; initial estimate ~1e12
-    "deck.ei_vertical_nm2": (1.0e12, 2.0e12),
+    # lumped section of humber.toml, 5.99e5 kg m^2/m, +-15 % (the split of the steel and the
+    # surfacing thickness 30-45 mm are estimates)
+    "deck.mass_inertia_kgm2_per_m": (5.1e5, 6.9e5),
+    # updated GJ 4.74e11 (initial Bredt estimate 4.7e11), +-20 %
+    "deck.gj_nm2": (3.8e11, 5.7e11),
+    # updated EI 1.98e12; initial estimate ~1e12
+    "deck.ei_vertical_nm2": (1.0e12, 2.5e12),
     # [DERIVED] plausible sag range 110-125 m
     "cable.main_sag_m": (110.0, 125.0),
     # NOT FOUND; ~22 m [MEMORY, UNVERIFIED]

@@ -13,7 +13,7 @@ object with ``summary()`` (JSON-ready numbers with units in the key names and st
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -60,33 +60,52 @@ class FlutterResult:
     modes: tuple = ()
 
     def summary(self) -> dict:
-        """JSON-ready numbers (units in the key names) and statuses of the sweep."""
+        """JSON-ready numbers (units in the key names) and statuses of the sweep.
+
+        ``critical_speed_m_s`` is the lower of the converged flutter and divergence speeds and
+        ``critical_mechanism`` says which (``"flutter"``, ``"divergence"``, or ``"none"`` when
+        neither converged on the grid).
+        """
         s = self.sweep.summary()
         label = self.sweep.critical_branch
-        crit = {"label": label, "family": "", "symmetry": "", "frequency_hz": float("nan")}
-        if label:
-            fam = {"V": "vertical", "T": "torsional", "L": "lateral"}[label[0]]
-            sym = {"S": "symmetric", "A": "antisymmetric"}[label[1]]
-            crit = {"label": label, "family": fam, "symmetry": sym,
-                    "frequency_hz": self._mode_frequency(label)}
+        crit = {"label": label, "family": "", "symmetry": "", "span": "",
+                "frequency_hz": float("nan")}
+        mode = next((m for m in self.modes if m.label == label), None) if label else None
+        if mode is not None:
+            crit = {"label": label, "family": mode.family, "symmetry": mode.symmetry,
+                    "span": mode.span, "frequency_hz": mode.frequency_hz}
+        elif label:  # no modal model at hand: read the label (TS1, or V-barton1 for a side span)
+            fam = {"V": "vertical", "T": "torsional", "L": "lateral"}.get(label[0], "")
+            side = label[1:2] == "-"
+            sym = "" if side else {"S": "symmetric", "A": "antisymmetric"}.get(label[1:2], "")
+            crit.update(family=fam, symmetry=sym,
+                        span=label[2:].rstrip("0123456789") if side else "main")
+        s.update(critical_speed(s))
         s.update({"bridge": self.spec.name, "erected_fraction": self.spec.erected_fraction,
+                  "joints_closed": self.spec.joints_closed,
                   "critical_branch": crit, "modes_retained": self.n_modes,
                   "order": self.order, "rfa": self.rfa, "states": self.n_states,
                   "half_chord_m": self.spec.deck.half_chord_m,
                   "added_inertia": self.spec.aero.added_inertia})
         return s
 
-    def _mode_frequency(self, label: str) -> float:
-        """In-vacuo natural frequency [Hz] of the structural mode that labels the branch."""
-        for m in self.modes:
-            if m.label == label:
-                return m.frequency_hz
-        return float("nan")
-
     def plot(self, axes=None):
         """Root locus and damping/frequency against speed."""
         return self.sweep.plot(axes, title=f"{self.spec.name} (erected "
                                            f"{self.spec.erected_fraction:.2f}):")
+
+
+def critical_speed(summary) -> dict:
+    """``{"critical_speed_m_s", "critical_mechanism"}``: the lower converged stability limit.
+
+    ``summary`` holds ``flutter_speed_m_s``/``flutter_status`` and the divergence pair.
+    """
+    limits = [(summary[f"{k}_speed_m_s"], k) for k in ("flutter", "divergence")
+              if summary.get(f"{k}_status") == "converged"]
+    if not limits:
+        return {"critical_speed_m_s": float("nan"), "critical_mechanism": "none"}
+    u, k = min(limits)
+    return {"critical_speed_m_s": float(u), "critical_mechanism": k}
 
 
 def flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
@@ -100,14 +119,18 @@ def flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
 
 @dataclass(frozen=True)
 class _StagesResult:
-    """Rows of numbers (units in the key names) per erected fraction of one bridge."""
+    """Rows of numbers (units in the key names) per erected fraction of one bridge, plus the
+    completed bridge as its own row (joints closed: full GJ and EI)."""
 
     bridge: str
     stages: tuple
+    completed: dict = field(default_factory=dict)
+    side_spans: str = ""
 
     def summary(self) -> dict:
-        """JSON-ready ``{"bridge", "stages"}``, one dict per erected fraction."""
-        return {"bridge": self.bridge, "stages": list(self.stages)}
+        """JSON-ready ``{"bridge", "side_spans", "stages", "completed_bridge"}``."""
+        return {"bridge": self.bridge, "side_spans": self.side_spans,
+                "stages": list(self.stages), "completed_bridge": dict(self.completed)}
 
 
 def _axes(ax):
@@ -115,8 +138,12 @@ def _axes(ax):
     if ax is None:
         import matplotlib.pyplot as plt
 
-        _, ax = plt.subplots(figsize=(6, 4))
+        _, ax = plt.subplots(figsize=(6, 4), layout="constrained")
     return ax
+
+
+def _nan(v) -> float:
+    return float("nan") if v is None else float(v)
 
 
 @dataclass(frozen=True)
@@ -124,63 +151,88 @@ class ErectionResult(_StagesResult):
     """Flutter and divergence speeds [m/s] and statuses against the erected fraction."""
 
     def plot(self, ax=None):
-        """Flutter and divergence speed against deck completion (seed Fig. 3 right)."""
+        """Flutter and divergence speed against deck completion (seed Fig. 3 right); the
+        completed bridge is its own marker at 100 %, not joined to the erection curve."""
         ax = _axes(ax)
         f = np.array([s["erected_fraction"] for s in self.stages]) * 100
-        uf = np.array([np.nan if s["flutter_speed_m_s"] is None else s["flutter_speed_m_s"]
-                       for s in self.stages], dtype=float)
-        ud = np.array([np.nan if s["divergence_speed_m_s"] is None else s["divergence_speed_m_s"]
-                       for s in self.stages], dtype=float)
-        ax.plot(f, uf, "o-", label="flutter")
-        ax.plot(f, ud, "s--", label="torsional divergence")
-        ax.set_xlabel("deck erected [% of main span]")
+        uf = np.array([_nan(s["flutter_speed_m_s"]) for s in self.stages])
+        ud = np.array([_nan(s["divergence_speed_m_s"]) for s in self.stages])
+        ax.plot(f, uf, "o-", color="C0", label="flutter (erecting)")
+        ax.plot(f, ud, "s--", color="C1", label="torsional divergence (erecting)")
+        if self.completed:
+            ax.plot([100], [_nan(self.completed["flutter_speed_m_s"])], "*", color="C0", ms=14,
+                    label="flutter, completed bridge")
+            ax.plot([100], [_nan(self.completed["divergence_speed_m_s"])], "P", color="C1",
+                    ms=11, label="divergence, completed bridge")
+        ax.set_xlabel("main-span deck erected [%]")
         ax.set_ylabel("critical wind speed [m/s]")
-        ax.set_title(f"{self.bridge}: stability during erection\n"
-                     "(half GJ, zero EI while erecting; full bridge at 100 %)")
+        ax.set_title(f"{self.bridge}: stability during erection (side spans {self.side_spans})\n"
+                     "half GJ, zero EI until the joints close; 100 % = closed deck")
         ax.grid(alpha=0.3)
-        ax.legend()
+        ax.legend(fontsize=8)
         return ax
 
 
+_STAGE_KEYS = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
+               "divergence_speed_m_s", "divergence_status", "critical_speed_m_s",
+               "critical_mechanism", "critical_branch_label")
+
+
+def _stage(spec: BridgeSpec, speeds, n_modes: int) -> dict:
+    try:
+        r = flutter(spec, speeds, n_modes).summary()
+        return {k: r[k] for k in _STAGE_KEYS}
+    except BridgeflapError as exc:
+        return {"flutter_speed_m_s": float("nan"), "flutter_status": f"failed: {exc}",
+                "divergence_speed_m_s": float("nan"), "divergence_status": f"failed: {exc}",
+                "critical_speed_m_s": float("nan"), "critical_mechanism": "none"}
+
+
 def erection(spec: BridgeSpec, fractions, speeds, n_modes: int = DEFAULT_MODES,
-             progress=None) -> ErectionResult:
-    """Flutter/divergence at each erected fraction [-] (mid-span outwards, half GJ, zero EI)
-    over a grid of wind speeds [m/s]."""
+             progress=None, side_spans: str | None = None) -> ErectionResult:
+    """Flutter/divergence at each erected fraction [-] over a grid of wind speeds [m/s].
+
+    Each stage is :meth:`~model.spec.BridgeSpec.erected`: the main-span deck from mid-span
+    outwards, half GJ and zero EI (temporary joints), the side spans as ``side_spans`` (default:
+    the bridge file's sequence); a fraction of 1 is the closed deck before its joints are made.
+    The completed bridge (:meth:`~model.spec.BridgeSpec.completed`) is reported separately.
+    """
     fr = _fractions(fractions)
     speeds = check_speeds(speeds)
     stages = []
     for f in fr:
-        s = spec.erected(float(f))
-        try:
-            r = flutter(s, speeds, n_modes).summary()
-            stage = {k: r[k] for k in ("flutter_speed_m_s", "flutter_frequency_hz",
-                                       "flutter_status", "divergence_speed_m_s",
-                                       "divergence_status", "critical_branch_label")}
-        except BridgeflapError as exc:
-            stage = {"flutter_speed_m_s": float("nan"), "flutter_status": f"failed: {exc}",
-                     "divergence_speed_m_s": float("nan"), "divergence_status": f"failed: {exc}"}
+        s = spec.erected(float(f), side_spans=side_spans)
+        stage = _stage(s, speeds, n_modes)
         stage["erected_fraction"] = float(f)
+        stage["stage"] = "closed deck, temporary joints" if f >= 1.0 else "erecting"
         stages.append(stage)
         if progress:
             progress(f)
-    return ErectionResult(spec.name, tuple(stages))
+    done = _stage(spec.completed(), speeds, n_modes)
+    done.update({"erected_fraction": 1.0, "stage": "completed bridge"})
+    side = spec.erected(1.0, side_spans=side_spans).side_span_decks
+    return ErectionResult(spec.name, tuple(stages), done, side)
 
 
 @dataclass(frozen=True)
 class FrequencyRatioResult(_StagesResult):
-    """First torsional over first vertical symmetric frequency [-] against erected fraction."""
+    """First torsional over first vertical symmetric deck frequency [-] against erected
+    fraction, with half and with full GJ during erection, and the completed bridge."""
 
     def plot(self, ax=None):
-        """Seed Fig. 2 style plot."""
+        """Seed Fig. 2 style plot; the completed bridge is its own marker at 100 %."""
         ax = _axes(ax)
         f = [100 * s["erected_fraction"] for s in self.stages]
         ax.plot(f, [s["ratio_full_gj"] for s in self.stages], "o-", label="full GJ")
         ax.plot(f, [s["ratio_half_gj"] for s in self.stages], "s--", label="half GJ")
-        ax.set_xlabel("deck erected [% of main span]")
+        if self.completed:
+            ax.plot([100], [self.completed["ratio"]], "k*", ms=14, label="completed bridge")
+        ax.set_xlabel("main-span deck erected [%]")
         ax.set_ylabel("f(TS1) / f(VS1) [-]")
-        ax.set_title(f"{self.bridge}: torsion-to-bending frequency ratio (EI = 0 while erecting)")
+        ax.set_title(f"{self.bridge}: torsion-to-bending frequency ratio\n"
+                     f"(EI = 0 while erecting; side spans {self.side_spans})")
         ax.grid(alpha=0.3)
-        ax.legend()
+        ax.legend(fontsize=8)
         return ax
 
 
@@ -196,37 +248,60 @@ def _fractions(fractions) -> np.ndarray:
     return fr
 
 
-def first_symmetric_frequency_hz(modal: ModalModel, family: str) -> float:
-    """Frequency [Hz] of the first symmetric ``family`` mode living mainly in the main span.
+def first_symmetric_deck_mode(modal: ModalModel, family: str):
+    """The first symmetric ``family`` mode of the main-span deck, or None.
 
-    Main-span share above 0.5; NaN when there is none.
+    Selection rule: symmetric about the main-span mid-point, main-span share above 0.5, and a
+    deck kinetic-energy share at least the family's uniform-motion share (deck mass over
+    deck-plus-cable mass, :attr:`model.fe.FamilyMatrices.uniform_deck_share`): a bare-cable mode
+    (early erection stages, where the cable carries little deck) moves the cables more than
+    the deck and is passed over.
     """
+    floor = modal.structure.families[family].uniform_deck_share
     for m in modal.modes:
-        if m.family == family and m.symmetry == "symmetric" and m.main_span_share > 0.5:
-            return m.frequency_hz
-    return float("nan")
+        if (m.family == family and m.symmetry == "symmetric" and m.main_span_share > 0.5
+                and m.deck_share >= floor):
+            return m
+    return None
 
 
-def frequency_ratio(spec: BridgeSpec, fractions) -> FrequencyRatioResult:
+def first_symmetric_frequency_hz(modal: ModalModel, family: str) -> float:
+    """Frequency [Hz] of :func:`first_symmetric_deck_mode`; NaN when there is none."""
+    m = first_symmetric_deck_mode(modal, family)
+    return float("nan") if m is None else m.frequency_hz
+
+
+def _ratio_row(modal: ModalModel) -> dict:
+    ts, vs = (first_symmetric_deck_mode(modal, fam) for fam in ("torsional", "vertical"))
+    f_t = float("nan") if ts is None else ts.frequency_hz
+    f_v = float("nan") if vs is None else vs.frequency_hz
+    return {"ratio": f_t / f_v, "ts1_hz": f_t, "vs1_hz": f_v,
+            "torsional_mode": ts.label if ts else "", "vertical_mode": vs.label if vs else "",
+            "torsional_deck_share": ts.deck_share if ts else float("nan"),
+            "vertical_deck_share": vs.deck_share if vs else float("nan")}
+
+
+def frequency_ratio(spec: BridgeSpec, fractions, side_spans: str | None = None
+                    ) -> FrequencyRatioResult:
     """``f(TS1)/f(VS1)`` with half and full deck GJ against erected fraction [-] (seed Fig. 2).
 
-    Symmetric modes living mainly in the main span are used (main-span share > 0.5).
+    Modes by :func:`first_symmetric_deck_mode`; the completed bridge reported separately.
     """
     fr = _fractions(fractions)
     stages = []
     for f in fr:
-        s = spec.erected(float(f))
+        s = spec.erected(float(f), side_spans=side_spans)
         row = {"erected_fraction": float(f)}
-        for key, factor in (("ratio_full_gj", 1.0), ("ratio_half_gj", 0.5)):
-            m = modal_model(s, erection_gj_factor=factor)
-            ts1 = first_symmetric_frequency_hz(m, "torsional")
-            vs1 = first_symmetric_frequency_hz(m, "vertical")
-            row[key] = ts1 / vs1
-            if key == "ratio_half_gj":
-                row["ts1_hz"] = ts1
-                row["vs1_hz"] = vs1
+        full = _ratio_row(modal_model(s, erection_gj_factor=1.0))
+        half = _ratio_row(modal_model(s, erection_gj_factor=0.5))
+        row["ratio_full_gj"] = full["ratio"]
+        row["ratio_half_gj"] = half["ratio"]
+        row.update({k: v for k, v in half.items() if k != "ratio"})
         stages.append(row)
-    return FrequencyRatioResult(spec.name, tuple(stages))
+    side = spec.erected(1.0, side_spans=side_spans).side_span_decks
+    done = {"erected_fraction": 1.0, "stage": "completed bridge",
+            **_ratio_row(modal_model(spec.completed()))}
+    return FrequencyRatioResult(spec.name, tuple(stages), done, side)
 
 
 # ------------------------------------------------------------------ closed loop (flaps)

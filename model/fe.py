@@ -69,6 +69,11 @@ class FamilyMatrices:
     strip_map: np.ndarray | None
     node_map: np.ndarray
     deck_mask: np.ndarray | None = None  # DOFs of the deck (lateral family: deck vs cables)
+    #: deck part of ``M`` (vertical, torsional: deck and cables share the DOFs; ``M - M_deck``
+    #: is the cables' share), for the deck kinetic-energy share of a mode
+    M_deck: np.ndarray | None = None
+    #: deck share of the kinetic energy if every point moved alike: ``int m_deck / int m``
+    uniform_deck_share: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -221,12 +226,18 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
     # ---------------- vertical: Hermite, DOFs (v, v') per node
     nv = 2 * n_nodes
     Mv, Kv, gv = np.zeros((nv, nv)), np.zeros((nv, nv)), np.zeros(nv)
+    Mv_deck = np.zeros((nv, nv))
+    mass_v = [0.0, 0.0]  # (deck, total) mass [kg] for the uniform-motion deck share
     strip_v = np.zeros((len(strips), nv))
     for k, (el, (a, b)) in enumerate(zip(elements, enodes, strict=True)):
         d = [2 * a, 2 * a + 1, 2 * b, 2 * b + 1]
         ix = np.ix_(d, d)
-        m = 2 * mc_el[k] + (deck.mass_kg_per_m if el.deck else 0.0)
+        md = deck.mass_kg_per_m if el.deck else 0.0
+        m = 2 * mc_el[k] + md
         Mv[ix] += hermite_mass(m, el.length)
+        Mv_deck[ix] += hermite_mass(md, el.length)
+        mass_v[0] += md * el.length
+        mass_v[1] += m * el.length
         Kv[ix] += hermite_bending(ei_v if el.deck else 0.0, el.length)
         Kv[ix] += hermite_geometric(2 * H, el.length)
         gv[d] += el.q / H * hermite_integral(el.length)
@@ -236,18 +247,24 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
     node_v = np.zeros((n_nodes, nv))
     node_v[np.arange(n_nodes), 2 * np.arange(n_nodes)] = 1.0
     keep_v = [i for i in range(nv) if not (i % 2 == 0 and i // 2 in ends)]
+    Mv_deck = Mv_deck[np.ix_(keep_v, keep_v)]
     Mv, Kv, (strip_v, node_v) = _reduce(Mv, Kv, [strip_v, node_v], keep_v)
 
     # ---------------- torsional: linear elements, one DOF per node
     Mt, Kt, gt = np.zeros((n_nodes, n_nodes)), np.zeros((n_nodes, n_nodes)), np.zeros(n_nodes)
+    Mt_deck = np.zeros((n_nodes, n_nodes))
+    mass_t = [0.0, 0.0]
     strip_t = np.zeros((len(strips), n_nodes))
     for k, (el, (a, b)) in enumerate(zip(elements, enodes, strict=True)):
         d = [a, b]
         ix = np.ix_(d, d)
-        inertia = 2 * mc_el[k] * half_bc ** 2 + (deck.mass_inertia_kgm2_per_m if el.deck
-                                                  else 0.0)
+        i_deck = deck.mass_inertia_kgm2_per_m if el.deck else 0.0
+        inertia = 2 * mc_el[k] * half_bc ** 2 + i_deck
         l = el.length
         Mt[ix] += inertia * l / 6.0 * np.array([[2.0, 1.0], [1.0, 2.0]])
+        Mt_deck[ix] += i_deck * l / 6.0 * np.array([[2.0, 1.0], [1.0, 2.0]])
+        mass_t[0] += i_deck * l
+        mass_t[1] += inertia * l
         kt = 2 * H * half_bc ** 2 + (gj if el.deck else 0.0)
         Kt[ix] += kt / l * np.array([[1.0, -1.0], [-1.0, 1.0]])
         gt[d] += el.q / H * np.array([l / 2, l / 2])
@@ -255,6 +272,7 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
             strip_t[strips.index(k), d] = 0.5
     Kt += 2 * half_bc ** 2 * stretch_k * np.outer(gt, gt)
     keep_t = [i for i in range(n_nodes) if i not in ends]
+    Mt_deck = Mt_deck[np.ix_(keep_t, keep_t)]
     Mt, Kt, (strip_t, node_t) = _reduce(Mt, Kt, [strip_t, np.eye(n_nodes)], keep_t)
 
     # ---------------- lateral: deck (u_d, u_d') and cables (u_c, u_c') per node
@@ -283,8 +301,10 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
 
     strip_x = np.array([elements[k].x0 + 0.5 * elements[k].length for k in strips])
     fam = {
-        "vertical": FamilyMatrices("vertical", Mv, Kv, strip_v, node_v),
-        "torsional": FamilyMatrices("torsional", Mt, Kt, strip_t, node_t),
+        "vertical": FamilyMatrices("vertical", Mv, Kv, strip_v, node_v, M_deck=Mv_deck,
+                                   uniform_deck_share=mass_v[0] / mass_v[1]),
+        "torsional": FamilyMatrices("torsional", Mt, Kt, strip_t, node_t, M_deck=Mt_deck,
+                                    uniform_deck_share=mass_t[0] / mass_t[1]),
         "lateral": FamilyMatrices("lateral", Ml, Kl, None, node_l, deck_mask_l),
     }
     return StructuralModel(

@@ -203,8 +203,10 @@ def solve(structure: StructuralModel, count: int | None = None) -> ModalModel:
             if span == structure.spec.main_span.name:
                 span = "main"
             deck_share = 1.0
+            v = vec[:, j]
+            if fam.M_deck is not None:  # deck and cables on the same DOFs
+                deck_share = float(v @ fam.M_deck @ v / (v @ fam.M @ v))
             if fam.deck_mask is not None:
-                v = vec[:, j]
                 md = fam.deck_mask
                 deck_share = float(v[md] @ fam.M[np.ix_(md, md)] @ v[md] / (v @ fam.M @ v))
             raw.append((float(np.sqrt(w2[j])), name, sym, share, j, deck_share, span))

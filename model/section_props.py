@@ -1,4 +1,4 @@
-"""Deck mass and mass moment of inertia from a lumped cross-section (bridge files' ``[[deck_section]]``).
+"""Deck mass and mass moment of inertia from a lumped cross-section (``[[deck_section]]``).
 
 Each item of a bridge file's ``[[deck_section]]`` array is one lumped part of the deck cross
 section with its mass per unit length and its geometry, placed symmetrically about the deck

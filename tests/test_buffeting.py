@@ -19,6 +19,7 @@ from model.buffeting import CONVERGENCE_TOL, buffeting, reduced_response
 from model.errors import BridgeflapInputError
 from model.gust import GustField, coherence_projection, gust_field
 from model.simulation import lyapunov_rms
+from model.spec import load_bridge
 from model.spectral import white_noise_intensity
 from model.wind import admittance_sq
 
@@ -315,7 +316,8 @@ def test_cli_json_contract(capsys):
     assert data["speeds_m_s"] == [10.0, 12.0]
     assert data["inputs"]["admittance"] == "sears" and data["inputs"]["coherence_decay"] == 6.0
     assert data["status"] == ["ok", "ok"]
-    np.testing.assert_allclose(np.array(data["rms_vertical_over_width"]) * 22.0,
+    width = 2 * load_bridge("humber").deck.half_chord_m  # the normalising 2b
+    np.testing.assert_allclose(np.array(data["rms_vertical_over_width"]) * width,
                                data["rms_vertical_m"], rtol=1e-12)
 
 

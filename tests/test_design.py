@@ -355,7 +355,8 @@ def test_failed_design_summary_keeps_the_optimise_contract():
                          time_s=0.5)
     with pytest.raises(FrozenInstanceError):
         failed.max_gain = 1.0
-    res = DesignResult(status="failed", settings=s, controller=None, starts=(failed,),
+    res = DesignResult(status="failed", settings=s, controller=None, candidate=None,
+                       starts=(failed,),
                        best=None, abscissa_speeds_m_s=s.check_speeds(),
                        abscissa_1_s=np.full(s.check_speeds().shape, np.nan),
                        min_flaps=None, wall_time_s=1.0)

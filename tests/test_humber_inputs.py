@@ -7,11 +7,11 @@ the sourced Humber data (5,500 t per cable, [WEB-2][WEB-3][WEB-8][WEB-11] in the
 from __future__ import annotations
 
 import copy
-import tomllib
 from importlib import resources
 
 import numpy as np
 import pytest
+import tomllib
 
 from model import cable, fe
 from model.errors import BridgeflapInputError

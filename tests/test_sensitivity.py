@@ -83,10 +83,12 @@ def test_divergence_scales_exactly_with_air_density_and_ignores_inertia_and_damp
     # derivative -1/2 (central difference of A at 1e-4: error ~1e-8)
     r = _row(local, "aero.air_density_kg_m3")
     assert r["relative_d_divergence_speed"] == pytest.approx(-0.5, abs=1e-6)
-    # inertia and damping do not enter the static problem: zero to round-off (the FD quotient
-    # of A is ~1e-12 relative, times U_D/p)
+    # inertia and damping do not enter the static problem det(K - U^2 Q) = 0 itself; in the
+    # truncated modal basis the inertia moves the mode shapes the static problem is projected
+    # on, a truncation effect measured at 1.5e-6 (10 modes, 50 m mesh); 1e-5 still fails on
+    # any real dependence (GJ's relative derivative is ~0.3)
     for name in ("deck.mass_inertia_kgm2_per_m", "damping.ratio"):
-        assert abs(_row(local, name)["relative_d_divergence_speed"]) < 1e-6
+        assert abs(_row(local, name)["relative_d_divergence_speed"]) < 1e-5
 
 
 def test_relative_derivative_is_unit_free():

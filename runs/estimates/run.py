@@ -26,10 +26,11 @@ RANGES = {
     # path: (low, high, reasoning)
     "deck.half_chord_m": (11.0, 14.25, "22 m box vs 28.5 m overall width"),
     "cable.main_sag_m": (110.0, 125.0, "docs/humber_data.md#cables derived range"),
-    "deck.mass_inertia_kgm2_per_m": (3.0e5, 4.5e5, "r = 6.3-7.7 m about the box estimate"),
+    "deck.mass_inertia_kgm2_per_m": (5.1e5, 6.9e5, "lumped section 5.99e5 +-15 %"),
     "cable.spacing_m": (20.0, 24.0, "box width 22 m +- 2 m"),
     "cable.modulus_pa": (1.9e11, 2.05e11, "parallel-wire cables 190-205 GPa"),
-    "deck.mass_kg_per_m": (7430.0, 8500.0, "16,500 t steel to 17,360 t plus ~0.7 t/m surfacing"),
+    "deck.mass_kg_per_m": (9400.0, 11500.0, "lumped 10,445 kg/m: 16,500-17,360 t of steel, "
+                           "surfacing 30-45 mm, non-structural items +-30 %"),
     "deck.hanger_length_midspan_m": (2.0, 4.0, "short mid-span hangers"),
 }
 

@@ -13,6 +13,8 @@ Hessle cable area are in every row (they are code, not inputs). No row is tuned.
 import argparse
 import json
 
+from design.analyses import DEFAULT_SPEEDS
+from design.options import parse_range
 from model.analysis import flutter
 from model.spec import load_bridge
 from model.validation import update_stiffnesses
@@ -33,7 +35,7 @@ def main():
         for b in (11.0, 14.0, 14.25):
             spec, rep = update_stiffnesses(base.replace(**mass, **{"deck.half_chord_m": b}),
                                            families=("vertical", "torsional"))
-            sw = flutter(spec).sweep
+            sw = flutter(spec, parse_range(DEFAULT_SPEEDS, "speeds", 0.0)).sweep
             rows.append({
                 "mass_reading": mass_name, "half_chord_m": b,
                 "deck_mass_kg_per_m": mass["deck.mass_kg_per_m"],

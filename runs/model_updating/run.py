@@ -11,34 +11,16 @@ touched. Prints the updated values for humber.toml and the resulting Table 1 com
 import argparse
 import json
 
-import numpy as np
-from scipy.optimize import minimize_scalar
-
 from model.modes import modal_model
 from model.spec import load_bridge
-from model.validation import compare_table1, log_misfit
-
-PARAMS = {"vertical": "deck.ei_vertical_nm2", "torsional": "deck.gj_nm2",
-          "lateral": "deck.ei_lateral_nm2"}
-BOUNDS = {"vertical": (9.0, 14.0), "torsional": (9.0, 13.5), "lateral": (10.0, 15.0)}
+from model.validation import compare_table1, update_stiffnesses
 
 
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
-    spec = load_bridge("humber")
-    out = {}
-    for family, path in PARAMS.items():
-        def cost(log10_value, family=family, path=path, spec=spec):
-            return log_misfit(modal_model(spec.replace(**{path: 10 ** log10_value})), family)
-
-        res = minimize_scalar(cost, bounds=BOUNDS[family], method="bounded",
-                              options={"xatol": 1e-4})
-        value = float(10 ** res.x)
-        spec = spec.replace(**{path: value})
-        out[path] = {"value": value, "rms_log_misfit": float(res.fun), "success": bool(res.success),
-                     "at_bound": bool(np.isclose(res.x, BOUNDS[family]).any())}
+    spec, out = update_stiffnesses(load_bridge("humber"))
     rows = compare_table1(modal_model(spec))
     if args.json:
         print(json.dumps({"updated": out, "table1": rows}, indent=1))
