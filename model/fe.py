@@ -72,7 +72,8 @@ class FamilyMatrices:
     #: deck part of ``M`` (vertical, torsional: deck and cables share the DOFs; ``M - M_deck``
     #: is the cables' share), for the deck kinetic-energy share of a mode
     M_deck: np.ndarray | None = None
-    #: deck share of the kinetic energy if every point moved alike: ``int m_deck / int m``
+    #: deck share of the kinetic energy if every point of the main span moved alike:
+    #: ``int m_deck / int m`` over the main span
     uniform_deck_share: float = 1.0
 
 
@@ -236,8 +237,9 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
         m = 2 * mc_el[k] + md
         Mv[ix] += hermite_mass(m, el.length)
         Mv_deck[ix] += hermite_mass(md, el.length)
-        mass_v[0] += md * el.length
-        mass_v[1] += m * el.length
+        if el.span == spec.main_span_index:
+            mass_v[0] += md * el.length
+            mass_v[1] += m * el.length
         Kv[ix] += hermite_bending(ei_v if el.deck else 0.0, el.length)
         Kv[ix] += hermite_geometric(2 * H, el.length)
         gv[d] += el.q / H * hermite_integral(el.length)
@@ -263,8 +265,9 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
         l = el.length
         Mt[ix] += inertia * l / 6.0 * np.array([[2.0, 1.0], [1.0, 2.0]])
         Mt_deck[ix] += i_deck * l / 6.0 * np.array([[2.0, 1.0], [1.0, 2.0]])
-        mass_t[0] += i_deck * l
-        mass_t[1] += inertia * l
+        if el.span == spec.main_span_index:
+            mass_t[0] += i_deck * l
+            mass_t[1] += inertia * l
         kt = 2 * H * half_bc ** 2 + (gj if el.deck else 0.0)
         Kt[ix] += kt / l * np.array([[1.0, -1.0], [-1.0, 1.0]])
         gt[d] += el.q / H * np.array([l / 2, l / 2])

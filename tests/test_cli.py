@@ -172,14 +172,14 @@ def test_console_script_subprocess(tmp_path):
 
 @pytest.fixture
 def bad_files(tmp_path):
-    """A malformed TOML file and a humber copy with a negative deck mass."""
+    """A malformed TOML file and a humber copy with a negative deck-plate mass."""
     (tmp_path / "malformed.toml").write_text("[deck\nmass = \n", encoding="utf-8")
     text = resources.files("model.bridges").joinpath("humber.toml").read_text("utf-8")
-    head, tail = text.split("[deck]", 1)
-    tail, n = re.subn(r"(mass_kg_per_m\s*=\s*\{\s*value\s*=\s*)([0-9.eE+]+)", r"\1-\2", tail,
-                      count=1)
+    head, tail = text.split("[[deck_section]]", 1)
+    tail, n = re.subn(r"(mass_kg_per_m\s*=\s*)([0-9.eE+]+)", r"\1-\2", tail, count=1)
     assert n == 1
-    (tmp_path / "negative_mass.toml").write_text(head + "[deck]" + tail, encoding="utf-8")
+    (tmp_path / "negative_mass.toml").write_text(head + "[[deck_section]]" + tail,
+                                                 encoding="utf-8")
     return tmp_path
 
 
@@ -189,7 +189,7 @@ BAD_CASES = [
     ("missing-file", ["flutter", "--bridge", "{tmp}/missing.toml"], "bridge"),
     ("malformed-toml", ["flutter", "--bridge", "{tmp}/malformed.toml"], "bridge"),
     ("negative-deck-mass", ["flutter", "--bridge", "{tmp}/negative_mass.toml"],
-     "deck.mass_kg_per_m"),
+     "deck_section.deck_plate.mass_kg_per_m"),
     ("erection-0", ["flutter", "--erection", "0"], "erected_fraction"),
     ("erection-1.5", ["flutter", "--erection", "1.5"], "erected_fraction"),
     ("negative-speed", ["flutter", "--speeds=-5:10:1"], "speeds"),
@@ -211,7 +211,7 @@ BAD_CASES = [
     ("ss-extension", ["state-space", "--speed", "10", "--out", "{tmp}/x.txt"], "out"),
     ("ss-bad-bridge", ["state-space", "--speed", "10", "--bridge",
                        "{tmp}/negative_mass.toml", "--out", "{tmp}/x.npz"],
-     "deck.mass_kg_per_m"),
+     "deck_section.deck_plate.mass_kg_per_m"),
 ]
 
 

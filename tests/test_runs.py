@@ -146,6 +146,9 @@ def test_humber_inputs_example(tmp_path):
     r = _run([*_script("humber_inputs"), "--json"], tmp_path)
     rows = json.loads(r.stdout)["rows"]
     assert len(rows) == 6 and all(row["flutter_status"] == "converged" for row in rows)
+    # divergence is beyond 85 m/s (no crossing, null) on the box reading: said, not a number
+    assert all((row["divergence_speed_m_s"] is None) == (row["divergence_status"] != "converged")
+               for row in rows)
     base = load_bridge("humber")
     row = [x for x in rows if x["mass_reading"] == "lumped section"
            and x["half_chord_m"] == base.deck.half_chord_m][0]

@@ -14,6 +14,7 @@ import argparse
 import json
 
 from design.analyses import DEFAULT_SPEEDS
+from design.io import to_jsonable
 from design.options import parse_range
 from model.analysis import flutter
 from model.spec import load_bridge
@@ -47,7 +48,7 @@ def main():
                 "divergence_status": sw.divergence.status,
                 "critical_branch": sw.critical_branch})
     if args.json:
-        print(json.dumps({"rows": rows}, indent=1, allow_nan=False, default=str))
+        print(json.dumps(to_jsonable({"rows": rows}), indent=1, allow_nan=False))
         return
     print("| deck mass / inertia | b [m] | EI_v [N m2] | GJ [N m2] | flutter [m/s] | "
           "divergence [m/s] | branch |")
