@@ -201,7 +201,7 @@ def _run_flutter(spec, opts, context) -> Outcome:
 
 _FLUTTER_CASE_KEYS = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
                       "divergence_speed_m_s", "divergence_status", "divergence_static_speed_m_s",
-                      "critical_branch_label")
+                      "critical_speed_m_s", "critical_mechanism", "critical_branch_label")
 
 
 def _flutter_case(outcome: Outcome) -> dict:

@@ -102,6 +102,10 @@ def critical_speed(summary) -> dict:
     """
     limits = [(summary[f"{k}_speed_m_s"], k) for k in ("flutter", "divergence")
               if summary.get(f"{k}_status") == "converged"]
+    if any(summary.get(f"{k}_status") == "unstable_at_first_speed"
+           for k in ("flutter", "divergence")):
+        # unstable below the grid: no limit on it is the governing one
+        return {"critical_speed_m_s": float("nan"), "critical_mechanism": "unstable_at_first_speed"}
     if not limits:
         return {"critical_speed_m_s": float("nan"), "critical_mechanism": "none"}
     u, k = min(limits)

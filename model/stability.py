@@ -33,6 +33,8 @@ from model.theodorsen import theodorsen
 CONVERGED = "converged"
 NO_CROSSING = "no_crossing_in_range"
 BRACKET_FAILED = "bracket_failed"
+#: the system is already unstable at the first speed of the grid: no crossing can be located
+UNSTABLE_AT_FIRST = "unstable_at_first_speed"
 
 
 def check_speeds(speeds) -> np.ndarray:
@@ -104,7 +106,11 @@ class StabilitySweep:
     def summary(self) -> dict:
         """JSON-ready numbers of the flutter/divergence contract."""
         part = sorted(self.critical_participation.items(), key=lambda kv: -kv[1])[:4]
+        first = {f"{k}_unstable_from_m_s": c.bracket[0]
+                 for k, c in (("flutter", self.flutter), ("divergence", self.divergence))
+                 if c.status == UNSTABLE_AT_FIRST}
         return {
+            **first,
             "flutter_speed_m_s": self.flutter.speed,
             "flutter_frequency_hz": self.flutter.frequency_hz,
             "flutter_status": self.flutter.status,
@@ -250,13 +256,19 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> Stabili
                       speed_tol, system, omega_tol, oscillatory=True)
     divergence = _refine(lambda u: _divergence_function(system, u, omega_tol), speeds, div_vals,
                          speed_tol, system, omega_tol, oscillatory=False)
+    if speeds[0] == 0.0 and _max_real_real(all_lam[0], omega_tol) > 1e-6 * omega_tol:
+        # a real eigenvalue already unstable in still air (e.g. an unstable compensator pole);
+        # the aerodynamic lag states are exactly zero at U = 0 and stay below the threshold
+        divergence = Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (0.0, 0.0))
     u_static = divergence_speed_static(system)
     critical, participation = "", {}
     if flutter.status == CONVERGED:
         lam, V = _eig(system.A(flutter.speed))
         osc = np.where(np.abs(lam.imag) > omega_tol)[0]
         k = osc[np.argmax(lam[osc].real)]
-        vq = np.abs(V[iq, k]) ** 2
+        # kinetic-energy shares of the structural coordinates, M_jj |q_j|^2 (mass-normalised
+        # modes: |q_j|^2; a 2-DOF section: m |h|^2 against I |alpha|^2, never m + rad)
+        vq = np.real(np.diag(system.basis.M)) * np.abs(V[iq, k]) ** 2
         vq = vq / vq.sum()
         participation = {system.basis.labels[j]: float(vq[j]) for j in range(n)}
         # branch label: the tracked branch closest to the critical eigenvalue
@@ -270,6 +282,13 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> Stabili
 
 
 def _refine(fun, speeds, vals, tol, system, omega_tol, oscillatory: bool) -> Crossing:
+    if np.isfinite(vals[0]) and vals[0] > 1e-6 * omega_tol:
+        # unstable from the first grid speed on: the boundary lies below the grid, and a later
+        # sign change would be a second crossing, not the stability limit. The threshold
+        # (1e-9 of the lowest natural frequency) keeps an undamped structure at U = 0, whose
+        # real parts are zero to round-off, from counting as unstable.
+        u0 = float(speeds[0])
+        return Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (u0, u0))
     idx = np.where((vals[:-1] < 0) & (vals[1:] >= 0))[0]
     if idx.size == 0:
         return Crossing(float("nan"), float("nan"), NO_CROSSING)

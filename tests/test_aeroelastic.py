@@ -41,7 +41,8 @@ JONES_EPS = get_rfa("jones").max_error
 RFA4_TOL = 2 * RFA4_EPS
 JONES_TOL = 2 * JONES_EPS
 SPEED_TOL = 1e-3  # stability.sweep / pk_sweep default Brent xtol [m/s, or U/(b omega) for HP]
-VALID_STATUSES = {stability.CONVERGED, stability.NO_CROSSING, stability.BRACKET_FAILED}
+VALID_STATUSES = {stability.CONVERGED, stability.NO_CROSSING, stability.BRACKET_FAILED,
+                  stability.UNSTABLE_AT_FIRST}
 
 # Hodges & Pierce typical sections (docs/humber_data.md#hodges-and-pierce-typical-section,
 # parameters read in AeroBeams.jl): a = elastic axis [semichords aft of mid-chord], e = centre of
@@ -583,3 +584,33 @@ def test_frequency_ratio_never_picks_a_cable_mode(side_spans):
                 lower = [x for x in m.modes if x.family == fam and x.symmetry == "symmetric"
                          and x.main_span_share > 0.5 and x.frequency_hz < mode.frequency_hz]
                 assert all(x.deck_share < floor for x in lower)
+
+
+def test_grid_starting_above_the_limits_is_not_a_missing_crossing(humber):
+    """A grid that starts where the bridge is already unstable (built-in Humber: divergence
+    70.80 m/s, flutter 72.17 m/s) reports ``unstable_at_first_speed`` with that speed, never
+    ``no_crossing_in_range``; the governing speed is then unknown, not a number."""
+    sw = stability.sweep(humber["system"], np.arange(75.0, 85.0001, 0.5))
+    for c in (sw.flutter, sw.divergence):
+        assert c.status == stability.UNSTABLE_AT_FIRST and np.isnan(c.speed)
+    s = sw.summary()
+    assert s["flutter_unstable_from_m_s"] == s["divergence_unstable_from_m_s"] == 75.0
+    assert analysis.critical_speed(s)["critical_mechanism"] == "unstable_at_first_speed"
+    # a grid that ends below the limits: no crossing, and the status says so
+    low = stability.sweep(humber["system"], np.arange(0.0, 40.0001, 1.0))
+    assert low.flutter.status == low.divergence.status == stability.NO_CROSSING
+
+
+def test_section_participation_is_kinetic_energy_not_metres_plus_radians():
+    """2-DOF section: the flutter eigenvector's shares weight heave by m and pitch by I (the
+    old |q|^2 added m^2 and rad^2: a pitch branch showed 99 % heave)."""
+    from model.section import section_basis
+
+    basis = section_basis(7660.0, 375000.0, 0.117, 0.311, 11.0)
+    system = statespace.build(basis, 11.0, 1.225)
+    sw = stability.sweep(system, np.arange(0.0, 120.0, 0.5))
+    part = sw.critical_participation
+    assert sw.flutter.status == stability.CONVERGED
+    assert sum(part.values()) == pytest.approx(1.0, rel=1e-12)
+    # classical bending-torsion flutter: both degrees of freedom carry energy
+    assert min(part.values()) > 0.05
