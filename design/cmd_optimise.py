@@ -12,7 +12,9 @@ from model.errors import BridgeflapInputError
 
 __all__ = ["arguments", "cmd_optimise"]
 
-DEFAULT_DEFINITION = Path(__file__).resolve().parents[1] / "runs" / "humber_flaps.toml"
+#: the default design definition, shipped with the package (a copy lives at
+#: runs/humber_flaps.toml; tests/test_runs.py keeps the two identical)
+DEFAULT_DEFINITION = Path(__file__).resolve().parent / "studies" / "humber_flaps.toml"
 
 
 def cmd_optimise(args):
@@ -21,8 +23,7 @@ def cmd_optimise(args):
     from design.settings import load_settings, quick_settings
     from model.control import save_controller
 
-    settings = load_settings(args.definition) if args.definition else load_settings(
-        DEFAULT_DEFINITION if DEFAULT_DEFINITION.exists() else None)
+    settings = load_settings(args.definition or DEFAULT_DEFINITION)
     if args.quick:
         settings = quick_settings(settings)
     out = Path(args.out)
@@ -97,6 +98,7 @@ def arguments(sp) -> None:
     """The options of ``bridgeflap optimise``."""
     add_common(sp, bridge=False, erection=False)
     sp.add_argument("definition", nargs="?", default=None,
-                    help="design definition .toml (default runs/humber_flaps.toml / built-in)")
+                    help="design definition .toml (default: the packaged copy of "
+                         "runs/humber_flaps.toml)")
     sp.add_argument("--out", default="optimise_out", help="output folder")
     sp.add_argument("--quick", action="store_true", help="reduced problem (CI)")

@@ -53,6 +53,13 @@ EXAMPLES = {
 }
 
 
+def test_packaged_design_definition_is_the_runs_copy():
+    # `bridgeflap optimise` reads the packaged file; the runs/ copy is what users edit
+    from design.cmd_optimise import DEFAULT_DEFINITION
+
+    assert DEFAULT_DEFINITION.read_bytes() == (RUNS / "humber_flaps.toml").read_bytes()
+
+
 def test_every_example_is_run():
     found = {str(p.relative_to(RUNS)) for p in RUNS.rglob("*")
              if p.suffix in (".py", ".toml") and "output" not in p.parts}
