@@ -277,7 +277,14 @@ def _run_design(spec, opts, context) -> Outcome:
         from design.report import fig5
 
         context.say("  design: closed-loop root locus and buffeting (Fig. 5)")
-        figs["design"] = fig5(spec, res.controller, n_modes=settings.n_modes, quick=context.quick)
+        # on the bridge the controller was designed for (the study's [design] may name a
+        # variant), on the study's mesh
+        from model.spec import load_bridge
+
+        dspec = load_bridge(settings.bridge).replace(
+            **{"mesh.element_length_m": spec.mesh.element_length_m})
+        figs["design"] = fig5(dspec, res.controller, n_modes=settings.n_modes,
+                              quick=context.quick)
         figs["design_margins"] = figure_of(res.plot_margins())
         figs["design_bode"] = figure_of(res.plot_bode())
     return Outcome(aggregate_status(s.get("status", "unknown")), s, {}, figs, res)

@@ -125,12 +125,13 @@ def study_report(res: StudyResult, figures: dict) -> str:
               f"Critical branch {f['critical_branch']['label'] or '-'}; participation "
               + ", ".join(f"{k} {v:.2f}" for k, v in f["critical_participation"].items())
               + f"; {f['modes_retained']} modes, RFA {f['rfa']}, b = {f['half_chord_m']} m.", "",
-              "The flutter speed is close to the paper's because flutter is governed by the "
-              "TS1/VS1 frequencies, which are updated to the measured ones. Divergence depends "
-              "only on GJ, the cable torsional stiffness 2H(b_c/2)^2 and the aerodynamic moment "
-              "(rho U^2 b^2): with the estimated b = 11 m and cable spacing 22 m it comes out "
-              "higher than 74 m/s; a wider aerodynamic chord lowers it as 1/b (see the "
-              "sensitivity section)."]
+              f"Governing speed {_fmt(f.get('critical_speed_m_s'))} m/s "
+              f"({f.get('critical_mechanism', '-')}). Divergence depends only on GJ, the cable "
+              "torsional stiffness 2H(b_c/2)^2 and the aerodynamic moment (rho U^2 b^2), so it "
+              f"scales close to 1/b with the half-chord b = {f['half_chord_m']} m, which the "
+              "paper does not state; flutter also depends on the updated TS1/VS1 frequencies "
+              "(`python runs/humber_inputs/run.py` shows both for each reading of b and of the "
+              "deck mass)."]
     if "design" in r and isinstance(r["design"].get("coefficients"), dict):
         L += _design_section(r["design"])
     L += ["", "## Figures", ""]
@@ -188,6 +189,8 @@ def _design_section(d: dict) -> list[str]:
     L = ["", "## Flap compensator (seed §6, Fig. 5)", "",
          f"Controller file: `{d.get('controller_file', '-')}` (use it with "
          "`bridgeflap flutter|buffeting|state-space --controller`).", "",
+         f"Designed on bridge `{d.get('settings', {}).get('bridge', '-')}` (the study's "
+         "[design] table says why when it differs from the study's bridge).", "",
          f"K(s) = ({c['b2']:.4g} s^2 {c['b1']:+.4g} s {c['b0']:+.4g}) / "
          f"({c['a2']:.4g} s^2 {c['a1']:+.4g} s + 1), driving {d.get('flap_count')} LE+TE flap "
          "pairs from the local deck pitch (LE and TE antisymmetric).", "",
