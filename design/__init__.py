@@ -27,16 +27,6 @@ _PUBLIC = {
     "run_batch": "design.doe", "make_design": "design.designs",
     "main": "design.cli",
 }
-__all__ = sorted(_PUBLIC)
+from model.lazy import public_face  # noqa: E402 - after the table it serves
 
-
-def __getattr__(name):
-    if name in _PUBLIC:
-        import importlib
-
-        return getattr(importlib.import_module(_PUBLIC[name]), name)
-    raise AttributeError(f"module 'design' has no attribute {name!r}")
-
-
-def __dir__():
-    return __all__
+__all__, __getattr__, __dir__ = public_face("design", _PUBLIC)

@@ -37,16 +37,6 @@ _PUBLIC = {
     "build_symbolic": "model.symbolic", "closed_loop_functions": "model.symbolic",
     "section_basis": "model.section", "typical_section": "model.section",
 }
-__all__ = sorted(_PUBLIC)
+from model.lazy import public_face  # noqa: E402 - after the table it serves
 
-
-def __getattr__(name):
-    if name in _PUBLIC:
-        import importlib
-
-        return getattr(importlib.import_module(_PUBLIC[name]), name)
-    raise AttributeError(f"module 'model' has no attribute {name!r}")
-
-
-def __dir__():
-    return __all__
+__all__, __getattr__, __dir__ = public_face("model", _PUBLIC)
