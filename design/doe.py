@@ -14,19 +14,30 @@ text; the batch always completes.
 Output layout of ``run_batch(..., out_dir)``::
 
     out_dir/
-      cases/<case_id>.json   one per case: {case_id, params, status, error, result, elapsed_s}
+      .bridgeflap-output     marker: a bridgeflap output folder (design.io.OUTPUT_MARKER)
+      cases/<case_id>.json   one per case: {case_id, params, status, error, result, elapsed_s,
+                             case_hash}
       table.csv              one row per case: case_id, status, params..., results..., elapsed_s,
                              error
       batch.json             summary: {cases, succeeded, failed, timed_out, reused, table, ...}
 
 All three are written atomically (:mod:`design.io`). Non-finite numbers are stored as JSON
 ``null`` and as empty CSV cells.
+
+Integrity (:mod:`design.io`): a non-empty ``out_dir`` without the bridgeflap marker is refused
+(nothing written); the run holds the folder's lock (a second run into it is refused); a stored
+case is reused by ``resume`` only if its ``case_hash`` -- SHA-256 of the case parameters, the
+run's *fingerprint* (for a DOE: bridge file content, resolved options, analysis, package
+version) -- matches, otherwise it is recomputed and the count is said on stderr. Nothing is
+written before the Dask scheduler is reachable (:data:`CONNECT_TIMEOUT_S`).
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import csv
+import hashlib
 import io
 import json
 import logging
@@ -43,11 +54,23 @@ from pathlib import Path
 from typing import Any
 
 from design.designs import CASE_ID_KEY
-from design.io import atomic_write_json, atomic_write_text, ensure_writable_dir, to_jsonable
+from design.io import (
+    atomic_write_json,
+    atomic_write_text,
+    check_replaceable,
+    claim_output,
+    ensure_writable_dir,
+    is_marked_output,
+    to_jsonable,
+    write_marker,
+)
 from model.errors import BridgeflapInputError
 
 __all__ = [
+    "CONNECT_TIMEOUT_S",
     "BatchResult",
+    "case_hash",
+    "function_fingerprint",
     "run_batch",
 ]
 
@@ -56,6 +79,10 @@ STATUS_FAILED = "failed"
 STATUS_TIMEOUT = "timeout"
 _CASE_ID_CHARS = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-")
 _POLL_S = 0.1
+#: connect timeout to a remote Dask scheduler [s]: a dead address fails within this
+CONNECT_TIMEOUT_S = 5.0
+#: how long a reachable remote scheduler may take to show its first worker [s]
+WORKERS_TIMEOUT_S = 30.0
 
 
 # --------------------------------------------------------------------------------------------
@@ -84,6 +111,8 @@ class BatchResult:
     failed: int
     table_path: Path
     rows: tuple[dict, ...]
+    reused: int = 0
+    stale: int = 0
 
 
 def _one_line(text: str, limit: int = 500) -> str:
@@ -169,17 +198,43 @@ def _normalise_cases(cases: Sequence[Mapping]) -> list[tuple[str, dict]]:
     return out
 
 
-def _load_reusable(path: Path, params: dict) -> dict | None:
-    """The stored record at ``path`` if it is a successful run of the same parameters."""
+def function_fingerprint(fn: Callable) -> str:
+    """A stable text naming ``fn`` and its bound settings (a ``functools.partial``'s arguments).
+
+    The default fingerprint of :func:`run_batch`; callers that know more (a DOE: the bridge
+    file's content) pass their own.
+    """
+    import functools
+
+    parts = []
+    while isinstance(fn, functools.partial):
+        parts.append(json.dumps({"args": to_jsonable(list(fn.args)),
+                                 "keywords": to_jsonable(dict(fn.keywords))},
+                                sort_keys=True, default=repr))
+        fn = fn.func
+    parts.append(f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', repr(fn))}")
+    return "|".join(reversed(parts))
+
+
+def case_hash(params: Mapping, fingerprint: str) -> str:
+    """SHA-256 (hex) of one case: its parameters and the run's ``fingerprint``."""
+    text = json.dumps({"params": to_jsonable(dict(params)), "run": fingerprint},
+                      sort_keys=True, allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _load_reusable(path: Path, params: dict, digest: str) -> tuple[dict | None, bool]:
+    """``(record, stale)``: the stored record at ``path`` if it is a successful run of the same
+    case (same ``case_hash``); ``stale`` when a successful record of another case is there."""
     try:
         stored = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return None
+        return None, False
     if not isinstance(stored, dict) or stored.get("status") != STATUS_OK:
-        return None
-    if stored.get("params") != params:
-        return None
-    return stored
+        return None, False
+    if stored.get("case_hash") != digest or stored.get("params") != params:
+        return None, True
+    return stored, False
 
 
 def _flatten(value: Any, prefix: str, out: dict) -> None:
@@ -241,6 +296,9 @@ def run_batch(
     timeout_s: float | None = None,
     progress: bool = True,
     retries: int = 1,
+    fingerprint: str | None = None,
+    files: Mapping[str, Any] | None = None,
+    kind: str = "batch",
 ) -> BatchResult:
     """Run ``fn`` on every case in separate worker processes; never abort on a failed case.
 
@@ -263,7 +321,8 @@ def run_batch(
         client). ``"serial"``: run in this process, one case after another (debugging, tests).
     resume : bool, optional
         Reuse every case whose ``cases/<case_id>.json`` exists with status ``"ok"`` and the
-        same parameters; run the missing, failed and timed-out ones.
+        same ``case_hash`` (parameters and ``fingerprint``); run the missing, failed and
+        timed-out ones, and recompute (saying so on stderr) those stored by another run.
     timeout_s : float, optional
         Wall-clock limit per case [s], counted from submission (at most one case per worker
         thread is in flight, so this is close to its run time). A case past it is recorded as
@@ -287,7 +346,8 @@ def run_batch(
     Raises
     ------
     BridgeflapInputError
-        For malformed arguments or an unwritable ``out_dir``; never because a case failed.
+        For malformed arguments, an unwritable or foreign ``out_dir``, a folder another run
+        holds, an unreachable scheduler; never because a case failed.
     """
     if not callable(fn):
         raise BridgeflapInputError("fn", "the analysis must be callable")
@@ -309,73 +369,113 @@ def run_batch(
             "scheduler", f"expected an address or 'serial', got {scheduler!r}"
         )
     normalised = _normalise_cases(cases)
+    if fingerprint is None:
+        fingerprint = f"{function_fingerprint(fn)}|bridgeflap {_package_version()}"
+    digests = {case_id: case_hash(params, fingerprint) for case_id, params in normalised}
+    target = check_replaceable(out_dir, "out")
 
-    out = ensure_writable_dir(out_dir)
-    case_dir = ensure_writable_dir(out / "cases")
-
-    records: dict[str, dict] = {}
-    pending: list[tuple[str, dict]] = []
-    for case_id, params in normalised:
-        stored = _load_reusable(case_dir / f"{case_id}.json", params) if resume else None
-        if stored is not None:
-            records[case_id] = stored
-        else:
-            pending.append((case_id, params))
-    reused = len(records)
-
-    from tqdm.auto import tqdm
-
-    bar = tqdm(
-        total=len(normalised),
-        initial=reused,
-        desc="cases",
-        unit="case",
-        file=sys.stderr,
-        disable=not progress,
-        dynamic_ncols=True,
-    )
-
-    def finish(record: dict) -> None:
-        atomic_write_json(case_dir / f"{record['case_id']}.json", record)
-        records[record["case_id"]] = record
-        bar.update(1)
-        if record["status"] != STATUS_OK:
-            bar.set_postfix_str(f"{record['case_id']}: {record['status']}", refresh=False)
-
-    try:
-        if pending:
-            if scheduler == "serial":
-                _run_serial(fn, pending, timeout_s, finish)
+    with contextlib.ExitStack() as stack:
+        # a remote scheduler is reached before anything is written (a dead address fails in
+        # CONNECT_TIMEOUT_S with one line); a local cluster is started under the lock
+        client = None
+        if scheduler not in (None, "serial"):
+            client = stack.enter_context(_client(workers, scheduler))
+        out = stack.enter_context(claim_output(target, "out"))
+        records: dict[str, dict] = {}
+        pending: list[tuple[str, dict]] = []
+        stale = []
+        for case_id, params in normalised:
+            stored, old = (_load_reusable(out / "cases" / f"{case_id}.json", params,
+                                          digests[case_id]) if resume else (None, False))
+            if stored is not None:
+                records[case_id] = stored
             else:
-                _run_dask(fn, pending, workers, scheduler, timeout_s, retries, finish)
-    finally:
-        bar.close()
+                pending.append((case_id, params))
+                if old:
+                    stale.append(case_id)
+        reused = len(records)
+        if stale:
+            print(f"bridgeflap: resume: {len(stale)} stored case(s) in {out} are from a "
+                  f"different run (case hash differs) and are recomputed: "
+                  f"{', '.join(stale[:5])}{', ...' if len(stale) > 5 else ''}",
+                  file=sys.stderr, flush=True)
+        if pending and client is None and scheduler is None:
+            client = stack.enter_context(_client(workers, None))
 
-    rows = tuple(records[case_id] for case_id, _ in normalised)
-    table_path = out / "table.csv"
-    atomic_write_text(table_path, _table_text(rows))
-    succeeded = sum(row["status"] == STATUS_OK for row in rows)
-    timed_out = sum(row["status"] == STATUS_TIMEOUT for row in rows)
-    atomic_write_json(
-        out / "batch.json",
-        {
-            "cases": len(rows),
-            "succeeded": succeeded,
-            "failed": len(rows) - succeeded,
-            "timed_out": timed_out,
-            "reused": reused,
-            "table": table_path.name,
-            "case_dir": case_dir.name,
-            "statuses": {row["case_id"]: row["status"] for row in rows},
-        },
-    )
+        ensure_writable_dir(out)
+        if not is_marked_output(out):
+            write_marker(out, kind)
+        for name, content in (files or {}).items():
+            atomic_write_json(out / name, content)
+        case_dir = ensure_writable_dir(out / "cases")
+
+        from tqdm.auto import tqdm
+
+        bar = tqdm(
+            total=len(normalised),
+            initial=reused,
+            desc="cases",
+            unit="case",
+            file=sys.stderr,
+            disable=not progress,
+            dynamic_ncols=True,
+        )
+
+        def finish(record: dict) -> None:
+            record = {**record, "case_hash": digests[record["case_id"]]}
+            atomic_write_json(case_dir / f"{record['case_id']}.json", record)
+            records[record["case_id"]] = record
+            bar.update(1)
+            if record["status"] != STATUS_OK:
+                bar.set_postfix_str(f"{record['case_id']}: {record['status']}", refresh=False)
+
+        try:
+            if pending:
+                if scheduler == "serial":
+                    _run_serial(fn, pending, timeout_s, finish)
+                else:
+                    _run_dask(client, fn, pending, workers, scheduler, timeout_s, retries,
+                              finish)
+        finally:
+            bar.close()
+
+        rows = tuple(records[case_id] for case_id, _ in normalised)
+        table_path = out / "table.csv"
+        atomic_write_text(table_path, _table_text(rows))
+        succeeded = sum(row["status"] == STATUS_OK for row in rows)
+        timed_out = sum(row["status"] == STATUS_TIMEOUT for row in rows)
+        atomic_write_json(
+            out / "batch.json",
+            {
+                "cases": len(rows),
+                "succeeded": succeeded,
+                "failed": len(rows) - succeeded,
+                "timed_out": timed_out,
+                "reused": reused,
+                "recomputed_stale": len(stale),
+                "table": table_path.name,
+                "case_dir": case_dir.name,
+                "statuses": {row["case_id"]: row["status"] for row in rows},
+            },
+        )
     return BatchResult(
         cases=len(rows),
         succeeded=succeeded,
         failed=len(rows) - succeeded,
         table_path=table_path,
         rows=rows,
+        reused=reused,
+        stale=len(stale),
     )
+
+
+def _package_version() -> str:
+    import importlib.metadata
+
+    try:
+        return importlib.metadata.version("bridgeflap")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown"
 
 
 def _run_serial(fn, pending, timeout_s, finish) -> None:
@@ -408,11 +508,20 @@ def _run_serial(fn, pending, timeout_s, finish) -> None:
         finish(record)
 
 
-def _start_client(workers: int, scheduler: str | None):
-    """A dask client and, for a local cluster, the cluster (to close afterwards)."""
+@contextlib.contextmanager
+def _client(workers: int, scheduler: str | None):
+    """A dask client on a local cluster (``scheduler=None``) or on ``scheduler``; closed after.
+
+    The local cluster listens on random ports with no dashboard (``dashboard_address=None``,
+    scheduler port 0), so a batch never depends on a free well-known port such as 8787. A
+    remote address must answer within :data:`CONNECT_TIMEOUT_S` and show a worker within
+    :data:`WORKERS_TIMEOUT_S`, else one-line :class:`BridgeflapInputError` naming
+    ``scheduler``; distributed's own connection log lines are silenced meanwhile.
+    """
     import dask
     from dask.distributed import Client, LocalCluster
 
+    cluster = None
     if scheduler is None:
         # allowed-failures 0: a worker death surfaces at once as KilledWorker, and retries
         # are ours (counted per case); saturation 1.0 keeps at most one task per worker thread,
@@ -426,24 +535,49 @@ def _start_client(workers: int, scheduler: str | None):
                 n_workers=workers,
                 threads_per_worker=1,
                 processes=True,
+                scheduler_port=0,
                 dashboard_address=None,
+                worker_dashboard_address=None,
                 silence_logs=logging.CRITICAL,
             )
-            client = Client(cluster)
-        return client, cluster
+            try:
+                client = Client(cluster)
+            except BaseException:
+                cluster.close()
+                raise
+    else:
+        loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+        levels = [lg.level for lg in loggers]
+        for lg in loggers:
+            lg.setLevel(logging.CRITICAL)
+        try:
+            client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S:g}s")
+        except (OSError, ValueError, TypeError, TimeoutError, asyncio.TimeoutError) as exc:
+            reason = " ".join(str(exc).split())[:200] or type(exc).__name__
+            raise BridgeflapInputError(
+                "scheduler", f"cannot connect to {scheduler} within {CONNECT_TIMEOUT_S:g} s "
+                             f"({reason})") from None
+        finally:
+            for lg, level in zip(loggers, levels, strict=True):
+                lg.setLevel(level)
+        try:
+            client.wait_for_workers(1, timeout=WORKERS_TIMEOUT_S)
+        except (OSError, TimeoutError, asyncio.TimeoutError):
+            client.close()
+            raise BridgeflapInputError(
+                "scheduler", f"{scheduler} has no worker after {WORKERS_TIMEOUT_S:g} s") from None
     try:
-        client = Client(scheduler, timeout="30s")
-    except (OSError, ValueError) as exc:
-        raise BridgeflapInputError("scheduler", f"cannot connect to {scheduler}: {exc}") from exc
-    client.wait_for_workers(1, timeout=60)
-    return client, None
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
 
 
-def _run_dask(fn, pending, workers, scheduler, timeout_s, retries, finish) -> None:
+def _run_dask(client, fn, pending, workers, scheduler, timeout_s, retries, finish) -> None:
     """Run the cases on a Dask cluster with at most one case in flight per worker thread."""
     from dask.distributed import wait
 
-    client, cluster = _start_client(workers, scheduler)
     token = uuid.uuid4().hex[:8]
     queue = deque((case_id, params, 0) for case_id, params in pending)
     in_flight: dict = {}  # future -> (case_id, params, attempt, submitted_at)
@@ -492,9 +626,6 @@ def _run_dask(fn, pending, workers, scheduler, timeout_s, retries, finish) -> No
     finally:
         for future in in_flight:
             future.cancel()
-        client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 def _future_error(future) -> str:

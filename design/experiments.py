@@ -6,12 +6,21 @@ options, the design kind and the parameter ranges (dotted paths of
 :data:`model.spec.PARAMETER_PATHS`); it runs through :func:`design.doe.run_batch` (per-case
 status, resumable). An option the file does not give takes the registry's default, the same as
 the command line's.
+
+A design is refused before anything is allocated when it would have more than
+:data:`MAX_DOE_CASES` cases (the product of the level counts of a full factorial, ``n`` of a
+sampled design), naming the field. Each case's ``case_hash`` (the key of ``--resume``) covers
+the bridge file's content, the analysis, its resolved options (defaults included) and the
+bridgeflap version (:func:`doe_fingerprint`), so a folder holding another DOE's cases has them
+recomputed, never reused.
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
 import json
+import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -21,13 +30,18 @@ import numpy as np
 
 from design.analyses import ANALYSES
 from design.cases import ERECTED_FRACTION, analysis_case
-from design.io import atomic_write_json, ensure_writable_dir, output_folder
+from design.io import output_folder
 from design.options import check_int, check_keys, plain_name, read_definition, resolve_bridge, table
 from model.errors import BridgeflapInputError
 from model.spec import PARAMETER_PATHS
 
-__all__ = ["DOE_ANALYSES", "DoeConfig", "DoeParameter", "DoeResult", "doe_from_dict", "load_doe",
-           "run_doe"]
+__all__ = ["DOE_ANALYSES", "MAX_DOE_CASES", "DoeConfig", "DoeParameter", "DoeResult",
+           "doe_fingerprint", "doe_from_dict", "load_doe", "run_doe"]
+
+#: largest design accepted [cases]: at 1-10 s per flutter case, 10^4 cases are already one to
+#: several days of CPU; a larger study is better split into several DOE folders (and a
+#: 10^5-level factorial of several parameters would not even fit in memory)
+MAX_DOE_CASES = 10_000
 
 #: registered analyses with a DOE case row
 DOE_ANALYSES = tuple(name for name, entry in ANALYSES.items() if entry.case is not None)
@@ -191,9 +205,30 @@ def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
         if not (np.isfinite(lo) and np.isfinite(hi)) or not lo < hi:
             raise BridgeflapInputError(fld, f"empty range [{lo}, {hi}] (need lo < hi)")
         params[path] = DoeParameter(low=lo, high=hi)
+    _check_size(kind, params, levels, n)
     return DoeConfig(name=name, bridge=bridge, analysis=analysis, options=options, kind=kind,
                      parameters=params, levels=levels, n=n, seed=seed, quick=bool(quick),
                      source=source)
+
+
+def _check_size(kind: str, params: Mapping, levels: int, n: int) -> int:
+    """The number of cases of the design; refuse more than :data:`MAX_DOE_CASES`."""
+    if kind != "full_factorial":
+        if n > MAX_DOE_CASES:
+            raise BridgeflapInputError("design.n", f"{n} cases exceed the limit of "
+                                                   f"{MAX_DOE_CASES}; split the study")
+        return n
+    counts = {p: (len(d.values) if d.values is not None else levels) for p, d in params.items()}
+    total = math.prod(counts.values())  # Python integers: no overflow, nothing allocated
+    if total > MAX_DOE_CASES:
+        ranged = [p for p, d in params.items() if d.values is None]
+        field = ("design.levels" if ranged and levels > 1
+                 else f"parameters.{max(counts, key=counts.get)}")
+        raise BridgeflapInputError(field, f"the full factorial has {total} cases (levels "
+                                          f"{', '.join(str(c) for c in counts.values())}), "
+                                          f"more than the limit of {MAX_DOE_CASES}; split the "
+                                          "study")
+    return total
 
 
 @dataclass(frozen=True)
@@ -246,39 +281,57 @@ class DoeResult:
         return ax
 
 
+def doe_fingerprint(config: DoeConfig) -> str:
+    """What, besides a case's parameters, determines its result: bridge file content (and the
+    resolved bridge), analysis, resolved options, bridgeflap version (the ``case_hash`` key)."""
+    from importlib import resources
+
+    from model.spec import BUILTIN_BRIDGES, load_bridge
+
+    base = config.bridge
+    head, sep, tail = base.rpartition(":")
+    if sep and (head in BUILTIN_BRIDGES or head.lower().endswith(".toml")):
+        base = head
+    if base in BUILTIN_BRIDGES:
+        content = resources.files("model.bridges").joinpath(f"{base}.toml").read_bytes()
+    else:
+        content = Path(base).read_bytes()
+    from design.doe import _package_version
+
+    payload = {"bridge": config.bridge,
+               "bridge_sha256": hashlib.sha256(content).hexdigest(),
+               "bridge_resolved": repr(load_bridge(config.bridge)),
+               "analysis": config.analysis,
+               "options": ANALYSES[config.analysis].resolve(config.options, what="options"),
+               "version": _package_version()}
+    return json.dumps(payload, sort_keys=True, default=repr)
+
+
 def run_doe(config: DoeConfig | str | os.PathLike, out: str | os.PathLike | None = None,
             workers: int = 1, scheduler: str | None = None, resume: bool = False,
             quick: bool = False, progress: bool = True) -> DoeResult:
     """Run a DOE through :func:`design.doe.run_batch` (per-case files; resumable).
 
-    The resolved configuration is written as ``doe.json`` next to the batch files; ``resume``
-    refuses a folder whose ``doe.json`` has other settings (their stored cases would not
-    belong to this DOE).
+    The resolved configuration is written as ``doe.json`` (and ``manifest.json``) next to the
+    batch files, after the scheduler is reachable. ``resume`` reuses only cases whose
+    ``case_hash`` (:func:`doe_fingerprint` and the parameters) matches; a folder holding
+    another DOE has its cases recomputed (said on stderr). The folder rules (foreign folder
+    refused, one run at a time) are those of :func:`design.doe.run_batch`.
     """
     from design.doe import run_batch
     from design.manifest import build_manifest
 
     if not isinstance(config, DoeConfig):
         config = load_doe(config, quick=quick)
+    _check_size(config.kind, config.parameters, config.levels, config.n)
+    ANALYSES[config.analysis].resolve(config.options, what="options")
     cases = config.cases()
     target = output_folder(out, config.name)
-    stored_cfg = target / "doe.json"
-    if resume and stored_cfg.is_file():
-        try:
-            stored = json.loads(stored_cfg.read_text("utf-8"))
-        except (OSError, ValueError):
-            stored = None
-        keys = ("bridge", "analysis", "options")
-        now = json.loads(json.dumps(config.as_dict()))
-        if stored is None or any(stored.get(k) != now[k] for k in keys):
-            raise BridgeflapInputError("resume", f"{target} holds a DOE with other settings; "
-                                                 "use another --out")
-    ensure_writable_dir(target, "out")
-    atomic_write_json(stored_cfg, config.as_dict())
-    atomic_write_json(target / "manifest.json", build_manifest(config.as_dict()))
+    fingerprint = doe_fingerprint(config)
+    files = {"doe.json": config.as_dict(), "manifest.json": build_manifest(config.as_dict())}
     batch = run_batch(config.case_function(), cases, target, workers=workers,
-                      scheduler=scheduler, resume=resume, progress=progress)
-    reused = json.loads((target / "batch.json").read_text("utf-8")).get("reused", 0)
+                      scheduler=scheduler, resume=resume, progress=progress,
+                      fingerprint=fingerprint, files=files, kind="doe")
     return DoeResult(config=config, out_dir=target, cases=batch.cases,
-                     succeeded=batch.succeeded, failed=batch.failed, reused=int(reused),
+                     succeeded=batch.succeeded, failed=batch.failed, reused=batch.reused,
                      table=batch.table_path, rows=batch.rows)

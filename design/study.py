@@ -18,10 +18,17 @@ analyses and their options::
 :func:`run_study` writes everything into a temporary sibling folder of the target and moves it
 into place only when complete (an earlier result folder is kept until then), so an interrupted
 or failed run never leaves half-written results. Each analysis failure is recorded with its
-status; bad input raises :class:`~model.errors.BridgeflapInputError` before anything is written.
+status; bad input raises :class:`~model.errors.BridgeflapInputError` before anything is written:
+the whole configuration (every analysis's options, the bridge) is validated first, then the
+output folder is checked (:func:`design.io.check_replaceable`: a non-empty folder that no
+bridgeflap run marked as its own is refused), then the run takes the folder's lock
+(:func:`design.io.claim_output`: a second concurrent run is refused; what a crashed run left is
+recovered or cleaned) and only then creates anything. The replace itself is crash-safe
+(:func:`design.io.swap_into_place`).
 
 Output folder::
 
+    .bridgeflap-output  marker: this folder is a bridgeflap output (design.io.OUTPUT_MARKER)
     config.json      resolved configuration (quick overrides applied)
     manifest.json    time, host, versions, git commit (design.manifest.build_manifest)
     statuses.json    analysis -> status (and every solver status inside it)
@@ -52,11 +59,13 @@ from design.io import (
     atomic_savez,
     atomic_write_json,
     atomic_write_text,
-    ensure_writable_dir,
+    check_replaceable,
+    claim_output,
     new_sibling,
     output_folder,
     stdout_to_stderr,
     swap_into_place,
+    write_marker,
 )
 from design.options import check_keys, plain_name, read_definition, resolve_bridge, table
 from design.report import PAPER, study_report
@@ -69,6 +78,7 @@ __all__ = [
     "load_study",
     "run_study",
     "study_from_dict",
+    "validate_study",
 ]
 
 _TOP_KEYS = {"name", "bridge", "description", "analyses", "quick", *ANALYSES}
@@ -297,40 +307,63 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
     if not isinstance(config, StudyConfig):
         config = load_study(config, quick=quick)
     say = progress or (lambda msg: None)
+    validate_study(config)
     spec = config.spec()
-    target = output_folder(out, config.name)
-    ensure_writable_dir(target.parent, "out")
-    tmp = new_sibling(target, "tmp")
-    start = time.perf_counter()
-    try:
-        tmp.mkdir()
-        (tmp / "results").mkdir()
-        (tmp / "figures").mkdir()
-        atomic_write_json(tmp / "config.json", config.as_dict())
-        from design.manifest import build_manifest
+    target = check_replaceable(output_folder(out, config.name), "out")
+    with claim_output(target, "out", say=say):
+        tmp = new_sibling(target, "tmp")
+        start = time.perf_counter()
+        try:
+            tmp.mkdir()
+            write_marker(tmp, "study")
+            (tmp / "results").mkdir()
+            (tmp / "figures").mkdir()
+            atomic_write_json(tmp / "config.json", config.as_dict())
+            from design.manifest import build_manifest
 
-        atomic_write_json(tmp / "manifest.json", build_manifest(config.as_dict()))
-        statuses, results, objects, figures = {}, {}, {}, {}
-        for kind, opts in config.analyses:
-            say(f"study {config.name}: {kind} ...")
-            outcome = _run_one(kind, spec, opts, config, say)
-            statuses[kind] = outcome.status
-            objects[kind] = outcome.result
-            results[kind], figures[kind] = _write_outcome(kind, outcome, tmp)
-            say(f"study {config.name}: {kind} {outcome.status} "
-                f"({outcome.summary['elapsed_s']:.1f} s)")
-        atomic_write_json(tmp / "statuses.json", statuses)
-        elapsed = time.perf_counter() - start
-        result = StudyResult(config, target, MappingProxyType(statuses),
-                             MappingProxyType(results), elapsed, MappingProxyType(objects))
-        atomic_write_text(tmp / "report.md", study_report(result, figures))
-        atomic_write_json(tmp / "summary.json", result.summary())
-        swap_into_place(tmp, target)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+            atomic_write_json(tmp / "manifest.json", build_manifest(config.as_dict()))
+            statuses, results, objects, figures = {}, {}, {}, {}
+            for kind, opts in config.analyses:
+                say(f"study {config.name}: {kind} ...")
+                outcome = _run_one(kind, spec, opts, config, say)
+                statuses[kind] = outcome.status
+                objects[kind] = outcome.result
+                results[kind], figures[kind] = _write_outcome(kind, outcome, tmp)
+                say(f"study {config.name}: {kind} {outcome.status} "
+                    f"({outcome.summary['elapsed_s']:.1f} s)")
+            atomic_write_json(tmp / "statuses.json", statuses)
+            elapsed = time.perf_counter() - start
+            result = StudyResult(config, target, MappingProxyType(statuses),
+                                 MappingProxyType(results), elapsed, MappingProxyType(objects))
+            atomic_write_text(tmp / "report.md", study_report(result, figures))
+            atomic_write_json(tmp / "summary.json", result.summary())
+            swap_into_place(tmp, target)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
     say(f"study {config.name}: written {target} ({elapsed:.1f} s)")
     return result
+
+
+def validate_study(config: StudyConfig) -> None:
+    """Check every analysis's options of ``config`` (names and values), before any write.
+
+    :func:`load_study` already does this; a :class:`StudyConfig` built or changed by other
+    code is checked again here, so that no folder is created for a run that would fail on its
+    input.
+
+    Raises
+    ------
+    BridgeflapInputError
+        Unknown analysis, unknown option or bad option value (the field named).
+    """
+    for kind, opts in config.analyses:
+        if kind not in ANALYSES:
+            raise BridgeflapInputError("analyses", f"unknown analysis {kind!r} (known: "
+                                                   f"{', '.join(ANALYSES)})")
+        if not isinstance(opts, Mapping):
+            raise BridgeflapInputError(kind, "must be a table of options")
+        ANALYSES[kind].resolve(opts)
 
 
 def _save_figures(figs: Mapping, folder: Path) -> list[str]:

@@ -90,7 +90,10 @@ def test_study_writes_a_self_describing_folder(small, tmp_path, capsys):
     assert "| flutter speed [m/s] | 65 |" in report and "| torsional divergence [m/s] | 74 |" \
         in report
     assert "Table 1" in report
-    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.")]
+    # no temporary or backup folder left; the run lock file stays next to the folder
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.")
+                and p.name != ".out.lock"]
+    assert (out / ".bridgeflap-output").is_file()
 
 
 def test_earlier_output_survives_a_failed_run(small, tmp_path, monkeypatch):
@@ -105,7 +108,7 @@ def test_earlier_output_survives_a_failed_run(small, tmp_path, monkeypatch):
     with pytest.raises(RuntimeError):
         run_study(small, out=out, quick=True)
     assert _tree(out) == before
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "study.toml"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".out.lock", "out", "study.toml"]
 
 
 def test_killed_study_never_leaves_half_written_results(small, tmp_path):
