@@ -512,8 +512,9 @@ def _run_serial(fn, pending, timeout_s, finish) -> None:
 def _client(workers: int, scheduler: str | None):
     """A dask client on a local cluster (``scheduler=None``) or on ``scheduler``; closed after.
 
-    The local cluster listens on random ports with no dashboard (``dashboard_address=None``,
-    scheduler port 0), so a batch never depends on a free well-known port such as 8787. A
+    The local cluster listens on random ports only (scheduler port 0, no dashboard, its HTTP
+    server on port 0), so a batch never depends on a free well-known port such as 8787 (a
+    busy 8787 used to make distributed fall back with a warning and a leaked socket). A
     remote address must answer within :data:`CONNECT_TIMEOUT_S` and show a worker within
     :data:`WORKERS_TIMEOUT_S`, else one-line :class:`BridgeflapInputError` naming
     ``scheduler``; distributed's own connection log lines are silenced meanwhile.
@@ -536,7 +537,10 @@ def _client(workers: int, scheduler: str | None):
                 threads_per_worker=1,
                 processes=True,
                 scheduler_port=0,
+                # no dashboard; the scheduler's HTTP server (health/metrics routes) starts even
+                # without one, on the default port 8787 unless told otherwise: port 0 (random)
                 dashboard_address=None,
+                scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
                 worker_dashboard_address=None,
                 silence_logs=logging.CRITICAL,
             )

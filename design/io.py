@@ -324,8 +324,9 @@ def new_sibling(target: Path, tag: str) -> Path:
 
 #: marker file inside every output folder a bridgeflap run wrote (a JSON tag, see module doc)
 OUTPUT_MARKER = ".bridgeflap-output"
-#: test hook: ``kill-mid-swap`` SIGKILLs the process between the two renames of a swap,
-#: ``fail-before-swap`` raises just before the swap (fault tests only; unset in normal use)
+#: test hook (fault tests only; unset in normal use): ``kill-mid-swap`` SIGKILLs the process
+#: between the two renames of a swap, ``fail-before-swap`` raises just before the swap,
+#: ``pause-before-swap`` waits there (see :func:`_fault`)
 FAULT_ENV = "BRIDGEFLAP_TEST_FAULT"
 _TOOL = "bridgeflap"
 _HELD: dict[str, list] = {}  # lock path -> [FileLock, depth]: claims are re-entrant per process
@@ -541,8 +542,25 @@ def claim_output(target: str | os.PathLike, field: str = "out",
 
 
 def _fault(point: str) -> None:
-    """Fault injection for the crash tests (:data:`FAULT_ENV`)."""
-    if os.environ.get(FAULT_ENV) != point:
+    """Fault injection for the crash tests (:data:`FAULT_ENV`; nothing when unset).
+
+    ``kill-mid-swap``: SIGKILL between the renames; ``fail-before-swap``: raise before the
+    swap; ``pause-before-swap``: create ``$BRIDGEFLAP_TEST_PAUSE_FILE.reached`` and wait (at
+    most 300 s) while ``$BRIDGEFLAP_TEST_PAUSE_FILE`` exists, holding the lock meanwhile.
+    """
+    wanted = os.environ.get(FAULT_ENV)
+    if not wanted:
+        return
+    if wanted == "pause-before-swap" and point == "fail-before-swap":
+        pause = Path(os.environ.get("BRIDGEFLAP_TEST_PAUSE_FILE", ""))
+        Path(f"{pause}.reached").touch()
+        import time
+
+        deadline = time.monotonic() + 300.0
+        while pause.exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        return
+    if wanted != point:
         return
     if point == "kill-mid-swap":
         os.kill(os.getpid(), signal.SIGKILL)

@@ -256,12 +256,22 @@ class StudyResult:
 
 
 def _run_one(kind: str, spec, opts: Mapping, config: StudyConfig, say) -> Outcome:
-    """Run one analysis; any exception becomes a ``failed: ...`` outcome."""
+    """Run one analysis; any exception becomes a ``failed: ...`` outcome, except an input error
+    naming one of the study's own options of ``kind``: that is bad input that escaped the
+    checks of :func:`validate_study`, and aborts the study (exit 2, the earlier output folder
+    untouched) instead of replacing a good folder by a partial one."""
     context = RunContext(bridge=config.bridge, quick=config.quick, progress=say)
     t0 = time.perf_counter()
     try:
         with stdout_to_stderr():
             outcome = ANALYSES[kind](spec, opts, context)
+    except BridgeflapInputError as exc:
+        name = str(exc.field).removeprefix(f"{kind}.").split(".", 1)[0]
+        if name in opts:
+            field = exc.field if str(exc.field).startswith(f"{kind}.") else f"{kind}.{exc.field}"
+            raise BridgeflapInputError(field, exc.reason) from None
+        outcome = Outcome(f"failed: {type(exc).__module__}.{type(exc).__name__}: "
+                          f"{' '.join(str(exc).split())[:300]}")
     except Exception as exc:  # noqa: BLE001 - failure is data, never an aborted study
         tb = traceback.format_exception_only(type(exc), exc)[-1].strip()
         outcome = Outcome(f"failed: {' '.join(tb.split())[:300]}")

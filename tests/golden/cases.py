@@ -46,7 +46,7 @@ CASES = [
 #: keys whose values depend on the machine, the clock or the folder, not on the physics
 VOLATILE = {"out", "table", "out_dir", "elapsed_s", "time_s", "seconds", "wall_time_s",
             "figures", "files", "manifest", "report", "path", "duration_s", "controller_file",
-            "eig_time_per_speed_s", "time_per_start_s"}
+            "eig_time_per_speed_s", "time_per_start_s", "case_hash"}
 
 
 def _extra(name: str, out: Path) -> dict:
