@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import tempfile
 from pathlib import Path
 
 from design.cli_common import add_common, emit, log, save_figure
@@ -19,9 +18,7 @@ DEFAULT_DEFINITION = Path(__file__).resolve().parent / "studies" / "humber_flaps
 
 def cmd_optimise(args):
     """Run the design, write the controller TOML and figures to ``--out`` atomically."""
-    from design.driver import design
     from design.settings import load_settings, quick_settings
-    from model.control import save_controller
 
     settings = load_settings(args.definition or DEFAULT_DEFINITION)
     if args.quick:
@@ -30,8 +27,23 @@ def cmd_optimise(args):
     parent = out.resolve().parent
     if not parent.exists() or not os.access(parent, os.W_OK):
         raise BridgeflapInputError("out", f"folder not writable: {parent}")
+    from design.io import check_replaceable, claim_output
+
+    out = check_replaceable(out)  # a foreign non-empty folder is refused (design.io)
+    with claim_output(out):  # one run at a time; crashed runs' leftovers recovered
+        return _design_and_write(args, settings, out)
+
+
+def _design_and_write(args, settings, out):
+    """Run the design and replace ``out`` by its complete folder (crash-safe swap)."""
+    from design.driver import design
+    from design.io import new_sibling, swap_into_place, write_marker
+    from model.control import save_controller
+
     result = design(settings, progress=log)
-    tmp = Path(tempfile.mkdtemp(dir=parent, prefix=f".{out.name}."))
+    tmp = new_sibling(out, "tmp")
+    tmp.mkdir()
+    write_marker(tmp, "optimise")
     try:
         payload = result.summary()
         ctrl_file = out / "controller.toml"
@@ -59,9 +71,7 @@ def cmd_optimise(args):
             ax = sw.plot(title="closed loop")
             save_figure(ax[0].figure, tmp / "root_locus.png")
             plt.close(ax[0].figure)
-        out.mkdir(parents=True, exist_ok=True)
-        for f in tmp.iterdir():
-            os.replace(f, out / f.name)
+        swap_into_place(tmp, out)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     payload["controller_file"] = str(ctrl_file) if result.controller is not None else None

@@ -38,10 +38,11 @@ from model.spec import PARAMETER_PATHS
 __all__ = ["DOE_ANALYSES", "MAX_DOE_CASES", "DoeConfig", "DoeParameter", "DoeResult",
            "doe_fingerprint", "doe_from_dict", "load_doe", "run_doe"]
 
-#: largest design accepted [cases]: at 1-10 s per flutter case, 10^4 cases are already one to
-#: several days of CPU; a larger study is better split into several DOE folders (and a
-#: 10^5-level factorial of several parameters would not even fit in memory)
-MAX_DOE_CASES = 10_000
+#: largest design accepted [cases]: at about a second per flutter case, 10^5 cases are already
+#: a day on one core; a larger study is better split into several DOE folders (and a
+#: 10^5-level factorial of two parameters, 10^10 cases, would not even fit in memory). The
+#: same value as design.options.MAX_DOE_CASES of the bad-input work (one constant after merge)
+MAX_DOE_CASES = 100_000
 
 #: registered analyses with a DOE case row
 DOE_ANALYSES = tuple(name for name, entry in ANALYSES.items() if entry.case is not None)

@@ -124,6 +124,18 @@ def test_empty_folder_is_used_and_a_marked_folder_replaced(tmp_path):
     assert _leftovers(tmp_path, "out") == []
 
 
+def test_optimise_refuses_a_user_folder_before_designing(tmp_path, capsys):
+    user = tmp_path / "mine"
+    user.mkdir()
+    (user / "controller.toml").write_text("# my own hand-tuned controller\n")
+    before = _tree(user)
+    assert main(["optimise", "--quick", "--out", str(user)]) == 2
+    line = _error_line(capsys.readouterr().err)
+    assert "--out" in line and OUTPUT_MARKER in line
+    assert _tree(user) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine"]
+
+
 # --------------------------------------------------------------------------- C2 crash-safe swap
 def test_sigkill_during_the_swap_then_the_next_run_recovers_the_previous_output(tmp_path):
     study = _study(tmp_path)
@@ -309,10 +321,11 @@ def test_invalid_option_exits_2_and_leaves_the_previous_output_byte_identical(tm
     [
         ({"levels": 100000}, {"cable.main_sag_m": [100.0, 130.0], "deck.gj_nm2": [3e11, 4e11]},
          "design.levels"),
-        ({"levels": 100000}, {"cable.main_sag_m": [100.0, 130.0]}, "design.levels"),
-        ({"kind": "lhs", "n": 100000}, {"cable.main_sag_m": [100.0, 130.0]}, "design.n"),
-        ({}, {"cable.main_sag_m": {"values": [100.0 + 0.001 * i for i in range(200)]},
-              "deck.gj_nm2": {"values": [3e11 + 1e8 * i for i in range(200)]}},
+        ({"levels": MAX_DOE_CASES + 1}, {"cable.main_sag_m": [100.0, 130.0]}, "design.levels"),
+        ({"kind": "lhs", "n": MAX_DOE_CASES + 1}, {"cable.main_sag_m": [100.0, 130.0]},
+         "design.n"),
+        ({}, {"cable.main_sag_m": {"values": [100.0 + 0.001 * i for i in range(400)]},
+              "deck.gj_nm2": {"values": [3e11 + 1e8 * i for i in range(300)]}},
          "parameters.cable.main_sag_m"),
     ],
 )
