@@ -27,9 +27,9 @@ def cmd_optimise(args):
     parent = out.resolve().parent
     if not parent.exists() or not os.access(parent, os.W_OK):
         raise BridgeflapInputError("out", f"folder not writable: {parent}")
-    from design.io import check_replaceable, claim_output
+    from design.outputs import check_replaceable, claim_output
 
-    out = check_replaceable(out)  # a foreign non-empty folder is refused (design.io)
+    out = check_replaceable(out)  # a foreign non-empty folder is refused (design.outputs)
     with claim_output(out):  # one run at a time; crashed runs' leftovers recovered
         return _design_and_write(args, settings, out)
 
@@ -37,7 +37,8 @@ def cmd_optimise(args):
 def _design_and_write(args, settings, out):
     """Run the design and replace ``out`` by its complete folder (crash-safe swap)."""
     from design.driver import design
-    from design.io import new_sibling, swap_into_place, write_marker
+    from design.io import new_sibling
+    from design.outputs import swap_into_place, write_marker
     from model.control import save_controller
 
     result = design(settings, progress=log)

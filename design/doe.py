@@ -14,7 +14,7 @@ text; the batch always completes.
 Output layout of ``run_batch(..., out_dir)``::
 
     out_dir/
-      .bridgeflap-output     marker: a bridgeflap output folder (design.io.OUTPUT_MARKER)
+      .bridgeflap-output     marker: a bridgeflap output folder (design.outputs.OUTPUT_MARKER)
       cases/<case_id>.json   one per case: {case_id, params, status, error, result, elapsed_s,
                              case_hash}
       table.csv              one row per case: case_id, status, params..., results..., elapsed_s,
@@ -24,50 +24,45 @@ Output layout of ``run_batch(..., out_dir)``::
 All three are written atomically (:mod:`design.io`). Non-finite numbers are stored as JSON
 ``null`` and as empty CSV cells.
 
-Integrity (:mod:`design.io`): a non-empty ``out_dir`` without the bridgeflap marker is refused
+Integrity (:mod:`design.outputs`): a non-empty ``out_dir`` without the bridgeflap marker is refused
 (nothing written); the run holds the folder's lock (a second run into it is refused); a stored
 case is reused by ``resume`` only if its ``case_hash`` -- SHA-256 of the case parameters, the
 run's *fingerprint* (for a DOE: bridge file content, resolved options, analysis, package
 version) -- matches, otherwise it is recomputed and the count is said on stderr. Nothing is
-written before the Dask scheduler is reachable (:data:`CONNECT_TIMEOUT_S`).
+written before the Dask scheduler is reachable
+(:data:`design.cluster.CONNECT_TIMEOUT_S`; the Dask side of the runner is :mod:`design.cluster`).
 """
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import csv
 import hashlib
 import io
 import json
-import logging
 import os
 import signal
 import sys
 import threading
 import time
-import uuid
-from collections import deque
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from design.cluster import cluster_client, run_dask
 from design.designs import CASE_ID_KEY
-from design.io import (
-    atomic_write_json,
-    atomic_write_text,
+from design.io import atomic_write_json, atomic_write_text, ensure_writable_dir, to_jsonable
+from design.outputs import (
     check_replaceable,
     claim_output,
-    ensure_writable_dir,
     is_marked_output,
-    to_jsonable,
+    remove_stale_file_temporaries,
     write_marker,
 )
 from model.errors import BridgeflapInputError
 
 __all__ = [
-    "CONNECT_TIMEOUT_S",
     "BatchResult",
     "case_hash",
     "function_fingerprint",
@@ -78,11 +73,6 @@ STATUS_OK = "ok"
 STATUS_FAILED = "failed"
 STATUS_TIMEOUT = "timeout"
 _CASE_ID_CHARS = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-")
-_POLL_S = 0.1
-#: connect timeout to a remote Dask scheduler [s]: a dead address fails within this
-CONNECT_TIMEOUT_S = 5.0
-#: how long a reachable remote scheduler may take to show its first worker [s]
-WORKERS_TIMEOUT_S = 30.0
 
 
 # --------------------------------------------------------------------------------------------
@@ -379,7 +369,7 @@ def run_batch(
         # CONNECT_TIMEOUT_S with one line); a local cluster is started under the lock
         client = None
         if scheduler not in (None, "serial"):
-            client = stack.enter_context(_client(workers, scheduler))
+            client = stack.enter_context(cluster_client(workers, scheduler))
         out = stack.enter_context(claim_output(target, "out"))
         records: dict[str, dict] = {}
         pending: list[tuple[str, dict]] = []
@@ -396,15 +386,17 @@ def run_batch(
         reused = len(records)
         if stale:
             print(f"bridgeflap: resume: {len(stale)} stored case(s) in {out} are from a "
-                  f"different run (case hash differs) and are recomputed: "
+                  f"different run (case hash differs or missing) and are recomputed: "
                   f"{', '.join(stale[:5])}{', ...' if len(stale) > 5 else ''}",
                   file=sys.stderr, flush=True)
         if pending and client is None and scheduler is None:
-            client = stack.enter_context(_client(workers, None))
+            client = stack.enter_context(cluster_client(workers, None))
 
         ensure_writable_dir(out)
         if not is_marked_output(out):
             write_marker(out, kind)
+        for folder in (out, out / "cases"):  # half-written files of a killed run
+            remove_stale_file_temporaries(folder)
         for name, content in (files or {}).items():
             atomic_write_json(out / name, content)
         case_dir = ensure_writable_dir(out / "cases")
@@ -434,8 +426,8 @@ def run_batch(
                 if scheduler == "serial":
                     _run_serial(fn, pending, timeout_s, finish)
                 else:
-                    _run_dask(client, fn, pending, workers, scheduler, timeout_s, retries,
-                              finish)
+                    run_dask(client, fn, pending, workers, scheduler, timeout_s, retries,
+                             finish)
         finally:
             bar.close()
 
@@ -506,159 +498,3 @@ def _run_serial(fn, pending, timeout_s, finish) -> None:
         if record is None or (timeout_s is not None and elapsed > timeout_s):
             record = _timeout_record(case_id, params, timeout_s, elapsed)
         finish(record)
-
-
-@contextlib.contextmanager
-def _client(workers: int, scheduler: str | None):
-    """A dask client on a local cluster (``scheduler=None``) or on ``scheduler``; closed after.
-
-    The local cluster listens on random ports only (scheduler port 0, no dashboard, its HTTP
-    server on port 0), so a batch never depends on a free well-known port such as 8787 (a
-    busy 8787 used to make distributed fall back with a warning and a leaked socket). A
-    remote address must answer within :data:`CONNECT_TIMEOUT_S` and show a worker within
-    :data:`WORKERS_TIMEOUT_S`, else one-line :class:`BridgeflapInputError` naming
-    ``scheduler``; distributed's own connection log lines are silenced meanwhile.
-    """
-    import dask
-    from dask.distributed import Client, LocalCluster
-
-    cluster = None
-    if scheduler is None:
-        # allowed-failures 0: a worker death surfaces at once as KilledWorker, and retries
-        # are ours (counted per case); saturation 1.0 keeps at most one task per worker thread,
-        # so a dying worker takes no innocent queued case with it.
-        settings = {
-            "distributed.scheduler.allowed-failures": 0,
-            "distributed.scheduler.worker-saturation": 1.0,
-        }
-        with dask.config.set(settings):
-            cluster = LocalCluster(
-                n_workers=workers,
-                threads_per_worker=1,
-                processes=True,
-                scheduler_port=0,
-                # no dashboard; the scheduler's HTTP server (health/metrics routes) starts even
-                # without one, on the default port 8787 unless told otherwise: port 0 (random)
-                dashboard_address=None,
-                scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
-                worker_dashboard_address=None,
-                silence_logs=logging.CRITICAL,
-            )
-            try:
-                client = Client(cluster)
-            except BaseException:
-                cluster.close()
-                raise
-    else:
-        loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
-        levels = [lg.level for lg in loggers]
-        for lg in loggers:
-            lg.setLevel(logging.CRITICAL)
-        try:
-            client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S:g}s")
-        except (OSError, ValueError, TypeError, TimeoutError, asyncio.TimeoutError) as exc:
-            reason = " ".join(str(exc).split())[:200] or type(exc).__name__
-            raise BridgeflapInputError(
-                "scheduler", f"cannot connect to {scheduler} within {CONNECT_TIMEOUT_S:g} s "
-                             f"({reason})") from None
-        finally:
-            for lg, level in zip(loggers, levels, strict=True):
-                lg.setLevel(level)
-        try:
-            client.wait_for_workers(1, timeout=WORKERS_TIMEOUT_S)
-        except (OSError, TimeoutError, asyncio.TimeoutError):
-            client.close()
-            raise BridgeflapInputError(
-                "scheduler", f"{scheduler} has no worker after {WORKERS_TIMEOUT_S:g} s") from None
-    try:
-        yield client
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-
-
-def _run_dask(client, fn, pending, workers, scheduler, timeout_s, retries, finish) -> None:
-    """Run the cases on a Dask cluster with at most one case in flight per worker thread."""
-    from dask.distributed import wait
-
-    token = uuid.uuid4().hex[:8]
-    queue = deque((case_id, params, 0) for case_id, params in pending)
-    in_flight: dict = {}  # future -> (case_id, params, attempt, submitted_at)
-    try:
-        capacity = max(1, sum(client.nthreads().values())) if scheduler else workers
-
-        def submit(case_id, params, attempt):
-            future = client.submit(
-                _execute_case,
-                fn,
-                case_id,
-                params,
-                key=f"bridgeflap-{token}-{case_id}-{attempt}",
-                pure=False,
-                retries=0,
-            )
-            in_flight[future] = (case_id, params, attempt, time.monotonic())
-
-        while queue or in_flight:
-            while queue and len(in_flight) < capacity:
-                submit(*queue.popleft())
-            try:
-                done, _ = wait(list(in_flight), timeout=_POLL_S, return_when="FIRST_COMPLETED")
-            except (TimeoutError, asyncio.TimeoutError):
-                done = set()
-            for future in done:
-                case_id, params, attempt, submitted = in_flight.pop(future)
-                elapsed = time.monotonic() - submitted
-                if future.status == "finished":
-                    finish(future.result())
-                    continue
-                reason = _future_error(future)
-                if attempt < retries:
-                    queue.appendleft((case_id, params, attempt + 1))
-                    continue
-                finish(_record(case_id, params, STATUS_FAILED, reason, None, elapsed))
-            if timeout_s is None:
-                continue
-            now = time.monotonic()
-            late = [f for f, (*_, submitted) in in_flight.items() if now - submitted > timeout_s]
-            for future in late:
-                case_id, params, _, submitted = in_flight.pop(future)
-                elapsed = time.monotonic() - submitted
-                _abandon(client, future)
-                finish(_timeout_record(case_id, params, timeout_s, elapsed))
-    finally:
-        for future in in_flight:
-            future.cancel()
-
-
-def _future_error(future) -> str:
-    """One-line reason why a future did not finish (worker died, cancelled, ...)."""
-    if future.status == "cancelled":
-        return "worker task cancelled (scheduler or worker lost)"
-    try:
-        exc = future.exception(timeout=5)
-    except Exception as err:  # noqa: BLE001 - any failure to fetch the reason is itself a reason
-        return _error_text(err)
-    if exc is None:
-        return f"worker task ended with status {future.status}"
-    name = type(exc).__name__
-    if name == "KilledWorker":
-        return "worker process died while running the case (KilledWorker)"
-    return _error_text(exc)
-
-
-def _abandon(client, future) -> None:
-    """Stop a case that ran past its time limit: cancel it and restart its worker process."""
-    key = future.key
-    try:
-        processing = client.processing()
-    except Exception:  # noqa: BLE001 - best effort; the case is recorded as timeout anyway
-        processing = {}
-    addresses = [addr for addr, keys in processing.items() if key in keys]
-    future.cancel()
-    if addresses:
-        try:
-            client.restart_workers(addresses, timeout=60, raise_for_error=False)
-        except Exception:  # noqa: BLE001 - e.g. a remote worker without a nanny
-            pass

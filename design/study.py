@@ -20,15 +20,15 @@ into place only when complete (an earlier result folder is kept until then), so 
 or failed run never leaves half-written results. Each analysis failure is recorded with its
 status; bad input raises :class:`~model.errors.BridgeflapInputError` before anything is written:
 the whole configuration (every analysis's options, the bridge) is validated first, then the
-output folder is checked (:func:`design.io.check_replaceable`: a non-empty folder that no
+output folder is checked (:func:`design.outputs.check_replaceable`: a non-empty folder that no
 bridgeflap run marked as its own is refused), then the run takes the folder's lock
-(:func:`design.io.claim_output`: a second concurrent run is refused; what a crashed run left is
+(:func:`design.outputs.claim_output`: a second concurrent run is refused; what a crashed run left is
 recovered or cleaned) and only then creates anything. The replace itself is crash-safe
-(:func:`design.io.swap_into_place`).
+(:func:`design.outputs.swap_into_place`).
 
 Output folder::
 
-    .bridgeflap-output  marker: this folder is a bridgeflap output (design.io.OUTPUT_MARKER)
+    .bridgeflap-output  marker: this folder is a bridgeflap output (design.outputs.OUTPUT_MARKER)
     config.json      resolved configuration (quick overrides applied)
     manifest.json    time, host, versions, git commit (design.manifest.build_manifest)
     statuses.json    analysis -> status (and every solver status inside it)
@@ -59,15 +59,12 @@ from design.io import (
     atomic_savez,
     atomic_write_json,
     atomic_write_text,
-    check_replaceable,
-    claim_output,
     new_sibling,
     output_folder,
     stdout_to_stderr,
-    swap_into_place,
-    write_marker,
 )
 from design.options import check_keys, plain_name, read_definition, resolve_bridge, table
+from design.outputs import check_replaceable, claim_output, swap_into_place, write_marker
 from design.report import PAPER, study_report
 from model.errors import BridgeflapError, BridgeflapInputError
 

@@ -4,7 +4,7 @@ stale resumes, busy ports, unreachable schedulers, oversized designs.
 The commands run as subprocesses where a process must die or two must overlap; the studies are
 tiny (one ``modes`` analysis on a 50 m mesh, about a second) and the DOEs use the ``modes``
 analysis with the serial scheduler unless a Dask cluster is the point of the test. Fault
-injection uses the test hook :data:`design.io.FAULT_ENV` (unset in normal use).
+injection uses the test hook :data:`design.outputs.FAULT_ENV` (unset in normal use).
 """
 
 import json
@@ -20,7 +20,7 @@ import pytest
 from design.cli import main
 from design.doe import case_hash, run_batch
 from design.experiments import MAX_DOE_CASES, doe_from_dict
-from design.io import FAULT_ENV, OUTPUT_MARKER, claim_output, lock_path, write_marker
+from design.outputs import FAULT_ENV, OUTPUT_MARKER, claim_output, lock_path, write_marker
 from design.study import run_study
 from model.errors import BridgeflapInputError
 
@@ -217,7 +217,7 @@ def test_lock_is_reentrant_in_one_process_and_exclusive_across_processes(tmp_pat
     out = tmp_path / "out"
     with claim_output(out) as folder, claim_output(out):
         assert lock_path(folder) == tmp_path / ".out.lock" and lock_path(folder).exists()
-        code = ("import sys; from design.io import claim_output\n"
+        code = ("import sys; from design.outputs import claim_output\n"
                 "from model.errors import BridgeflapInputError\n"
                 "try:\n    claim_output(sys.argv[1]).__enter__()\n"
                 "except BridgeflapInputError as e:\n    print(e); sys.exit(2)\n")
@@ -273,8 +273,11 @@ def test_batch_resume_keys_on_the_fingerprint(tmp_path):
     first = run_batch(_square, cases, out, scheduler="serial", progress=False, fingerprint="A")
     stored = json.loads((out / "cases" / "a.json").read_text())
     assert stored["case_hash"] == case_hash({"x": 2.0}, "A")
+    half = out / "cases" / ".a.json.0123456789ab.tmp"  # what a kill mid-write leaves
+    half.write_text('{"case_id": "a", "par')
     assert run_batch(_square, cases, out, scheduler="serial", progress=False, resume=True,
                      fingerprint="A").reused == 1
+    assert not half.exists()
     second = run_batch(_square, cases, out, scheduler="serial", progress=False, resume=True,
                        fingerprint="B")
     assert (second.reused, second.stale) == (0, 1)

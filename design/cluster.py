@@ -1,0 +1,195 @@
+"""The Dask side of the batch runner :func:`design.doe.run_batch` (no physics, no files).
+
+:func:`cluster_client` gives a client on a local cluster or on a remote scheduler (reached
+within :data:`CONNECT_TIMEOUT_S`, else one line naming ``scheduler``); :func:`run_dask` runs the
+cases with at most one in flight per worker thread, retries cases whose worker died, and
+abandons (and restarts the worker of) a case past its time limit. Local clusters listen on
+random ports only: a batch never depends on a free well-known port (8787).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+import uuid
+from collections import deque
+
+from model.errors import BridgeflapInputError
+
+__all__ = ["CONNECT_TIMEOUT_S", "WORKERS_TIMEOUT_S", "cluster_client", "run_dask"]
+
+_POLL_S = 0.1
+#: connect timeout to a remote Dask scheduler [s]: a dead address fails within this
+CONNECT_TIMEOUT_S = 5.0
+#: how long a reachable remote scheduler may take to show its first worker [s]
+WORKERS_TIMEOUT_S = 30.0
+
+
+@contextlib.contextmanager
+def cluster_client(workers: int, scheduler: str | None):
+    """A dask client on a local cluster (``scheduler=None``) or on ``scheduler``; closed after.
+
+    The local cluster listens on random ports only (scheduler port 0, no dashboard, its HTTP
+    server on port 0), so a batch never depends on a free well-known port such as 8787 (a
+    busy 8787 used to make distributed fall back with a warning and a leaked socket). A
+    remote address must answer within :data:`CONNECT_TIMEOUT_S` and show a worker within
+    :data:`WORKERS_TIMEOUT_S`, else one-line :class:`BridgeflapInputError` naming
+    ``scheduler``; distributed's own connection log lines are silenced meanwhile.
+    """
+    import dask
+    from dask.distributed import Client, LocalCluster
+
+    cluster = None
+    if scheduler is None:
+        # allowed-failures 0: a worker death surfaces at once as KilledWorker, and retries
+        # are ours (counted per case); saturation 1.0 keeps at most one task per worker thread,
+        # so a dying worker takes no innocent queued case with it.
+        settings = {
+            "distributed.scheduler.allowed-failures": 0,
+            "distributed.scheduler.worker-saturation": 1.0,
+        }
+        with dask.config.set(settings):
+            cluster = LocalCluster(
+                n_workers=workers,
+                threads_per_worker=1,
+                processes=True,
+                scheduler_port=0,
+                # no dashboard; the scheduler's HTTP server (health/metrics routes) starts even
+                # without one, on the default port 8787 unless told otherwise: port 0 (random)
+                dashboard_address=None,
+                scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
+                worker_dashboard_address=None,
+                silence_logs=logging.CRITICAL,
+            )
+            try:
+                client = Client(cluster)
+            except BaseException:
+                cluster.close()
+                raise
+    else:
+        loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+        levels = [lg.level for lg in loggers]
+        for lg in loggers:
+            lg.setLevel(logging.CRITICAL)
+        try:
+            client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S:g}s")
+        except (OSError, ValueError, TypeError, TimeoutError, asyncio.TimeoutError) as exc:
+            reason = " ".join(str(exc).split())[:200] or type(exc).__name__
+            raise BridgeflapInputError(
+                "scheduler", f"cannot connect to {scheduler} within {CONNECT_TIMEOUT_S:g} s "
+                             f"({reason})") from None
+        finally:
+            for lg, level in zip(loggers, levels, strict=True):
+                lg.setLevel(level)
+        try:
+            client.wait_for_workers(1, timeout=WORKERS_TIMEOUT_S)
+        except (OSError, TimeoutError, asyncio.TimeoutError):
+            client.close()
+            raise BridgeflapInputError(
+                "scheduler", f"{scheduler} has no worker after {WORKERS_TIMEOUT_S:g} s") from None
+    try:
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def run_dask(client, fn, pending, workers, scheduler, timeout_s, retries, finish) -> None:
+    """Run the cases on a Dask cluster with at most one case in flight per worker thread;
+    ``finish(record)`` is called as each case ends (:func:`design.doe.run_batch`)."""
+    from dask.distributed import wait
+
+    from design.doe import (
+        STATUS_FAILED,
+        _execute_case,
+        _record,
+        _timeout_record,
+    )
+
+    token = uuid.uuid4().hex[:8]
+    queue = deque((case_id, params, 0) for case_id, params in pending)
+    in_flight: dict = {}  # future -> (case_id, params, attempt, submitted_at)
+    try:
+        capacity = max(1, sum(client.nthreads().values())) if scheduler else workers
+
+        def submit(case_id, params, attempt):
+            future = client.submit(
+                _execute_case,
+                fn,
+                case_id,
+                params,
+                key=f"bridgeflap-{token}-{case_id}-{attempt}",
+                pure=False,
+                retries=0,
+            )
+            in_flight[future] = (case_id, params, attempt, time.monotonic())
+
+        while queue or in_flight:
+            while queue and len(in_flight) < capacity:
+                submit(*queue.popleft())
+            try:
+                done, _ = wait(list(in_flight), timeout=_POLL_S, return_when="FIRST_COMPLETED")
+            except (TimeoutError, asyncio.TimeoutError):
+                done = set()
+            for future in done:
+                case_id, params, attempt, submitted = in_flight.pop(future)
+                elapsed = time.monotonic() - submitted
+                if future.status == "finished":
+                    finish(future.result())
+                    continue
+                reason = _future_error(future)
+                if attempt < retries:
+                    queue.appendleft((case_id, params, attempt + 1))
+                    continue
+                finish(_record(case_id, params, STATUS_FAILED, reason, None, elapsed))
+            if timeout_s is None:
+                continue
+            now = time.monotonic()
+            late = [f for f, (*_, submitted) in in_flight.items() if now - submitted > timeout_s]
+            for future in late:
+                case_id, params, _, submitted = in_flight.pop(future)
+                elapsed = time.monotonic() - submitted
+                _abandon(client, future)
+                finish(_timeout_record(case_id, params, timeout_s, elapsed))
+    finally:
+        for future in in_flight:
+            future.cancel()
+
+
+def _future_error(future) -> str:
+    """One-line reason why a future did not finish (worker died, cancelled, ...)."""
+    if future.status == "cancelled":
+        return "worker task cancelled (scheduler or worker lost)"
+    try:
+        exc = future.exception(timeout=5)
+    except Exception as err:  # noqa: BLE001 - any failure to fetch the reason is itself a reason
+        from design.doe import _error_text
+
+        return _error_text(err)
+    if exc is None:
+        return f"worker task ended with status {future.status}"
+    name = type(exc).__name__
+    if name == "KilledWorker":
+        return "worker process died while running the case (KilledWorker)"
+    from design.doe import _error_text
+
+    return _error_text(exc)
+
+
+def _abandon(client, future) -> None:
+    """Stop a case that ran past its time limit: cancel it and restart its worker process."""
+    key = future.key
+    try:
+        processing = client.processing()
+    except Exception:  # noqa: BLE001 - best effort; the case is recorded as timeout anyway
+        processing = {}
+    addresses = [addr for addr, keys in processing.items() if key in keys]
+    future.cancel()
+    if addresses:
+        try:
+            client.restart_workers(addresses, timeout=60, raise_for_error=False)
+        except Exception:  # noqa: BLE001 - e.g. a remote worker without a nanny
+            pass
