@@ -40,6 +40,7 @@ import shutil
 import signal
 import socket
 import sys
+import threading
 import uuid
 from collections.abc import Callable
 from pathlib import Path
@@ -69,7 +70,7 @@ OUTPUT_MARKER = ".bridgeflap-output"
 #: ``pause-before-swap`` waits there (see :func:`_fault`)
 FAULT_ENV = "BRIDGEFLAP_TEST_FAULT"
 _TOOL = "bridgeflap"
-_HELD: dict[str, list] = {}  # lock path -> [FileLock, depth]: claims are re-entrant per process
+_HELD: dict[tuple, list] = {}  # (lock path, thread) -> [FileLock, depth]: re-entrant claims
 
 
 def _version() -> str:
@@ -259,7 +260,8 @@ def claim_output(target: str | os.PathLike, field: str = "out",
     In order: :func:`check_replaceable` (nothing written on refusal), create the parent
     folder, take the lock ``.<name>.lock`` next to ``target`` without waiting (a second run is
     refused with one line), :func:`recover_output`, and check ``target`` again under the lock.
-    Re-entrant within one process (a DOE claims its folder, then its batch does).
+    Re-entrant within one thread (a DOE claims its folder, then its batch does); another
+    thread or process is refused.
 
     Yields
     ------
@@ -275,7 +277,7 @@ def claim_output(target: str | os.PathLike, field: str = "out",
 
     folder = check_replaceable(target, field)
     lock_file = lock_path(folder)
-    key = str(lock_file)
+    key = (str(lock_file), threading.get_ident())  # re-entrant per thread, not per process
     if key in _HELD:
         _HELD[key][1] += 1
         try:

@@ -317,7 +317,7 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
     validate_study(config)
     spec = config.spec()
     target = check_replaceable(output_folder(out, config.name), "out")
-    with claim_output(target, "out", say=say):
+    with claim_output(target, "out", say=progress):  # recovery notes: progress or stderr
         tmp = new_sibling(target, "tmp")
         start = time.perf_counter()
         try:
