@@ -22,6 +22,7 @@ import hashlib
 import json
 import math
 import os
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -301,7 +302,10 @@ def doe_fingerprint(config: DoeConfig) -> str:
 
     payload = {"bridge": config.bridge,
                "bridge_sha256": hashlib.sha256(content).hexdigest(),
-               "bridge_resolved": repr(load_bridge(config.bridge)),
+               # every resolved value (variants applied); no object addresses, which differ
+               # from one process to the next
+               "bridge_resolved": re.sub(r" at 0x[0-9a-fA-F]+", "",
+                                         repr(load_bridge(config.bridge))),
                "analysis": config.analysis,
                "options": ANALYSES[config.analysis].resolve(config.options, what="options"),
                "version": _package_version()}
