@@ -136,6 +136,16 @@ def test_optimise_refuses_a_user_folder_before_designing(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mine"]
 
 
+def test_doe_does_not_write_into_a_study_folder(tmp_path):
+    out = tmp_path / "out"
+    run_study(_study(tmp_path), out=out, quick=True)
+    before = _tree(out)
+    doe = tmp_path / "doe.toml"
+    doe.write_text(DOE.format(bridge="humber", count=4))
+    assert main(["doe", str(doe), "--scheduler", "serial", "--out", str(out)]) == 2
+    assert _tree(out) == before
+
+
 # --------------------------------------------------------------------------- C2 crash-safe swap
 def test_sigkill_during_the_swap_then_the_next_run_recovers_the_previous_output(tmp_path):
     study = _study(tmp_path)
