@@ -37,12 +37,11 @@ def cmd_optimise(args):
 def _design_and_write(args, settings, out):
     """Run the design and replace ``out`` by its complete folder (crash-safe swap)."""
     from design.driver import design
-    from design.io import new_sibling
-    from design.outputs import swap_into_place, write_marker
+    from design.outputs import swap_into_place, temporary_sibling, write_marker
     from model.control import save_controller
 
     result = design(settings, progress=log)
-    tmp = new_sibling(out, "tmp")
+    tmp = temporary_sibling(out)
     tmp.mkdir()
     write_marker(tmp, "optimise")
     try:

@@ -20,8 +20,10 @@ Output *folders* (``study``, ``doe``, batch folders) follow four rules, all here
   leaves a stale backup next to the new folder, deleted at the next run. (A symlink swap would
   make the replace atomic for readers but turns every output folder into a link, which users
   copy and archive badly; the rename pair plus recovery keeps plain folders.)
-* **Stale temporaries.** Temporary folders ``.<name>.tmp-<random>`` carry the marker with the
-  writer's pid; the next run deletes those whose process is gone (same host only). The
+* **Stale temporaries.** Temporary folders ``.<name>.tmp-<pid>-<random>``
+  (:func:`temporary_sibling`) carry the writer's pid in their name and the marker; the next
+  run deletes those whose process is gone (same host: the marker's host, or, for one killed
+  before its marker was written, the pid in its name). The
   half-written ``.<file>.<random>.tmp`` files of :func:`design.io.atomic_write` that a killed
   batch leaves in its folder are deleted by the next run under the lock
   (:func:`remove_stale_file_temporaries`).
@@ -60,6 +62,7 @@ __all__ = [
     "recover_output",
     "remove_stale_file_temporaries",
     "swap_into_place",
+    "temporary_sibling",
     "write_marker",
 ]
 
@@ -153,7 +156,8 @@ def _pid_alive(pid: Any) -> bool:
     """Whether process ``pid`` runs on this host (a zombie counts as gone)."""
     if isinstance(pid, bool) or not isinstance(pid, int) or pid <= 0:
         return False
-    if pid == os.getpid():
+    if pid == os.getpid() or os.name != "posix":
+        # (on Windows os.kill(pid, 0) would terminate the process: never probe, never clean)
         return True
     try:
         os.kill(pid, 0)
@@ -168,14 +172,31 @@ def _pid_alive(pid: Any) -> bool:
         return True
 
 
-def _dead_writer(folder: Path, name_pid: int | None = None) -> bool:
-    """A marked temporary whose writing process (on this host) is gone."""
+def _dead_writer(folder: Path, name_pid: int | None = None, marked: bool = True) -> bool:
+    """A temporary or backup whose writing process (on this host) is gone.
+
+    ``name_pid``: the pid in the folder's name (our naming scheme). With ``marked`` the folder
+    must also carry the marker (a backup always does); a temporary killed between its
+    ``mkdir`` and its marker is recognised by the pid in its name alone.
+    """
     tag = read_marker(folder)
     if tag is None:
-        return False
+        return not marked and name_pid is not None and not _pid_alive(name_pid)
     if name_pid is not None:
         return not _pid_alive(name_pid)
     return tag.get("host") == socket.gethostname() and not _pid_alive(tag.get("pid"))
+
+
+def temporary_sibling(target: Path) -> Path:
+    """A fresh temporary folder path next to ``target``: ``.<name>.tmp-<pid>-<random>``."""
+    return target.parent / f".{target.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+
+
+def _name_pid(path: Path, target: Path, tag: str) -> int | None:
+    """The pid in ``.<name>.<tag>-<pid>-<random>``, ``None`` for another spelling."""
+    rest = path.name[len(f".{target.name}.{tag}-"):]
+    head, sep, _ = rest.partition("-")
+    return int(head) if sep and head.isdigit() else None
 
 
 def _siblings(target: Path, tag: str) -> list[Path]:
@@ -185,12 +206,6 @@ def _siblings(target: Path, tag: str) -> list[Path]:
                       if p.name.startswith(prefix) and p.is_dir() and not p.is_symlink())
     except OSError:
         return []
-
-
-def _backup_pid(path: Path, target: Path) -> int | None:
-    rest = path.name[len(f".{target.name}.old-"):]
-    head = rest.split("-", 1)[0]
-    return int(head) if head.isdigit() else None
 
 
 def recover_output(target: str | os.PathLike, say: Callable[[str], None] | None = None) -> list:
@@ -206,7 +221,7 @@ def recover_output(target: str | os.PathLike, say: Callable[[str], None] | None 
     """
     target = Path(target).expanduser().absolute()
     actions = []
-    backups = [b for b in _siblings(target, "old") if _dead_writer(b, _backup_pid(b, target))]
+    backups = [b for b in _siblings(target, "old") if _dead_writer(b, _name_pid(b, target, "old"))]
     if backups and not target.exists():
         newest = max(backups, key=lambda b: b.stat().st_mtime)
         os.rename(newest, target)
@@ -218,7 +233,7 @@ def recover_output(target: str | os.PathLike, say: Callable[[str], None] | None 
         shutil.rmtree(stale, ignore_errors=True)
         actions.append(f"removed the stale backup {stale.name}")
     for stale in _siblings(target, "tmp"):
-        if _dead_writer(stale):
+        if _dead_writer(stale, _name_pid(stale, target, "tmp"), marked=False):
             shutil.rmtree(stale, ignore_errors=True)
             actions.append(f"removed the temporary folder {stale.name} of a run that died")
     for text in actions:

@@ -59,12 +59,17 @@ from design.io import (
     atomic_savez,
     atomic_write_json,
     atomic_write_text,
-    new_sibling,
     output_folder,
     stdout_to_stderr,
 )
 from design.options import check_keys, plain_name, read_definition, resolve_bridge, table
-from design.outputs import check_replaceable, claim_output, swap_into_place, write_marker
+from design.outputs import (
+    check_replaceable,
+    claim_output,
+    swap_into_place,
+    temporary_sibling,
+    write_marker,
+)
 from design.report import PAPER, study_report
 from model.errors import BridgeflapError, BridgeflapInputError
 
@@ -318,7 +323,7 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
     spec = config.spec()
     target = check_replaceable(output_folder(out, config.name), "out")
     with claim_output(target, "out", say=progress):  # recovery notes: progress or stderr
-        tmp = new_sibling(target, "tmp")
+        tmp = temporary_sibling(target)
         start = time.perf_counter()
         try:
             tmp.mkdir()

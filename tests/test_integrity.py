@@ -177,17 +177,20 @@ def test_sigkill_during_the_swap_then_the_next_run_recovers_the_previous_output(
 def test_stale_temporaries_of_dead_runs_are_cleaned_and_nothing_else(tmp_path):
     study = _study(tmp_path)
     out = tmp_path / "out"
-    dead, alive, foreign = (tmp_path / f".out.tmp-{tag}" for tag in ("dead", "alive", "foreign"))
-    for folder in (dead, alive, foreign):
+    gone = _dead_pid()
+    dead, unmarked_dead, alive, foreign = (
+        tmp_path / f".out.tmp-{tag}" for tag in ("dead", f"{gone}-ab12", "alive", "foreign"))
+    for folder in (dead, unmarked_dead, alive, foreign):
         folder.mkdir()
         (folder / "half.json").write_text("{")
     write_marker(dead, "study")
     write_marker(alive, "study")
-    for folder, pid in ((dead, _dead_pid()), (alive, os.getpid())):
+    for folder, pid in ((dead, gone), (alive, os.getpid())):
         tag = json.loads((folder / OUTPUT_MARKER).read_text())
         (folder / OUTPUT_MARKER).write_text(json.dumps({**tag, "pid": pid}))
     run_study(study, out=out, quick=True)
     assert not dead.exists()  # marked, its process is gone
+    assert not unmarked_dead.exists()  # killed before its marker: the pid in its name
     assert alive.is_dir() and foreign.is_dir()  # a live writer's, and one that is not ours
 
 

@@ -125,6 +125,9 @@ def test_killed_study_never_leaves_half_written_results(small, tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     assert _tree(out) == before  # the target is the earlier complete folder, untouched
+    # the killed run's temporary folder is deleted by the next run into the same folder
+    run_study(small, out=out, quick=True)
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.tmp")]
 
 
 def test_bad_study_input_exits_2_and_writes_nothing(tmp_path, capsys):
