@@ -13,8 +13,9 @@ against the reference is ``|U(n_i) - U(n_max)| / U(n_max)`` [%], ``n_max`` the l
 count is **converged** when, for the flutter and the divergence speed alike, its step change and
 its error against the reference, *and those of every larger count on the ladder*, are below the
 tolerance (:data:`TOLERANCE_PCT`, 0.05 %). (Small steps can add up: one corner of the input
-ranges moves 0.044 %, 0.010 % and 0.0002 % in its last three steps, 0.055 % in all.) Stopping at the first small step is not enough: on the built-in Humber the 8 -> 12 step
-moves the flutter speed by 2e-4 % and the 12 -> 16 step by 3.3 %, because the second symmetric
+ranges moves 0.044 %, 0.010 % and 0.0002 % in its last three steps, 0.055 % in all.) Stopping
+at the first small step is not enough: on the built-in Humber the 8 -> 12 step moves the
+flutter speed by 2e-4 % and the 12 -> 16 step by 3.3 %, because the second symmetric
 torsional mode TS2 is the 14th vertical/torsional mode. Both numbers are reported
 (``converged_modes`` and ``first_small_step_modes``) so that the trap stays visible. The largest
 count of the ladder has no step change of its own and is never called converged.

@@ -288,15 +288,14 @@ def flutter_mode_shape(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
 class RatioModes:
     """The modes :func:`model.analysis.first_symmetric_deck_mode` picks, per erected fraction.
 
-    ``stages`` holds one dict per fraction: ``erected_fraction``, ``stage``, and per family
-    (``vertical``, ``torsional``) the ``Mode`` picked (or None), its normalised node field and
-    the uniform-motion deck share it is measured against.
+    ``stages`` holds one dict per fraction: ``erected_fraction``, ``stage``, the stage's mesh
+    nodes (``x_m`` from the north anchorage [m], ``node_span``), and per family (``vertical``,
+    ``torsional``) the ``Mode`` picked (or None), its normalised node field and the
+    uniform-motion deck share it is measured against.
     """
 
     bridge: str
     side_spans: str
-    x_m: np.ndarray
-    node_span: np.ndarray
     stages: tuple
     tower_x_m: tuple
     spans: tuple = ()
@@ -320,14 +319,15 @@ def ratio_modes(spec: BridgeSpec, fractions=(0.2, 0.5, 0.8, 1.0), side_spans: st
                 erection_gj_factor: float = 0.5) -> RatioModes:
     """The first symmetric deck modes (frequency-ratio rule) at each erected fraction [-]."""
     stages = []
-    st = None
     for f in fractions:
         s = spec.erected(float(f), side_spans=side_spans)
         modal = modal_model(s, erection_gj_factor=erection_gj_factor)
         st = modal.structure
         row = {"erected_fraction": float(f),
                "stage": "closed deck, temporary joints" if f >= 1.0 else "erecting",
-               "deck_extent_m": _deck_extent(s)}
+               "deck_extent_m": _deck_extent(s),
+               # the mesh follows the erected deck's ends: nodes differ between stages
+               "x_m": st.global_x(st.node_span, st.node_x), "node_span": np.asarray(st.node_span)}
         for fam in ("vertical", "torsional"):
             m = first_symmetric_deck_mode(modal, fam)
             row[fam] = m
@@ -339,8 +339,7 @@ def ratio_modes(spec: BridgeSpec, fractions=(0.2, 0.5, 0.8, 1.0), side_spans: st
             row[f"{fam}_field"] = y
         stages.append(row)
     side = spec.erected(1.0, side_spans=side_spans).side_span_decks
-    return RatioModes(spec.name, side, st.global_x(st.node_span, st.node_x),
-                      np.asarray(st.node_span), tuple(stages), tower_positions_m(spec),
+    return RatioModes(spec.name, side, tuple(stages), tower_positions_m(spec),
                       span_extents_m(spec))
 
 
@@ -368,7 +367,6 @@ def plot_ratio_modes(res: RatioModes, axes=None):
 
     if axes is None:
         _, axes = plt.subplots(2, 1, figsize=(9, 7), sharex=True, layout="constrained")
-    x = res.x_m / 1000.0
     styles = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)))
     for ax, fam in zip(axes, ("vertical", "torsional"), strict=True):
         top, low = 1.0, -1.0
@@ -382,10 +380,11 @@ def plot_ratio_modes(res: RatioModes, axes=None):
             share = m.deck_share / s[f"{fam}_uniform_deck_share"]
             lab = (f"{100 * s['erected_fraction']:.0f} %: {m.label} {m.frequency_hz:.3f} Hz, "
                    f"deck share {share:.2f} x uniform")
-            for sp in np.unique(res.node_span):
-                sel = res.node_span == sp
+            x, spans = s["x_m"] / 1000.0, s["node_span"]
+            for sp in np.unique(spans):
+                sel = spans == sp
                 ax.plot(x[sel], y[sel], color=col, lw=1.6, ls=styles[k % len(styles)],
-                        label=lab if sp == res.node_span[0] else None)
+                        label=lab if sp == spans[0] else None)
             bars.append((s["deck_extent_m"], col))
         for k, ((a, b), col) in enumerate(bars):
             ax.plot([a / 1000, b / 1000], [low - 0.12 - 0.08 * k] * 2, color=col, lw=4,
