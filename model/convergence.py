@@ -33,8 +33,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.analysis import bridge_system, modal_model
+from model import statespace
 from model.errors import BridgeflapInputError
+from model.fe import assemble
+from model.modes import ModalModel, solve
 from model.spec import BridgeSpec
 from model.stability import CONVERGED, check_speeds, sweep
 
@@ -68,9 +70,15 @@ def _available(modal) -> int:
     return sum(m.family in ("vertical", "torsional") for m in modal.modes)
 
 
+def _modal(spec: BridgeSpec) -> ModalModel:
+    """Statics, assembly and all modes of ``spec`` (as :func:`model.analysis.modal_model`; this
+    module sits below the facade and does not import it)."""
+    return solve(assemble(spec))
+
+
 def _solve(spec, modal, n, u, order, rfa) -> dict:
     """One stability sweep with ``n`` modes: the numbers the ladder needs."""
-    _, system = bridge_system(spec, n, order, rfa, modal=modal)
+    system = statespace.spec_system(spec, modal.structural_basis(int(n)), order, rfa)
     sw = sweep(system, u)
     s = sw.summary()
     return {"n_modes": int(n), "states": int(system.n_states),
@@ -198,13 +206,13 @@ def mode_convergence(spec: BridgeSpec, speeds, counts=DEFAULT_MODE_COUNTS,
     tolerance_pct : float
         Convergence tolerance [%] (module docstring).
     order, rfa : str
-        As :func:`model.analysis.bridge_system`.
+        As :func:`model.analysis.bridge_system` (``"modal"``/``"full"``; ``"rfa4"``/``"jones"``).
     """
     u = check_speeds(speeds)
     counts = _counts(counts)
     if not (np.isfinite(tolerance_pct) and tolerance_pct > 0):
         raise BridgeflapInputError("tolerance_pct", f"must be positive, got {tolerance_pct}")
-    modal = modal_model(spec)
+    modal = _modal(spec)
     counts = _counts([n for n in counts if n <= _available(modal)])
     rows = [_solve(spec, modal, n, u, order, rfa) for n in counts]
     prev: tuple = ()
@@ -271,7 +279,7 @@ def truncation_error(spec: BridgeSpec, n_modes: int, speeds, reference_modes: in
     if n < 1:
         raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")
     u = check_speeds(speeds)
-    modal = modal_model(spec) if modal is None else modal
+    modal = _modal(spec) if modal is None else modal
     avail = _available(modal)
     if n > avail:
         raise BridgeflapInputError("modes", f"{n} modes asked, the model holds {avail}")

@@ -16,8 +16,10 @@ heave is then in metres per that pitch. Modal participation is the kinetic-energ
 retained mode, ``|q_j|^2`` for mass-normalised modes, as
 :attr:`model.stability.StabilitySweep.critical_participation` (taken from there).
 
-:func:`ratio_modes` collects :func:`model.analysis.first_symmetric_deck_mode` at several erected
-fractions for :func:`plot_ratio_modes`. Conventions: see :mod:`model`.
+:func:`ratio_modes` collects the modes a selection rule picks at several erected fractions for
+:func:`plot_ratio_modes`; the rule is passed in (the frequency-ratio study's is
+:func:`model.analysis.first_symmetric_deck_mode`), because this module sits below the facade
+:mod:`model.analysis` and does not import it. Conventions: see :mod:`model`.
 """
 
 from __future__ import annotations
@@ -27,9 +29,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
-from model.analysis import DEFAULT_MODES, bridge_system, first_symmetric_deck_mode, modal_model
+from model import statespace
 from model.errors import BridgeflapError
-from model.modes import ModalModel
+from model.fe import assemble
+from model.modes import ModalModel, solve
 from model.spec import BridgeSpec
 from model.stability import CONVERGED, check_speeds, oscillation_tolerance, sweep
 
@@ -234,7 +237,7 @@ class FlutterModeShape:
         return axes
 
 
-def flutter_mode_shape(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
+def flutter_mode_shape(spec: BridgeSpec, speeds, n_modes: int,
                        order: str = "modal", rfa: str = "rfa4",
                        peak_pitch_rad: float = PEAK_PITCH_RAD) -> FlutterModeShape:
     """The flutter mode of ``spec`` along the span (module docstring).
@@ -244,7 +247,10 @@ def flutter_mode_shape(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
     spec : BridgeSpec
     speeds : array_like
         Wind-speed grid [m/s] of the sweep that finds the flutter speed.
-    n_modes, order, rfa
+    n_modes : int
+        Retained vertical + torsional modes (the analyses' default is
+        :data:`model.analysis.DEFAULT_MODES`).
+    order, rfa : str
         As :func:`model.analysis.bridge_system`.
     peak_pitch_rad : float
         Normalisation [rad]: the largest pitch amplitude of the returned shape.
@@ -255,8 +261,8 @@ def flutter_mode_shape(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
         When the sweep finds no converged flutter speed (its status is in the message).
     """
     u = check_speeds(speeds)
-    modal = modal_model(spec)
-    _, system = bridge_system(spec, n_modes, order, rfa, modal=modal)
+    modal = solve(assemble(spec))
+    system = statespace.spec_system(spec, modal.structural_basis(int(n_modes)), order, rfa)
     sw = sweep(system, u)
     if sw.flutter.status != CONVERGED:
         raise BridgeflapError(f"no flutter mode: flutter status {sw.flutter.status}")
@@ -286,7 +292,7 @@ def flutter_mode_shape(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
 
 @dataclass(frozen=True)
 class RatioModes:
-    """The modes :func:`model.analysis.first_symmetric_deck_mode` picks, per erected fraction.
+    """The modes a selection rule (:func:`ratio_modes`) picks, per erected fraction.
 
     ``stages`` holds one dict per fraction: ``erected_fraction``, ``stage``, the stage's mesh
     nodes (``x_m`` from the north anchorage [m], ``node_span``), and per family (``vertical``,
@@ -315,13 +321,18 @@ class RatioModes:
         return rows
 
 
-def ratio_modes(spec: BridgeSpec, fractions=(0.2, 0.5, 0.8, 1.0), side_spans: str | None = None,
-                erection_gj_factor: float = 0.5) -> RatioModes:
-    """The first symmetric deck modes (frequency-ratio rule) at each erected fraction [-]."""
+def ratio_modes(spec: BridgeSpec, select, fractions=(0.2, 0.5, 0.8, 1.0),
+                side_spans: str | None = None, erection_gj_factor: float = 0.5) -> RatioModes:
+    """The modes ``select(modal, family)`` picks at each erected fraction [-].
+
+    ``select`` is the frequency-ratio rule, :func:`model.analysis.first_symmetric_deck_mode`,
+    or any function of a :class:`~model.modes.ModalModel` and a family name returning a
+    :class:`~model.modes.Mode` or None.
+    """
     stages = []
     for f in fractions:
         s = spec.erected(float(f), side_spans=side_spans)
-        modal = modal_model(s, erection_gj_factor=erection_gj_factor)
+        modal = solve(assemble(s, erection_gj_factor=erection_gj_factor))
         st = modal.structure
         row = {"erected_fraction": float(f),
                "stage": "closed deck, temporary joints" if f >= 1.0 else "erecting",
@@ -329,7 +340,7 @@ def ratio_modes(spec: BridgeSpec, fractions=(0.2, 0.5, 0.8, 1.0), side_spans: st
                # the mesh follows the erected deck's ends: nodes differ between stages
                "x_m": st.global_x(st.node_span, st.node_x), "node_span": np.asarray(st.node_span)}
         for fam in ("vertical", "torsional"):
-            m = first_symmetric_deck_mode(modal, fam)
+            m = select(modal, fam)
             row[fam] = m
             row[f"{fam}_uniform_deck_share"] = st.families[fam].uniform_deck_share
             y = None

@@ -91,7 +91,7 @@ def test_bad_reference_count_names_the_field(coarse_humber):
 def shape_case(coarse_humber):
     """Coarse Humber, 16 modes: the mode shape and the full-order system on the same modes."""
     spec = coarse_humber
-    shape = flutter_mode_shape(spec, SPEEDS)
+    shape = flutter_mode_shape(spec, SPEEDS, 16)
     modal, full = analysis.bridge_system(spec, 16, order="full")
     return {"spec": spec, "shape": shape, "modal": modal, "full": full}
 
@@ -165,7 +165,8 @@ def test_ratio_modes_carry_the_deck(coarse_humber, side_spans):
     """At the figure's stages the picked modes carry at least DECK_SHARE_FACTOR of the main
     span's uniform-motion deck share, and they are the modes the frequency-ratio study uses."""
     fr = (0.2, 0.5, 0.8, 1.0)
-    picked = ratio_modes(coarse_humber, fr, side_spans=side_spans)
+    picked = ratio_modes(coarse_humber, analysis.first_symmetric_deck_mode, fr,
+                         side_spans=side_spans)
     rows = analysis.frequency_ratio(coarse_humber, fr, side_spans=side_spans).stages
     for st, row in zip(picked.summary(), rows, strict=True):
         for fam, key in (("vertical", "vertical_mode"), ("torsional", "torsional_mode")):

@@ -22,7 +22,7 @@ from pathlib import Path
 
 from design.io import atomic_write_json, ensure_writable_dir, to_jsonable
 from design.options import parse_range
-from model.analysis import DEFAULT_MODES
+from model.analysis import DEFAULT_MODES, first_symmetric_deck_mode
 from model.modeshape import flutter_mode_shape, plot_ratio_modes, ratio_modes
 from model.spec import load_bridge
 
@@ -46,7 +46,7 @@ def main():
     axes = shape.plot()
     axes[0].figure.savefig(out / "flutter_mode_shape.png", dpi=120)
     plt.close(axes[0].figure)
-    picked = ratio_modes(spec, (0.2, 0.5, 0.8, 1.0))
+    picked = ratio_modes(spec, first_symmetric_deck_mode, (0.2, 0.5, 0.8, 1.0))
     axes = plot_ratio_modes(picked)
     axes[0].figure.savefig(out / "ratio_modes.png", dpi=120)
     plt.close(axes[0].figure)
