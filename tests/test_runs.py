@@ -230,7 +230,8 @@ def test_flutter_mode_shape_example(tmp_path):
     out = tmp_path / "shape"
     r = _run([*_script("flutter_mode_shape"), "--quick", "--json", "--out", str(out)], tmp_path)
     s = json.loads(r.stdout)
-    for name in ("flutter_mode_shape.png", "ratio_modes.png", "mode_shapes.json"):
+    for name in ("flutter_mode_shape.png", "ratio_modes.png", "ratio_modes_jumps.png",
+                 "mode_shapes.json"):
         assert (out / name).stat().st_size > 0, name
     fm = s["flutter_mode"]
     assert fm["status"] == "converged" and _finite_in(fm["flutter_speed_m_s"], 55.0, 85.0)

@@ -8,6 +8,8 @@ Renders two figures (model/modeshape.py):
 * ``ratio_modes.png``: the first symmetric vertical and torsional deck modes that the
   frequency-ratio rule (model.analysis.first_symmetric_deck_mode) picks at 20, 50, 80 and
   100 % of the main-span deck (half GJ, EI = 0, the file's side-span sequence);
+* ``ratio_modes_jumps.png``: the same at 30, 35, 95 and 100 %, where the rule passes over a
+  TS1 split into two hybrids with the bare side-span cable and picks a higher mode;
 
 and prints (or with ``--json`` writes to stdout) the numbers behind them.
 
@@ -50,8 +52,15 @@ def main():
     axes = plot_ratio_modes(picked)
     axes[0].figure.savefig(out / "ratio_modes.png", dpi=120)
     plt.close(axes[0].figure)
+    # the stages where the rule passes over a hybridised TS1 (docs/humber_data.md)
+    jumps = ratio_modes(spec, first_symmetric_deck_mode, (0.30, 0.35, 0.95, 1.0))
+    axes = plot_ratio_modes(jumps)
+    axes[0].figure.savefig(out / "ratio_modes_jumps.png", dpi=120)
+    plt.close(axes[0].figure)
     result = {"flutter_mode": shape.summary(), "ratio_modes": picked.summary(),
-              "figures": [str(out / "flutter_mode_shape.png"), str(out / "ratio_modes.png")]}
+              "ratio_modes_jumps": jumps.summary(),
+              "figures": [str(out / n) for n in ("flutter_mode_shape.png", "ratio_modes.png",
+                                                 "ratio_modes_jumps.png")]}
     atomic_write_json(out / "mode_shapes.json", result)
     if args.json:
         print(json.dumps(to_jsonable(result), allow_nan=False))
@@ -64,7 +73,7 @@ def main():
           ", ".join(f"{k} {v:.3f}" for k, v in s["participation_strain_energy"].items()))
     print(f"peak heave {s['peak_heave_m']:.3f} m per {s['peak_pitch_rad']} rad peak pitch; "
           f"heave phase at the pitch peak {s['heave_phase_at_peak_pitch_deg']:.1f} deg")
-    for r in result["ratio_modes"]:
+    for r in result["ratio_modes"] + result["ratio_modes_jumps"]:
         print(f"{100 * r['erected_fraction']:5.0f} %: {r['vertical_mode']} "
               f"{r['vertical_frequency_hz']:.4f} Hz (deck share {r['vertical_deck_share']:.3f},"
               f" uniform {r['vertical_uniform_deck_share']:.3f}); {r['torsional_mode']} "
