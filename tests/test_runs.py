@@ -48,6 +48,8 @@ EXAMPLES = {
     "doe_gj_sag/doe.toml": "test_doe_example",
     "humber/study.toml": "test_study_example",
     "humber_inputs/run.py": "test_humber_inputs_example",
+    "mode_convergence/run.py": "test_mode_convergence_example",
+    "flutter_mode_shape/run.py": "test_flutter_mode_shape_example",
     # the optimise definition: run by test_optimisation_example (and the optimise golden case)
     "humber_flaps.toml": "test_optimisation_example",
 }
@@ -203,3 +205,37 @@ def test_study_example(tmp_path):
     for kind, st in s["statuses"].items():
         assert f"| {kind} | {st} |" in report
         assert (out / "figures" / f"{kind}.png").stat().st_size > 0, kind
+
+
+def test_mode_convergence_example(tmp_path):
+    """Quick mode: humber, humber:box and two opposite corners on a 3-count ladder (8, 16, 24);
+    the full run (64 corners, 8-40 modes) is what docs/humber_data.md reports."""
+    out = tmp_path / "conv.json"
+    r = _run([*_script("mode_convergence"), "--quick", "--json", "--out", str(out)], tmp_path)
+    s = json.loads(r.stdout)
+    assert s == json.loads(out.read_text())
+    assert s["cases"] == 4 and s["counts"] == [8, 16, 24] and s["tolerance_pct"] == 0.05
+    for case in s["results"]:
+        last = case["rows"][-1]
+        assert last["flutter_status"] == "converged", case["case"]
+        assert _finite_in(last["flutter_speed_m_s"], 55.0, 85.0), case["case"]
+        assert case["converged_modes"] in (None, 16), case["case"]
+    # 8 modes leave TS2 out: at least 0.5 % off on every case (measured 0.7-3.3 %)
+    by = {b["n_modes"]: b for b in s["max_error_vs_reference"]}
+    assert by[8]["max_flutter_error_pct"] > 0.5
+    assert by[16]["max_flutter_error_pct"] < 0.5
+
+
+def test_flutter_mode_shape_example(tmp_path):
+    out = tmp_path / "shape"
+    r = _run([*_script("flutter_mode_shape"), "--quick", "--json", "--out", str(out)], tmp_path)
+    s = json.loads(r.stdout)
+    for name in ("flutter_mode_shape.png", "ratio_modes.png", "ratio_modes_jumps.png",
+                 "mode_shapes.json"):
+        assert (out / name).stat().st_size > 0, name
+    fm = s["flutter_mode"]
+    assert fm["status"] == "converged" and _finite_in(fm["flutter_speed_m_s"], 55.0, 85.0)
+    # kinetic-energy shares sum to 1 over the retained modes (the summary lists the top 6)
+    assert 0.9 < sum(fm["participation_kinetic_energy"].values()) <= 1.0 + 1e-9
+    assert [r_["erected_fraction"] for r_ in s["ratio_modes"]] == [0.2, 0.5, 0.8, 1.0]
+    assert all(r_["vertical_mode"] and r_["torsional_mode"] for r_ in s["ratio_modes"])
