@@ -32,9 +32,9 @@ from design.cli_common import (
     spec_from_args,
 )
 from design.io import atomic_write
-from design.options import parse_range
+from design.options import MAX_GRID_VALUE, MAX_MODES, check_int, check_number, parse_range
 from model.errors import BridgeflapError, BridgeflapInputError
-from model.spec import SIDE_SPAN_SEQUENCES
+from model.spec import SIDE_SPAN_SEQUENCES, check_fraction
 
 __all__ = ["COMMANDS", "Command", "build_parser", "main"]
 
@@ -51,6 +51,9 @@ def cmd_modes(args):
     if args.count < 1:
         raise BridgeflapInputError("count", "must be at least 1")
     modal = modal_model(spec)
+    if args.count > len(modal.modes):
+        raise BridgeflapInputError("count", f"{args.count} requested, but this model has only "
+                                            f"{len(modal.modes)} modes")
     modes = modal.table()[: args.count]
     payload = {"bridge": spec.name, "erected_fraction": spec.erected_fraction,
                "cable_horizontal_tension_n": modal.structure.statics.horizontal_tension_n,
@@ -366,6 +369,8 @@ COMMANDS: tuple[Command, ...] = (
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of :data:`COMMANDS` (also used for the README's command list)."""
     p = Parser(prog="bridgeflap", description=__doc__.splitlines()[0])
+    p.add_argument("--debug", action="store_true",
+                   help="on an internal fault, print the traceback (also after the command)")
     sub = p.add_subparsers(dest="command", parser_class=Parser)
     for command in COMMANDS:
         sp = sub.add_parser(command.name, help=command.help)
@@ -392,23 +397,100 @@ def _limit_blas_threads() -> None:
     threadpool_limits(1, user_api="blas")
 
 
+EXIT_INTERNAL = 1
+
+#: the one line printed for an internal fault (anything but a BridgeflapError)
+BUG_REPORT = ("this is a bug in bridgeflap, not in your input; please report it to the bridgeflap "
+              "maintainers with the command line and the traceback of --debug")
+
+
+#: (argument, minimum, maximum, integer) of every numeric option a command may take: checked
+#: once after parsing (:func:`_check_args`), so every command refuses them alike, naming the
+#: option and its limit, before any work
+_NUMERIC_ARGS = (
+    ("modes", 1, MAX_MODES, True),
+    ("count", 1, 100000, True),
+    ("records", 1, 10000, True),        # Monte-Carlo records
+    ("seed", 0, 2 ** 32 - 1, True),     # numpy's SeedSequence takes non-negative integers
+    ("workers", 1, 1024, True),
+    ("samples", 1, 4096, True),         # Morris trajectories / Sobol base sample
+    ("speed", 0.0, MAX_GRID_VALUE, False),
+    ("coherence_decay", 0.0, 1000.0, False),
+    ("turbulence_intensity", 0.0, 10.0, False),
+)
+
+#: plausible ranges of the rigid section's inputs (``bridgeflap section``): far outside any
+#: deck, and small enough that ``m omega^2`` and the default speed grid stay finite
+_SECTION_RANGES = (
+    ("mass", 1e8), ("inertia", 1e12), ("f_heave", 100.0), ("f_torsion", 100.0),
+    ("half_chord", 100.0), ("air_density", 100.0),
+)
+
+
+def _check_args(args) -> None:
+    """Refuse out-of-range numeric options (one line naming the option and its limit)."""
+    for name, lo, hi, integer in _NUMERIC_ARGS:
+        value = getattr(args, name, None)
+        if value is None:
+            continue
+        option = "--" + name.replace("_", "-")
+        if integer:
+            check_int(value, option.lstrip("-"), lo, hi)
+        elif name == "turbulence_intensity":
+            check_number(value, option.lstrip("-"), lo, hi, strict=True)
+        else:
+            check_number(value, option.lstrip("-"), lo, hi)
+    if getattr(args, "command", None) == "section":
+        for name, hi in _SECTION_RANGES:
+            check_number(getattr(args, name), name.replace("_", "-"), 0.0, hi, strict=True)
+        check_number(args.damping_ratio, "damping-ratio", 0.0, 0.999)
+    if getattr(args, "erection", None) is not None:
+        check_fraction(args.erection)
+    for name in ("controller",):
+        path = getattr(args, name, None)
+        if path is not None and not Path(path).is_file():
+            raise BridgeflapInputError(name, f"not a file: {path}")
+
+
 def main(argv=None) -> int:
-    """Entry point of the ``bridgeflap`` console script."""
+    """Entry point of the ``bridgeflap`` console script.
+
+    Exit status: 0 success; 1 a result that is not usable (the command says why), or an
+    internal fault (one line saying it is a bug; the traceback only with ``--debug``);
+    2 bad input (one line ``bridgeflap: error: <field>: <reason>``, nothing written);
+    130 interrupted.
+    """
     _limit_blas_threads()
+    argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
+    debug = "--debug" in argv
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
         if not getattr(args, "command", None):
             parser.print_help(sys.stderr)
             return EXIT_BAD_INPUT
+        _check_args(args)
         rc = args.func(args)
     except BridgeflapError as exc:  # BridgeflapInputError included
-        log(f"bridgeflap: error: {exc}")
+        log(f"bridgeflap: error: {_one_line(str(exc))}")
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         log("bridgeflap: interrupted")
         return 130
+    except Exception as exc:  # the last line of defence: one line, exit 1
+        if debug:
+            import traceback
+
+            traceback.print_exc(file=sys.stderr)
+        log(f"bridgeflap: internal error: {type(exc).__name__}: {_one_line(str(exc))[:300]}; "
+            f"{BUG_REPORT if not debug else 'traceback above'}")
+        return EXIT_INTERNAL
     return int(rc or 0)  # a command may report a result that is not usable (exit 1)
+
+
+def _one_line(text: str) -> str:
+    """``text`` with its line breaks folded, so that an error stays one line."""
+    return " ".join(text.split())
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -35,6 +35,9 @@ class Parser(argparse.ArgumentParser):
 def add_common(sp: argparse.ArgumentParser, bridge: bool = True, erection: bool = True) -> None:
     """``--json``, and ``--bridge`` / ``--erection`` where the command takes a bridge."""
     sp.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    # also accepted after the command; SUPPRESS keeps the top-level value (design.cli.main)
+    sp.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                    help="on an internal fault, print the traceback")
     if bridge:
         sp.add_argument("--bridge", default="humber",
                         help="built-in name (humber) or path to a bridge .toml")

@@ -23,6 +23,8 @@ def cmd_optimise(args):
     from design.settings import load_settings, quick_settings
     from model.control import save_controller
 
+    if args.definition is not None and not Path(args.definition).is_file():
+        raise BridgeflapInputError("definition", f"not a file: {args.definition}")
     settings = load_settings(args.definition or DEFAULT_DEFINITION)
     if args.quick:
         settings = quick_settings(settings)
@@ -30,6 +32,11 @@ def cmd_optimise(args):
     parent = out.resolve().parent
     if not parent.exists() or not os.access(parent, os.W_OK):
         raise BridgeflapInputError("out", f"folder not writable: {parent}")
+    if out.exists() and not out.is_dir():
+        raise BridgeflapInputError("out", f"is a file, not a folder: {out}")
+    from model.spec import load_bridge
+
+    load_bridge(settings.bridge)  # bad bridge input stops here, before the design runs
     result = design(settings, progress=log)
     tmp = Path(tempfile.mkdtemp(dir=parent, prefix=f".{out.name}."))
     try:

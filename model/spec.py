@@ -30,6 +30,39 @@ else:  # pragma: no cover
 
 BUILTIN_BRIDGES = ("humber",)
 
+#: Plausible ranges ``(low, high)`` [SI] of the bridge inputs: a value outside is rejected at
+#: load with its field named (it would otherwise end in an overflow or in "stiffness is not
+#: positive definite" naming no input). They are at least two orders of magnitude outside any
+#: suspension bridge built (Humber: deck 12 t/m, GJ 5e11 N m2, cable 0.29 m2; Akashi Kaikyo:
+#: 1991 m main span), so no real design is refused; the cable modulus reaches 1e22 Pa because
+#: studies of the inextensible-cable limit use 1e20 (tests/test_structure.py).
+PLAUSIBLE_RANGES: dict[str, tuple[float, float]] = {
+    "length_m": (1.0, 1.0e5),
+    "cable_area_m2": (1.0e-4, 1.0e2),
+    "cable.area_m2": (1.0e-4, 1.0e2),
+    "cable.modulus_pa": (1.0e3, 1.0e22),
+    "cable.mass_kg_per_m": (1.0e-6, 1.0e6),
+    "cable.spacing_m": (0.1, 1.0e3),
+    "deck.mass_kg_per_m": (1.0e-3, 1.0e6),
+    "deck.mass_inertia_kgm2_per_m": (1.0e-3, 1.0e11),
+    "deck.ei_vertical_nm2": (0.0, 1.0e17),
+    "deck.ei_lateral_nm2": (0.0, 1.0e17),
+    "deck.gj_nm2": (0.0, 1.0e17),
+    "deck.half_chord_m": (0.1, 200.0),
+    "deck.hanger_length_midspan_m": (1.0e-3, 1.0e3),
+    "aero.air_density_kg_m3": (1.0e-6, 100.0),
+    "aero.deck_height_m": (0.1, 1.0e4),
+    "aero.turbulence_intensity": (1.0e-6, 1.0),
+    "aero.coherence_decay": (1.0e-6, 1.0e3),
+    "aero.lift_slope_buffeting": (-100.0, 100.0),
+    "aero.moment_slope_buffeting": (-100.0, 100.0),
+}
+#: smallest main-span sag as a fraction of the main span [-] (Humber: 1/12.3)
+MIN_SAG_RATIO = 1.0e-4
+#: most finite elements of a mesh: the families' matrices are dense (the lateral one has 4 DOFs
+#: per node), and at 1000 elements one eigen-solution already takes tens of seconds
+MAX_ELEMENTS = 1000
+
 
 @dataclass(frozen=True)
 class Span:
@@ -58,10 +91,15 @@ class Span:
     cable_area_m2: float | None = None
 
     def __post_init__(self):
-        _positive(f"spans.{self.name}.length_m", self.length_m)
+        if not isinstance(self.name, str) or not self.name:
+            raise BridgeflapInputError("spans.name", f"must be a string, got {self.name!r}")
+        _in_range(f"spans.{self.name}.length_m", self.length_m, "length_m")
         _finite(f"spans.{self.name}.chord_rise_m", self.chord_rise_m)
+        if not isinstance(self.suspended_deck, bool):
+            raise BridgeflapInputError(f"spans.{self.name}.suspended_deck",
+                                       f"must be true or false, got {self.suspended_deck!r}")
         if self.cable_area_m2 is not None:
-            _positive(f"spans.{self.name}.cable_area_m2", self.cable_area_m2)
+            _in_range(f"spans.{self.name}.cable_area_m2", self.cable_area_m2, "cable_area_m2")
         if abs(self.chord_rise_m) >= self.length_m:
             raise BridgeflapInputError(
                 f"spans.{self.name}.chord_rise_m", "chord steeper than 45 degrees is not supported"
@@ -85,7 +123,7 @@ class Cable:
 
     def __post_init__(self):
         for name in ("area_m2", "modulus_pa", "mass_kg_per_m", "spacing_m", "main_sag_m"):
-            _positive(f"cable.{name}", getattr(self, name))
+            _in_range(f"cable.{name}", getattr(self, name))
 
 
 @dataclass(frozen=True)
@@ -106,6 +144,8 @@ class Deck:
             _positive(f"deck.{name}", getattr(self, name))
         for name in ("ei_vertical_nm2", "ei_lateral_nm2", "gj_nm2"):
             _nonnegative(f"deck.{name}", getattr(self, name))
+        for name in _DECK_KEYS:
+            _in_range(f"deck.{name}", getattr(self, name))
 
 
 @dataclass(frozen=True)
@@ -138,6 +178,12 @@ class Aero:
             _positive(f"aero.{name}", getattr(self, name))
         _finite("aero.lift_slope_buffeting", self.lift_slope_buffeting)
         _finite("aero.moment_slope_buffeting", self.moment_slope_buffeting)
+        for f in dataclasses.fields(self):
+            if f"aero.{f.name}" in PLAUSIBLE_RANGES:
+                _in_range(f"aero.{f.name}", getattr(self, f.name))
+        if not isinstance(self.added_inertia, bool):
+            raise BridgeflapInputError("aero.added_inertia",
+                                       f"must be true or false, got {self.added_inertia!r}")
 
 
 @dataclass(frozen=True)
@@ -205,6 +251,26 @@ class BridgeSpec:
         main = self.main_span
         if self.cable.main_sag_m >= 0.5 * main.length_m:
             raise BridgeflapInputError("cable.main_sag_m", "sag must be below half the span")
+        if self.cable.main_sag_m < MIN_SAG_RATIO * main.length_m:
+            raise BridgeflapInputError("cable.main_sag_m",
+                                       f"below {MIN_SAG_RATIO:g} of the main span, got "
+                                       f"{self.cable.main_sag_m}")
+        self._check_mesh()
+
+    def _check_mesh(self) -> None:
+        """At least two elements per span (the torsion of a span needs an interior node), and
+        at most :data:`MAX_ELEMENTS` in all."""
+        le = self.mesh.element_length_m
+        shortest = min(self.spans, key=lambda s: s.length_m)
+        if le > 0.5 * shortest.length_m:
+            raise BridgeflapInputError(
+                "mesh.element_length_m", f"{le:g} m is longer than half the shortest span "
+                f"({shortest.name}, {shortest.length_m:g} m): every span needs two elements")
+        n = sum(math.ceil(s.length_m / le - 1e-9) for s in self.spans)
+        if n > MAX_ELEMENTS:
+            raise BridgeflapInputError(
+                "mesh.element_length_m", f"{le:g} m gives {n} elements, more than the limit of "
+                f"{MAX_ELEMENTS}")
 
     @property
     def main_span(self) -> Span:
@@ -535,6 +601,24 @@ _MISSING = _Missing()
 def _finite(field_name: str, v: float) -> None:
     if not isinstance(v, int | float) or not math.isfinite(v):
         raise BridgeflapInputError(field_name, f"must be a finite number, got {v!r}")
+
+
+def _in_range(field_name: str, v: float, key: str | None = None) -> None:
+    """Raise unless ``v`` is a finite number in :data:`PLAUSIBLE_RANGES` (looked up by ``key``,
+    default ``field_name``); a field without a range must be finite and positive."""
+    _finite(field_name, v)
+    rng = PLAUSIBLE_RANGES.get(key or field_name)
+    if rng is None:
+        _positive(field_name, v)
+        return
+    lo, hi = rng
+    if lo == 0.0:
+        _nonnegative(field_name, v)
+    elif lo > 0.0:
+        _positive(field_name, v)
+    if not lo <= v <= hi:
+        raise BridgeflapInputError(field_name, f"{v:g} is outside the plausible range "
+                                               f"[{lo:g}, {hi:g}]")
 
 
 def _positive(field_name: str, v: float) -> None:
