@@ -26,6 +26,7 @@ from design.cli_common import (
     check_plot_target,
     check_writable_parent,
     controller_from_args,
+    controller_report,
     emit,
     log,
     save_plot,
@@ -109,6 +110,9 @@ def cmd_flutter(args):
     if args.no_added_inertia:
         spec = dataclasses.replace(spec, aero=dataclasses.replace(spec.aero, added_inertia=False))
     controller = controller_from_args(args)
+    if controller is not None and (args.order, args.rfa) != ("modal", "rfa4"):
+        raise BridgeflapInputError("controller", "the closed loop is built on the modal order "
+                                                 "with rfa4: drop --order/--rfa")
     if controller is not None:
         from model.analysis import closed_loop_flutter
 
@@ -117,7 +121,7 @@ def cmd_flutter(args):
     else:
         res = _run("flutter", spec, speeds=args.speeds, modes=args.modes, order=args.order,
                    rfa=args.rfa)
-    s = res.summary()
+    s = {**res.summary(), **controller_report(controller)}
     text = (f"{spec.name} (erected {spec.erected_fraction:.2f}, {s['modes_retained']} modes, "
             f"{s['order']} RFA {s['rfa']}, b = {spec.deck.half_chord_m} m)\n"
             f"flutter:    {s['flutter_speed_m_s']:.2f} m/s at {s['flutter_frequency_hz']:.4f} Hz"
@@ -235,7 +239,8 @@ def cmd_state_space(args):
         atomic_write(out, lambda fh: scipy.io.savemat(fh, data))
     payload = {"out": str(out), "states": int(A.shape[0]), "inputs": int(B.shape[1]),
                "outputs": int(C.shape[0]), "wind_speed_m_s": args.speed,
-               "spectral_abscissa_1_s": float(np.linalg.eigvals(A).real.max())}
+               "spectral_abscissa_1_s": float(np.linalg.eigvals(A).real.max()),
+               **controller_report(controller)}
     emit(args, payload, f"wrote {out}: {A.shape[0]} states, {B.shape[1]} inputs, "
                          f"{C.shape[0]} outputs at U = {args.speed} m/s")
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -22,7 +23,15 @@ import numpy as np
 from design.analyses import ANALYSES
 from design.cases import ERECTED_FRACTION, analysis_case
 from design.io import atomic_write_json, ensure_writable_dir, output_folder
-from design.options import check_int, check_keys, plain_name, read_definition, resolve_bridge, table
+from design.options import (
+    MAX_DOE_CASES,
+    check_int,
+    check_keys,
+    plain_name,
+    read_definition,
+    resolve_bridge,
+    table,
+)
 from model.errors import BridgeflapInputError
 from model.spec import PARAMETER_PATHS
 
@@ -150,8 +159,8 @@ def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
     options = table(data, "options")
     design = table(data, "design")
     if quick:
-        options.update(qk.get("options", {}))
-        design.update(qk.get("design", {}))
+        options.update(table(qk, "options"))
+        design.update(table(qk, "design"))
     ANALYSES[analysis].resolve(options, what="options")
     if set(design) - {"kind", "levels", "n", "seed"}:
         bad = sorted(set(design) - {"kind", "levels", "n", "seed"})[0]
@@ -160,8 +169,8 @@ def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
     if kind is None:
         raise BridgeflapInputError("design.kind", f"unknown design {design.get('kind')!r} "
                                                   "(full-factorial, latin-hypercube, sobol)")
-    levels = check_int(design.get("levels", 3), "design.levels")
-    n = check_int(design.get("n", 16), "design.n")
+    levels = check_int(design.get("levels", 3), "design.levels", 1, MAX_DOE_CASES)
+    n = check_int(design.get("n", 16), "design.n", 1, MAX_DOE_CASES)
     seed = check_int(design.get("seed", 1), "design.seed", 0)
     raw = data.get("parameters")
     if not isinstance(raw, dict) or not raw:
@@ -191,6 +200,10 @@ def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
         if not (np.isfinite(lo) and np.isfinite(hi)) or not lo < hi:
             raise BridgeflapInputError(fld, f"empty range [{lo}, {hi}] (need lo < hi)")
         params[path] = DoeParameter(low=lo, high=hi)
+    if kind == "full_factorial" and math.prod(len(d.levels(levels)) for d in params.values()) \
+            > MAX_DOE_CASES:
+        raise BridgeflapInputError("design.levels", f"the full factorial has more than the "
+                                                    f"limit of {MAX_DOE_CASES} cases")
     return DoeConfig(name=name, bridge=bridge, analysis=analysis, options=options, kind=kind,
                      parameters=params, levels=levels, n=n, seed=seed, quick=bool(quick),
                      source=source)

@@ -21,7 +21,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["MAX_GRID_POINTS", "MAX_GRID_VALUE", "MAX_MODES", "check_bool", "check_choice",
+__all__ = ["MAX_DOE_CASES", "MAX_GRID_POINTS", "MAX_GRID_VALUE", "MAX_MODES", "check_bool",
+           "check_choice",
            "check_int", "check_keys", "check_number", "check_option_names", "grid",
            "parse_range", "plain_name", "read_definition", "read_toml", "resolve_bridge",
            "table"]
@@ -37,6 +38,9 @@ MAX_GRID_VALUE = 1.0e4
 #: 4 aerodynamic lags), and one eigenvalue problem at 100 modes (about 600 states) takes 0.1 s,
 #: so a 171-point sweep about 20 s; the truncation study (bench/stability.py) converged at 16-24
 MAX_MODES = 100
+#: most cases of one DOE (a full factorial grows as levels^parameters): a case takes about a
+#: second, so 100000 cases is already a day on one core
+MAX_DOE_CASES = 100000
 
 
 def parse_range(text: str, field: str, minimum: float | None = None,
