@@ -182,11 +182,11 @@ def _option_checks() -> dict:
         # model.buffeting.buffeting
         "spectrum": _choice(*SPECTRUM_KINDS), "admittance": _choice(*ADMITTANCE_KINDS),
         "coherence_decay": _number(0.0), "method": _choice(*METHODS),
-        "turbulence_intensity": positive, "deck_height_m": positive,
+        "turbulence_intensity": _number(0.0, 1.0, strict=True), "deck_height_m": positive,
         "length_scale_m": positive, "half_chord_m": positive, "allow_unstable": check_bool,
         "omega_max": positive, "n_base": _integer(2, 100000),
         "peaks_per_mode": _integer(1, 10000), "half_widths": positive,
-        "convergence_tol": positive, "mc_records": _integer(1, 10000),
+        "convergence_tol": positive, "mc_records": _integer(2, 10000),
         "mc_seed": _integer(0, 2 ** 32 - 1), "mc_points": _integer(2, 1000000),
     }
 

@@ -48,6 +48,7 @@ EXIT_BAD_INPUT = 2
 def cmd_modes(args):
     from model.analysis import modal_model
 
+    check_plot_target(args)
     spec = spec_from_args(args)
     if args.count < 1:
         raise BridgeflapInputError("count", "must be at least 1")
@@ -109,10 +110,10 @@ def cmd_flutter(args):
     spec = spec_from_args(args)
     if args.no_added_inertia:
         spec = dataclasses.replace(spec, aero=dataclasses.replace(spec.aero, added_inertia=False))
-    controller = controller_from_args(args)
-    if controller is not None and (args.order, args.rfa) != ("modal", "rfa4"):
+    if args.controller and (args.order, args.rfa) != ("modal", "rfa4"):
         raise BridgeflapInputError("controller", "the closed loop is built on the modal order "
                                                  "with rfa4: drop --order/--rfa")
+    controller = controller_from_args(args)
     if controller is not None:
         from model.analysis import closed_loop_flutter
 
@@ -415,20 +416,20 @@ BUG_REPORT = ("this is a bug in bridgeflap, not in your input; please report it 
 _NUMERIC_ARGS = (
     ("modes", 1, MAX_MODES, True),
     ("count", 1, 100000, True),
-    ("records", 1, 10000, True),        # Monte-Carlo records
+    ("records", 2, 10000, True),        # Monte-Carlo records (2 for a standard error)
     ("seed", 0, 2 ** 32 - 1, True),     # numpy's SeedSequence takes non-negative integers
     ("workers", 1, 1024, True),
     ("samples", 1, 4096, True),         # Morris trajectories / Sobol base sample
     ("speed", 0.0, MAX_GRID_VALUE, False),
     ("coherence_decay", 0.0, 1000.0, False),
-    ("turbulence_intensity", 0.0, 10.0, False),
+    ("turbulence_intensity", 0.0, 1.0, False),
 )
 
 #: plausible ranges of the rigid section's inputs (``bridgeflap section``): far outside any
 #: deck, and small enough that ``m omega^2`` and the default speed grid stay finite
 _SECTION_RANGES = (
-    ("mass", 1e8), ("inertia", 1e12), ("f_heave", 100.0), ("f_torsion", 100.0),
-    ("half_chord", 100.0), ("air_density", 100.0),
+    ("mass", 1e-3, 1e8), ("inertia", 1e-6, 1e12), ("f_heave", 1e-4, 100.0),
+    ("f_torsion", 1e-4, 100.0), ("half_chord", 1e-3, 100.0), ("air_density", 1e-6, 100.0),
 )
 
 
@@ -446,11 +447,15 @@ def _check_args(args) -> None:
         else:
             check_number(value, option.lstrip("-"), lo, hi)
     if getattr(args, "command", None) == "section":
-        for name, hi in _SECTION_RANGES:
-            check_number(getattr(args, name), name.replace("_", "-"), 0.0, hi, strict=True)
+        for name, lo, hi in _SECTION_RANGES:
+            option = name.replace("_", "-")
+            value = check_number(getattr(args, name), option, 0.0, hi, strict=True)
+            if value < lo:
+                raise BridgeflapInputError(option, f"must be at least {lo:g}, got {value:g}")
         check_number(args.damping_ratio, "damping-ratio", 0.0, 0.999)
     if getattr(args, "erection", None) is not None:
         check_fraction(args.erection)
+    check_plot_target(args)
     for name in ("controller",):
         path = getattr(args, name, None)
         if path is not None and not Path(path).is_file():

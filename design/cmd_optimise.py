@@ -30,7 +30,7 @@ def cmd_optimise(args):
         settings = quick_settings(settings)
     out = Path(args.out)
     parent = out.resolve().parent
-    if not parent.exists() or not os.access(parent, os.W_OK):
+    if not parent.is_dir() or not os.access(parent, os.W_OK):
         raise BridgeflapInputError("out", f"folder not writable: {parent}")
     if out.exists() and not out.is_dir():
         raise BridgeflapInputError("out", f"is a file, not a folder: {out}")
