@@ -3,7 +3,10 @@
 Every command takes ``--json`` and then prints exactly one JSON object on stdout (numbers with
 units in the key names, statuses; NaN as ``null``); progress and logs go to stderr. Bad input
 gives one line ``bridgeflap: error: <field>: <reason>`` on stderr and exit status 2, with nothing
-written. Option defaults shared with studies and DOE files come from the registry
+written (tests/test_bad_input.py holds the matrix). An internal fault (a bug: any exception that
+is not a :class:`~model.errors.BridgeflapError`) gives one line saying so and exit status 1;
+``--debug`` (before or after the command) adds its traceback. Warnings are one line each.
+Option defaults shared with studies and DOE files come from the registry
 :data:`design.analyses.ANALYSES`.
 """
 
@@ -12,6 +15,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -455,6 +459,11 @@ def _check_args(args) -> None:
         check_number(args.damping_ratio, "damping-ratio", 0.0, 0.999)
     if getattr(args, "erection", None) is not None:
         check_fraction(args.erection)
+    if isinstance(getattr(args, "speeds", None), str):
+        parse_range(args.speeds, "speeds", 0.0)
+    if isinstance(getattr(args, "fractions", None), str):
+        for f in parse_range(args.fractions, "fractions"):
+            check_fraction(f)
     check_plot_target(args)
     for name in ("controller",):
         path = getattr(args, name, None)
@@ -473,6 +482,18 @@ def main(argv=None) -> int:
     _limit_blas_threads()
     argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
     debug = "--debug" in argv
+    with warnings.catch_warnings():
+        if not debug:
+            warnings.showwarning = _one_line_warning
+        return _main(argv, debug)
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Show a warning as one line on stderr (no source line; ``--debug`` keeps Python's)."""
+    log(f"bridgeflap: warning: {category.__name__}: {_one_line(str(message))}")
+
+
+def _main(argv: list[str], debug: bool) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
