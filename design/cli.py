@@ -423,7 +423,7 @@ _NUMERIC_ARGS = (
     ("records", 2, 10000, True),        # Monte-Carlo records (2 for a standard error)
     ("seed", 0, 2 ** 32 - 1, True),     # numpy's SeedSequence takes non-negative integers
     ("workers", 1, 1024, True),
-    ("samples", 1, 4096, True),         # Morris trajectories / Sobol base sample
+    ("samples", 2, 4096, True),         # Morris trajectories / Sobol base sample
     ("speed", 0.0, MAX_GRID_VALUE, False),
     ("coherence_decay", 0.0, 1000.0, False),
     ("turbulence_intensity", 0.0, 1.0, False),
@@ -450,6 +450,9 @@ def _check_args(args) -> None:
             check_number(value, option.lstrip("-"), lo, hi, strict=True)
         else:
             check_number(value, option.lstrip("-"), lo, hi)
+    if getattr(args, "global_method", None) == "sobol" and args.samples & (args.samples - 1):
+        raise BridgeflapInputError("samples", f"the Sobol base sample must be a power of two, "
+                                              f"got {args.samples}")
     if getattr(args, "command", None) == "section":
         for name, lo, hi in _SECTION_RANGES:
             option = name.replace("_", "-")

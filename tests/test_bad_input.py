@@ -332,6 +332,8 @@ CASES = [
                            "--out", "{d}/prev_doe"], "modes"),
     ("sens-global-samples", ["sensitivity", "--global", "morris", "--samples", "0", "--out",
                              "{d}/prev_doe"], "samples"),
+    ("sens-global-sobol-samples", ["sensitivity", "--global", "sobol", "--samples", "3",
+                                   "--out", "{d}/prev_doe"], "samples"),
     ("sens-global-parameter", ["sensitivity", "--global", "morris", "--parameters",
                                "deck.colour", "--out", "{d}/prev_doe"], "parameters"),
     # ---- no command
