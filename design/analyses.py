@@ -19,7 +19,15 @@ from typing import Any
 
 import numpy as np
 
-from design.options import check_int, check_option_names, grid
+from design.options import (
+    MAX_MODES,
+    check_bool,
+    check_choice,
+    check_int,
+    check_number,
+    check_option_names,
+    grid,
+)
 from design.sensitivity import DEFAULT_PARAMETERS
 from model.analysis import DEFAULT_MODES
 from model.errors import BridgeflapInputError
@@ -109,23 +117,101 @@ class Analysis:
         return self.run(spec, self.resolve(options), context or RunContext())
 
 
+def _speeds(value, field_name):
+    grid(value, field_name, 0.0)
+
+
+def _fractions(value, field_name):
+    from model.spec import check_fraction
+
+    for f in grid(value, field_name, None, None):
+        try:
+            check_fraction(f)
+        except BridgeflapInputError as exc:
+            raise BridgeflapInputError(field_name, exc.reason) from None
+
+
+def _modes(value, field_name):
+    check_int(value, field_name, 1, MAX_MODES)
+
+
+def _side_spans(value, field_name):
+    from model.spec import SIDE_SPAN_SEQUENCES
+
+    check_choice(value, field_name, ("", *SIDE_SPAN_SEQUENCES))
+
+
+def _choice(*choices):
+    return lambda value, field_name: check_choice(value, field_name, choices)
+
+
+def _number(minimum=None, maximum=None, strict=False):
+    return lambda value, field_name: check_number(value, field_name, minimum, maximum, strict)
+
+
+def _integer(minimum=1, maximum=None):
+    return lambda value, field_name: check_int(value, field_name, minimum, maximum)
+
+
+def _parameters(value, field_name):
+    # design/sensitivity.py (H1): one import line
+    from design.sensitivity import check_parameters
+
+    if not (isinstance(value, str) or (isinstance(value, list | tuple)
+                                       and all(isinstance(v, str) for v in value))):
+        raise BridgeflapInputError(field_name, f"must be a comma list or a list of parameter "
+                                               f"paths, got {value!r}")
+    try:
+        check_parameters(value)
+    except BridgeflapInputError as exc:
+        raise BridgeflapInputError(field_name, exc.reason) from None
+
+
+def _option_checks() -> dict:
+    """Option name -> ``check(value, field)``: every option a study, DOE or CLI may set."""
+    from model.buffeting import METHODS
+    from model.rfa import RFA_NAMES
+    from model.wind import ADMITTANCE_KINDS, SPECTRUM_KINDS
+
+    positive = _number(0.0, strict=True)
+    return {
+        "speeds": _speeds, "fractions": _fractions, "modes": _modes,
+        "count": _integer(1, 100000), "rfa": _choice(*RFA_NAMES),
+        "order": _choice("modal", "full"), "side_spans": _side_spans,
+        "parameters": _parameters, "check": check_bool,
+        # model.buffeting.buffeting
+        "spectrum": _choice(*SPECTRUM_KINDS), "admittance": _choice(*ADMITTANCE_KINDS),
+        "coherence_decay": _number(0.0), "method": _choice(*METHODS),
+        "turbulence_intensity": _number(0.0, 1.0, strict=True), "deck_height_m": positive,
+        "length_scale_m": positive, "half_chord_m": positive, "allow_unstable": check_bool,
+        "omega_max": positive, "n_base": _integer(2, 100000),
+        "peaks_per_mode": _integer(1, 10000), "half_widths": positive,
+        "convergence_tol": positive, "mc_records": _integer(2, 10000),
+        "mc_seed": _integer(0, 2 ** 32 - 1), "mc_points": _integer(2, 1000000),
+    }
+
+
 def check_options(kind: str, opts: Mapping, what: str | None = None) -> None:
-    """Validate option values now, so that bad input exits before anything is written."""
+    """Validate option values now, so that bad input exits before anything is written.
+
+    Every option named in :func:`_option_checks` is checked for its type and range; the
+    ``design`` analysis' options are :class:`design.settings.DesignSettings` fields, checked by
+    building the settings. Unknown names are rejected by :meth:`Analysis.resolve`.
+    """
     what = what or kind
-    for key in ("speeds", "fractions"):
-        if isinstance(opts.get(key), str):
-            grid(opts[key], f"{what}.{key}", 0.0)
-    for key in ("modes", "count"):
-        if key in opts:
-            check_int(opts[key], f"{what}.{key}")
-    if kind == "sensitivity" and "parameters" in opts:
-        # design/sensitivity.py (H1): one import line
-        from design.sensitivity import check_parameters
+    if kind == "design":
+        from design.settings import load_settings
 
         try:
-            check_parameters(opts["parameters"])
+            load_settings(**dict(opts))
         except BridgeflapInputError as exc:
-            raise BridgeflapInputError(f"{what}.parameters", exc.reason) from None
+            raise BridgeflapInputError(f"{what}.{exc.field}", exc.reason) from None
+        return
+    checks = _option_checks()
+    for key, value in opts.items():
+        check = checks.get(key)
+        if check is not None:
+            check(value, f"{what}.{key}")
 
 
 def figure_of(ax):

@@ -3,7 +3,10 @@
 Every command takes ``--json`` and then prints exactly one JSON object on stdout (numbers with
 units in the key names, statuses; NaN as ``null``); progress and logs go to stderr. Bad input
 gives one line ``bridgeflap: error: <field>: <reason>`` on stderr and exit status 2, with nothing
-written. Option defaults shared with studies and DOE files come from the registry
+written (tests/test_bad_input.py holds the matrix). An internal fault (a bug: any exception that
+is not a :class:`~model.errors.BridgeflapError`) gives one line saying so and exit status 1;
+``--debug`` (before or after the command) adds its traceback. Warnings are one line each.
+Option defaults shared with studies and DOE files come from the registry
 :data:`design.analyses.ANALYSES`.
 """
 
@@ -12,6 +15,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,15 +30,16 @@ from design.cli_common import (
     check_plot_target,
     check_writable_parent,
     controller_from_args,
+    controller_report,
     emit,
     log,
     save_plot,
     spec_from_args,
 )
 from design.io import atomic_write
-from design.options import parse_range
+from design.options import MAX_GRID_VALUE, MAX_MODES, check_int, check_number, parse_range
 from model.errors import BridgeflapError, BridgeflapInputError
-from model.spec import SIDE_SPAN_SEQUENCES
+from model.spec import SIDE_SPAN_SEQUENCES, check_fraction
 
 __all__ = ["COMMANDS", "Command", "build_parser", "main"]
 
@@ -47,10 +52,14 @@ EXIT_BAD_INPUT = 2
 def cmd_modes(args):
     from model.analysis import modal_model
 
+    check_plot_target(args)
     spec = spec_from_args(args)
     if args.count < 1:
         raise BridgeflapInputError("count", "must be at least 1")
     modal = modal_model(spec)
+    if args.count > len(modal.modes):
+        raise BridgeflapInputError("count", f"{args.count} requested, but this model has only "
+                                            f"{len(modal.modes)} modes")
     modes = modal.table()[: args.count]
     payload = {"bridge": spec.name, "erected_fraction": spec.erected_fraction,
                "cable_horizontal_tension_n": modal.structure.statics.horizontal_tension_n,
@@ -105,6 +114,9 @@ def cmd_flutter(args):
     spec = spec_from_args(args)
     if args.no_added_inertia:
         spec = dataclasses.replace(spec, aero=dataclasses.replace(spec.aero, added_inertia=False))
+    if args.controller and (args.order, args.rfa) != ("modal", "rfa4"):
+        raise BridgeflapInputError("controller", "the closed loop is built on the modal order "
+                                                 "with rfa4: drop --order/--rfa")
     controller = controller_from_args(args)
     if controller is not None:
         from model.analysis import closed_loop_flutter
@@ -114,7 +126,7 @@ def cmd_flutter(args):
     else:
         res = _run("flutter", spec, speeds=args.speeds, modes=args.modes, order=args.order,
                    rfa=args.rfa)
-    s = res.summary()
+    s = {**res.summary(), **controller_report(controller)}
     text = (f"{spec.name} (erected {spec.erected_fraction:.2f}, {s['modes_retained']} modes, "
             f"{s['order']} RFA {s['rfa']}, b = {spec.deck.half_chord_m} m)\n"
             f"flutter:    {s['flutter_speed_m_s']:.2f} m/s at {s['flutter_frequency_hz']:.4f} Hz"
@@ -232,7 +244,8 @@ def cmd_state_space(args):
         atomic_write(out, lambda fh: scipy.io.savemat(fh, data))
     payload = {"out": str(out), "states": int(A.shape[0]), "inputs": int(B.shape[1]),
                "outputs": int(C.shape[0]), "wind_speed_m_s": args.speed,
-               "spectral_abscissa_1_s": float(np.linalg.eigvals(A).real.max())}
+               "spectral_abscissa_1_s": float(np.linalg.eigvals(A).real.max()),
+               **controller_report(controller)}
     emit(args, payload, f"wrote {out}: {A.shape[0]} states, {B.shape[1]} inputs, "
                          f"{C.shape[0]} outputs at U = {args.speed} m/s")
 
@@ -366,6 +379,8 @@ COMMANDS: tuple[Command, ...] = (
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of :data:`COMMANDS` (also used for the README's command list)."""
     p = Parser(prog="bridgeflap", description=__doc__.splitlines()[0])
+    p.add_argument("--debug", action="store_true",
+                   help="on an internal fault, print the traceback (also after the command)")
     sub = p.add_subparsers(dest="command", parser_class=Parser)
     for command in COMMANDS:
         sp = sub.add_parser(command.name, help=command.help)
@@ -392,23 +407,124 @@ def _limit_blas_threads() -> None:
     threadpool_limits(1, user_api="blas")
 
 
+EXIT_INTERNAL = 1
+
+#: the one line printed for an internal fault (anything but a BridgeflapError)
+BUG_REPORT = ("this is a bug in bridgeflap, not in your input; please report it to the bridgeflap "
+              "maintainers with the command line and the traceback of --debug")
+
+
+#: (argument, minimum, maximum, integer) of every numeric option a command may take: checked
+#: once after parsing (:func:`_check_args`), so every command refuses them alike, naming the
+#: option and its limit, before any work
+_NUMERIC_ARGS = (
+    ("modes", 1, MAX_MODES, True),
+    ("count", 1, 100000, True),
+    ("records", 2, 10000, True),        # Monte-Carlo records (2 for a standard error)
+    ("seed", 0, 2 ** 32 - 1, True),     # numpy's SeedSequence takes non-negative integers
+    ("workers", 1, 1024, True),
+    ("samples", 2, 4096, True),         # Morris trajectories / Sobol base sample
+    ("speed", 0.0, MAX_GRID_VALUE, False),
+    ("coherence_decay", 0.0, 1000.0, False),
+    ("turbulence_intensity", 0.0, 1.0, False),
+)
+
+#: plausible ranges of the rigid section's inputs (``bridgeflap section``): far outside any
+#: deck, and small enough that ``m omega^2`` and the default speed grid stay finite
+_SECTION_RANGES = (
+    ("mass", 1e-3, 1e8), ("inertia", 1e-6, 1e12), ("f_heave", 1e-4, 100.0),
+    ("f_torsion", 1e-4, 100.0), ("half_chord", 1e-3, 100.0), ("air_density", 1e-6, 100.0),
+)
+
+
+def _check_args(args) -> None:
+    """Refuse out-of-range numeric options (one line naming the option and its limit)."""
+    for name, lo, hi, integer in _NUMERIC_ARGS:
+        value = getattr(args, name, None)
+        if value is None:
+            continue
+        option = "--" + name.replace("_", "-")
+        if integer:
+            check_int(value, option.lstrip("-"), lo, hi)
+        elif name == "turbulence_intensity":
+            check_number(value, option.lstrip("-"), lo, hi, strict=True)
+        else:
+            check_number(value, option.lstrip("-"), lo, hi)
+    if getattr(args, "global_method", None) == "sobol" and args.samples & (args.samples - 1):
+        raise BridgeflapInputError("samples", f"the Sobol base sample must be a power of two, "
+                                              f"got {args.samples}")
+    if getattr(args, "command", None) == "section":
+        for name, lo, hi in _SECTION_RANGES:
+            option = name.replace("_", "-")
+            value = check_number(getattr(args, name), option, 0.0, hi, strict=True)
+            if value < lo:
+                raise BridgeflapInputError(option, f"must be at least {lo:g}, got {value:g}")
+        check_number(args.damping_ratio, "damping-ratio", 0.0, 0.999)
+    if getattr(args, "erection", None) is not None:
+        check_fraction(args.erection)
+    if isinstance(getattr(args, "speeds", None), str):
+        parse_range(args.speeds, "speeds", 0.0)
+    if isinstance(getattr(args, "fractions", None), str):
+        for f in parse_range(args.fractions, "fractions"):
+            check_fraction(f)
+    check_plot_target(args)
+    for name in ("controller",):
+        path = getattr(args, name, None)
+        if path is not None and not Path(path).is_file():
+            raise BridgeflapInputError(name, f"not a file: {path}")
+
+
 def main(argv=None) -> int:
-    """Entry point of the ``bridgeflap`` console script."""
+    """Entry point of the ``bridgeflap`` console script.
+
+    Exit status: 0 success; 1 a result that is not usable (the command says why), or an
+    internal fault (one line saying it is a bug; the traceback only with ``--debug``);
+    2 bad input (one line ``bridgeflap: error: <field>: <reason>``, nothing written);
+    130 interrupted.
+    """
     _limit_blas_threads()
+    argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
+    debug = "--debug" in argv
+    with warnings.catch_warnings():
+        if not debug:
+            warnings.showwarning = _one_line_warning
+        return _main(argv, debug)
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Show a warning as one line on stderr (no source line; ``--debug`` keeps Python's)."""
+    log(f"bridgeflap: warning: {category.__name__}: {_one_line(str(message))}")
+
+
+def _main(argv: list[str], debug: bool) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
         if not getattr(args, "command", None):
             parser.print_help(sys.stderr)
             return EXIT_BAD_INPUT
+        _check_args(args)
         rc = args.func(args)
     except BridgeflapError as exc:  # BridgeflapInputError included
-        log(f"bridgeflap: error: {exc}")
+        log(f"bridgeflap: error: {_one_line(str(exc))}")
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         log("bridgeflap: interrupted")
         return 130
+    except Exception as exc:  # the last line of defence: one line, exit 1
+        if debug:
+            import traceback
+
+            traceback.print_exc(file=sys.stderr)
+        log(f"bridgeflap: internal error: {type(exc).__name__}: {_one_line(str(exc))[:300]}; "
+            f"{BUG_REPORT if not debug else 'traceback above'}")
+        return EXIT_INTERNAL
     return int(rc or 0)  # a command may report a result that is not usable (exit 1)
+
+
+def _one_line(text: str) -> str:
+    """``text`` with its line breaks folded, so that an error stays one line."""
+    return " ".join(text.split())
 
 
 if __name__ == "__main__":  # pragma: no cover

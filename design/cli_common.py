@@ -20,7 +20,8 @@ from design.io import atomic_write, to_jsonable
 from model.errors import BridgeflapInputError
 
 __all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",
-           "controller_from_args", "emit", "log", "save_figure", "save_plot", "spec_from_args"]
+           "controller_from_args", "controller_report", "emit", "log", "save_figure",
+           "save_plot", "spec_from_args"]
 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
@@ -35,6 +36,9 @@ class Parser(argparse.ArgumentParser):
 def add_common(sp: argparse.ArgumentParser, bridge: bool = True, erection: bool = True) -> None:
     """``--json``, and ``--bridge`` / ``--erection`` where the command takes a bridge."""
     sp.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    # also accepted after the command; SUPPRESS keeps the top-level value (design.cli.main)
+    sp.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                    help="on an internal fault, print the traceback")
     if bridge:
         sp.add_argument("--bridge", default="humber",
                         help="built-in name (humber) or path to a bridge .toml")
@@ -68,12 +72,29 @@ def spec_from_args(args):
 
 
 def controller_from_args(args):
-    """The controller of ``--controller`` (a .toml), or ``None``."""
+    """The controller of ``--controller`` (a .toml), or ``None``.
+
+    A controller whose peak gain exceeds its own ``gain_limit`` is used (the user asked for
+    it), with one warning line on stderr; :func:`controller_report` gives the flag for the
+    JSON.
+    """
     if getattr(args, "controller", None):
         from model.control import load_controller
 
-        return load_controller(args.controller)
+        controller = load_controller(args.controller)
+        check = controller.gain_check()
+        if not check["controller_within_gain_limit"]:
+            log(f"bridgeflap: warning: controller {args.controller}: max gain "
+                f"{check['controller_max_gain']:.4g} exceeds its gain limit "
+                f"{check['controller_gain_limit']:.4g} (controller_within_gain_limit: false)")
+        return controller
     return None
+
+
+def controller_report(controller) -> dict:
+    """``controller_max_gain``, ``controller_gain_limit`` and ``controller_within_gain_limit``
+    of ``controller`` (empty for ``None``), for a command's JSON."""
+    return {} if controller is None else controller.gain_check()
 
 
 def check_writable_parent(field: str, path: Path) -> None:

@@ -15,6 +15,7 @@ from design.cli_common import (
     add_common,
     check_plot_target,
     controller_from_args,
+    controller_report,
     emit,
     log,
     save_plot,
@@ -53,7 +54,7 @@ def cmd_buffeting(args):
                     mc_records=args.records, mc_seed=args.seed)
     s = res.summary()
     s.update({"bridge": spec.name, "erected_fraction": spec.erected_fraction,
-              "modes_retained": args.modes})
+              "modes_retained": args.modes, **controller_report(controller)})
     inp = s["inputs"]
     lines = [f"{spec.name} (erected {spec.erected_fraction:.2f}, {args.modes} modes): "
              f"{inp['spectrum']} spectrum, sigma_w/U = {inp['turbulence_intensity']:g}, "

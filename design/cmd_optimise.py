@@ -20,13 +20,20 @@ def cmd_optimise(args):
     """Run the design, write the controller TOML and figures to ``--out`` atomically."""
     from design.settings import load_settings, quick_settings
 
+    if args.definition is not None and not Path(args.definition).is_file():
+        raise BridgeflapInputError("definition", f"not a file: {args.definition}")
     settings = load_settings(args.definition or DEFAULT_DEFINITION)
     if args.quick:
         settings = quick_settings(settings)
     out = Path(args.out)
     parent = out.resolve().parent
-    if not parent.exists() or not os.access(parent, os.W_OK):
+    if not parent.is_dir() or not os.access(parent, os.W_OK):
         raise BridgeflapInputError("out", f"folder not writable: {parent}")
+    if out.exists() and not out.is_dir():
+        raise BridgeflapInputError("out", f"is a file, not a folder: {out}")
+    from model.spec import load_bridge
+
+    load_bridge(settings.bridge)  # bad bridge input stops here, before the design runs
     from design.outputs import check_replaceable, claim_output
 
     out = check_replaceable(out)  # a foreign non-empty folder is refused (design.outputs)

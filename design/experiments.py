@@ -32,18 +32,24 @@ import numpy as np
 from design.analyses import ANALYSES
 from design.cases import ERECTED_FRACTION, analysis_case
 from design.io import output_folder
-from design.options import check_int, check_keys, plain_name, read_definition, resolve_bridge, table
+from design.options import (
+    MAX_DOE_CASES,
+    check_int,
+    check_keys,
+    plain_name,
+    read_definition,
+    resolve_bridge,
+    table,
+)
 from model.errors import BridgeflapInputError
 from model.spec import PARAMETER_PATHS
 
 __all__ = ["DOE_ANALYSES", "MAX_DOE_CASES", "DoeConfig", "DoeParameter", "DoeResult",
            "doe_fingerprint", "doe_from_dict", "load_doe", "run_doe"]
 
-#: largest design accepted [cases]: at about a second per flutter case, 10^5 cases are already
-#: a day on one core; a larger study is better split into several DOE folders (and a
-#: 10^5-level factorial of two parameters, 10^10 cases, would not even fit in memory). The
-#: same value as design.options.MAX_DOE_CASES of the bad-input work (one constant after merge)
-MAX_DOE_CASES = 100_000
+# MAX_DOE_CASES (design.options): at about a second per flutter case, 10^5 cases are already a
+# day on one core; a larger study is better split into several DOE folders (and a 10^5-level
+# factorial of two parameters, 10^10 cases, would not even fit in memory)
 
 #: registered analyses with a DOE case row
 DOE_ANALYSES = tuple(name for name, entry in ANALYSES.items() if entry.case is not None)
@@ -166,8 +172,8 @@ def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
     options = table(data, "options")
     design = table(data, "design")
     if quick:
-        options.update(qk.get("options", {}))
-        design.update(qk.get("design", {}))
+        options.update(table(qk, "options"))
+        design.update(table(qk, "design"))
     ANALYSES[analysis].resolve(options, what="options")
     if set(design) - {"kind", "levels", "n", "seed"}:
         bad = sorted(set(design) - {"kind", "levels", "n", "seed"})[0]
@@ -176,8 +182,8 @@ def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
     if kind is None:
         raise BridgeflapInputError("design.kind", f"unknown design {design.get('kind')!r} "
                                                   "(full-factorial, latin-hypercube, sobol)")
-    levels = check_int(design.get("levels", 3), "design.levels")
-    n = check_int(design.get("n", 16), "design.n")
+    levels = check_int(design.get("levels", 3), "design.levels", 1, MAX_DOE_CASES)
+    n = check_int(design.get("n", 16), "design.n", 1, MAX_DOE_CASES)
     seed = check_int(design.get("seed", 1), "design.seed", 0)
     raw = data.get("parameters")
     if not isinstance(raw, dict) or not raw:

@@ -21,13 +21,30 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["check_int", "check_keys", "check_option_names", "grid", "parse_range", "plain_name",
-           "read_definition", "read_toml", "resolve_bridge", "table"]
+__all__ = ["MAX_DOE_CASES", "MAX_GRID_POINTS", "MAX_GRID_VALUE", "MAX_MODES", "check_bool",
+           "check_choice",
+           "check_int", "check_keys", "check_number", "check_option_names", "grid",
+           "parse_range", "plain_name", "read_definition", "read_toml", "resolve_bridge",
+           "table"]
 
-_MAX_POINTS = 100000
+#: most points of one grid: a flutter sweep costs about 1 ms per point at 16 modes (an
+#: eigenvalue problem of 96 states), so 20000 points is already half a minute
+MAX_GRID_POINTS = 20000
+_MAX_POINTS = MAX_GRID_POINTS  # former name
+#: largest grid value: no wind speed [m/s] (and no fraction) comes near it; far below the
+#: overflow of U^2 terms
+MAX_GRID_VALUE = 1.0e4
+#: most retained vertical + torsional modes: the state grows by 6 per mode (2 structural and
+#: 4 aerodynamic lags), and one eigenvalue problem at 100 modes (about 600 states) takes 0.1 s,
+#: so a 171-point sweep about 20 s; the truncation study (bench/stability.py) converged at 16-24
+MAX_MODES = 100
+#: most cases of one DOE (a full factorial grows as levels^parameters): a case takes about a
+#: second, so 100000 cases is already a day on one core
+MAX_DOE_CASES = 100000
 
 
-def parse_range(text: str, field: str, minimum: float | None = None) -> np.ndarray:
+def parse_range(text: str, field: str, minimum: float | None = None,
+                maximum: float | None = MAX_GRID_VALUE) -> np.ndarray:
     """Parse ``start:stop:step`` (inclusive of ``stop``) or a comma list into an array.
 
     Parameters
@@ -38,6 +55,8 @@ def parse_range(text: str, field: str, minimum: float | None = None) -> np.ndarr
         Name of the input, used in the error message.
     minimum : float, optional
         Smallest allowed value.
+    maximum : float, optional
+        Largest allowed value (default :data:`MAX_GRID_VALUE`).
 
     Returns
     -------
@@ -47,49 +66,115 @@ def parse_range(text: str, field: str, minimum: float | None = None) -> np.ndarr
     Raises
     ------
     BridgeflapInputError
-        Not a number grid, an empty or oversized grid, non-finite values or values below
-        ``minimum``.
+        Not a number grid, an empty grid or one of more than :data:`MAX_GRID_POINTS`
+        points, non-finite values or values outside ``[minimum, maximum]``.
     """
+    if not isinstance(text, str):
+        raise BridgeflapInputError(field, f"must be grid text such as '0:85:0.5' or '1,2,5', "
+                                          f"got {text!r}")
+    if len(text) > 20 * MAX_GRID_POINTS:
+        raise BridgeflapInputError(field, f"grid text too long (at most {MAX_GRID_POINTS} "
+                                          "points)")
     try:
-        if ":" in str(text):
-            parts = [float(p) for p in str(text).split(":")]
+        if ":" in text:
+            parts = [float(p) for p in text.split(":")]
             if len(parts) != 3:
                 raise ValueError
             start, stop, step = parts
-            if not (np.isfinite(step) and step > 0) or stop < start:
+            if not all(np.isfinite(parts)):
+                raise BridgeflapInputError(field, f"start, stop and step must be finite, "
+                                                  f"got {text!r}")
+            if not step > 0 or stop < start:
                 raise BridgeflapInputError(
                     field, f"empty grid {text!r} (need start <= stop, step > 0)")
-            n = int(np.floor((stop - start) / step + 1e-9)) + 1
-            if n > _MAX_POINTS:
-                raise BridgeflapInputError(field, f"grid {text!r} has too many points")
-            values = start + step * np.arange(n)
+            n = (stop - start) / step + 1e-9
+            if not n < MAX_GRID_POINTS:  # also catches an overflow to inf
+                raise BridgeflapInputError(field, f"grid {text!r} has more than the limit of "
+                                                  f"{MAX_GRID_POINTS} points")
+            values = start + step * np.arange(int(np.floor(n)) + 1)
         else:
-            values = np.array([float(p) for p in str(text).split(",") if p.strip()])
+            values = np.array([float(p) for p in text.split(",") if p.strip()])
     except BridgeflapInputError:
         raise
     except ValueError:
         raise BridgeflapInputError(field, f"not a number grid: {text!r}") from None
+    return _check_values(values, field, minimum, maximum)
+
+
+def _check_values(values: np.ndarray, field: str, minimum, maximum) -> np.ndarray:
     if values.size == 0:
         raise BridgeflapInputError(field, "empty grid")
+    if values.size > MAX_GRID_POINTS:
+        raise BridgeflapInputError(field, f"{values.size} points, more than the limit of "
+                                          f"{MAX_GRID_POINTS}")
     if not np.all(np.isfinite(values)):
         raise BridgeflapInputError(field, "values must be finite")
     if minimum is not None and np.any(values < minimum):
         raise BridgeflapInputError(field, f"values must be >= {minimum} (got {values.min()})")
+    if maximum is not None and np.any(values > maximum):
+        raise BridgeflapInputError(field, f"values must be <= {maximum:g} (got "
+                                          f"{values.max():g})")
     return values
 
 
-def grid(value: Any, field: str, minimum: float | None = None) -> np.ndarray:
-    """An array from grid text (:func:`parse_range`) or from numbers (passed through)."""
+def grid(value: Any, field: str, minimum: float | None = None,
+         maximum: float | None = MAX_GRID_VALUE) -> np.ndarray:
+    """An array from grid text (:func:`parse_range`) or from a list of numbers (checked alike)."""
     if isinstance(value, str):
-        return parse_range(value, field, minimum)
-    return np.asarray(value, dtype=float)
+        return parse_range(value, field, minimum, maximum)
+    if isinstance(value, np.ndarray) and value.dtype.kind in "fiu":
+        values = value.astype(float).ravel()
+    elif isinstance(value, list | tuple) and all(
+            isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool)
+            for v in value):
+        values = np.asarray(value, dtype=float).ravel()
+    else:
+        raise BridgeflapInputError(field, f"must be grid text such as '0:85:0.5' or a list of "
+                                          f"numbers, got {value!r}")
+    return _check_values(values, field, minimum, maximum)
 
 
-def check_int(value: Any, field: str, minimum: int = 1) -> int:
-    """``value`` if it is an integer (not a bool) of at least ``minimum``."""
+def check_int(value: Any, field: str, minimum: int = 1, maximum: int | None = None) -> int:
+    """``value`` if it is an integer (not a bool) in ``[minimum, maximum]``."""
     if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
         raise BridgeflapInputError(field, f"must be an integer >= {minimum}, got {value!r}")
+    if maximum is not None and value > maximum:
+        raise BridgeflapInputError(field, f"{value} is more than the limit of {maximum}")
     return int(value)
+
+
+def check_number(value: Any, field: str, minimum: float | None = None,
+                 maximum: float | None = None, strict: bool = False) -> float:
+    """``value`` as a float if it is a finite number (not a bool) in range.
+
+    ``strict``: ``minimum`` itself is excluded (``value > minimum``).
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise BridgeflapInputError(field, f"must be a number, got {value!r}")
+    v = float(value)
+    if not np.isfinite(v):
+        raise BridgeflapInputError(field, f"must be finite, got {value!r}")
+    if minimum is not None and (v <= minimum if strict else v < minimum):
+        raise BridgeflapInputError(field, f"must be {'>' if strict else '>='} {minimum:g}, "
+                                          f"got {value!r}")
+    if maximum is not None and v > maximum:
+        raise BridgeflapInputError(field, f"must be <= {maximum:g}, got {value!r}")
+    return v
+
+
+def check_bool(value: Any, field: str) -> bool:
+    """``value`` if it is true or false (TOML booleans; no strings, no numbers)."""
+    if not isinstance(value, bool | np.bool_):
+        raise BridgeflapInputError(field, f"must be true or false, got {value!r}")
+    return bool(value)
+
+
+def check_choice(value: Any, field: str, choices) -> str:
+    """``value`` if it is one of ``choices``."""
+    if not isinstance(value, str) or value not in choices:
+        raise BridgeflapInputError(field, f"must be one of {', '.join(map(repr, choices))}, "
+                                          f"got {value!r}")
+    return value
 
 
 def check_option_names(kind: str, names, allowed: tuple | None, what: str) -> None:

@@ -106,6 +106,16 @@ class DesignSettings:
         if self.robust_omega_max_rad_s <= self.robust_omega_min_rad_s:
             raise BridgeflapInputError("robust_omega_max_rad_s",
                                        "must exceed robust_omega_min_rad_s")
+        for name in ("a2_bounds", "a1_bounds"):
+            b = getattr(self, name)
+            if not (isinstance(b, tuple | list) and len(b) == 2):
+                raise BridgeflapInputError(name, f"must be a pair [low, high], got {b!r}")
+            if _num(name, b[0]) >= _num(name, b[1]):
+                raise BridgeflapInputError(name, f"low must be below high, got {b!r}")
+        for v in self.min_flap_counts:
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise BridgeflapInputError("min_flap_counts",
+                                           f"must be positive integers, got {v!r}")
         if self.a2_bounds[0] <= 0 or self.a1_bounds[0] <= 0:
             raise BridgeflapInputError("a2_bounds", "lower bounds of a2 and a1 must be > 0 "
                                                     "(stable, proper compensator)")
@@ -114,8 +124,18 @@ class DesignSettings:
         for name in ("robust_design_speeds_m_s", "robust_speeds_m_s", "buffeting_speeds_m_s"):
             for v in getattr(self, name):
                 _num(name, v, positive=True)
-        if not isinstance(self.optimise_placement, bool):
-            raise BridgeflapInputError("optimise_placement", "must be true or false")
+        for name in ("optimise_placement", "leading_edge", "trailing_edge", "parallel"):
+            if not isinstance(getattr(self, name), bool):
+                raise BridgeflapInputError(name, f"must be true or false, got "
+                                                 f"{getattr(self, name)!r}")
+        _num("b_bound", self.b_bound, positive=True)
+        for name in ("seed", "cutting_plane_rounds"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise BridgeflapInputError(name, f"must be an integer >= 0, got {v!r}")
+        if not isinstance(self.bridge, str) or not self.bridge:
+            raise BridgeflapInputError("bridge", f"must be a bridge name or path, got "
+                                                 f"{self.bridge!r}")
 
     def positions(self, count: int | None = None) -> np.ndarray:
         """Evenly spaced, touching flap centres from the main-span mid-point [m]."""
@@ -160,6 +180,8 @@ def load_settings(path=None, **overrides) -> DesignSettings:
             raise BridgeflapInputError("design", f"file not found: {p}") from None
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise BridgeflapInputError("design", f"invalid TOML in {p}: {exc}") from None
+        except OSError as exc:  # a folder, no permission
+            raise BridgeflapInputError("design", f"cannot read {p}: {exc}") from None
     flat = {}
     for key, value in data.items():
         if isinstance(value, dict):         # allow [tables] for grouping
@@ -174,6 +196,8 @@ def load_settings(path=None, **overrides) -> DesignSettings:
     for key in ("a2_bounds", "a1_bounds", "min_flap_counts", "robust_speeds_m_s",
                 "robust_design_speeds_m_s", "buffeting_speeds_m_s"):
         if key in flat:
+            if not isinstance(flat[key], list | tuple):
+                raise BridgeflapInputError(key, f"must be a list, got {flat[key]!r}")
             flat[key] = tuple(flat[key])
     return DesignSettings(**flat)
 

@@ -97,6 +97,9 @@ class ModalModel:
         cand = [i for i, m in enumerate(self.modes) if m.family in ("vertical", "torsional")]
         if count < 1:
             raise BridgeflapInputError("modes", f"at least one mode is needed, got {count}")
+        if count > len(cand):
+            raise BridgeflapInputError("modes", f"{count} requested, but this model has only "
+                                                f"{len(cand)} vertical and torsional modes")
         chosen = cand[:count]
         n_strip = len(self.structure.strip_x)
         phi_h = np.zeros((n_strip, len(chosen)))

@@ -21,6 +21,17 @@ from pathlib import Path
 from typing import Any
 
 from model.errors import BridgeflapInputError
+from model.limits import (
+    MAX_ELEMENTS,
+    MIN_SAG_RATIO,
+    PLAUSIBLE_RANGES,
+    check_section_geometry,
+    to_float,
+)
+from model.limits import check_finite as _finite
+from model.limits import check_in_range as _in_range
+from model.limits import check_nonnegative as _nonnegative
+from model.limits import check_positive as _positive
 from model.section_props import DeckSection, section_from_list
 
 if sys.version_info >= (3, 11):
@@ -29,6 +40,7 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 BUILTIN_BRIDGES = ("humber",)
+
 
 
 @dataclass(frozen=True)
@@ -58,10 +70,15 @@ class Span:
     cable_area_m2: float | None = None
 
     def __post_init__(self):
-        _positive(f"spans.{self.name}.length_m", self.length_m)
+        if not isinstance(self.name, str) or not self.name:
+            raise BridgeflapInputError("spans.name", f"must be a string, got {self.name!r}")
+        _in_range(f"spans.{self.name}.length_m", self.length_m, "length_m")
         _finite(f"spans.{self.name}.chord_rise_m", self.chord_rise_m)
+        if not isinstance(self.suspended_deck, bool):
+            raise BridgeflapInputError(f"spans.{self.name}.suspended_deck",
+                                       f"must be true or false, got {self.suspended_deck!r}")
         if self.cable_area_m2 is not None:
-            _positive(f"spans.{self.name}.cable_area_m2", self.cable_area_m2)
+            _in_range(f"spans.{self.name}.cable_area_m2", self.cable_area_m2, "cable_area_m2")
         if abs(self.chord_rise_m) >= self.length_m:
             raise BridgeflapInputError(
                 f"spans.{self.name}.chord_rise_m", "chord steeper than 45 degrees is not supported"
@@ -85,7 +102,7 @@ class Cable:
 
     def __post_init__(self):
         for name in ("area_m2", "modulus_pa", "mass_kg_per_m", "spacing_m", "main_sag_m"):
-            _positive(f"cable.{name}", getattr(self, name))
+            _in_range(f"cable.{name}", getattr(self, name))
 
 
 @dataclass(frozen=True)
@@ -106,6 +123,8 @@ class Deck:
             _positive(f"deck.{name}", getattr(self, name))
         for name in ("ei_vertical_nm2", "ei_lateral_nm2", "gj_nm2"):
             _nonnegative(f"deck.{name}", getattr(self, name))
+        for name in _DECK_KEYS:
+            _in_range(f"deck.{name}", getattr(self, name))
 
 
 @dataclass(frozen=True)
@@ -138,6 +157,12 @@ class Aero:
             _positive(f"aero.{name}", getattr(self, name))
         _finite("aero.lift_slope_buffeting", self.lift_slope_buffeting)
         _finite("aero.moment_slope_buffeting", self.moment_slope_buffeting)
+        for f in dataclasses.fields(self):
+            if f"aero.{f.name}" in PLAUSIBLE_RANGES:
+                _in_range(f"aero.{f.name}", getattr(self, f.name))
+        if not isinstance(self.added_inertia, bool):
+            raise BridgeflapInputError("aero.added_inertia",
+                                       f"must be true or false, got {self.added_inertia!r}")
 
 
 @dataclass(frozen=True)
@@ -205,6 +230,26 @@ class BridgeSpec:
         main = self.main_span
         if self.cable.main_sag_m >= 0.5 * main.length_m:
             raise BridgeflapInputError("cable.main_sag_m", "sag must be below half the span")
+        if self.cable.main_sag_m < MIN_SAG_RATIO * main.length_m:
+            raise BridgeflapInputError("cable.main_sag_m",
+                                       f"below {MIN_SAG_RATIO:g} of the main span, got "
+                                       f"{self.cable.main_sag_m}")
+        self._check_mesh()
+
+    def _check_mesh(self) -> None:
+        """At least two elements per span (the torsion of a span needs an interior node), and
+        at most :data:`MAX_ELEMENTS` in all."""
+        le = self.mesh.element_length_m
+        shortest = min(self.spans, key=lambda s: s.length_m)
+        if le > 0.5 * shortest.length_m:
+            raise BridgeflapInputError(
+                "mesh.element_length_m", f"{le:g} m is longer than half the shortest span "
+                f"({shortest.name}, {shortest.length_m:g} m): every span needs two elements")
+        n = sum(math.ceil(s.length_m / le - 1e-9) for s in self.spans)
+        if n > MAX_ELEMENTS:
+            raise BridgeflapInputError(
+                "mesh.element_length_m", f"{le:g} m gives {n} elements, more than the limit of "
+                f"{MAX_ELEMENTS}")
 
     @property
     def main_span(self) -> Span:
@@ -396,9 +441,7 @@ def spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = Non
             raw = raw["value"]
         else:
             sources[path] = "not stated"
-        if isinstance(raw, bool) or not isinstance(raw, int | float):
-            raise BridgeflapInputError(path, f"must be a number, got {raw!r}")
-        return float(raw)
+        return to_float(path, raw)
 
     def switch(table: dict, path: str, default: bool) -> bool:
         raw = table.get(path.rsplit(".", 1)[1], default)
@@ -424,6 +467,8 @@ def spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = Non
     name = data.get("name")
     if not isinstance(name, str) or not name:
         raise BridgeflapInputError("name", "missing or not a string")
+    if not isinstance(data.get("description", ""), str):
+        raise BridgeflapInputError("description", "must be a string")
     raw_spans = data.get("spans")
     if not isinstance(raw_spans, list) or not raw_spans:
         raise BridgeflapInputError("spans", "missing: give an array of [[spans]] tables")
@@ -457,6 +502,7 @@ def spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = Non
         for k in _SECTION_KEYS:
             if k in d:
                 raise BridgeflapInputError(f"deck.{k}", "given by [[deck_section]]: remove it")
+        check_section_geometry(data["deck_section"])
         section = section_from_list(data["deck_section"])
         deck_values["mass_kg_per_m"] = section.mass_kg_per_m
         deck_values["mass_inertia_kgm2_per_m"] = section.inertia_kgm2_per_m
@@ -518,9 +564,7 @@ def _apply_variant(spec: BridgeSpec, variants: dict, variant: str | None) -> Bri
             _check_keys(raw, ("value", "source"), f"variants.{variant}.{path}")
             sources[path] = f"variant {variant}: {raw.get('source', 'not stated')}"
             raw = raw.get("value")
-        if isinstance(raw, bool) or not isinstance(raw, int | float):
-            raise BridgeflapInputError(f"variants.{variant}.{path}", "must be a number")
-        changes[path] = float(raw)
+        changes[path] = to_float(f"variants.{variant}.{path}", raw)
     out = spec.replace(**changes)
     return dataclasses.replace(out, name=f"{spec.name}:{variant}", sources=sources)
 
@@ -530,20 +574,3 @@ class _Missing:
 
 
 _MISSING = _Missing()
-
-
-def _finite(field_name: str, v: float) -> None:
-    if not isinstance(v, int | float) or not math.isfinite(v):
-        raise BridgeflapInputError(field_name, f"must be a finite number, got {v!r}")
-
-
-def _positive(field_name: str, v: float) -> None:
-    _finite(field_name, v)
-    if v <= 0:
-        raise BridgeflapInputError(field_name, f"must be positive, got {v}")
-
-
-def _nonnegative(field_name: str, v: float) -> None:
-    _finite(field_name, v)
-    if v < 0:
-        raise BridgeflapInputError(field_name, f"must not be negative, got {v}")

@@ -348,9 +348,7 @@ def test_invalid_option_exits_2_and_leaves_the_previous_output_byte_identical(tm
 
 @pytest.mark.parametrize("bad", [
     "modes = 0",
-    pytest.param('rfa = "bogus"', marks=pytest.mark.xfail(
-        strict=True, reason="rfa is checked at load only with the strict option validators of "
-                            "the bad-input branch; remove this mark once merged")),
+    'rfa = "bogus"',
 ])
 def test_doe_with_an_invalid_option_leaves_the_previous_output_byte_identical(tmp_path, bad):
     doe = tmp_path / "doe.toml"
