@@ -23,8 +23,10 @@ Method (docs/methods.md#stability):
 * the **second-critical branch** (the next tracked oscillatory branch to cross) and the damping
   slope at the crossing (soft or hard onset, :data:`HARD_ONSET_DAMPING_SLOPE_S_PER_M`).
 
-:func:`pk_sweep` is the exact-Theodorsen p-k cross-check on the same generalised coordinates;
-its branches are continued with adaptive sub-steps and its crossing is verified the same way.
+The building blocks (statuses, :class:`~model.tracking.Crossing`, branch continuation) are in
+:mod:`model.tracking`; :func:`pk_sweep`, the exact-Theodorsen p-k cross-check on the same
+generalised coordinates, is in :mod:`model.pk` (its branches are continued with adaptive
+sub-steps and its crossing is verified the same way). Both are re-exported here.
 """
 
 from __future__ import annotations
@@ -32,103 +34,43 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-import scipy.linalg as sla
-from scipy.optimize import brentq, linear_sum_assignment
+from scipy.optimize import brentq
 
-from model.errors import BridgeflapInputError
-from model.statespace import AeroelasticSystem, divergence_speed_static, exact_dynamic_matrix
-from model.theodorsen import theodorsen
-
-CONVERGED = "converged"
-NO_CROSSING = "no_crossing_in_range"
-BRACKET_FAILED = "bracket_failed"
-#: the system is already unstable at the first speed of the grid: no crossing can be located
-UNSTABLE_AT_FIRST = "unstable_at_first_speed"
-#: Brent found a sign change of the indicator, but the tracked branch does not change sign
-#: across a small bracket around it, jumps between the grid speeds, or the point is no root
-UNVERIFIED = "unverified_crossing"
-#: the second-critical branch is only searched for when the critical crossing converged
-NOT_EVALUATED = "not_evaluated"
-
-#: a continuation step is accepted when the eigenvalue given to a branch is nearer its linear
-#: prediction than this fraction of the distance to the next-nearest candidate (one half: the
-#: prediction error is then below the half-gap, so no two branches can have swapped)
-UNAMBIGUOUS = 0.5
-#: extra eigenvalue evaluations the sweep may spend on tracking sub-steps: this many per grid
-#: speed plus :data:`TRACKING_BUDGET_MIN` (a grid starting above 0, a coarse grid)
-TRACKING_BUDGET_FACTOR = 1
-TRACKING_BUDGET_MIN = 100
-#: flutter onset is "hard" when the damping ratio falls faster than this past the crossing,
-#: -d zeta/dU [s/m]: 1e-3 per m/s loses 1 % of critical damping within 10 m/s (about 15 % of
-#: the speed of a long-span bridge); slower is "soft" (a gradual, often torsional, onset)
-HARD_ONSET_DAMPING_SLOPE_S_PER_M = 1e-3
-
-
-def check_speeds(speeds) -> np.ndarray:
-    """Validate a wind-speed grid [m/s]: finite, non-negative, increasing, at least 2 points."""
-    try:
-        u = np.asarray(speeds, dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise BridgeflapInputError("speeds", "not numeric") from None
-    if u.size < 2:
-        raise BridgeflapInputError("speeds", "the grid needs at least two speeds")
-    if not np.all(np.isfinite(u)):
-        raise BridgeflapInputError("speeds", "must be finite")
-    if np.any(u < 0):
-        raise BridgeflapInputError("speeds", f"must not be negative (min {u.min()})")
-    if np.any(np.diff(u) <= 0):
-        raise BridgeflapInputError("speeds", "must be strictly increasing")
-    return u
-
-
-@dataclass(frozen=True)
-class Crossing:
-    """A stability boundary: speed [m/s], frequency [Hz] and status.
-
-    ``bracket`` is the grid interval [m/s] of the sign change; ``re_slope_per_m`` the slope
-    ``d Re lambda / dU`` [1/s per m/s = 1/m] of the crossing eigenvalue, measured across the
-    verification bracket; ``branch`` the tracked structural branch (-1 when the crossing
-    eigenvalue is none of them) and ``label`` its name, from ``label_source`` (``"tracking"``
-    from U = 0, or ``"participation"``: the largest kinetic-energy share of the crossing
-    eigenvector); ``reason`` says why a crossing is not ``converged``.
-    """
-
-    speed: float
-    frequency_hz: float
-    status: str
-    bracket: tuple = (float("nan"), float("nan"))
-    re_slope_per_m: float = float("nan")
-    branch: int = -1
-    label: str = ""
-    reason: str = ""
-    label_source: str = ""
-
-    def damping_slope_s_per_m(self) -> float:
-        """``d zeta / dU`` [s/m] at the crossing: ``-(d Re lambda/dU) / |lambda|`` (Re = 0)."""
-        w = 2 * np.pi * self.frequency_hz
-        if self.status != CONVERGED or not w > 0:
-            return float("nan")
-        return float(-self.re_slope_per_m / w)
-
-    def onset(self) -> str:
-        """``"hard"`` or ``"soft"`` flutter (:data:`HARD_ONSET_DAMPING_SLOPE_S_PER_M`), or ""."""
-        dz = self.damping_slope_s_per_m()
-        if not np.isfinite(dz):
-            return ""
-        return "hard" if -dz >= HARD_ONSET_DAMPING_SLOPE_S_PER_M else "soft"
-
-
-def static_status(u_static: float, speeds) -> str:
-    """Status of the static divergence root ``u_static`` [m/s] on the grid ``speeds``.
-
-    ``converged`` inside the grid; ``no_crossing_in_range`` when there is no root or it lies
-    above the grid; ``unstable_at_first_speed`` when it lies below the first speed.
-    """
-    if not np.isfinite(u_static) or u_static > speeds[-1]:
-        return NO_CROSSING
-    if u_static < speeds[0]:
-        return UNSTABLE_AT_FIRST
-    return CONVERGED
+from model.pk import (  # noqa: F401 - the p-k check is part of this module's public face
+    PK_RESIDUAL_TOL,
+    PKResult,
+    exact_residual,
+    pk_residual,
+    pk_sweep,
+)
+from model.statespace import AeroelasticSystem, divergence_speed_static
+from model.tracking import (  # noqa: F401 - statuses and helpers are re-exported
+    BRACKET_FAILED,
+    CONVERGED,
+    HARD_ONSET_DAMPING_SLOPE_S_PER_M,
+    NO_CROSSING,
+    NOT_EVALUATED,
+    TRACKING_BUDGET_FACTOR,
+    TRACKING_BUDGET_MIN,
+    UNAMBIGUOUS,
+    UNSTABLE_AT_FIRST,
+    UNVERIFIED,
+    Crossing,
+    _assign,
+    _bracket_half_width,
+    _branch_of,
+    _Budget,
+    _divergence_function,
+    _eig,
+    _follow,
+    _max_real_real,
+    _stable_start,
+    _track_interval,
+    check_speeds,
+    flutter_function,
+    oscillation_tolerance,
+    static_status,
+)
 
 
 @dataclass(frozen=True)
@@ -290,140 +232,6 @@ class StabilitySweep:
         return axes
 
 
-def _eig(A):
-    lam, V = sla.eig(A)
-    return lam, V
-
-
-def oscillation_tolerance(system: AeroelasticSystem) -> float:
-    """Threshold [rad/s] on ``|Im lambda|`` between oscillatory and real eigenvalues.
-
-    ``1e-3`` of the lowest structural natural frequency ``sqrt(K_ii / M_ii)``.
-    """
-    w = np.sqrt(np.abs(np.diag(system.basis.K) / np.diag(system.basis.M)))
-    return 1e-3 * float(np.min(w[w > 0])) if np.any(w > 0) else 1e-6
-
-
-def flutter_function(system: AeroelasticSystem, U: float, omega_tol: float) -> float:
-    """Largest real part among oscillatory eigenvalues of ``A(U)`` [1/s]."""
-    lam = np.linalg.eigvals(system.A(U))
-    osc = lam[np.abs(lam.imag) > omega_tol]
-    return float(osc.real.max()) if osc.size else -np.inf
-
-
-def _divergence_function(system: AeroelasticSystem, U: float, omega_tol: float) -> float:
-    lam = np.linalg.eigvals(system.A(U))
-    real = lam[np.abs(lam.imag) <= omega_tol].real
-    if real.size == 0:
-        return -np.inf
-    return float(real[np.argmin(np.abs(real))])
-
-
-def _max_real_real(lam, omega_tol):
-    real = lam[np.abs(lam.imag) <= omega_tol].real
-    return float(real.max()) if real.size else -np.inf
-
-
-# ------------------------------------------------------------------ continuation of branches
-
-
-class _Budget:
-    """Counter of the extra eigenvalue evaluations spent on tracking sub-steps."""
-
-    def __init__(self, limit: int):
-        self.limit, self.used, self.forced = int(limit), 0, 0
-
-    def take(self) -> bool:
-        if self.used >= self.limit:
-            return False
-        self.used += 1
-        return True
-
-
-def _assign(pred, lam, omega_tol):
-    """Assign each predicted branch value to one eigenvalue of ``lam``.
-
-    The branches are both halves of every structural pair (a pair that turns real gives two
-    real eigenvalues, one to each half). Returns the assigned values and whether the assignment
-    is ambiguous: an oscillatory branch whose assigned eigenvalue is not nearer its prediction
-    than :data:`UNAMBIGUOUS` times the next-nearest oscillatory eigenvalue on its side of the
-    real axis (so the step may have swapped two branches; a pair's own halves cannot swap).
-    """
-    dist = np.abs(pred[:, None] - lam[None, :])
-    scale = np.maximum(np.abs(pred), omega_tol)[:, None]
-    rows, cols = linear_sum_assignment(dist / scale)
-    cols = cols[np.argsort(rows)]
-    rng = np.arange(len(pred))
-    d1 = dist[rng, cols]
-    other = dist.copy()
-    other[rng, cols] = np.inf
-    side = np.sign(pred.imag)[:, None] * lam.imag[None, :] <= omega_tol
-    other[side] = np.inf
-    d2 = other.min(axis=1)
-    osc = np.abs(pred.imag) > omega_tol
-    return lam[cols], bool(np.any(osc & (d1 > UNAMBIGUOUS * d2)))
-
-
-def _track_interval(system, u0, l0, s0, u1, lam1, omega_tol, budget, halvings=6):
-    """Continue the branch values ``l0`` at ``u0`` [m/s] (slopes ``s0`` [1/s per m/s]) to ``u1``.
-
-    ``lam1`` are the eigenvalues at ``u1`` (already computed by the sweep). The step is halved
-    (eigenvalues only, at the intermediate speed) while the assignment is ambiguous, down to
-    ``2**-halvings`` of the interval or until the sweep's budget of extra evaluations is spent;
-    a step taken at that limit is counted in ``budget.forced``.
-    """
-    u, l, s = float(u0), np.asarray(l0), np.asarray(s0)
-    h = u1 - u0
-    h_min = h / 2 ** halvings
-    while u < u1:
-        step = min(h, u1 - u)
-        t = u1 if u1 - (u + step) <= 1e-12 * max(u1, 1.0) else u + step
-        lam = lam1 if t == u1 else np.linalg.eigvals(system.A(t))
-        cur, ambiguous = _assign(l + (t - u) * s, lam, omega_tol)
-        if ambiguous and step > 1.5 * h_min and budget.take():
-            h = step / 2
-            continue
-        budget.forced += int(ambiguous)
-        s = (cur - l) / (t - u)
-        l, u, h = cur, t, 2 * step
-    return l, s
-
-
-def _follow(system, u0, lam0, u1, omega_tol, halvings=10):
-    """One eigenvalue ``lam0`` of ``A(u0)`` continued to ``A(u1)`` [m/s].
-
-    Steps are halved until the eigenvalue nearest the (linear) prediction is nearer than
-    :data:`UNAMBIGUOUS` times the next-nearest one. Returns ``(lambda, ok)``; ``ok`` is False
-    when the smallest step was still ambiguous (the continuation may have jumped).
-    """
-    u, lam_c, s = float(u0), complex(lam0), 0.0j
-    h = u1 - u0
-    h_min = abs(h) / 2 ** halvings
-    ok = True
-    while u != u1:
-        step = np.copysign(min(abs(h), abs(u1 - u)), h)
-        t = u1 if abs(u1 - (u + step)) <= 1e-12 * max(abs(u1), 1.0) else u + step
-        lam = np.linalg.eigvals(system.A(t))
-        pred = lam_c + (t - u) * s
-        d = np.abs(lam - pred)
-        k = int(np.argmin(d))
-        d2 = np.partition(d, 1)[1] if d.size > 1 else np.inf
-        if d[k] > UNAMBIGUOUS * d2 and abs(step) > 1.5 * h_min:
-            h = step / 2
-            continue
-        ok &= bool(d[k] <= UNAMBIGUOUS * d2)
-        s = (lam[k] - lam_c) / (t - u)
-        lam_c, u, h = complex(lam[k]), t, 2 * step
-    return lam_c, ok
-
-
-def _branch_of(value, column):
-    """Index of the tracked branch whose value in ``column`` is ``value`` (or -1)."""
-    cand = np.abs(column - value)
-    j = int(np.argmin(cand))
-    return j if cand[j] <= 1e-6 * max(abs(value), 1e-12) + 1e-12 else -1
-
-
 # ------------------------------------------------------------------ the sweep
 
 
@@ -522,11 +330,6 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> Stabili
                           tracking_substeps=budget.used, tracking_forced_steps=budget.forced)
 
 
-def _bracket_half_width(u: float, tol: float) -> float:
-    """Half-width [m/s] of the verification bracket around a refined crossing ``u``."""
-    return max(10 * tol, 1e-3 * u)
-
-
 def _verify(system, u, lam_u, a, b, i, tol, omega_tol, kind, tracked):
     """Check a refined crossing ``u`` in the grid bracket ``(a, b)`` (index ``i``).
 
@@ -606,19 +409,6 @@ def _locate(system, speeds, vals, tol, omega_tol, kind, branches) -> Crossing:
         if retry.status == CONVERGED:
             return retry
     return first
-
-
-def _stable_start(fun, a: float, b: float) -> float:
-    """``a``, or for a neutral ``a = 0`` (``fun(0)`` zero to round-off) the largest
-    ``b / 2**m`` (m <= 40) where ``fun`` is negative: Brent needs a strict sign change."""
-    if a != 0.0 or fun(a) < 0:
-        return a
-    t = b
-    for _ in range(40):
-        t /= 2
-        if fun(t) < 0:
-            return t
-    return a
 
 
 def _refine(system, a, b, i, grid_a, grid_b, tol, omega_tol, kind, branches) -> Crossing:
@@ -704,228 +494,3 @@ def _second_crossing(system, speeds, branches, labels, flutter, tol, omega_tol) 
                         reason=why or "the continuation left the branch")
     return Crossing(u, float(abs(lam_u.imag) / (2 * np.pi)), CONVERGED, (a, b),
                     re_slope_per_m=slope, label=label, branch=j, label_source="tracking")
-
-
-# --------------------------------------------------------------------------- p-k check
-
-#: relative residual below which a p-k point solves its own frozen-C equation (the k iteration
-#: stops at a relative change of 1e-10; 1e-7 leaves three orders for round-off of larger models)
-PK_RESIDUAL_TOL = 1e-7
-
-
-@dataclass(frozen=True)
-class PKResult:
-    """Exact-Theodorsen p-k branches and the flutter crossing.
-
-    ``converged`` (n_b, n_u): the k iteration converged and every continuation sub-step was
-    unambiguous. ``residual`` is :func:`pk_residual` and ``exact_residual``
-    :func:`exact_residual` (normalised) at the crossing, NaN elsewhere.
-    """
-
-    speeds: np.ndarray
-    branches: np.ndarray
-    branch_labels: tuple
-    flutter: Crossing
-    converged: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), bool))
-    residual: float = float("nan")
-    exact_residual: float = float("nan")
-
-    def summary(self) -> dict:
-        """The flutter keys of :meth:`StabilitySweep.summary` from the p-k solution."""
-        c = self.flutter
-        out = {"flutter_speed_m_s": c.speed, "flutter_frequency_hz": c.frequency_hz,
-               "flutter_status": c.status,
-               "flutter_re_lambda_slope_per_m": (c.re_slope_per_m if c.status == CONVERGED
-                                                 else float("nan")),
-               "flutter_damping_slope_s_per_m": c.damping_slope_s_per_m(),
-               "flutter_onset": c.onset(), "critical_branch_label": c.label,
-               "critical_branch_label_source": c.label_source}
-        if c.status in (BRACKET_FAILED, UNVERIFIED):
-            out["flutter_bracket_m_s"] = [float(c.bracket[0]), float(c.bracket[1])]
-            out["flutter_reason"] = c.reason
-        return out
-
-
-def _pk_point(frozen, U, p_guess, tol=1e-10, maxit=100):
-    """One p-k point: eigenvalue ``p`` of ``frozen.matrix(U, C(|Im p| b / U))`` near ``p_guess``.
-
-    Returns ``(p, converged, eigenvalues of the last matrix, index of p among them)``.
-    """
-    b = frozen.half_chord
-    p = p_guess
-    lam, k = np.array([p]), 0
-    for _ in range(maxit):
-        kr = abs(p.imag) * b / U
-        c = theodorsen(kr) if kr > 0 else 1.0 + 0j
-        lam = np.linalg.eigvals(frozen.matrix(U, c))
-        k = int(np.argmin(np.abs(lam - p)))
-        p_new = lam[k]
-        if abs(p_new - p) < tol * max(1.0, abs(p)):
-            return p_new, True, lam, k
-        p = p_new
-    return p, False, lam, k
-
-
-def _pk_solve(frozen, U, p_guess, tol=1e-10, maxit=100):
-    """One p-k point near ``p_guess`` (:func:`_pk_point`); returns ``(p, converged)``."""
-    p, ok, _, _ = _pk_point(frozen, U, p_guess, tol, maxit)
-    return p, ok
-
-
-def _pk_continue(frozen, u0, p0, s0, u1, halvings=12):
-    """Continue one p-k root from ``(u0, p0)`` (slope ``s0`` [1/s per m/s]) to ``u1`` [m/s].
-
-    Each sub-step solves the k iteration from the linear prediction and is accepted when it
-    converged and the root is nearer the prediction than :data:`UNAMBIGUOUS` times the next
-    eigenvalue of the same matrix; otherwise the step is halved (down to ``2**-halvings`` of
-    ``|u1 - u0|``). A coarse grid therefore cannot let two branches collapse onto one root.
-    Returns ``(p, slope, ok)``; ``ok`` is False if a step was accepted at the smallest size.
-    """
-    u, p, s = float(u0), complex(p0), complex(s0)
-    h = u1 - u0
-    h_min = abs(h) / 2 ** halvings
-    ok = True
-    while u != u1:
-        step = np.copysign(min(abs(h), abs(u1 - u)), h)
-        t = u1 if abs(u1 - (u + step)) <= 1e-12 * max(abs(u1), 1.0) else u + step
-        pred = p + (t - u) * s
-        q, conv, lam, k = _pk_point(frozen, t, pred)
-        d = np.abs(lam - pred)
-        d1 = d[k]
-        d[k] = np.inf
-        good = conv and d1 <= UNAMBIGUOUS * d.min()
-        if not good and abs(step) > 1.5 * h_min:
-            h = step / 2
-            continue
-        ok &= bool(good)
-        s = (q - p) / (t - u)
-        p, u, h = complex(q), t, 2 * step
-    return p, s, ok
-
-
-def _structural_labels(system: AeroelasticSystem, lam0) -> tuple:
-    """Label of the structural coordinate dominating each ``U = 0`` eigenvalue."""
-    basis = system.basis
-    n = basis.n
-    l0, V0 = _eig(system.structural_matrix())
-    labels = []
-    for lam in lam0:
-        k = np.argmin(np.abs(l0 - lam))
-        labels.append(basis.labels[int(np.argmax(np.abs(V0[:n, k])))])
-    return tuple(labels)
-
-
-def pk_residual(frozen, p: complex, U: float) -> float:
-    """Relative residual of a p-k point: ``sigma_min(A(U, C(k)) - p I) / ||A||_2`` with
-    ``k = |Im p| b / U`` recomputed from ``p`` itself (zero when ``p`` solves its own frozen-C
-    equation, i.e. the k iteration is consistent)."""
-    kr = abs(p.imag) * frozen.half_chord / U
-    A = frozen.matrix(U, theodorsen(kr) if kr > 0 else 1.0 + 0j)
-    s = np.linalg.svd(A - p * np.eye(A.shape[0]), compute_uv=False)
-    return float(s[-1] / max(np.linalg.norm(A, 2), abs(p), 1e-300))
-
-
-def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> PKResult:
-    """p-k solution with the exact Theodorsen function on the same coordinates.
-
-    Open or closed loop: the first-order matrix with ``C(k)`` frozen
-    (:meth:`~model.statespace.AeroelasticSystem.frozen`) contains the compensator states, so
-    ``K(p)`` is exact. Each structural branch is continued from its U = 0 eigenvalue with
-    adaptive sub-steps (:func:`_pk_continue`); at each speed the reduced frequency is iterated
-    to consistency, ``k = |Im p| b / U``. Flutter is the first speed where an oscillatory
-    branch's real part changes sign, refined by Brent's method on that branch (continued from
-    the grid speed below) to ``speed_tol`` [m/s], then verified: sign change of the branch
-    across ``u -+ max(10 tol, 1e-3 u)``, continuation to the next grid speed landing on the
-    branch's own value there (no jump), the k iteration converged and the residuals
-    (:func:`pk_residual`, :func:`exact_residual` for the open loop) below
-    :data:`PK_RESIDUAL_TOL`. Otherwise ``unverified_crossing`` with the grid bracket.
-    """
-    speeds_in = check_speeds(speeds)
-    speeds = speeds_in[speeds_in > 0]
-    frozen = system.frozen()
-    lam0 = system.structural_eigenvalues()
-    n = len(lam0)
-    branches = np.zeros((n, len(speeds)), dtype=complex)
-    slopes = np.zeros((n, len(speeds)), dtype=complex)
-    conv = np.zeros((n, len(speeds)), dtype=bool)
-    for j in range(n):
-        p, s, u = lam0[j], 0.0j, 0.0
-        for i, U in enumerate(speeds):
-            p, s, ok = _pk_continue(frozen, u, p, s, U)
-            branches[j, i], slopes[j, i], conv[j, i], u = p, s, ok, U
-    labels = _structural_labels(system, lam0)
-    omega_tol = oscillation_tolerance(system)
-
-    def result(crossing, res=float("nan"), ex=float("nan")):
-        return PKResult(speeds, branches, labels, crossing, conv, res, ex)
-
-    from_zero = bool(speeds_in[0] == 0.0)
-    best = None
-    for j in range(n):
-        re = branches[j].real
-        osc = np.abs(branches[j].imag) > omega_tol
-        idx = np.where((re[:-1] < 0) & (re[1:] >= 0) & osc[:-1] & osc[1:])[0]
-        if from_zero and osc[0] and re[0] >= 0:
-            # a grid from U = 0: the structure is stable (or neutral) in still air, so a
-            # branch unstable at the first positive speed crossed below it
-            idx = np.array([-1])
-        if idx.size and (best is None or idx[0] < best[1]):
-            best = (j, int(idx[0]))
-    if best is None:
-        if np.any((branches[:, 0].real > 1e-6 * omega_tol)
-                  & (np.abs(branches[:, 0].imag) > omega_tol)):
-            u0 = float(speeds[0])
-            return result(Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (u0, u0)))
-        return result(Crossing(float("nan"), float("nan"), NO_CROSSING))
-    j, i = best
-    if i < 0:
-        a, b, pa, sa = 0.0, float(speeds[0]), complex(lam0[j]), 0.0j
-    else:
-        a, b = float(speeds[i]), float(speeds[i + 1])
-        pa, sa = complex(branches[j, i]), complex(slopes[j, i])
-
-    def cont(U):
-        return _pk_continue(frozen, a, pa, sa, U)
-
-    def f(U):
-        return cont(U)[0].real
-
-    def failed(status, reason):
-        return result(Crossing(float("nan"), float("nan"), status, (a, b), branch=j,
-                               label=labels[j], reason=reason))
-
-    try:
-        u = float(brentq(f, _stable_start(f, a, b), b, xtol=speed_tol))
-    except (ValueError, RuntimeError) as exc:
-        return failed(BRACKET_FAILED, f"Brent: {exc}")
-    p, s, ok = cont(u)
-    d = _bracket_half_width(u, speed_tol)
-    lo, hi = max(u - d, 0.5 * u), u + d
-    p_lo, _, ok_lo = _pk_continue(frozen, u, p, s, lo)
-    p_hi, _, ok_hi = _pk_continue(frozen, u, p, s, hi)
-    p_b, _, ok_b = _pk_continue(frozen, u, p, s, b)
-    _, conv_u, _, _ = _pk_point(frozen, u, p)
-    res = pk_residual(frozen, p, u)
-    ex = float("nan")
-    if system.compensator is None and system.pieces is not None:
-        D = exact_dynamic_matrix(system, p, u, theodorsen(abs(p.imag) * frozen.half_chord / u))
-        ex = exact_residual(system, p, u) / max(np.linalg.norm(D, 2), 1e-300)
-    slope = (p_lo.real, p_hi.real)
-    if not (ok and ok_lo and ok_hi and slope[0] < 0 < slope[1]
-            and abs(p_lo.imag) > omega_tol and abs(p_hi.imag) > omega_tol):
-        return failed(UNVERIFIED, "no sign change of the tracked branch across the bracket")
-    if not (ok_b and abs(p_b - branches[j, i + 1]) <= 1e-6 * max(abs(p_b), 1e-12)):
-        return failed(UNVERIFIED, "the branch jumps between the grid speeds")
-    if not (conv_u and res <= PK_RESIDUAL_TOL and not ex > PK_RESIDUAL_TOL):
-        return failed(UNVERIFIED, f"residual {res:.1e} (exact {ex:.1e}) or k not converged")
-    crossing = Crossing(u, abs(p.imag) / (2 * np.pi), CONVERGED, (a, b),
-                        re_slope_per_m=(slope[1] - slope[0]) / (hi - lo), branch=j,
-                        label=labels[j], label_source="tracking")
-    return result(crossing, res, ex)
-
-
-def exact_residual(system: AeroelasticSystem, p: complex, U: float) -> float:
-    """Smallest singular value of the exact dynamic matrix at ``p`` (diagnostic)."""
-    k = abs(p.imag) * system.aero.half_chord / U
-    D = exact_dynamic_matrix(system, p, U, theodorsen(k))
-    return float(np.linalg.svd(D, compute_uv=False)[-1])
