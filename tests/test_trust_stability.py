@@ -28,6 +28,10 @@ GREAT_BELT = dict(mass=22740.0, inertia=2.47e6, f_heave=0.100, f_torsion=0.278, 
 # Humber-like section of the golden cases (tests/golden/cases.py _SECTION)
 HUMBER_SECTION = dict(mass=7660.0, inertia=375000.0, f_heave=0.117, f_torsion=0.311,
                       half_chord=11.0)
+# deck plus cables (test_aeroelastic.py::test_section_tool_aero_options_agree): flutter 65.65
+# m/s, static divergence 84.81 m/s
+HUMBER_CABLES = dict(mass=12460.0, inertia=9.56e5, f_heave=0.1166, f_torsion=0.2979,
+                     half_chord=11.0)
 
 
 def _section_system(c):
@@ -57,10 +61,12 @@ def coarse_fine(coarse_system):
 # ----------------------------------------------------------------- A2: p-k on a coarse grid
 
 
-@pytest.mark.parametrize("case", [GREAT_BELT, HUMBER_SECTION], ids=["great_belt", "humber"])
+@pytest.mark.parametrize("case", [GREAT_BELT, HUMBER_SECTION, HUMBER_CABLES],
+                         ids=["great_belt", "humber", "humber_cables"])
 def test_pk_on_a_coarse_grid_finds_the_fine_grid_crossing(case):
     """0:400:50 used to let the two branches collapse onto one root (Great Belt: 85.01 m/s
-    "converged" against 76.53 m/s; Humber-like: "no crossing" against 48.18 m/s)."""
+    "converged" against 76.53 m/s; Humber-like: "no crossing" against 48.18 m/s; with cables:
+    79.40 m/s "converged" against 65.65 m/s)."""
     system = _section_system(case)
     fine = stability.pk_sweep(system, np.arange(0.0, 150.0, 0.5))
     coarse = stability.pk_sweep(system, np.arange(0.0, 400.0 + 1e-9, 50.0))
@@ -87,6 +93,19 @@ def test_section_cli_exact_on_a_coarse_grid(capsys):
     assert coarse["flutter_speed_m_s"] == pytest.approx(fine["flutter_speed_m_s"], abs=SAME_ROOT)
     assert coarse["critical_branch_label"] == "pitch"
     assert coarse["critical_branch_label_source"] == "tracking"
+
+
+def test_section_static_divergence_off_the_grid_is_null(capsys):
+    """``section --aero exact --speeds 0:40:1`` reported divergence 84.81 m/s "converged"."""
+    argv = _section_argv(HUMBER_CABLES) + ["--aero", "exact", "--json"]
+    assert cli_main(argv + ["--speeds", "0:40:1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["divergence_speed_m_s"] is None and out["divergence_static_speed_m_s"] is None
+    assert out["divergence_status"] == out["divergence_static_status"] == stability.NO_CROSSING
+    assert cli_main(argv + ["--speeds", "0:100:1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["divergence_status"] == stability.CONVERGED
+    assert out["divergence_speed_m_s"] == pytest.approx(84.809, abs=1e-3)  # docstring above
 
 
 def test_pk_grid_that_starts_unstable_is_not_converged():
