@@ -171,12 +171,9 @@ def cmd_section(args):
     out = sw.summary()
     if args.aero == "exact":
         pk = stability.pk_sweep(system, speeds)
-        out["flutter_speed_m_s"] = pk.flutter.speed
-        out["flutter_frequency_hz"] = pk.flutter.frequency_hz
-        out["flutter_status"] = pk.flutter.status
-        out["divergence_speed_m_s"] = sw.divergence_static_speed
-        out["divergence_status"] = ("converged" if np.isfinite(sw.divergence_static_speed)
-                                    else "no_crossing_in_range")
+        out.update(pk.summary())  # flutter speed, status, slope, onset and label of the p-k
+        out["divergence_speed_m_s"] = out["divergence_static_speed_m_s"]  # null off the grid
+        out["divergence_status"] = out["divergence_static_status"]
     out["aero"] = args.aero
     out["selberg_flutter_speed_m_s"] = _selberg(args)
     text = (f"section ({args.aero}): flutter {out['flutter_speed_m_s']:.3f} m/s "

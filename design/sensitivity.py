@@ -16,6 +16,14 @@ with first-order eigenvalue perturbation theory (left eigenvector ``w``, right `
 
 Torsional divergence is the same with the real eigenvalue that crosses zero at ``U_D``.
 
+Each derivative holds **within one branch**: it follows the eigenvalue that is critical at the
+nominal point. A finite change of an input may hand the instability to another branch (TS1 to a
+vertical or side-span hybrid) and the speed then jumps, which no derivative predicts. Every row
+says which branch its derivatives hold on (``<q>_valid_within_branch``) and whether both
+finite-difference points stayed on it (``<q>_fd_same_branch``);
+:func:`design.branch_flags.flag_branch_neighbours` flags DOE/sensitivity rows whose neighbours
+in parameter space have a different critical branch.
+
 ``dA/dp`` for a parameter that enters through the cable statics and the finite-element assembly
 (deck mass, inertia, GJ, EI, sag, cable spacing, ...) is the central difference of the
 **Ritz-projected** state matrix: the perturbed FE matrices ``M(p), K(p)`` are projected on the
@@ -216,13 +224,16 @@ def ritz_system(spec: BridgeSpec, nominal: ModalModel, n_modes: int = DEFAULT_MO
 
 def critical_speeds(system: statespace.AeroelasticSystem, speeds,
                     speed_tol: float = _SPEED_TOL) -> dict:
-    """Flutter and divergence speeds [m/s] of a system (NaN unless converged) and statuses."""
+    """Flutter and divergence speeds [m/s] of a system (NaN unless converged), statuses and
+    the branch of each crossing (``flutter_branch_label``, ``divergence_branch_label``)."""
     sw = sweep(system, speeds, speed_tol=speed_tol)
     return {"flutter_speed_m_s": sw.flutter.speed if sw.flutter.status == CONVERGED else np.nan,
             "flutter_status": sw.flutter.status,
+            "flutter_branch_label": sw.flutter.label,
             "divergence_speed_m_s": (sw.divergence.speed if sw.divergence.status == CONVERGED
                                      else np.nan),
-            "divergence_status": sw.divergence.status}
+            "divergence_status": sw.divergence.status,
+            "divergence_branch_label": sw.divergence.label}
 
 
 def _full_speeds(spec, speeds, n_modes, rfa, order):
@@ -257,7 +268,14 @@ class SensitivityResult:
     rows : tuple of dict
         Per parameter: ``parameter``, ``value`` [SI], for ``q`` in (flutter, divergence):
         ``d_<q>_speed`` (IFT, [m/s per SI unit]), ``d_<q>_speed_ritz_fd``, ``d_<q>_speed_fd``,
-        ``relative_d_<q>_speed`` (``p/U dU/dp`` [-]), and ``status`` / ``<q>_status``.
+        ``relative_d_<q>_speed`` (``p/U dU/dp`` [-]), ``status`` / ``<q>_status``,
+        ``<q>_valid_within_branch`` (the label of the branch critical at the nominal point: the
+        IFT derivative holds within that branch only; a small change of the input may hand the
+        instability to another branch and the speed jumps) and ``<q>_fd_same_branch`` (both
+        finite-difference points critical on the nominal branch; False: the difference
+        quotient straddles a branch switch).
+    critical_branch_label, divergence_branch_label : str
+        Branches of the nominal crossings.
     """
 
     bridge: str
@@ -268,11 +286,15 @@ class SensitivityResult:
     n_modes: int
     rows: tuple
     settings: dict = field(default_factory=dict)
+    critical_branch_label: str = ""
+    divergence_branch_label: str = ""
 
     def summary(self) -> dict:
         """The ``bridgeflap sensitivity`` JSON contract."""
         return {"bridge": self.bridge, "flutter_speed_m_s": self.flutter_speed_m_s,
                 "flutter_status": self.flutter_status,
+                "critical_branch_label": self.critical_branch_label,
+                "divergence_branch_label": self.divergence_branch_label,
                 "divergence_speed_m_s": self.divergence_speed_m_s,
                 "divergence_status": self.divergence_status, "modes_retained": self.n_modes,
                 "settings": dict(self.settings),
@@ -357,10 +379,13 @@ def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARA
         for q in ("flutter", "divergence"):
             U = crit[f"{q}_speed_m_s"]
             key = f"d_{q}_speed"
+            # an implicit-function derivative follows the critical eigenvalue: it holds within
+            # the branch that is critical at the nominal point, not across a branch switch
             row.update({key: np.nan, f"{key}_fixed_basis": np.nan, f"{key}_ritz_fd": np.nan,
                         f"{key}_fd": np.nan, f"relative_{key}": np.nan,
                         f"relative_{key}_fixed_basis": np.nan, f"relative_{key}_fd": np.nan,
-                        f"{q}_status": "ok"})
+                        f"{q}_status": "ok",
+                        f"{q}_valid_within_branch": crit[f"{q}_branch_label"]})
             if not np.isfinite(U):
                 row[f"{q}_status"] = f"nominal {q}: {crit[f'{q}_status']}"
                 continue
@@ -401,6 +426,10 @@ def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARA
                         d = (plus[k] - minus[k]) / (2 * h)
                         row[f"d_{q}_speed_fd"] = d
                         row[f"relative_d_{q}_speed_fd"] = p0 / crit[k] * d
+                        # a difference quotient across a branch switch is no derivative
+                        row[f"{q}_fd_same_branch"] = (
+                            plus[f"{q}_branch_label"] == minus[f"{q}_branch_label"]
+                            == crit[f"{q}_branch_label"])
                 except BridgeflapError as exc:
                     row["check_status"] = f"finite differences failed: {exc}"
         rows.append(row)
@@ -411,6 +440,8 @@ def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARA
         divergence_speed_m_s=crit["divergence_speed_m_s"],
         flutter_status=crit["flutter_status"], divergence_status=crit["divergence_status"],
         n_modes=int(n_modes), rows=tuple(rows),
+        critical_branch_label=crit["flutter_branch_label"],
+        divergence_branch_label=crit["divergence_branch_label"],
         settings={"speeds_m_s": [float(u[0]), float(u[-1])], "rfa": rfa, "order": order,
                   "rel_step_A": rel_step, "rel_step_fd": fd_step,
                   "erected_fraction": spec.erected_fraction,

@@ -98,7 +98,11 @@ class FlutterResult:
 def critical_speed(summary) -> dict:
     """``{"critical_speed_m_s", "critical_mechanism"}``: the lower converged stability limit.
 
-    ``summary`` holds ``flutter_speed_m_s``/``flutter_status`` and the divergence pair.
+    ``summary`` holds ``flutter_speed_m_s``/``flutter_status`` and the divergence pair (and
+    ``<kind>_bracket_m_s`` for a crossing that did not converge). The speed is NaN, with the
+    mechanism saying why, when the system is unstable at the first speed, when a crossing that
+    did not converge lies below the lowest converged one (``"flutter unverified_crossing"``),
+    or when nothing converged (``"none"``).
     """
     limits = [(summary[f"{k}_speed_m_s"], k) for k in ("flutter", "divergence")
               if summary.get(f"{k}_status") == "converged"]
@@ -106,6 +110,15 @@ def critical_speed(summary) -> dict:
            for k in ("flutter", "divergence")):
         # unstable below the grid: no limit on it is the governing one
         return {"critical_speed_m_s": float("nan"), "critical_mechanism": "unstable_at_first_speed"}
+    # a crossing seen on the grid but not located (bracket_failed, unverified_crossing) below
+    # the lowest converged limit may be the governing one: the governing speed is then unknown
+    lowest = min(limits)[0] if limits else np.inf
+    for k in ("flutter", "divergence"):
+        bracket = summary.get(f"{k}_bracket_m_s")
+        if (summary.get(f"{k}_status") in ("bracket_failed", "unverified_crossing")
+                and (bracket is None or bracket[0] < lowest)):
+            return {"critical_speed_m_s": float("nan"),
+                    "critical_mechanism": f"{k} {summary[f'{k}_status']}"}
     if not limits:
         return {"critical_speed_m_s": float("nan"), "critical_mechanism": "none"}
     u, k = min(limits)
@@ -179,7 +192,9 @@ class ErectionResult(_StagesResult):
 
 _STAGE_KEYS = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
                "divergence_speed_m_s", "divergence_status", "critical_speed_m_s",
-               "critical_mechanism", "critical_branch_label")
+               "critical_mechanism", "critical_branch_label", "flutter_onset",
+               "second_critical_branch_label", "second_flutter_speed_m_s",
+               "second_flutter_status")
 
 
 def _stage(spec: BridgeSpec, speeds, n_modes: int) -> dict:
@@ -187,9 +202,13 @@ def _stage(spec: BridgeSpec, speeds, n_modes: int) -> dict:
         r = flutter(spec, speeds, n_modes).summary()
         return {k: r[k] for k in _STAGE_KEYS}
     except BridgeflapError as exc:
-        return {"flutter_speed_m_s": float("nan"), "flutter_status": f"failed: {exc}",
+        return {"flutter_speed_m_s": float("nan"), "flutter_frequency_hz": float("nan"),
+                "flutter_status": f"failed: {exc}",
                 "divergence_speed_m_s": float("nan"), "divergence_status": f"failed: {exc}",
-                "critical_speed_m_s": float("nan"), "critical_mechanism": "none"}
+                "critical_speed_m_s": float("nan"), "critical_mechanism": "none",
+                "critical_branch_label": "", "flutter_onset": "",
+                "second_critical_branch_label": "", "second_flutter_speed_m_s": float("nan"),
+                "second_flutter_status": "not_evaluated"}
 
 
 def erection(spec: BridgeSpec, fractions, speeds, n_modes: int = DEFAULT_MODES,

@@ -2,66 +2,75 @@
 
 Method (docs/methods.md#stability):
 
-* at every grid speed all eigenvalues of ``A(U)`` (dense ``eig``);
-* structural branches are tracked from ``U = 0`` by linear assignment on the distance to a
-  linear prediction from the two previous speeds (eigenvalues only: eigenvectors cost ten
-  times more), and each branch keeps the label of its structural mode at ``U = 0``; the
-  critical eigenvector's modal participation is computed at the flutter speed itself;
+* at every grid speed all eigenvalues of ``A(U)`` (dense ``eigvals``);
+* structural branches are tracked from ``U = 0`` (also when the grid starts above 0) by linear
+  assignment on the distance to a linear prediction; a step whose assignment is ambiguous (an
+  oscillatory branch not clearly nearest its prediction) is halved, eigenvalues only, within a
+  budget of extra evaluations, so coarse grids keep their labels. Each branch keeps the label of
+  its structural mode at ``U = 0``; the critical eigenvector's modal participation is computed at
+  the flutter speed itself;
 * **flutter**: first sign change of the largest real part among oscillatory eigenvalues
   (``|Im| > omega_tol``), refined by Brent's method to ``speed_tol``;
 * **divergence**: first real eigenvalue crossing zero, refined by Brent's method on the real
   eigenvalue nearest zero, and cross-checked against the static condition
   ``det(K - U^2 P G0) = 0`` (exact because ``C(0) = 1`` for the RFA);
-* every result has a status: ``converged``, ``no_crossing_in_range`` or ``bracket_failed``;
-  numbers without ``converged`` are NaN.
+* **verification** of every refined crossing (:func:`_verify`): the critical eigenvalue,
+  continued a small bracket either side, changes the sign of its real part; it is the
+  continuation of the tracked branch that crossed between the grid speeds (which names it); and
+  the refined point is a root. Otherwise the crossing is ``unverified_crossing``;
+* every result has a status: ``converged``, ``no_crossing_in_range``, ``bracket_failed``,
+  ``unverified_crossing`` or ``unstable_at_first_speed``; numbers without ``converged`` are NaN;
+* the **second-critical branch** (the next tracked oscillatory branch to cross) and the damping
+  slope at the crossing (soft or hard onset, :data:`HARD_ONSET_DAMPING_SLOPE_S_PER_M`).
 
-:func:`pk_sweep` is the exact-Theodorsen p-k cross-check on the same generalised coordinates.
+The building blocks (statuses, :class:`~model.tracking.Crossing`, branch continuation) are in
+:mod:`model.tracking`; :func:`pk_sweep`, the exact-Theodorsen p-k cross-check on the same
+generalised coordinates, is in :mod:`model.pk` (its branches are continued with adaptive
+sub-steps and its crossing is verified the same way). Both are re-exported here.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
-import scipy.linalg as sla
-from scipy.optimize import brentq, linear_sum_assignment
+from scipy.optimize import brentq
 
-from model.errors import BridgeflapInputError
-from model.statespace import AeroelasticSystem, divergence_speed_static, exact_dynamic_matrix
-from model.theodorsen import theodorsen
-
-CONVERGED = "converged"
-NO_CROSSING = "no_crossing_in_range"
-BRACKET_FAILED = "bracket_failed"
-#: the system is already unstable at the first speed of the grid: no crossing can be located
-UNSTABLE_AT_FIRST = "unstable_at_first_speed"
-
-
-def check_speeds(speeds) -> np.ndarray:
-    """Validate a wind-speed grid [m/s]: finite, non-negative, increasing, at least 2 points."""
-    try:
-        u = np.asarray(speeds, dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise BridgeflapInputError("speeds", "not numeric") from None
-    if u.size < 2:
-        raise BridgeflapInputError("speeds", "the grid needs at least two speeds")
-    if not np.all(np.isfinite(u)):
-        raise BridgeflapInputError("speeds", "must be finite")
-    if np.any(u < 0):
-        raise BridgeflapInputError("speeds", f"must not be negative (min {u.min()})")
-    if np.any(np.diff(u) <= 0):
-        raise BridgeflapInputError("speeds", "must be strictly increasing")
-    return u
-
-
-@dataclass(frozen=True)
-class Crossing:
-    """A stability boundary: speed [m/s], frequency [Hz] and status."""
-
-    speed: float
-    frequency_hz: float
-    status: str
-    bracket: tuple = (float("nan"), float("nan"))
+from model.pk import (  # noqa: F401 - the p-k check is part of this module's public face
+    PK_RESIDUAL_TOL,
+    PKResult,
+    exact_residual,
+    pk_residual,
+    pk_sweep,
+)
+from model.statespace import AeroelasticSystem, divergence_speed_static
+from model.tracking import (  # noqa: F401 - statuses and helpers are re-exported
+    BRACKET_FAILED,
+    CONVERGED,
+    HARD_ONSET_DAMPING_SLOPE_S_PER_M,
+    NO_CROSSING,
+    NOT_EVALUATED,
+    TRACKING_BUDGET_FACTOR,
+    TRACKING_BUDGET_MIN,
+    UNAMBIGUOUS,
+    UNSTABLE_AT_FIRST,
+    UNVERIFIED,
+    Crossing,
+    _assign,
+    _bracket_half_width,
+    _branch_of,
+    _Budget,
+    _divergence_function,
+    _eig,
+    _follow,
+    _max_real_real,
+    _stable_start,
+    _track_interval,
+    check_speeds,
+    flutter_function,
+    oscillation_tolerance,
+    static_status,
+)
 
 
 @dataclass(frozen=True)
@@ -79,8 +88,16 @@ class StabilitySweep:
     branch_labels : tuple of str
         Structural mode of each branch at U = 0.
     flutter, divergence : Crossing
+    divergence_static_speed : float
+        Root [m/s] of the static condition, wherever it lies (NaN when none): the summary
+        reports it only inside the grid (:func:`static_status`).
     critical_participation : dict
-        Share of each structural coordinate in the flutter eigenvector (|q|^2 normalised).
+        Share of each structural coordinate in the flutter eigenvector (kinetic energy).
+    second_flutter : Crossing
+        The next tracked oscillatory branch to cross after the critical one.
+    tracking_substeps, tracking_forced_steps : int
+        Extra eigenvalue evaluations spent on tracking sub-steps, and steps still ambiguous
+        at the smallest sub-step or with the budget spent.
     """
 
     speeds: np.ndarray
@@ -92,6 +109,15 @@ class StabilitySweep:
     divergence_static_speed: float
     critical_branch: str
     critical_participation: dict = field(default_factory=dict)
+    second_flutter: Crossing = field(
+        default_factory=lambda: Crossing(float("nan"), float("nan"), NOT_EVALUATED))
+    tracking_substeps: int = 0
+    tracking_forced_steps: int = 0
+
+    @property
+    def divergence_static_status(self) -> str:
+        """:func:`static_status` of the static divergence root on this grid."""
+        return static_status(self.divergence_static_speed, self.speeds)
 
     def damping_ratios(self) -> np.ndarray:
         """Branch damping ratios ``-Re/|lambda|`` (n_b, n_u)."""
@@ -104,21 +130,52 @@ class StabilitySweep:
         return np.abs(self.branches.imag) / (2 * np.pi)
 
     def summary(self) -> dict:
-        """JSON-ready numbers of the flutter/divergence contract."""
+        """JSON-ready numbers of the flutter/divergence contract.
+
+        Besides speeds and statuses: ``flutter_re_lambda_slope_per_m`` (``d Re lambda/dU``
+        [1/m]), ``flutter_damping_slope_s_per_m`` (``d zeta/dU`` [s/m]) and ``flutter_onset``
+        (hard/soft) at the crossing; the second-critical branch (``second_critical_branch_label``,
+        ``second_flutter_speed_m_s`` and its status); ``divergence_static_status`` with the
+        static speed NaN unless inside the grid; ``<kind>_bracket_m_s`` and ``<kind>_reason``
+        for a crossing seen but not converged.
+        """
         part = sorted(self.critical_participation.items(), key=lambda kv: -kv[1])[:4]
-        first = {f"{k}_unstable_from_m_s": c.bracket[0]
-                 for k, c in (("flutter", self.flutter), ("divergence", self.divergence))
-                 if c.status == UNSTABLE_AT_FIRST}
+        extra = {}
+        for k, c in (("flutter", self.flutter), ("divergence", self.divergence)):
+            if c.status == UNSTABLE_AT_FIRST:
+                extra[f"{k}_unstable_from_m_s"] = c.bracket[0]
+            elif c.status in (BRACKET_FAILED, UNVERIFIED):
+                extra[f"{k}_bracket_m_s"] = [float(c.bracket[0]), float(c.bracket[1])]
+                extra[f"{k}_reason"] = c.reason
+        static_st = self.divergence_static_status
+        sec = self.second_flutter
         return {
-            **first,
+            **extra,
             "flutter_speed_m_s": self.flutter.speed,
             "flutter_frequency_hz": self.flutter.frequency_hz,
             "flutter_status": self.flutter.status,
+            "flutter_re_lambda_slope_per_m": (self.flutter.re_slope_per_m
+                                              if self.flutter.status == CONVERGED
+                                              else float("nan")),
+            "flutter_damping_slope_s_per_m": self.flutter.damping_slope_s_per_m(),
+            "flutter_onset": self.flutter.onset(),
             "divergence_speed_m_s": self.divergence.speed,
             "divergence_status": self.divergence.status,
-            "divergence_static_speed_m_s": self.divergence_static_speed,
+            "divergence_re_lambda_slope_per_m": (self.divergence.re_slope_per_m
+                                                 if self.divergence.status == CONVERGED
+                                                 else float("nan")),
+            "divergence_branch_label": self.divergence.label,
+            "divergence_branch_label_source": self.divergence.label_source,
+            "divergence_static_speed_m_s": (self.divergence_static_speed
+                                            if static_st == CONVERGED else float("nan")),
+            "divergence_static_status": static_st,
             "critical_branch_label": self.critical_branch,
+            "critical_branch_label_source": self.flutter.label_source,
             "critical_participation": dict(part),
+            "second_critical_branch_label": sec.label,
+            "second_flutter_speed_m_s": sec.speed,
+            "second_flutter_frequency_hz": sec.frequency_hz,
+            "second_flutter_status": sec.status,
             "speed_min_m_s": float(self.speeds[0]),
             "speed_max_m_s": float(self.speeds[-1]),
         }
@@ -175,42 +232,11 @@ class StabilitySweep:
         return axes
 
 
-def _eig(A):
-    lam, V = sla.eig(A)
-    return lam, V
-
-
-def oscillation_tolerance(system: AeroelasticSystem) -> float:
-    """Threshold [rad/s] on ``|Im lambda|`` between oscillatory and real eigenvalues.
-
-    ``1e-3`` of the lowest structural natural frequency ``sqrt(K_ii / M_ii)``.
-    """
-    w = np.sqrt(np.abs(np.diag(system.basis.K) / np.diag(system.basis.M)))
-    return 1e-3 * float(np.min(w[w > 0])) if np.any(w > 0) else 1e-6
-
-
-def flutter_function(system: AeroelasticSystem, U: float, omega_tol: float) -> float:
-    """Largest real part among oscillatory eigenvalues of ``A(U)`` [1/s]."""
-    lam = np.linalg.eigvals(system.A(U))
-    osc = lam[np.abs(lam.imag) > omega_tol]
-    return float(osc.real.max()) if osc.size else -np.inf
-
-
-def _divergence_function(system: AeroelasticSystem, U: float, omega_tol: float) -> float:
-    lam = np.linalg.eigvals(system.A(U))
-    real = lam[np.abs(lam.imag) <= omega_tol].real
-    if real.size == 0:
-        return -np.inf
-    return float(real[np.argmin(np.abs(real))])
-
-
-def _max_real_real(lam, omega_tol):
-    real = lam[np.abs(lam.imag) <= omega_tol].real
-    return float(real.max()) if real.size else -np.inf
+# ------------------------------------------------------------------ the sweep
 
 
 def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> StabilitySweep:
-    """Eigenvalue sweep with branch tracking and refined flutter/divergence speeds.
+    """Eigenvalue sweep with branch tracking and refined, verified flutter/divergence speeds.
 
     Parameters
     ----------
@@ -227,7 +253,6 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> Stabili
     # structural eigenpairs at U = 0 (upper half plane)
     lam0, V0 = _eig(system.structural_matrix())
     up = np.argsort(np.where(lam0.imag >= 0, np.abs(lam0), np.inf))[:n]
-    prev_lam = lam0[up]
     dominant = np.argmax(np.abs(V0[:n, up]) ** 2, axis=0)
     labels = tuple(system.basis.labels[d] for d in dominant)
     n_u, nx = len(speeds), system.n_states
@@ -235,27 +260,29 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> Stabili
     branches = np.zeros((n, n_u), dtype=complex)
     flutter_vals = np.zeros(n_u)
     div_vals = np.zeros(n_u)
-    pred = prev_lam.copy()
+    budget = _Budget(TRACKING_BUDGET_FACTOR * n_u + TRACKING_BUDGET_MIN)
+    # branches start at the structure's own eigenvalues at U = 0, also for a grid that starts
+    # above 0: the first interval is then (0, speeds[0]) with more halvings, so the labels come
+    # from U = 0, never from the first grid point
+    u_prev, cur = 0.0, np.concatenate([lam0[up], lam0[up].conj()])
+    slope = np.zeros(2 * n, dtype=complex)
+    tracked = np.zeros((2 * n, n_u), dtype=complex)  # rows n.. : the lower halves
     for i, U in enumerate(speeds):
         lam = np.linalg.eigvals(system.A(U))
         all_lam[i] = lam
         osc_mask = np.abs(lam.imag) > omega_tol
         flutter_vals[i] = lam[osc_mask].real.max() if np.any(osc_mask) else -np.inf
         div_vals[i] = _max_real_real(lam, omega_tol) if U > 0 else -np.inf
-        # track by eigenvalue continuity with a linear predictor (eigvals only: the
-        # eigenvector back-substitution dominates the cost of a dense eig)
-        cand = np.where(lam.imag >= -omega_tol)[0]
-        scale = np.maximum(np.abs(pred), omega_tol)[:, None]
-        cost = np.abs(pred[:, None] - lam[cand][None, :]) / scale
-        rows, cols = linear_sum_assignment(cost)
-        cur = lam[cand[cols[np.argsort(rows)]]]
-        branches[:, i] = cur
-        pred = 2 * cur - prev_lam if i > 0 else cur
-        prev_lam = cur
-    flutter = _refine(lambda u: flutter_function(system, u, omega_tol), speeds, flutter_vals,
-                      speed_tol, system, omega_tol, oscillatory=True)
-    divergence = _refine(lambda u: _divergence_function(system, u, omega_tol), speeds, div_vals,
-                         speed_tol, system, omega_tol, oscillatory=False)
+        if U == 0.0:
+            cur, _ = _assign(cur, lam, omega_tol)
+        else:
+            cur, slope = _track_interval(system, u_prev, cur, slope, U, lam, omega_tol, budget,
+                                         halvings=6 if i > 0 else 12)
+        tracked[:, i] = cur
+        u_prev = U
+    branches = tracked[:n]
+    flutter = _locate(system, speeds, flutter_vals, speed_tol, omega_tol, "flutter", tracked)
+    divergence = _locate(system, speeds, div_vals, speed_tol, omega_tol, "divergence", tracked)
     if speeds[0] == 0.0 and _max_real_real(all_lam[0], omega_tol) > 1e-6 * omega_tol:
         # a real eigenvalue already unstable in still air (e.g. an unstable compensator pole);
         # the aerodynamic lag states are exactly zero at U = 0 and stay below the threshold
@@ -271,17 +298,89 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> Stabili
         vq = np.real(np.diag(system.basis.M)) * np.abs(V[iq, k]) ** 2
         vq = vq / vq.sum()
         participation = {system.basis.labels[j]: float(vq[j]) for j in range(n)}
-        # branch label: the tracked branch closest to the critical eigenvalue
-        j = int(np.argmin(np.abs(branches[:, np.searchsorted(speeds, flutter.speed) - 1]
-                                 - lam[k])))
-        critical = labels[j]
+        # label: the branch tracked from U = 0 that the critical eigenvalue continues; a
+        # critical eigenvalue that is no tracked branch (a compensator or lag mode) is named
+        # by its largest participation
+        if flutter.branch >= 0:
+            flutter = replace(flutter, branch=flutter.branch % n,
+                              label=labels[flutter.branch % n], label_source="tracking")
+        else:
+            flutter = replace(flutter, label=max(participation, key=participation.get),
+                              label_source="participation")
+        critical = flutter.label
+    if divergence.status == CONVERGED:
+        if divergence.branch >= 0:
+            divergence = replace(divergence, branch=divergence.branch % n,
+                                 label=labels[divergence.branch % n], label_source="tracking")
+        else:
+            # the real eigenvalue continued to the grid speeds passes the point where its
+            # complex pair split, and the tracking may have kept its partner: name it by its
+            # strain-energy participation (a static mode has no kinetic energy), K_jj |q_j|^2
+            lam, V = _eig(system.A(divergence.speed))
+            real = np.where(np.abs(lam.imag) <= omega_tol)[0]
+            k = real[np.argmin(np.abs(lam[real].real))]
+            vq = np.real(np.diag(system.basis.K)) * np.abs(V[iq, k]) ** 2
+            divergence = replace(divergence, label=system.basis.labels[int(np.argmax(vq))],
+                                 label_source="participation")
+    second = _second_crossing(system, speeds, branches, labels, flutter, speed_tol, omega_tol)
     return StabilitySweep(speeds=speeds, eigenvalues=all_lam, branches=branches,
                           branch_labels=labels, flutter=flutter, divergence=divergence,
                           divergence_static_speed=u_static, critical_branch=critical,
-                          critical_participation=participation)
+                          critical_participation=participation, second_flutter=second,
+                          tracking_substeps=budget.used, tracking_forced_steps=budget.forced)
 
 
-def _refine(fun, speeds, vals, tol, system, omega_tol, oscillatory: bool) -> Crossing:
+def _verify(system, u, lam_u, a, b, i, tol, omega_tol, kind, tracked):
+    """Check a refined crossing ``u`` in the grid bracket ``(a, b)`` (index ``i``).
+
+    ``lam_u`` is the critical eigenvalue of ``A(u)``. Verified when (1) the eigenvalue,
+    continued a small bracket ``u -+ d`` either side (:func:`_bracket_half_width`), changes the
+    sign of its real part and stays oscillatory (flutter) or real (divergence); (2) it is the
+    continuation of the branch that crossed: continued to the grid speeds it is stable at ``a``
+    and not stable at ``b`` (flutter, which also names the branch tracked from U = 0); (3) its
+    real part is a root: ``|Re lambda(u)| <= 4 |d Re lambda/dU| tol`` (Brent's tolerance), or
+    at round-off level. Returns ``(ok, slope [1/m], branch index or -1, reason)``.
+    """
+    d = _bracket_half_width(u, tol)
+    lo, hi = max(u - d, 0.5 * u), u + d
+    l_lo, ok_lo = _follow(system, u, lam_u, lo, omega_tol)
+    l_hi, ok_hi = _follow(system, u, lam_u, hi, omega_tol)
+    slope = (l_hi.real - l_lo.real) / (hi - lo)
+    if kind == "flutter":
+        typed = abs(l_lo.imag) > omega_tol and abs(l_hi.imag) > omega_tol
+    else:
+        typed = abs(l_lo.imag) <= omega_tol and abs(l_hi.imag) <= omega_tol
+    if not (ok_lo and ok_hi and typed and l_lo.real < 0 < l_hi.real):
+        return False, slope, -1, "no sign change of the tracked branch across the bracket"
+    if abs(lam_u.real) > 4 * abs(slope) * (tol + 1e-12 * u) + 1e-10 * abs(lam_u) + 1e-14:
+        return False, slope, -1, "the refined point is not a root"
+    l_a, ok_a = _follow(system, u, lam_u, a, omega_tol) if a != u else (lam_u, True)
+    l_b, ok_b = _follow(system, u, lam_u, b, omega_tol) if b != u else (lam_u, True)
+    branch = _branch_of(l_a, tracked[:, i])
+    if branch < 0 and kind == "divergence":
+        branch = _branch_of(l_b, tracked[:, i + 1])
+    if kind == "flutter":
+        stable_a = l_a.real < 0 or (a == 0.0 and l_a.real <= 1e-6 * omega_tol)
+        if not (ok_a and ok_b and stable_a and l_b.real >= 0):
+            return False, slope, branch, "the branch jumps between the grid speeds"
+    return True, slope, branch, ""
+
+
+def _indicator(system, u, omega_tol, kind) -> float:
+    """The sweep's indicator at ``u`` [m/s]: flutter envelope or largest real eigenvalue."""
+    if kind == "flutter":
+        return flutter_function(system, u, omega_tol)
+    return _max_real_real(np.linalg.eigvals(system.A(u)), omega_tol)
+
+
+def _locate(system, speeds, vals, tol, omega_tol, kind, branches) -> Crossing:
+    """First crossing of the indicator ``vals`` on the grid, refined and verified.
+
+    A bracket whose end values do not hold, or whose refined point fails :func:`_verify`, is
+    split into eight and the first sub-bracket with a sign change is tried once more (a coarse
+    grid can straddle a branch switch); what still fails is ``bracket_failed`` or
+    ``unverified_crossing``, with NaN numbers and the grid bracket.
+    """
     if np.isfinite(vals[0]) and vals[0] > 1e-6 * omega_tol:
         # unstable from the first grid speed on: the boundary lies below the grid, and a later
         # sign change would be a second crossing, not the stability limit. The threshold
@@ -289,124 +388,109 @@ def _refine(fun, speeds, vals, tol, system, omega_tol, oscillatory: bool) -> Cro
         # real parts are zero to round-off, from counting as unstable.
         u0 = float(speeds[0])
         return Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (u0, u0))
-    idx = np.where((vals[:-1] < 0) & (vals[1:] >= 0))[0]
+    stable = vals < 0
+    # U = 0 is neutral (an undamped structure in still air, real parts zero to round-off)
+    stable[0] |= bool(speeds[0] == 0.0 and vals[0] <= 1e-6 * omega_tol)
+    idx = np.where(stable[:-1] & (vals[1:] >= 0))[0]
     if idx.size == 0:
         return Crossing(float("nan"), float("nan"), NO_CROSSING)
     i = int(idx[0])
     a, b = float(speeds[i]), float(speeds[i + 1])
+    first = _refine(system, a, b, i, a, b, tol, omega_tol, kind, branches)
+    if first.status == CONVERGED:
+        return first
+    sub = np.linspace(a, b, 9)
+    sv = np.array([vals[i], *(_indicator(system, s, omega_tol, kind) for s in sub[1:-1]),
+                   vals[i + 1]])
+    k = np.where((sv[:-1] < 0) & (sv[1:] >= 0))[0]
+    if k.size:
+        retry = _refine(system, float(sub[k[0]]), float(sub[k[0] + 1]), i, a, b, tol,
+                        omega_tol, kind, branches)
+        if retry.status == CONVERGED:
+            return retry
+    return first
+
+
+def _refine(system, a, b, i, grid_a, grid_b, tol, omega_tol, kind, branches) -> Crossing:
+    """Brent's method on ``(a, b)`` inside the grid bracket ``(grid_a, grid_b)`` (index ``i``),
+    then :func:`_verify`.
+
+    Flutter: on the flutter indicator. Divergence: on the real eigenvalue nearest zero, or,
+    where that does not bracket (a stable real eigenvalue nearer zero than the diverging one
+    at ``b``, e.g. on a coarse grid), on the largest real eigenvalue (the sweep's indicator).
+    """
+    funs = ([lambda u: flutter_function(system, u, omega_tol)] if kind == "flutter" else
+            [lambda u: _divergence_function(system, u, omega_tol),
+             lambda u: _indicator(system, u, omega_tol, kind)])
     try:
-        fa, fb = fun(a), fun(b)
-        if not (fa < 0 <= fb) or not (np.isfinite(fa) and np.isfinite(fb)):
-            return Crossing(float("nan"), float("nan"), BRACKET_FAILED, (a, b))
-        u = float(brentq(fun, a, b, xtol=tol, rtol=1e-12, maxiter=200))
-    except (ValueError, RuntimeError):
-        return Crossing(float("nan"), float("nan"), BRACKET_FAILED, (a, b))
-    if not np.isfinite(fun(u)) or abs(fun(u)) > 1e-3 * max(omega_tol, 1e-3) * 1e3:
-        # brentq landed on a discontinuity (e.g. a pair turning real), not a root
-        return Crossing(float("nan"), float("nan"), BRACKET_FAILED, (a, b))
-    freq = 0.0
-    if oscillatory:
-        lam = np.linalg.eigvals(system.A(u))
-        osc = lam[np.abs(lam.imag) > omega_tol]
-        freq = float(np.abs(osc[np.argmax(osc.real)].imag) / (2 * np.pi))
-    return Crossing(u, freq, CONVERGED, (a, b))
+        for fun in funs:
+            a0 = _stable_start(fun, a, b)
+            fa, fb = fun(a0), fun(b)
+            if fa < 0 <= fb and np.isfinite(fa) and np.isfinite(fb):
+                break
+        else:
+            return Crossing(float("nan"), float("nan"), BRACKET_FAILED, (grid_a, grid_b),
+                            reason="the bracket does not hold")
+        u = float(brentq(fun, a0, b, xtol=tol, rtol=1e-12, maxiter=200))
+    except (ValueError, RuntimeError) as exc:
+        return Crossing(float("nan"), float("nan"), BRACKET_FAILED, (grid_a, grid_b),
+                        reason=f"Brent: {exc}")
+    lam = np.linalg.eigvals(system.A(u))
+    if kind == "flutter":
+        sel = np.where(np.abs(lam.imag) > omega_tol)[0]
+        k = sel[np.argmax(lam[sel].real)] if sel.size else -1
+    else:
+        sel = np.where(np.abs(lam.imag) <= omega_tol)[0]
+        k = sel[np.argmin(np.abs(lam[sel].real))] if sel.size else -1
+    if k < 0:
+        return Crossing(float("nan"), float("nan"), UNVERIFIED, (grid_a, grid_b),
+                        reason="no critical eigenvalue at the refined point")
+    ok, slope, branch, why = _verify(system, u, complex(lam[k]), grid_a, grid_b, i, tol,
+                                     omega_tol, kind, branches)
+    if not ok:
+        return Crossing(float("nan"), float("nan"), UNVERIFIED, (grid_a, grid_b), reason=why)
+    freq = float(abs(lam[k].imag) / (2 * np.pi)) if kind == "flutter" else 0.0
+    return Crossing(u, freq, CONVERGED, (grid_a, grid_b), re_slope_per_m=slope, branch=branch)
 
 
-# --------------------------------------------------------------------------- p-k check
+def _second_crossing(system, speeds, branches, labels, flutter, tol, omega_tol) -> Crossing:
+    """The next tracked oscillatory branch to cross after the critical one (or none).
 
-
-@dataclass(frozen=True)
-class PKResult:
-    """Exact-Theodorsen p-k branches and the flutter crossing."""
-
-    speeds: np.ndarray
-    branches: np.ndarray
-    branch_labels: tuple
-    flutter: Crossing
-
-
-def _pk_solve(frozen, U, p_guess, tol=1e-10, maxit=100):
-    """One p-k point: eigenvalue ``p`` of ``frozen.matrix(U, C(|Im p| b / U))`` near ``p_guess``.
-
-    ``C`` is the exact Theodorsen function; returns ``(p, converged)``.
+    Every tracked branch other than the critical one is searched for its first grid sign change
+    of ``Re lambda`` (oscillatory at both ends); the earliest is refined by Brent's method on
+    that branch continued from the grid speed below (:func:`_follow`) and verified like the
+    critical crossing.
     """
-    b = frozen.half_chord
-    p = p_guess
-    for _ in range(maxit):
-        k = abs(p.imag) * b / U
-        c = theodorsen(k) if k > 0 else 1.0 + 0j
-        lam = np.linalg.eigvals(frozen.matrix(U, c))
-        p_new = lam[np.argmin(np.abs(lam - p))]
-        if abs(p_new - p) < tol * max(1.0, abs(p)):
-            return p_new, True
-        p = p_new
-    return p, False
-
-
-def _structural_labels(system: AeroelasticSystem, lam0) -> tuple:
-    """Label of the structural coordinate dominating each ``U = 0`` eigenvalue."""
-    basis = system.basis
-    n = basis.n
-    l0, V0 = _eig(system.structural_matrix())
-    labels = []
-    for lam in lam0:
-        k = np.argmin(np.abs(l0 - lam))
-        labels.append(basis.labels[int(np.argmax(np.abs(V0[:n, k])))])
-    return tuple(labels)
-
-
-def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> PKResult:
-    """p-k solution with the exact Theodorsen function on the same coordinates.
-
-    Open or closed loop: the first-order matrix with ``C(k)`` frozen
-    (:meth:`~model.statespace.AeroelasticSystem.frozen`) contains the compensator states, so
-    ``K(p)`` is exact. Each structural branch is continued from its U = 0 eigenvalue; at each
-    speed the reduced frequency is iterated to consistency, ``k = |Im p| b / U``. Flutter is the
-    first speed where an oscillatory branch's real part changes sign, refined by Brent's method
-    to ``speed_tol`` [m/s].
-    """
-    speeds = check_speeds(speeds)
-    speeds = speeds[speeds > 0]
-    frozen = system.frozen()
-    lam0 = system.structural_eigenvalues()
-    n = len(lam0)
-    branches = np.zeros((n, len(speeds)), dtype=complex)
-    for j in range(n):
-        p = lam0[j]
-        for i, U in enumerate(speeds):
-            p, _ = _pk_solve(frozen, U, p)
-            branches[j, i] = p
-    labels = _structural_labels(system, lam0)
-    omega_tol = oscillation_tolerance(system)
+    if flutter.status != CONVERGED:
+        return Crossing(float("nan"), float("nan"), NOT_EVALUATED)
+    re = branches.real
+    osc = np.abs(branches.imag) > omega_tol
     best = None
-    for j in range(n):
-        re = branches[j].real
-        osc = np.abs(branches[j].imag) > omega_tol
-        idx = np.where((re[:-1] < 0) & (re[1:] >= 0) & osc[:-1] & osc[1:])[0]
-        if idx.size and (best is None or speeds[idx[0]] < speeds[best[1]]):
+    for j in range(branches.shape[0]):
+        if j == flutter.branch:
+            continue
+        idx = np.where((re[j, :-1] < 0) & (re[j, 1:] >= 0) & osc[j, :-1] & osc[j, 1:])[0]
+        if idx.size and (best is None or idx[0] < best[1]):
             best = (j, int(idx[0]))
     if best is None:
-        return PKResult(speeds, branches, labels,
-                        Crossing(float("nan"), float("nan"), NO_CROSSING))
+        return Crossing(float("nan"), float("nan"), NO_CROSSING)
     j, i = best
+    a, b, la = float(speeds[i]), float(speeds[i + 1]), complex(branches[j, i])
+    label = labels[j]
 
-    def f(U):
-        p, ok = _pk_solve(frozen, U, branches[j, i])
-        return p.real if ok else np.nan
+    def g(u):
+        return _follow(system, a, la, u, omega_tol)[0].real if u != a else la.real
 
-    a, b = speeds[i], speeds[i + 1]
     try:
-        u = float(brentq(f, a, b, xtol=speed_tol))
-    except ValueError:
-        return PKResult(speeds, branches, labels,
-                        Crossing(float("nan"), float("nan"), BRACKET_FAILED, (a, b)))
-    p, _ = _pk_solve(frozen, u, branches[j, i])
-    return PKResult(speeds, branches, labels,
-                    Crossing(u, abs(p.imag) / (2 * np.pi), CONVERGED, (a, b)))
-
-
-def exact_residual(system: AeroelasticSystem, p: complex, U: float) -> float:
-    """Smallest singular value of the exact dynamic matrix at ``p`` (diagnostic)."""
-    k = abs(p.imag) * system.aero.half_chord / U
-    D = exact_dynamic_matrix(system, p, U, theodorsen(k))
-    return float(np.linalg.svd(D, compute_uv=False)[-1])
+        u = float(brentq(g, a, b, xtol=tol, rtol=1e-12, maxiter=200))
+    except (ValueError, RuntimeError):
+        return Crossing(float("nan"), float("nan"), BRACKET_FAILED, (a, b), label=label,
+                        branch=j)
+    lam_u, ok_u = _follow(system, a, la, u, omega_tol)
+    ok, slope, branch, why = _verify(system, u, lam_u, a, b, i, tol, omega_tol, "flutter",
+                                     branches)
+    if not (ok and ok_u and branch == j):
+        return Crossing(float("nan"), float("nan"), UNVERIFIED, (a, b), label=label, branch=j,
+                        reason=why or "the continuation left the branch")
+    return Crossing(u, float(abs(lam_u.imag) / (2 * np.pi)), CONVERGED, (a, b),
+                    re_slope_per_m=slope, label=label, branch=j, label_source="tracking")

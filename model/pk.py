@@ -1,0 +1,251 @@
+"""Exact-Theodorsen p-k cross-check on the generalised coordinates of an aeroelastic system.
+
+Branches continued from U = 0 with adaptive sub-steps, flutter refined by Brent's method on the
+crossing branch and verified (docs/methods.md#p-k-check). Re-exported by :mod:`model.stability`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import brentq
+
+from model.statespace import AeroelasticSystem, exact_dynamic_matrix
+from model.theodorsen import theodorsen
+from model.tracking import (
+    BRACKET_FAILED,
+    CONVERGED,
+    NO_CROSSING,
+    UNAMBIGUOUS,
+    UNSTABLE_AT_FIRST,
+    UNVERIFIED,
+    Crossing,
+    _bracket_half_width,
+    _eig,
+    _stable_start,
+    check_speeds,
+    oscillation_tolerance,
+)
+
+#: relative residual below which a p-k point solves its own frozen-C equation (the k iteration
+#: stops at a relative change of 1e-10; 1e-7 leaves three orders for round-off of larger models)
+PK_RESIDUAL_TOL = 1e-7
+
+
+@dataclass(frozen=True)
+class PKResult:
+    """Exact-Theodorsen p-k branches and the flutter crossing.
+
+    ``converged`` (n_b, n_u): the k iteration converged and every continuation sub-step was
+    unambiguous. ``residual`` is :func:`pk_residual` and ``exact_residual``
+    :func:`exact_residual` (normalised) at the crossing, NaN elsewhere.
+    """
+
+    speeds: np.ndarray
+    branches: np.ndarray
+    branch_labels: tuple
+    flutter: Crossing
+    converged: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), bool))
+    residual: float = float("nan")
+    exact_residual: float = float("nan")
+
+    def summary(self) -> dict:
+        """The flutter keys of :meth:`StabilitySweep.summary` from the p-k solution."""
+        c = self.flutter
+        out = {"flutter_speed_m_s": c.speed, "flutter_frequency_hz": c.frequency_hz,
+               "flutter_status": c.status,
+               "flutter_re_lambda_slope_per_m": (c.re_slope_per_m if c.status == CONVERGED
+                                                 else float("nan")),
+               "flutter_damping_slope_s_per_m": c.damping_slope_s_per_m(),
+               "flutter_onset": c.onset(), "critical_branch_label": c.label,
+               "critical_branch_label_source": c.label_source}
+        if c.status in (BRACKET_FAILED, UNVERIFIED):
+            out["flutter_bracket_m_s"] = [float(c.bracket[0]), float(c.bracket[1])]
+            out["flutter_reason"] = c.reason
+        return out
+
+
+def _pk_point(frozen, U, p_guess, tol=1e-10, maxit=100):
+    """One p-k point: eigenvalue ``p`` of ``frozen.matrix(U, C(|Im p| b / U))`` near ``p_guess``.
+
+    Returns ``(p, converged, eigenvalues of the last matrix, index of p among them)``.
+    """
+    b = frozen.half_chord
+    p = p_guess
+    lam, k = np.array([p]), 0
+    for _ in range(maxit):
+        kr = abs(p.imag) * b / U
+        c = theodorsen(kr) if kr > 0 else 1.0 + 0j
+        lam = np.linalg.eigvals(frozen.matrix(U, c))
+        k = int(np.argmin(np.abs(lam - p)))
+        p_new = lam[k]
+        if abs(p_new - p) < tol * max(1.0, abs(p)):
+            return p_new, True, lam, k
+        p = p_new
+    return p, False, lam, k
+
+
+def _pk_solve(frozen, U, p_guess, tol=1e-10, maxit=100):
+    """One p-k point near ``p_guess`` (:func:`_pk_point`); returns ``(p, converged)``."""
+    p, ok, _, _ = _pk_point(frozen, U, p_guess, tol, maxit)
+    return p, ok
+
+
+def _pk_continue(frozen, u0, p0, s0, u1, halvings=12):
+    """Continue one p-k root from ``(u0, p0)`` (slope ``s0`` [1/s per m/s]) to ``u1`` [m/s].
+
+    Each sub-step solves the k iteration from the linear prediction and is accepted when it
+    converged and the root is nearer the prediction than :data:`UNAMBIGUOUS` times the next
+    eigenvalue of the same matrix; otherwise the step is halved (down to ``2**-halvings`` of
+    ``|u1 - u0|``). A coarse grid therefore cannot let two branches collapse onto one root.
+    Returns ``(p, slope, ok)``; ``ok`` is False if a step was accepted at the smallest size.
+    """
+    u, p, s = float(u0), complex(p0), complex(s0)
+    h = u1 - u0
+    h_min = abs(h) / 2 ** halvings
+    ok = True
+    while u != u1:
+        step = np.copysign(min(abs(h), abs(u1 - u)), h)
+        t = u1 if abs(u1 - (u + step)) <= 1e-12 * max(abs(u1), 1.0) else u + step
+        pred = p + (t - u) * s
+        q, conv, lam, k = _pk_point(frozen, t, pred)
+        d = np.abs(lam - pred)
+        d1 = d[k]
+        d[k] = np.inf
+        good = conv and d1 <= UNAMBIGUOUS * d.min()
+        if not good and abs(step) > 1.5 * h_min:
+            h = step / 2
+            continue
+        ok &= bool(good)
+        s = (q - p) / (t - u)
+        p, u, h = complex(q), t, 2 * step
+    return p, s, ok
+
+
+def _structural_labels(system: AeroelasticSystem, lam0) -> tuple:
+    """Label of the structural coordinate dominating each ``U = 0`` eigenvalue."""
+    basis = system.basis
+    n = basis.n
+    l0, V0 = _eig(system.structural_matrix())
+    labels = []
+    for lam in lam0:
+        k = np.argmin(np.abs(l0 - lam))
+        labels.append(basis.labels[int(np.argmax(np.abs(V0[:n, k])))])
+    return tuple(labels)
+
+
+def pk_residual(frozen, p: complex, U: float) -> float:
+    """Relative residual of a p-k point: ``sigma_min(A(U, C(k)) - p I) / ||A||_2`` with
+    ``k = |Im p| b / U`` recomputed from ``p`` itself (zero when ``p`` solves its own frozen-C
+    equation, i.e. the k iteration is consistent)."""
+    kr = abs(p.imag) * frozen.half_chord / U
+    A = frozen.matrix(U, theodorsen(kr) if kr > 0 else 1.0 + 0j)
+    s = np.linalg.svd(A - p * np.eye(A.shape[0]), compute_uv=False)
+    return float(s[-1] / max(np.linalg.norm(A, 2), abs(p), 1e-300))
+
+
+def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> PKResult:
+    """p-k solution with the exact Theodorsen function on the same coordinates.
+
+    Open or closed loop: the first-order matrix with ``C(k)`` frozen
+    (:meth:`~model.statespace.AeroelasticSystem.frozen`) contains the compensator states, so
+    ``K(p)`` is exact. Each structural branch is continued from its U = 0 eigenvalue with
+    adaptive sub-steps (:func:`_pk_continue`); at each speed the reduced frequency is iterated
+    to consistency, ``k = |Im p| b / U``. Flutter is the first speed where an oscillatory
+    branch's real part changes sign, refined by Brent's method on that branch (continued from
+    the grid speed below) to ``speed_tol`` [m/s], then verified: sign change of the branch
+    across ``u -+ max(10 tol, 1e-3 u)``, continuation to the next grid speed landing on the
+    branch's own value there (no jump), the k iteration converged and the residuals
+    (:func:`pk_residual`, :func:`exact_residual` for the open loop) below
+    :data:`PK_RESIDUAL_TOL`. Otherwise ``unverified_crossing`` with the grid bracket.
+    """
+    speeds_in = check_speeds(speeds)
+    speeds = speeds_in[speeds_in > 0]
+    frozen = system.frozen()
+    lam0 = system.structural_eigenvalues()
+    n = len(lam0)
+    branches = np.zeros((n, len(speeds)), dtype=complex)
+    slopes = np.zeros((n, len(speeds)), dtype=complex)
+    conv = np.zeros((n, len(speeds)), dtype=bool)
+    for j in range(n):
+        p, s, u = lam0[j], 0.0j, 0.0
+        for i, U in enumerate(speeds):
+            p, s, ok = _pk_continue(frozen, u, p, s, U)
+            branches[j, i], slopes[j, i], conv[j, i], u = p, s, ok, U
+    labels = _structural_labels(system, lam0)
+    omega_tol = oscillation_tolerance(system)
+
+    def result(crossing, res=float("nan"), ex=float("nan")):
+        return PKResult(speeds, branches, labels, crossing, conv, res, ex)
+
+    from_zero = bool(speeds_in[0] == 0.0)
+    best = None
+    for j in range(n):
+        re = branches[j].real
+        osc = np.abs(branches[j].imag) > omega_tol
+        idx = np.where((re[:-1] < 0) & (re[1:] >= 0) & osc[:-1] & osc[1:])[0]
+        if from_zero and osc[0] and re[0] >= 0:
+            # a grid from U = 0: the structure is stable (or neutral) in still air, so a
+            # branch unstable at the first positive speed crossed below it
+            idx = np.array([-1])
+        if idx.size and (best is None or idx[0] < best[1]):
+            best = (j, int(idx[0]))
+    if best is None:
+        if np.any((branches[:, 0].real > 1e-6 * omega_tol)
+                  & (np.abs(branches[:, 0].imag) > omega_tol)):
+            u0 = float(speeds[0])
+            return result(Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (u0, u0)))
+        return result(Crossing(float("nan"), float("nan"), NO_CROSSING))
+    j, i = best
+    if i < 0:
+        a, b, pa, sa = 0.0, float(speeds[0]), complex(lam0[j]), 0.0j
+    else:
+        a, b = float(speeds[i]), float(speeds[i + 1])
+        pa, sa = complex(branches[j, i]), complex(slopes[j, i])
+
+    def cont(U):
+        return _pk_continue(frozen, a, pa, sa, U)
+
+    def f(U):
+        return cont(U)[0].real
+
+    def failed(status, reason):
+        return result(Crossing(float("nan"), float("nan"), status, (a, b), branch=j,
+                               label=labels[j], reason=reason))
+
+    try:
+        u = float(brentq(f, _stable_start(f, a, b), b, xtol=speed_tol))
+    except (ValueError, RuntimeError) as exc:
+        return failed(BRACKET_FAILED, f"Brent: {exc}")
+    p, s, ok = cont(u)
+    d = _bracket_half_width(u, speed_tol)
+    lo, hi = max(u - d, 0.5 * u), u + d
+    p_lo, _, ok_lo = _pk_continue(frozen, u, p, s, lo)
+    p_hi, _, ok_hi = _pk_continue(frozen, u, p, s, hi)
+    p_b, _, ok_b = _pk_continue(frozen, u, p, s, b)
+    _, conv_u, _, _ = _pk_point(frozen, u, p)
+    res = pk_residual(frozen, p, u)
+    ex = float("nan")
+    if system.compensator is None and system.pieces is not None:
+        D = exact_dynamic_matrix(system, p, u, theodorsen(abs(p.imag) * frozen.half_chord / u))
+        ex = exact_residual(system, p, u) / max(np.linalg.norm(D, 2), 1e-300)
+    slope = (p_lo.real, p_hi.real)
+    if not (ok and ok_lo and ok_hi and slope[0] < 0 < slope[1]
+            and abs(p_lo.imag) > omega_tol and abs(p_hi.imag) > omega_tol):
+        return failed(UNVERIFIED, "no sign change of the tracked branch across the bracket")
+    if not (ok_b and abs(p_b - branches[j, i + 1]) <= 1e-6 * max(abs(p_b), 1e-12)):
+        return failed(UNVERIFIED, "the branch jumps between the grid speeds")
+    if not (conv_u and res <= PK_RESIDUAL_TOL and not ex > PK_RESIDUAL_TOL):
+        return failed(UNVERIFIED, f"residual {res:.1e} (exact {ex:.1e}) or k not converged")
+    crossing = Crossing(u, abs(p.imag) / (2 * np.pi), CONVERGED, (a, b),
+                        re_slope_per_m=(slope[1] - slope[0]) / (hi - lo), branch=j,
+                        label=labels[j], label_source="tracking")
+    return result(crossing, res, ex)
+
+
+def exact_residual(system: AeroelasticSystem, p: complex, U: float) -> float:
+    """Smallest singular value of the exact dynamic matrix at ``p`` (diagnostic)."""
+    k = abs(p.imag) * system.aero.half_chord / U
+    D = exact_dynamic_matrix(system, p, U, theodorsen(k))
+    return float(np.linalg.svd(D, compute_uv=False)[-1])

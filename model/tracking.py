@@ -1,0 +1,264 @@
+"""Branch continuation and the building blocks of a verified stability crossing.
+
+Statuses, the :class:`Crossing` record and the speed-grid check shared by the RFA sweep
+(:mod:`model.stability`) and the exact p-k (:mod:`model.pk`); eigenvalue-only continuation of
+branches with adaptive sub-steps (:func:`_track_interval` for all structural branches at once,
+:func:`_follow` for one eigenvalue near a crossing). Method: docs/methods.md#stability.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+from scipy.optimize import linear_sum_assignment
+
+from model.errors import BridgeflapInputError
+from model.statespace import AeroelasticSystem
+
+CONVERGED = "converged"
+NO_CROSSING = "no_crossing_in_range"
+BRACKET_FAILED = "bracket_failed"
+#: the system is already unstable at the first speed of the grid: no crossing can be located
+UNSTABLE_AT_FIRST = "unstable_at_first_speed"
+#: Brent found a sign change of the indicator, but the tracked branch does not change sign
+#: across a small bracket around it, jumps between the grid speeds, or the point is no root
+UNVERIFIED = "unverified_crossing"
+#: the second-critical branch is only searched for when the critical crossing converged
+NOT_EVALUATED = "not_evaluated"
+
+#: a continuation step is accepted when the eigenvalue given to a branch is nearer its linear
+#: prediction than this fraction of the distance to the next-nearest candidate (one half: the
+#: prediction error is then below the half-gap, so no two branches can have swapped)
+UNAMBIGUOUS = 0.5
+#: extra eigenvalue evaluations the sweep may spend on tracking sub-steps: this many per grid
+#: speed plus :data:`TRACKING_BUDGET_MIN` (a grid starting above 0, a coarse grid)
+TRACKING_BUDGET_FACTOR = 1
+TRACKING_BUDGET_MIN = 100
+#: flutter onset is "hard" when the damping ratio falls faster than this past the crossing,
+#: -d zeta/dU [s/m]: 1e-3 per m/s loses 1 % of critical damping within 10 m/s (about 15 % of
+#: the speed of a long-span bridge); slower is "soft" (a gradual, often torsional, onset)
+HARD_ONSET_DAMPING_SLOPE_S_PER_M = 1e-3
+
+
+def check_speeds(speeds) -> np.ndarray:
+    """Validate a wind-speed grid [m/s]: finite, non-negative, increasing, at least 2 points."""
+    try:
+        u = np.asarray(speeds, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise BridgeflapInputError("speeds", "not numeric") from None
+    if u.size < 2:
+        raise BridgeflapInputError("speeds", "the grid needs at least two speeds")
+    if not np.all(np.isfinite(u)):
+        raise BridgeflapInputError("speeds", "must be finite")
+    if np.any(u < 0):
+        raise BridgeflapInputError("speeds", f"must not be negative (min {u.min()})")
+    if np.any(np.diff(u) <= 0):
+        raise BridgeflapInputError("speeds", "must be strictly increasing")
+    return u
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """A stability boundary: speed [m/s], frequency [Hz] and status.
+
+    ``bracket`` is the grid interval [m/s] of the sign change; ``re_slope_per_m`` the slope
+    ``d Re lambda / dU`` [1/s per m/s = 1/m] of the crossing eigenvalue, measured across the
+    verification bracket; ``branch`` the tracked structural branch (-1 when the crossing
+    eigenvalue is none of them) and ``label`` its name, from ``label_source`` (``"tracking"``
+    from U = 0, or ``"participation"``: the largest kinetic-energy share of the crossing
+    eigenvector); ``reason`` says why a crossing is not ``converged``.
+    """
+
+    speed: float
+    frequency_hz: float
+    status: str
+    bracket: tuple = (float("nan"), float("nan"))
+    re_slope_per_m: float = float("nan")
+    branch: int = -1
+    label: str = ""
+    reason: str = ""
+    label_source: str = ""
+
+    def damping_slope_s_per_m(self) -> float:
+        """``d zeta / dU`` [s/m] at the crossing: ``-(d Re lambda/dU) / |lambda|`` (Re = 0)."""
+        w = 2 * np.pi * self.frequency_hz
+        if self.status != CONVERGED or not w > 0:
+            return float("nan")
+        return float(-self.re_slope_per_m / w)
+
+    def onset(self) -> str:
+        """``"hard"`` or ``"soft"`` flutter (:data:`HARD_ONSET_DAMPING_SLOPE_S_PER_M`), or ""."""
+        dz = self.damping_slope_s_per_m()
+        if not np.isfinite(dz):
+            return ""
+        return "hard" if -dz >= HARD_ONSET_DAMPING_SLOPE_S_PER_M else "soft"
+
+
+def static_status(u_static: float, speeds) -> str:
+    """Status of the static divergence root ``u_static`` [m/s] on the grid ``speeds``.
+
+    ``converged`` inside the grid; ``no_crossing_in_range`` when there is no root or it lies
+    above the grid; ``unstable_at_first_speed`` when it lies below the first speed.
+    """
+    if not np.isfinite(u_static) or u_static > speeds[-1]:
+        return NO_CROSSING
+    if u_static < speeds[0]:
+        return UNSTABLE_AT_FIRST
+    return CONVERGED
+
+
+
+def _eig(A):
+    lam, V = sla.eig(A)
+    return lam, V
+
+
+def oscillation_tolerance(system: AeroelasticSystem) -> float:
+    """Threshold [rad/s] on ``|Im lambda|`` between oscillatory and real eigenvalues.
+
+    ``1e-3`` of the lowest structural natural frequency ``sqrt(K_ii / M_ii)``.
+    """
+    w = np.sqrt(np.abs(np.diag(system.basis.K) / np.diag(system.basis.M)))
+    return 1e-3 * float(np.min(w[w > 0])) if np.any(w > 0) else 1e-6
+
+
+def flutter_function(system: AeroelasticSystem, U: float, omega_tol: float) -> float:
+    """Largest real part among oscillatory eigenvalues of ``A(U)`` [1/s]."""
+    lam = np.linalg.eigvals(system.A(U))
+    osc = lam[np.abs(lam.imag) > omega_tol]
+    return float(osc.real.max()) if osc.size else -np.inf
+
+
+def _divergence_function(system: AeroelasticSystem, U: float, omega_tol: float) -> float:
+    lam = np.linalg.eigvals(system.A(U))
+    real = lam[np.abs(lam.imag) <= omega_tol].real
+    if real.size == 0:
+        return -np.inf
+    return float(real[np.argmin(np.abs(real))])
+
+
+def _max_real_real(lam, omega_tol):
+    real = lam[np.abs(lam.imag) <= omega_tol].real
+    return float(real.max()) if real.size else -np.inf
+
+
+# ------------------------------------------------------------------ continuation of branches
+
+
+class _Budget:
+    """Counter of the extra eigenvalue evaluations spent on tracking sub-steps."""
+
+    def __init__(self, limit: int):
+        self.limit, self.used, self.forced = int(limit), 0, 0
+
+    def take(self) -> bool:
+        if self.used >= self.limit:
+            return False
+        self.used += 1
+        return True
+
+
+def _assign(pred, lam, omega_tol):
+    """Assign each predicted branch value to one eigenvalue of ``lam``.
+
+    The branches are both halves of every structural pair (a pair that turns real gives two
+    real eigenvalues, one to each half). Returns the assigned values and whether the assignment
+    is ambiguous: an oscillatory branch whose assigned eigenvalue is not nearer its prediction
+    than :data:`UNAMBIGUOUS` times the next-nearest oscillatory eigenvalue on its side of the
+    real axis (so the step may have swapped two branches; a pair's own halves cannot swap).
+    """
+    dist = np.abs(pred[:, None] - lam[None, :])
+    scale = np.maximum(np.abs(pred), omega_tol)[:, None]
+    rows, cols = linear_sum_assignment(dist / scale)
+    cols = cols[np.argsort(rows)]
+    rng = np.arange(len(pred))
+    d1 = dist[rng, cols]
+    other = dist.copy()
+    other[rng, cols] = np.inf
+    side = np.sign(pred.imag)[:, None] * lam.imag[None, :] <= omega_tol
+    other[side] = np.inf
+    d2 = other.min(axis=1)
+    osc = np.abs(pred.imag) > omega_tol
+    return lam[cols], bool(np.any(osc & (d1 > UNAMBIGUOUS * d2)))
+
+
+def _track_interval(system, u0, l0, s0, u1, lam1, omega_tol, budget, halvings=6):
+    """Continue the branch values ``l0`` at ``u0`` [m/s] (slopes ``s0`` [1/s per m/s]) to ``u1``.
+
+    ``lam1`` are the eigenvalues at ``u1`` (already computed by the sweep). The step is halved
+    (eigenvalues only, at the intermediate speed) while the assignment is ambiguous, down to
+    ``2**-halvings`` of the interval or until the sweep's budget of extra evaluations is spent;
+    a step taken at that limit is counted in ``budget.forced``.
+    """
+    u, l, s = float(u0), np.asarray(l0), np.asarray(s0)
+    h = u1 - u0
+    h_min = h / 2 ** halvings
+    while u < u1:
+        step = min(h, u1 - u)
+        t = u1 if u1 - (u + step) <= 1e-12 * max(u1, 1.0) else u + step
+        lam = lam1 if t == u1 else np.linalg.eigvals(system.A(t))
+        cur, ambiguous = _assign(l + (t - u) * s, lam, omega_tol)
+        if ambiguous and step > 1.5 * h_min and budget.take():
+            h = step / 2
+            continue
+        budget.forced += int(ambiguous)
+        s = (cur - l) / (t - u)
+        l, u, h = cur, t, 2 * step
+    return l, s
+
+
+def _follow(system, u0, lam0, u1, omega_tol, halvings=10):
+    """One eigenvalue ``lam0`` of ``A(u0)`` continued to ``A(u1)`` [m/s].
+
+    Steps are halved until the eigenvalue nearest the (linear) prediction is nearer than
+    :data:`UNAMBIGUOUS` times the next-nearest one. Returns ``(lambda, ok)``; ``ok`` is False
+    when the smallest step was still ambiguous (the continuation may have jumped).
+    """
+    u, lam_c, s = float(u0), complex(lam0), 0.0j
+    h = u1 - u0
+    h_min = abs(h) / 2 ** halvings
+    ok = True
+    while u != u1:
+        step = np.copysign(min(abs(h), abs(u1 - u)), h)
+        t = u1 if abs(u1 - (u + step)) <= 1e-12 * max(abs(u1), 1.0) else u + step
+        lam = np.linalg.eigvals(system.A(t))
+        pred = lam_c + (t - u) * s
+        d = np.abs(lam - pred)
+        k = int(np.argmin(d))
+        d2 = np.partition(d, 1)[1] if d.size > 1 else np.inf
+        if d[k] > UNAMBIGUOUS * d2 and abs(step) > 1.5 * h_min:
+            h = step / 2
+            continue
+        ok &= bool(d[k] <= UNAMBIGUOUS * d2)
+        s = (lam[k] - lam_c) / (t - u)
+        lam_c, u, h = complex(lam[k]), t, 2 * step
+    return lam_c, ok
+
+
+def _branch_of(value, column):
+    """Index of the tracked branch whose value in ``column`` is ``value`` (or -1)."""
+    cand = np.abs(column - value)
+    j = int(np.argmin(cand))
+    return j if cand[j] <= 1e-6 * max(abs(value), 1e-12) + 1e-12 else -1
+
+
+def _bracket_half_width(u: float, tol: float) -> float:
+    """Half-width [m/s] of the verification bracket around a refined crossing ``u``."""
+    return max(10 * tol, 1e-3 * u)
+
+
+
+def _stable_start(fun, a: float, b: float) -> float:
+    """``a``, or for a neutral ``a = 0`` (``fun(0)`` zero to round-off) the largest
+    ``b / 2**m`` (m <= 40) where ``fun`` is negative: Brent needs a strict sign change."""
+    if a != 0.0 or fun(a) < 0:
+        return a
+    t = b
+    for _ in range(40):
+        t /= 2
+        if fun(t) < 0:
+            return t
+    return a
+
