@@ -178,7 +178,7 @@ def _option_checks() -> dict:
         "speeds": _speeds, "fractions": _fractions, "modes": _modes,
         "count": _integer(1, 100000), "rfa": _choice(*RFA_NAMES),
         "order": _choice("modal", "full"), "side_spans": _side_spans,
-        "parameters": _parameters, "check": check_bool,
+        "parameters": _parameters, "check": check_bool, "truncation_check": check_bool,
         # model.buffeting.buffeting
         "spectrum": _choice(*SPECTRUM_KINDS), "admittance": _choice(*ADMITTANCE_KINDS),
         "coherence_decay": _number(0.0), "method": _choice(*METHODS),
@@ -277,6 +277,8 @@ def _run_flutter(spec, opts, context) -> Outcome:
     res = flutter(spec, grid(opts["speeds"], "speeds", 0.0), n_modes=int(opts["modes"]),
                   order=opts["order"], rfa=opts["rfa"])
     s = res.summary()
+    if opts["truncation_check"] and opts["order"] == "modal":
+        s = {**s, **_truncation(spec, opts, res)}
     status = ("ok" if s["flutter_status"] == "converged" and s["divergence_status"] == "converged"
               else f"flutter {s['flutter_status']}, divergence {s['divergence_status']}")
     sw = res.sweep
@@ -285,13 +287,36 @@ def _run_flutter(spec, opts, context) -> Outcome:
     return Outcome(status, s, arr, _figures(context, "flutter", res), res)
 
 
+def _truncation(spec, opts, res) -> dict:
+    """Truncation error of the headline speeds: ``n`` against ``n + 8`` retained modes.
+
+    :func:`model.convergence.truncation_error` (the step of 8 spans the next symmetric
+    torsional mode on Humber); the ``n``-mode sweep is not repeated.
+    """
+    from model.convergence import truncation_error
+
+    t = truncation_error(spec, int(opts["modes"]), grid(opts["speeds"], "speeds", 0.0),
+                         rfa=opts["rfa"], at_n=res.sweep.summary())
+    return {"truncation_reference_modes": t["reference_modes"],
+            "flutter_truncation_error_pct": t["flutter_truncation_error_pct"],
+            "divergence_truncation_error_pct": t["divergence_truncation_error_pct"],
+            "truncation_status": t["truncation_status"]}
+
+
 _FLUTTER_CASE_KEYS = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
                       "divergence_speed_m_s", "divergence_status", "divergence_static_speed_m_s",
-                      "critical_speed_m_s", "critical_mechanism", "critical_branch_label")
+                      "divergence_static_status", "critical_speed_m_s", "critical_mechanism",
+                      "critical_branch_label", "critical_branch_label_source",
+                      "second_critical_branch_label", "second_flutter_speed_m_s",
+                      "second_flutter_status", "flutter_onset")
+#: present only with ``truncation_check = true`` (None otherwise)
+_TRUNCATION_KEYS = ("flutter_truncation_error_pct", "divergence_truncation_error_pct",
+                    "truncation_status")
 
 
 def _flutter_case(outcome: Outcome) -> dict:
-    return {k: outcome.summary[k] for k in _FLUTTER_CASE_KEYS}
+    return {**{k: outcome.summary[k] for k in _FLUTTER_CASE_KEYS},
+            **{k: outcome.summary.get(k) for k in _TRUNCATION_KEYS}}
 
 
 def _run_erection(spec, opts, context) -> Outcome:
@@ -388,8 +413,8 @@ ANALYSES: Mapping[str, Analysis] = _table(
                              ("fractions", "side_spans")),
     flutter=Analysis("flutter", _run_flutter,
                      _table(speeds=DEFAULT_SPEEDS, modes=DEFAULT_MODES, rfa="rfa4",
-                            order="modal"),
-                     ("speeds", "modes", "rfa", "order"), _flutter_case),
+                            order="modal", truncation_check=True),
+                     ("speeds", "modes", "rfa", "order", "truncation_check"), _flutter_case),
     erection=Analysis("erection", _run_erection,
                       _table(fractions="0.1:1.0:0.1", speeds=DEFAULT_SPEEDS,
                              modes=DEFAULT_MODES, side_spans=""),

@@ -83,9 +83,14 @@ def cmd_modes(args):
 
 def _run(name: str, spec, **options):
     """The result of registered analysis ``name``: the runner that studies and DOE cases use."""
+    return _outcome(name, spec, **options).result
+
+
+def _outcome(name: str, spec, **options):
+    """The whole :class:`~design.analyses.Outcome` of registered analysis ``name``."""
     entry = ANALYSES[name]
     context = RunContext(figures=False, progress=log)
-    return entry.run(spec, {**entry.defaults, **options}, context).result
+    return entry.run(spec, {**entry.defaults, **options}, context)
 
 
 def cmd_frequency_ratio(args):
@@ -124,18 +129,32 @@ def cmd_flutter(args):
         res = closed_loop_flutter(spec, controller, parse_range(args.speeds, "speeds", 0.0),
                                   n_modes=args.modes)
     else:
-        res = _run("flutter", spec, speeds=args.speeds, modes=args.modes, order=args.order,
-                   rfa=args.rfa)
-    s = {**res.summary(), **controller_report(controller)}
+        outcome = _outcome("flutter", spec, speeds=args.speeds, modes=args.modes,
+                           order=args.order, rfa=args.rfa,
+                           truncation_check=not args.no_truncation_check)
+        res = outcome.result
+    s = {**(res.summary() if controller is not None else outcome.summary),
+         **controller_report(controller)}
     text = (f"{spec.name} (erected {spec.erected_fraction:.2f}, {s['modes_retained']} modes, "
             f"{s['order']} RFA {s['rfa']}, b = {spec.deck.half_chord_m} m)\n"
             f"flutter:    {s['flutter_speed_m_s']:.2f} m/s at {s['flutter_frequency_hz']:.4f} Hz"
             f" [{s['flutter_status']}], critical branch {s['critical_branch']['label']}\n"
             f"divergence: {s['divergence_speed_m_s']:.2f} m/s [{s['divergence_status']}]"
-            f" (static check {s['divergence_static_speed_m_s']:.2f} m/s)")
+            f" (static check {_speed_text(s['divergence_static_speed_m_s'])}"
+            f" [{s.get('divergence_static_status', '')}])\n"
+            f"governing:  {_speed_text(s['critical_speed_m_s'])} ({s['critical_mechanism']})")
+    if "truncation_status" in s:
+        text += (f"\ntruncation: flutter {s['flutter_truncation_error_pct']:.3g} %, divergence "
+                 f"{s['divergence_truncation_error_pct']:.3g} % against "
+                 f"{s['truncation_reference_modes']} modes [{s['truncation_status']}]")
     if args.plot:
         save_plot(res, args.plot)
     emit(args, s, text)
+
+
+def _speed_text(u) -> str:
+    """A speed [m/s] for the text output; ``None``/NaN (not found on the grid) as such."""
+    return "none on the grid" if u is None or u != u else f"{u:.2f} m/s"
 
 
 def cmd_erection(args):
@@ -293,6 +312,8 @@ def _flutter_arguments(sp):
     sp.add_argument("--order", choices=("modal", "full"), default=_default("flutter", "order"))
     sp.add_argument("--rfa", choices=("rfa4", "jones"), default=_default("flutter", "rfa"))
     sp.add_argument("--controller", default=None, help="controller .toml (closed loop)")
+    sp.add_argument("--no-truncation-check", action="store_true",
+                    help="skip the truncation-error estimate (a second sweep with 8 more modes)")
     sp.add_argument("--no-added-inertia", action="store_true",
                     help="drop the apparent-inertia moment pi rho b^4 alpha''/8 (Scanlan)")
     sp.add_argument("--plot", default=None)

@@ -237,6 +237,35 @@ def _flatten(value: Any, prefix: str, out: dict) -> None:
         out[prefix] = value
 
 
+def _with_branch_flags(rows: tuple[dict, ...]) -> tuple[dict, ...]:
+    """Rows of a stability DOE with ``branch_switch_neighbour`` and ``neighbour_branches``.
+
+    A row whose parameter-space neighbours have another critical branch is flagged
+    (:func:`design.branch_flags.flag_branch_neighbours`): a response surface or a derivative
+    across it spans a branch switch. Only the table and the returned rows carry the flags; the
+    per-case files (the ``--resume`` records) stay as computed.
+    """
+    from design.branch_flags import flag_branch_neighbours
+
+    ok = [i for i, r in enumerate(rows)
+          if r["status"] == STATUS_OK and isinstance(r.get("result"), Mapping)
+          and "critical_branch_label" in r["result"]]
+    keys = sorted({k for i in ok for k, v in rows[i]["params"].items()
+                   if isinstance(v, int | float) and not isinstance(v, bool)})
+    if len(ok) < 2 or not keys:
+        return rows
+    flat = [{**{k: rows[i]["params"][k] for k in keys},
+             "critical_branch_label": rows[i]["result"]["critical_branch_label"] or ""}
+            for i in ok]
+    flags = flag_branch_neighbours(flat, keys)
+    out = list(rows)
+    for i, f in zip(ok, flags, strict=True):
+        out[i] = {**rows[i], "result": {**rows[i]["result"],
+                                        "branch_switch_neighbour": f["branch_switch_neighbour"],
+                                        "neighbour_branches": ";".join(f["neighbour_branches"])}}
+    return tuple(out)
+
+
 def _table_text(rows: Sequence[dict]) -> str:
     """CSV text: case_id, status, params..., flattened scalar results..., elapsed_s, error.
 
@@ -433,7 +462,7 @@ def run_batch(
         finally:
             bar.close()
 
-        rows = tuple(records[case_id] for case_id, _ in normalised)
+        rows = _with_branch_flags(tuple(records[case_id] for case_id, _ in normalised))
         table_path = out / "table.csv"
         atomic_write_text(table_path, _table_text(rows))
         succeeded = sum(row["status"] == STATUS_OK for row in rows)

@@ -257,7 +257,8 @@ def mode_convergence(spec: BridgeSpec, speeds, counts=DEFAULT_MODE_COUNTS,
 
 
 def truncation_error(spec: BridgeSpec, n_modes: int, speeds, reference_modes: int | None = None,
-                     order: str = "modal", rfa: str = "rfa4", modal=None) -> dict:
+                     order: str = "modal", rfa: str = "rfa4", modal=None,
+                     at_n: dict | None = None) -> dict:
     """Truncation-error estimate of the flutter and divergence speeds at ``n_modes`` modes.
 
     ``|U(n) - U(n_ref)| / U(n_ref)`` [%] with ``n_ref = n_modes + 8`` (:data:`TRUNCATION_STEP`)
@@ -289,10 +290,13 @@ def truncation_error(spec: BridgeSpec, n_modes: int, speeds, reference_modes: in
     ref = min(ref, avail)
     out = {"n_modes": n, "reference_modes": ref}
     if ref == n:  # every mode is retained already: nothing left to truncate
-        a = _solve(spec, modal, n, u, order, rfa)
+        a = at_n if at_n is not None else _solve(spec, modal, n, u, order, rfa)
         b = a
     else:
-        a, b = (_solve(spec, modal, k, u, order, rfa) for k in (n, ref))
+        # ``at_n``: the summary of an n-mode sweep on the same grid already computed by the
+        # caller (its flutter/divergence speeds and statuses), so it is not repeated
+        a = at_n if at_n is not None else _solve(spec, modal, n, u, order, rfa)
+        b = _solve(spec, modal, ref, u, order, rfa)
     bad = []
     for mech in _MECHANISMS:
         ua, ub = a[f"{mech}_speed_m_s"], b[f"{mech}_speed_m_s"]
