@@ -334,8 +334,11 @@ def _pk_solve(frozen, U, p_guess, tol=1e-10, maxit=100):
     p = p_guess
     for _ in range(maxit):
         k = abs(p.imag) * b / U
-        c = theodorsen(k) if k > 0 else 1.0 + 0j
-        lam = np.linalg.eigvals(frozen.matrix(U, c))
+        if hasattr(frozen, "matrix_at_k"):   # tabulated flutter derivatives (model.derivatives)
+            lam = np.linalg.eigvals(frozen.matrix_at_k(U, k))
+        else:
+            c = theodorsen(k) if k > 0 else 1.0 + 0j
+            lam = np.linalg.eigvals(frozen.matrix(U, c))
         p_new = lam[np.argmin(np.abs(lam - p))]
         if abs(p_new - p) < tol * max(1.0, abs(p)):
             return p_new, True
