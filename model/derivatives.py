@@ -63,7 +63,8 @@ real ``R`` fitted by least squares on ``pbar = iK`` over the tabulated range, th
 ``gamma_j > 0`` chosen by a nonlinear least-squares search over ``log gamma`` (variable
 projection: the ``R`` are solved linearly for each pole set), so every pole is stable by
 construction (the search is bounded to ``K_min / 100 <= gamma <= 10 K_max``: a pole far above
-the data range only duplicates the ``R1`` term). Each lag becomes ``n`` states ``x_j = pbar/(pbar + gamma_j) q``, i.e.
+the data range only duplicates the ``R1`` term). Each lag becomes ``n`` states
+``x_j = pbar/(pbar + gamma_j) q``, i.e.
 ``x_j' = q' - (gamma_j U / B) x_j``, and the generalised loads
 ``1/2 rho U^2 [R0 q + R1 (B/U) q' + R2 (B/U)^2 q'' + sum_j R_{j+2} x_j]`` give the same
 frequency-independent, speed-polynomial state space ``x' = (A0 + U A1 + U^2 A2) x`` as the
@@ -567,9 +568,10 @@ def fit_roger(source: FlutterDerivatives, n_lags: int = 2, n_dof: int | None = N
     (lift, moment, drag) by its largest term, so that derivatives too small to matter (and
     often the noisiest in measured tables) do not spend the poles. The reported error is the
     same in both: per derivative ``X``, ``max |K^2 (X_fit - X)| / max |K^2 X|`` over the fit
-    grid (the error of its term in the loads, relative to that term). The pole search minimises the weighted
-    residual over ``log gamma`` (scipy ``least_squares``), so ``gamma_j = exp(.) > 0`` and every
-    lag state is stable; given poles must be positive (``BridgeflapInputError`` otherwise).
+    grid (the error of its term in the loads, relative to that term). The pole search
+    minimises the weighted residual over ``log gamma`` (scipy ``least_squares``), so
+    ``gamma_j = exp(.) > 0`` and every lag state is stable; given poles must be positive
+    (``BridgeflapInputError`` otherwise).
     """
     d = n_dof if n_dof is not None else (3 if source.lateral else 2)
     if d not in (2, 3):
