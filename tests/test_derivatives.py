@@ -223,3 +223,27 @@ def test_humber_flat_plate_derivatives_equal_theodorsen(coarse_humber):
     sys_x = dv.derivative_system(sys_t.basis, dv.flat_plate(B, ai), rho, fit=fit)
     pk_d = stability.pk_sweep(sys_x, speeds, speed_tol=BRENT)
     assert pk_d.flutter.speed == pytest.approx(pk_t.flutter.speed, rel=REL)
+
+
+def _run_cmd(argv, capsys):
+    """design/cmd_derivatives through its own add_parser (registration is the integrator's)."""
+    import json
+
+    from design import cmd_derivatives
+    from design.cli_common import Parser
+
+    p = Parser(prog="bridgeflap")
+    cmd_derivatives.add_parser(p.add_subparsers(dest="command", parser_class=Parser))
+    args = p.parse_args(argv)
+    args.func(args)
+    return json.loads(capsys.readouterr().out)
+
+
+def test_derivatives_command_json(capsys):
+    out = _run_cmd(["derivatives", "--bridge", "humber", "--json"], capsys)
+    assert out["derivatives"] == "flat-plate" and out["n_lags"] == 4
+    assert out["chord_m"] == pytest.approx(28.5)
+    assert set(out["fit_relative_error"]) == {"H1", "H2", "H3", "H4", "A1", "A2", "A3", "A4"}
+    assert all(g > 0 for g in out["lag_poles_pbar"])
+    with pytest.raises(BridgeflapInputError, match="lags"):
+        _run_cmd(["derivatives", "--bridge", "humber", "--lags", "-1"], capsys)
