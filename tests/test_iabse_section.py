@@ -93,3 +93,17 @@ def test_in_wind_torsion_branch(name, speed, f_hz):
     j = list(pk.branch_labels).index("pitch")
     f = abs(pk.branches[j, -1].imag) / (2 * np.pi)
     assert f == pytest.approx(f_hz, rel=2e-2)
+
+
+def test_flutter_summary_has_the_humber_keys(coarse_humber):
+    """The hook for ``flutter --bridge iabse-1.1a``: the keys of the Humber flutter summary."""
+    from model import analysis
+    from model.section_cases import section_case_result
+
+    humber = analysis.flutter(coarse_humber, np.linspace(0.0, 80.0, 41), n_modes=4).summary()
+    res = section_case_result("iabse-1.1a", np.linspace(0.0, 120.0, 61))
+    s = res.summary()
+    assert set(s) - {"section_case"} == set(humber)
+    assert s["flutter_status"] == stability.CONVERGED
+    assert s["flutter_speed_m_s"] == pytest.approx(77.45, rel=2e-3)  # as test_iabse_11a_own...
+    assert s["section_case"]["pk_flutter_status"] == stability.CONVERGED
