@@ -1,17 +1,18 @@
 """``bridgeflap derivatives``: the flutter derivatives in use, their RFA fit and its error.
 
-``--bridge`` takes a section case (``iabse-1.1a``, ``iabse-1.1c``: :mod:`model.section_cases`)
-or a bridge of :func:`model.spec.load_bridge` (Humber, a .toml), whose deck is a Theodorsen flat
-plate of chord ``2 b`` (:func:`model.derivatives.flat_plate`, with the spec's apparent-inertia
-convention). Prints the derivatives (Scanlan convention, :mod:`model.derivatives`) at the
-table's reduced velocities, the Roger RFA (poles, error per derivative) and, for a section case,
-its flutter speed by the RFA state space and by the exact p-k against the reference. With
-``--json`` one JSON object (numbers with units in the key names, NaN as null); ``--plot FILE``
-draws the derivatives and their fit against ``U / (f B)``. Bad input: one line, exit 2.
+``--bridge`` takes a section case (``iabse-1.1a``, ``iabse-1.1c`` or a section ``.json`` file
+with measured derivatives: :mod:`model.section_cases`) or a bridge of
+:func:`model.spec.load_bridge` (Humber, a .toml), whose deck is a Theodorsen flat plate of chord
+``2 b`` (:func:`model.derivatives.flat_plate`, with the spec's apparent-inertia convention).
+Prints the derivatives (Scanlan convention, :mod:`model.derivatives`) over the data's reduced
+velocities, the Roger RFA (poles, error per derivative) and, for a section case, its flutter
+speed by the RFA state space and by the exact p-k against the reference. With ``--json`` one
+JSON object (numbers with units in the key names, NaN as null); ``--plot FILE`` draws the
+derivatives and their fit against ``U / (f B)``. Bad input: one line, exit 2.
 
-Registration (integrator): ``Command("derivatives", "flutter derivatives in use and their RFA
-fit", cmd_derivatives.arguments, cmd_derivatives.run)`` in :data:`design.cli.COMMANDS`, or
-:func:`add_parser` on the subparsers object.
+Registration (integrator): ``Command("derivatives", HELP, cmd_derivatives.arguments,
+cmd_derivatives.run)`` in :data:`design.cli.COMMANDS`, or :func:`add_parser` on the
+subparsers object.
 """
 
 from __future__ import annotations
@@ -54,7 +55,7 @@ def _source(args):
     from model.section_cases import SECTION_CASES, load_section_case
 
     ai = None if args.added_inertia is None else args.added_inertia == "kept"
-    if args.bridge in SECTION_CASES:
+    if args.bridge in SECTION_CASES or str(args.bridge).lower().endswith(".json"):
         case = load_section_case(args.bridge, ai)
         return case.name, case.derivatives, case
     from model.spec import load_bridge

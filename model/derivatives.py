@@ -248,10 +248,6 @@ class FlutterDerivatives:
         return {"K": Ka.tolist(), **{k: np.asarray(vals[k]).tolist() for k in DERIVATIVE_NAMES}}
 
 
-def _zeros_like(K):
-    return np.zeros_like(np.asarray(K, float))
-
-
 @dataclass(frozen=True)
 class FlatPlateDerivatives(FlutterDerivatives):
     """Theodorsen's flat plate as flutter derivatives (closed form, module docstring).
@@ -273,7 +269,7 @@ class FlatPlateDerivatives(FlutterDerivatives):
         C = np.asarray(cf(0.5 * Ka), complex)
         F, G = C.real, C.imag
         kap = 1.0 if self.added_inertia else 0.0
-        out = {k: _zeros_like(Ka) for k in DERIVATIVE_NAMES}
+        out = {k: np.zeros_like(Ka) for k in DERIVATIVE_NAMES}
         out.update({
             "H1": -2 * np.pi * F / Ka,
             "H2": np.pi / (2 * Ka) * (1 + F + 4 * G / Ka),
@@ -322,7 +318,7 @@ class TabulatedDerivatives(FlutterDerivatives):
         out = {}
         for name in DERIVATIVE_NAMES:
             col = self.data.get(name)
-            out[name] = (_zeros_like(Ka) if col is None
+            out[name] = (np.zeros_like(Ka) if col is None
                          else np.interp(v, vt[order], np.asarray(col, float)[order]))
         return out
 
@@ -526,7 +522,9 @@ def fit_roger(source: FlutterDerivatives, n_lags: int = 2, n_dof: int | None = N
     grid (the error of its term in the loads, relative to that term). The pole search
     minimises the weighted residual over ``log gamma`` (scipy ``least_squares``), so
     ``gamma_j = exp(.) > 0`` and every lag state is stable; given poles must be positive
-    (``BridgeflapInputError`` otherwise).
+    (``BridgeflapInputError`` otherwise). Poles that coalesce (within 0.1 %) are merged, so
+    ``n_lags`` of the result may be smaller than asked: more lags than the data support (a
+    7-point measured table) do not add information.
     """
     d = n_dof if n_dof is not None else (3 if source.lateral else 2)
     if d not in (2, 3):
@@ -558,6 +556,9 @@ def fit_roger(source: FlutterDerivatives, n_lags: int = 2, n_dof: int | None = N
                             bounds=(np.log(lo / 100.0), np.log(10.0 * hi)))
         logp = np.sort(sol.x)
     gam = np.exp(logp)
+    if gam.size > 1:  # coalesced poles (an ill-posed search): keep one of each cluster
+        keep = np.concatenate([[True], np.diff(np.log(gam)) > 1e-3])
+        gam = gam[keep]
     if np.any(~np.isfinite(gam)) or np.any(gam <= 0):
         raise BridgeflapInputError("poles", "the fit produced a non-positive (unstable) lag pole")
     R = _solve_entries(K, gam, Qn, weights)

@@ -201,7 +201,6 @@ def test_bad_input_names_the_field():
         table.values(np.array([5.0]))
 
 
-@pytest.mark.slow
 def test_humber_flat_plate_derivatives_equal_theodorsen(coarse_humber):
     """Humber (coarse mesh, 10 modes): the strip projection of the derivative loads."""
     from model import analysis
