@@ -224,14 +224,15 @@ def case_fit(case: SectionCase, n_lags: int | None = None, weighting: str | None
     :class:`~model.derivatives.PolimiDerivatives` does.
     """
     src = case.derivatives
+    d = 2 if case.phi_p is None else 3  # a 2-DOF section ignores lateral derivatives
     w = "derivative" if weighting is None else weighting
     if src.name == "flat-plate":
-        return fit_roger(src, n_lags=4 if n_lags is None else n_lags, k_range=(0.01, 6.0),
-                         weighting=w)
+        return fit_roger(src, n_lags=4 if n_lags is None else n_lags, n_dof=d,
+                         k_range=(0.01, 6.0), weighting=w)
     lo, hi = src.k_range
     if isinstance(src, PolimiDerivatives):
         lo = lo / 1.5
-    return fit_roger(src, n_lags=2 if n_lags is None else n_lags, k_range=(lo, hi),
+    return fit_roger(src, n_lags=2 if n_lags is None else n_lags, n_dof=d, k_range=(lo, hi),
                      weighting=w)
 
 
