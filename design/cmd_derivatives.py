@@ -12,17 +12,22 @@ derivatives and their fit against ``U / (f B)``. Bad input: one line, exit 2.
 
 Registration (integrator): ``Command("derivatives", HELP, cmd_derivatives.arguments,
 cmd_derivatives.run)`` in :data:`design.cli.COMMANDS`, or :func:`add_parser` on the
-subparsers object.
+subparsers object. :func:`section_case_result` is the hook for ``flutter --bridge iabse-1.1a``:
+its ``summary()`` has the keys of the Humber flutter summary (plus ``section_case``) and its
+``plot()`` the sweep's figure (it lives here, not in model/, because it uses the facade's
+``critical_speed``).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
 from design.cli_common import add_common, check_plot_target, emit, log, save_figure
 from model.errors import BridgeflapInputError
 
-__all__ = ["add_parser", "arguments", "run"]
+__all__ = ["SectionCaseResult", "add_parser", "arguments", "run", "section_case_result"]
 
 HELP = "flutter derivatives in use and their RFA fit (error per derivative)"
 
@@ -155,3 +160,74 @@ def _plot(src, fit, used, path) -> None:
     save_figure(fig, path)
     plt.close(fig)
     log(f"figure written: {path}")
+
+
+@dataclass(frozen=True)
+class SectionCaseResult:
+    """Flutter of a section case in the shape of :class:`model.analysis.FlutterResult`.
+
+    ``summary()`` has the keys of the Humber ``flutter`` summary (the sweep of the Roger-RFA
+    state space; ``critical_branch`` from the section's DOF labels) plus ``section_case``:
+    the reference, the exact p-k on the derivatives and the RFA fit. ``plot()`` is the sweep's.
+    """
+
+    case: object
+    sweep: object
+    pk: object
+    fit: object
+    n_states: int
+
+    def summary(self) -> dict:
+        """JSON-ready numbers (units in the key names) and statuses."""
+        from model.analysis import critical_speed
+
+        s = self.sweep.summary()
+        label = self.sweep.critical_branch
+        fam = {"heave": "vertical", "pitch": "torsional", "lateral": "lateral"}.get(label, "")
+        s.update(critical_speed(s))
+        ref = self.case.reference_speed_m_s
+        pk = self.pk.flutter
+        s.update({"bridge": self.case.name, "erected_fraction": 1.0, "joints_closed": True,
+                  "critical_branch": {"label": label, "family": fam, "symmetry": "",
+                                      "span": "", "frequency_hz": float("nan")},
+                  "modes_retained": self.case.basis.n, "order": "modal", "rfa": self.fit.name,
+                  "states": self.n_states, "half_chord_m": 0.5 * self.case.derivatives.chord_m,
+                  "added_inertia": bool(getattr(self.case.derivatives, "added_inertia", False)),
+                  "section_case": {
+                      "derivatives": self.case.derivatives.name,
+                      "reference_flutter_speed_m_s": ref,
+                      "reference_convention": self.case.reference["convention"],
+                      "pk_flutter_speed_m_s": pk.speed,
+                      "pk_flutter_frequency_hz": pk.frequency_hz,
+                      "pk_flutter_status": pk.status,
+                      "rfa_relative_to_reference": (float(self.sweep.flutter.speed / ref - 1)
+                                                    if np.isfinite(self.sweep.flutter.speed)
+                                                    else float("nan")),
+                      "pk_relative_to_reference": (float(pk.speed / ref - 1)
+                                                   if np.isfinite(pk.speed) else float("nan")),
+                      **self.fit.summary()}})
+        return s
+
+    def plot(self, axes=None):
+        """Root locus, damping and frequency of the RFA sweep."""
+        return self.sweep.plot(axes, title=self.case.name)
+
+
+def section_case_result(name: str, speeds=None, added_inertia: bool | None = None,
+                        n_lags: int | None = None) -> SectionCaseResult:
+    """:class:`SectionCaseResult` of a built-in case (the hook for ``flutter --bridge NAME``).
+
+    ``speeds`` [m/s] default ``0 .. 2 x reference`` in 401 points.
+    """
+    from model import stability
+    from model.derivatives import derivative_system
+    from model.section_cases import case_fit, default_speeds, load_section_case
+
+    case = load_section_case(name, added_inertia)
+    if speeds is None:
+        speeds = default_speeds(case)
+    fit = case_fit(case, n_lags)
+    system = derivative_system(case.basis, case.derivatives, case.air_density, fit=fit,
+                               phi_p=case.phi_p)
+    return SectionCaseResult(case, stability.sweep(system, speeds),
+                             stability.pk_sweep(system, speeds), fit, system.n_states)

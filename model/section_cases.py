@@ -31,8 +31,8 @@ from model.derivatives import (
 )
 from model.errors import BridgeflapInputError
 
-__all__ = ["SECTION_CASES", "SectionCase", "SectionCaseResult", "case_fit", "load_section_case",
-           "default_speeds", "section_case_flutter", "section_case_result"]
+__all__ = ["SECTION_CASES", "SectionCase", "case_fit", "default_speeds", "load_section_case",
+           "section_case_flutter"]
 
 SECTION_CASES: tuple[str, ...] = ("iabse-1.1a", "iabse-1.1c")
 """Names accepted by :func:`load_section_case`."""
@@ -270,72 +270,3 @@ def section_case_flutter(case: SectionCase, speeds=None, n_lags: int | None = No
         "rfa": fit.summary(),
         "n_states": system.n_states,
     }
-
-
-@dataclass(frozen=True)
-class SectionCaseResult:
-    """Flutter of a section case in the shape of :class:`model.analysis.FlutterResult`.
-
-    ``summary()`` has the keys of the Humber ``flutter`` summary (the sweep of the Roger-RFA
-    state space; ``critical_branch`` from the section's DOF labels) plus ``section_case``:
-    the reference, the exact p-k on the derivatives and the RFA fit. ``plot()`` is the sweep's.
-    """
-
-    case: SectionCase
-    sweep: object
-    pk: object
-    fit: RogerFit
-    n_states: int
-
-    def summary(self) -> dict:
-        """JSON-ready numbers (units in the key names) and statuses."""
-        from model.analysis import critical_speed
-
-        s = self.sweep.summary()
-        label = self.sweep.critical_branch
-        fam = {"heave": "vertical", "pitch": "torsional", "lateral": "lateral"}.get(label, "")
-        s.update(critical_speed(s))
-        ref = self.case.reference_speed_m_s
-        pk = self.pk.flutter
-        s.update({"bridge": self.case.name, "erected_fraction": 1.0, "joints_closed": True,
-                  "critical_branch": {"label": label, "family": fam, "symmetry": "",
-                                      "span": "", "frequency_hz": float("nan")},
-                  "modes_retained": self.case.basis.n, "order": "modal", "rfa": self.fit.name,
-                  "states": self.n_states, "half_chord_m": 0.5 * self.case.derivatives.chord_m,
-                  "added_inertia": bool(getattr(self.case.derivatives, "added_inertia", False)),
-                  "section_case": {
-                      "derivatives": self.case.derivatives.name,
-                      "reference_flutter_speed_m_s": ref,
-                      "reference_convention": self.case.reference["convention"],
-                      "pk_flutter_speed_m_s": pk.speed,
-                      "pk_flutter_frequency_hz": pk.frequency_hz,
-                      "pk_flutter_status": pk.status,
-                      "rfa_relative_to_reference": (float(self.sweep.flutter.speed / ref - 1)
-                                                    if np.isfinite(self.sweep.flutter.speed)
-                                                    else float("nan")),
-                      "pk_relative_to_reference": (float(pk.speed / ref - 1)
-                                                   if np.isfinite(pk.speed) else float("nan")),
-                      **self.fit.summary()}})
-        return s
-
-    def plot(self, axes=None):
-        """Root locus, damping and frequency of the RFA sweep."""
-        return self.sweep.plot(axes, title=self.case.name)
-
-
-def section_case_result(name: str, speeds=None, added_inertia: bool | None = None,
-                        n_lags: int | None = None) -> SectionCaseResult:
-    """:class:`SectionCaseResult` of a built-in case (the hook for ``flutter --bridge NAME``).
-
-    ``speeds`` [m/s] default ``0 .. 2 x reference`` in 401 points.
-    """
-    from model import stability
-
-    case = load_section_case(name, added_inertia)
-    if speeds is None:
-        speeds = default_speeds(case)
-    fit = case_fit(case, n_lags)
-    system = derivative_system(case.basis, case.derivatives, case.air_density, fit=fit,
-                               phi_p=case.phi_p)
-    return SectionCaseResult(case, stability.sweep(system, speeds),
-                             stability.pk_sweep(system, speeds), fit, system.n_states)

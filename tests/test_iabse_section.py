@@ -97,8 +97,8 @@ def test_in_wind_torsion_branch(name, speed, f_hz):
 
 def test_flutter_summary_has_the_humber_keys(coarse_humber):
     """The hook for ``flutter --bridge iabse-1.1a``: the keys of the Humber flutter summary."""
+    from design.cmd_derivatives import section_case_result
     from model import analysis
-    from model.section_cases import section_case_result
 
     humber = analysis.flutter(coarse_humber, np.linspace(0.0, 80.0, 41), n_modes=4).summary()
     res = section_case_result("iabse-1.1a", np.linspace(0.0, 120.0, 61))
