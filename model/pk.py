@@ -66,6 +66,15 @@ class PKResult:
         return out
 
 
+def _frozen_matrix(frozen, U: float, kr: float):
+    """First-order matrix at speed ``U`` with the aerodynamics frozen at reduced frequency ``kr``:
+    the exact Theodorsen ``C(kr)``, or interpolated flutter derivatives where the frozen system
+    carries them (``matrix_at_k``, :mod:`model.derivative_system`)."""
+    if hasattr(frozen, "matrix_at_k"):
+        return frozen.matrix_at_k(U, kr)
+    return frozen.matrix(U, theodorsen(kr) if kr > 0 else 1.0 + 0j)
+
+
 def _pk_point(frozen, U, p_guess, tol=1e-10, maxit=100):
     """One p-k point: eigenvalue ``p`` of ``frozen.matrix(U, C(|Im p| b / U))`` near ``p_guess``.
 
@@ -75,9 +84,7 @@ def _pk_point(frozen, U, p_guess, tol=1e-10, maxit=100):
     p = p_guess
     lam, k = np.array([p]), 0
     for _ in range(maxit):
-        kr = abs(p.imag) * b / U
-        c = theodorsen(kr) if kr > 0 else 1.0 + 0j
-        lam = np.linalg.eigvals(frozen.matrix(U, c))
+        lam = np.linalg.eigvals(_frozen_matrix(frozen, U, abs(p.imag) * b / U))
         k = int(np.argmin(np.abs(lam - p)))
         p_new = lam[k]
         if abs(p_new - p) < tol * max(1.0, abs(p)):
@@ -140,7 +147,7 @@ def pk_residual(frozen, p: complex, U: float) -> float:
     ``k = |Im p| b / U`` recomputed from ``p`` itself (zero when ``p`` solves its own frozen-C
     equation, i.e. the k iteration is consistent)."""
     kr = abs(p.imag) * frozen.half_chord / U
-    A = frozen.matrix(U, theodorsen(kr) if kr > 0 else 1.0 + 0j)
+    A = _frozen_matrix(frozen, U, kr)
     s = np.linalg.svd(A - p * np.eye(A.shape[0]), compute_uv=False)
     return float(s[-1] / max(np.linalg.norm(A, 2), abs(p), 1e-300))
 
