@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from design import cmd_buffeting, cmd_optimise, cmd_study
+from design import cmd_buffeting, cmd_derivatives, cmd_optimise, cmd_study
 from design.analyses import ANALYSES, DEFAULT_MODES, RunContext
 from design.cli_common import (
     Parser,
@@ -112,10 +112,38 @@ def cmd_frequency_ratio(args):
     emit(args, res.summary(), "\n".join(lines))
 
 
+def _is_section_case(bridge: str) -> bool:
+    """A section case (``iabse-1.1a``, ``iabse-1.1c``, a section ``.json``), not a bridge."""
+    from model.section_cases import SECTION_CASES
+
+    return bridge in SECTION_CASES or str(bridge).endswith(".json")
+
+
+def _section_case_flutter(args):
+    """``flutter --bridge iabse-1.1a``: the derivative state space and its exact p-k check."""
+    if args.controller:
+        raise BridgeflapInputError("controller", "a section case has no flaps")
+    speeds = None if args.speeds == _default("flutter", "speeds") else \
+        parse_range(args.speeds, "speeds", 0.0)
+    res = cmd_derivatives.section_case_result(
+        args.bridge, speeds, added_inertia=False if args.no_added_inertia else None)
+    s = res.summary()
+    text = (f"{args.bridge}: flutter {_speed_text(s['flutter_speed_m_s'])} "
+            f"[{s['flutter_status']}] (RFA state space), exact p-k "
+            f"{_speed_text(s['section_case']['pk_flutter_speed_m_s'])} "
+            f"[{s['section_case']['pk_flutter_status']}]; reference "
+            f"{s['section_case']['reference_flutter_speed_m_s']} m/s")
+    if args.plot:
+        save_plot(res, args.plot)
+    emit(args, s, text)
+
+
 def cmd_flutter(args):
     import dataclasses
 
     check_plot_target(args)
+    if _is_section_case(args.bridge):
+        return _section_case_flutter(args)
     spec = spec_from_args(args)
     if args.no_added_inertia:
         spec = dataclasses.replace(spec, aero=dataclasses.replace(spec.aero, added_inertia=False))
@@ -381,6 +409,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("state-space", "write A, B, C, D at one speed (.npz or .mat)",
             _state_space_arguments, cmd_state_space),
     Command("rfa", "fit report of the rational approximation of C(k)", _rfa_arguments, cmd_rfa),
+    Command("derivatives", cmd_derivatives.HELP, cmd_derivatives.arguments, cmd_derivatives.run),
     Command("buffeting", "RMS deck response to vertical turbulence", cmd_buffeting.arguments,
             cmd_buffeting.cmd_buffeting),
     Command("optimise", "design the flap compensator (seed section 6)", cmd_optimise.arguments,
