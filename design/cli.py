@@ -103,6 +103,8 @@ def cmd_frequency_ratio(args):
              "erected  ratio(full GJ)  ratio(half GJ)  modes (half GJ)"]
     lines += [f"{s['erected_fraction']:7.3f}  {s['ratio_full_gj']:14.3f}  "
               f"{s['ratio_half_gj']:14.3f}  {s['torsional_mode']}/{s['vertical_mode']}"
+              + ("  (hybrid: the deck mode is split between modes)"
+                 if s["torsional_hybrid"] or s["vertical_hybrid"] else "")
               for s in res.stages]
     c = res.completed
     lines.append(f"completed bridge: {c['ratio']:.3f} ({c['torsional_mode']} {c['ts1_hz']:.4f} Hz"

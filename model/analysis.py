@@ -280,26 +280,61 @@ def _fractions(fractions) -> np.ndarray:
 DECK_SHARE_FACTOR = 0.5
 
 
-def first_symmetric_deck_mode(modal: ModalModel, family: str):
-    """The first symmetric ``family`` mode of the main-span deck, or None.
+def fundamental_content(modal: ModalModel, family: str) -> dict:
+    """Share of each ``family`` mode that is the main-span deck's fundamental shape.
 
-    Selection rule: symmetric about the main-span mid-point, main-span share above 0.5, and a
-    deck kinetic-energy share of at least :data:`DECK_SHARE_FACTOR` (one half) of the main
-    span's uniform-motion share (its deck mass over its deck-plus-cable mass,
-    :attr:`model.fe.FamilyMatrices.uniform_deck_share`). A bare-cable mode (early erection
-    stages, where the cable carries little deck) has a deck share of a few per cent of that and
-    is passed over; a deck mode that also moves the bare cable beside the erected deck falls
-    slightly below the full uniform share (Humber, bare side spans, 60 %: TS1 0.367 against
-    0.379), hence the half. Where a main-span deck mode hybridises with a bare
-    side-span cable mode of nearly the same frequency, neither hybrid lives mainly in the main
-    span and the next symmetric mode is picked: the row names the modes it used.
+    A deck-mass weighted modal assurance criterion against the reference shape
+    ``psi = sin(pi x / L)`` on the main span (zero elsewhere):
+    ``MAC_j = (v_j' M_deck psi)^2 / ((v_j' M v_j)(psi' M_deck psi))`` with ``M`` the family's whole
+    mass (deck and cables). A pure deck fundamental reaches about the uniform-motion deck share;
+    a bare-cable mode, an antisymmetric mode or one with three half-waves stays near zero.
+    Returns ``{index into modal.modes: MAC}`` for the family's modes.
     """
+    st = modal.structure
+    fam = st.families[family]
+    sel = st.node_span == st.main_span
+    psi_node = np.zeros(len(st.node_x))
+    psi_node[sel] = np.sin(np.pi * st.node_x[sel] / st.spec.main_span.length_m)
+    psi = np.linalg.lstsq(fam.node_map, psi_node, rcond=None)[0]
+    Md = fam.M_deck if fam.M_deck is not None else fam.M
+    ref = float(psi @ Md @ psi)
+    out = {}
+    for col, i in enumerate(modal.family_index[family]):
+        v = modal.shapes[family][:, col]
+        out[i] = float((v @ Md @ psi) ** 2 / ((v @ fam.M @ v) * ref)) if ref > 0 else 0.0
+    return out
+
+
+def first_symmetric_deck_mode(modal: ModalModel, family: str):
+    """The mode that is the main-span deck's first symmetric ``family`` mode, or None.
+
+    Selection rule: among the symmetric modes whose deck kinetic-energy share is at least
+    :data:`DECK_SHARE_FACTOR` (one half) of the main span's uniform-motion share (its deck mass
+    over its deck-plus-cable mass, :attr:`model.fe.FamilyMatrices.uniform_deck_share`; this
+    passes over the bare-cable modes of early erection stages), the one with the largest
+    :func:`fundamental_content` (the most main-span deck fundamental in it). A selection by
+    frequency order alone fails where the deck's TS1 hybridises with the torsion of a bare
+    side-span cable of nearly the same frequency (Humber with bare side spans: at 35 % the
+    main-span share rule picked TS4 at 0.889 Hz, and at 100 % a 0.517 Hz mode shaped like TS2):
+    then the hybrid with the larger content is picked, and :func:`_ratio_row` flags the stage
+    as hybrid.
+    """
+    mac = fundamental_content(modal, family)
     floor = DECK_SHARE_FACTOR * modal.structure.families[family].uniform_deck_share
-    for m in modal.modes:
-        if (m.family == family and m.symmetry == "symmetric" and m.main_span_share > 0.5
-                and m.deck_share >= floor):
-            return m
-    return None
+    cand = [i for i in modal.family_index[family]
+            if modal.modes[i].symmetry == "symmetric" and modal.modes[i].deck_share >= floor]
+    if not cand:
+        return None
+    return modal.modes[max(cand, key=lambda i: mac[i])]
+
+
+def _hybrid(modal: ModalModel, family: str, picked) -> tuple[float, bool]:
+    """Fundamental content of the pick and whether another candidate holds at least half of it
+    (the deck mode is split between hybrids)."""
+    mac = fundamental_content(modal, family)
+    k = modal.modes.index(picked)
+    others = [v for i, v in mac.items() if i != k and modal.modes[i].symmetry == "symmetric"]
+    return mac[k], bool(others) and max(others) >= 0.5 * mac[k]
 
 
 def first_symmetric_frequency_hz(modal: ModalModel, family: str) -> float:
@@ -315,7 +350,12 @@ def _ratio_row(modal: ModalModel) -> dict:
     return {"ratio": f_t / f_v, "ts1_hz": f_t, "vs1_hz": f_v,
             "torsional_mode": ts.label if ts else "", "vertical_mode": vs.label if vs else "",
             "torsional_deck_share": ts.deck_share if ts else float("nan"),
-            "vertical_deck_share": vs.deck_share if vs else float("nan")}
+            "vertical_deck_share": vs.deck_share if vs else float("nan"),
+            **{f"{fam}_{key}": val
+               for fam, m in (("torsional", ts), ("vertical", vs))
+               for key, val in zip(("fundamental_mac", "hybrid"),
+                                   _hybrid(modal, fam, m) if m else (float("nan"), False),
+                                   strict=True)}}
 
 
 def frequency_ratio(spec: BridgeSpec, fractions, side_spans: str | None = None

@@ -162,3 +162,21 @@ def test_bad_bridge_files_name_the_field(edit, field):
     with pytest.raises(BridgeflapInputError) as exc:
         spec_from_dict(d)
     assert exc.value.field == field
+
+
+def test_frequency_ratio_rule_follows_the_deck_fundamental_through_hybrids():
+    """Bare side spans: the deck's TS1 hybridises with the bare Barton cable's torsion (35 %,
+    100 %). The frequency-order rule picked TS4 (0.889 Hz, ratio 6.25) at 35 % and a TS2-shaped
+    0.517 Hz mode (ratio 3.97) at 100 %; the fundamental-content rule must keep the ratio on the
+    curve of its neighbours. Bound: the ratio rises by less than 0.1 per 5 % of erection between
+    30 and 40 % (the neighbours 1.17 -> 1.21) and stays below the completed bridge's at 100 %
+    closed-deck (half GJ can only lower TS1)."""
+    from model.analysis import frequency_ratio
+
+    res = frequency_ratio(load_bridge("humber"), [0.3, 0.35, 0.4, 0.95, 1.0])
+    r = [s["ratio_half_gj"] for s in res.stages]
+    assert abs(r[1] - r[0]) < 0.1 and abs(r[2] - r[1]) < 0.1, r
+    assert r[4] < res.completed["ratio"], (r, res.completed)
+    assert res.stages[4]["torsional_hybrid"] and res.stages[1]["torsional_hybrid"]
+    for s in res.stages:  # the pick carries most of the deck fundamental of its stage
+        assert s["torsional_fundamental_mac"] > 0.1, s
