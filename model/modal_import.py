@@ -64,6 +64,8 @@ NORMALISATIONS = ("mass", "generalised_mass")
 _STRUCTURE_KEYS = {"kind", "file", "modes_file", "units", "normalisation", "vertical_positive",
                    "deck_segments_m", "strip_length_m", "main_span_m", "mass_kg_per_m",
                    "mass_inertia_kgm2_per_m", "mass_check_tolerance", "source"}
+_FILE_KEYS = {"station_x", "frequency", "damping_ratio", "generalised_mass", "vertical",
+              "torsional", "lateral", "label", "family", "units", "source", "provenance"}
 _TOP_KEYS = {"name", "description", "structure", "deck", "aero", "variants"}
 #: parameters a study may vary on a modal bridge (the FE ones need the cable model)
 MODAL_PARAMETER_PATHS = ("deck.half_chord_m", "aero.air_density_kg_m3", "aero.deck_height_m",
@@ -96,6 +98,9 @@ class ModalData:
         lateral [m] (optional) per unit modal coordinate.
     labels : tuple of str
         Mode labels from the file ("" where none is given).
+    families : tuple of str
+        Family of each mode from the file (empty: decided from the shapes,
+        :meth:`ModalStructure.families`).
     """
 
     station_x_m: np.ndarray
@@ -105,6 +110,7 @@ class ModalData:
     shapes: dict
     labels: tuple = ()
     source: str = ""
+    families: tuple = ()
 
     def __post_init__(self):
         x = np.asarray(self.station_x_m, float)
@@ -152,6 +158,15 @@ class ModalData:
         if self.labels and len(self.labels) != n_m:
             raise BridgeflapInputError("structure.label", f"{len(self.labels)} labels for "
                                                           f"{n_m} modes")
+        if self.families:
+            if len(self.families) != n_m:
+                raise BridgeflapInputError("structure.family", f"{len(self.families)} families "
+                                                               f"for {n_m} modes")
+            for j, fam in enumerate(self.families):
+                if fam not in self.shapes:
+                    raise BridgeflapInputError(
+                        "structure.family", f"mode {j + 1}: {fam!r} is not one of the shape "
+                        f"families given ({', '.join(self.shapes)})")
 
     @property
     def n_modes(self) -> int:
@@ -188,14 +203,18 @@ def _as_float_array(v, name: str) -> np.ndarray:
 def _table_from_mapping(d, name: str, source: str) -> dict:
     """Arrays of a JSON object or an npz archive (keys of docs/modal_import.md)."""
     required = ("station_x", "frequency", "vertical", "torsional")
+    unknown = sorted(set(d) - _FILE_KEYS)
+    if unknown:
+        raise BridgeflapInputError(f"structure.{unknown[0]}", f"unknown key in {name}")
     for key in required:
         if key not in d:
             raise BridgeflapInputError(f"structure.{key}", f"missing in {name}")
     out = {k: _as_float_array(d[k], k) for k in
            ("station_x", "frequency", "damping_ratio", "generalised_mass", "vertical",
             "torsional", "lateral") if k in d}
-    if "label" in d:
-        out["label"] = tuple(str(s) for s in np.asarray(d["label"]).ravel())
+    for key in ("label", "family"):
+        if key in d:
+            out[key] = tuple(str(s) for s in np.asarray(d[key]).ravel())
     if "units" in d:
         u = d["units"]
         out["units"] = json.loads(str(np.asarray(u))) if not isinstance(u, dict) else u
@@ -226,6 +245,8 @@ def _read_csv(path: Path, modes_path: Path | None) -> dict:
                                    ) from None
     labels = tuple(mcols["label"])
     out = {"label": labels, "source": str(path)}
+    if "family" in mcols:
+        out["family"] = tuple(mcols["family"])
     try:
         for key in ("frequency", "damping_ratio", "generalised_mass"):
             if key in mcols:
@@ -317,7 +338,8 @@ def read_modal_file(path, units: dict, normalisation: str = "mass",
         station_x_m=lf * raw["station_x"],
         frequency_hz=raw["frequency"] * UNIT_FACTORS["frequency"][units["frequency"]],
         damping_ratio=raw["damping_ratio"], generalised_mass=gm, shapes=shapes,
-        labels=tuple(raw.get("label", ())), source=raw["source"])
+        labels=tuple(raw.get("label", ())), source=raw["source"],
+        families=tuple(raw.get("family", ())))
 
 
 # -------------------------------------------------------------------------- the definition
@@ -409,9 +431,12 @@ class ModalStructure:
 
         Energies ``int m phi^2`` with the stated masses per length (deck vertical mass for the
         lateral too), or the bare ``int phi^2`` with ``I = m b_r^2`` ``(b_r = 1 m)`` when no
-        mass is stated: a file that mixes families should state the masses.
+        mass is stated: a file that mixes families should state the masses. A ``family``
+        column in the file overrides this.
         """
         d = self.data
+        if d.families:
+            return list(d.families)
         m = self.mass_kg_per_m or 1.0
         inertia = self.mass_inertia_kgm2_per_m or 1.0
         w = {"vertical": m, "torsional": inertia, "lateral": m}
