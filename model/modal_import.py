@@ -943,3 +943,34 @@ def export_modal(modal, path, count: int | None = None) -> Path:
     else:
         raise BridgeflapInputError("path", f"unsupported type {suffix!r} (.npz, .json, .csv)")
     return path
+
+
+def compare_modes(modal, reference, share_min: float = 0.5) -> list[dict]:
+    """Pair the main-span modes of two modal models by (family, symmetry, order) and compare.
+
+    Main-span modes (``main_span_share > share_min``) of each model, in frequency order
+    within (family, symmetry); the ``k``-th of one is paired with the ``k``-th of the other.
+    Rows: ``label`` (the reference's main-span label, e.g. ``VA2`` for the second main-span
+    antisymmetric vertical mode), ``reference_hz``, ``model_hz``, ``ratio`` (model/reference),
+    ``model_label``. Modes without a partner are left out.
+    """
+    def main_modes(mm):
+        out: dict = {}
+        for m in sorted(mm.modes, key=lambda m: m.frequency_hz):
+            if m.main_span_share > share_min:
+                out.setdefault((m.family, m.symmetry), []).append(m)
+        return out
+
+    ours, ref = main_modes(modal), main_modes(reference)
+    rows = []
+    for key, rmodes in ref.items():
+        for k, r in enumerate(rmodes):
+            mine = ours.get(key, [])
+            if k >= len(mine):
+                continue
+            label = f"{key[0][0].upper()}{key[1][0].upper()}{k + 1}"
+            rows.append({"label": label, "family": key[0], "symmetry": key[1],
+                         "reference_hz": r.frequency_hz, "model_hz": mine[k].frequency_hz,
+                         "ratio": mine[k].frequency_hz / r.frequency_hz,
+                         "model_label": mine[k].label})
+    return sorted(rows, key=lambda r: r["reference_hz"])
