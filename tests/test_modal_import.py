@@ -240,45 +240,75 @@ def test_cli_flutter_iabse_2a_has_the_humber_keys(capsys):
     assert out["bridge"] == "iabse-2a" and out["modes_retained"] == 9
 
 
-def _wawi_style_flat_plate_flutter(path: Path) -> tuple[float, float]:
-    """Flutter speed [m/s] and frequency [Hz] of the step-2a modes computed the way wawi does,
-    written independently of bridgeflap: wawi's flat-plate derivatives (``wawi.wind.
-    flatplate_ads``: Scanlan form, B-normalised, no apparent-inertia moment), the load
-    matrices ``0.5 rho B^2 w^2 [H4, -B H3; -B A4, B^2 A3]`` and ``0.5 rho B^2 w [H1, -B H2; -B
-    A1, B^2 A2]`` on (z, theta) integrated by the trapezoid rule over the 71 nodes
-    (``wawi.wind.phi_aero_sum``), modal M, K from the file, C = 2 xi omega M, and a p-k
-    iteration on omega continued in U along the TS1 branch (from still air, 1 m/s steps,
-    crossing refined by Brent)."""
-    from scipy.optimize import brentq
+def _flat_plate_ads(v):
+    """wawi.wind.flatplate_ads (Theodorsen in Scanlan form, B-normalised): (H, A, P) 1..6."""
     from scipy.special import j0, j1, y0, y1
+
+    kk = 0.5 / v
+    a, b = j1(kk) + y0(kk), y1(kk) - j0(kk)
+    c = a * a + b * b
+    F, G = (j1(kk) * a + y1(kk) * b) / c, -(j1(kk) * j0(kk) + y1(kk) * y0(kk)) / c
+    H = [-2 * np.pi * F * v, np.pi / 2 * (1 + F + 4 * G * v) * v,
+         2 * np.pi * (F * v - G / 4) * v, np.pi / 2 * (1 + 4 * G * v), 0.0, 0.0]
+    A = [-np.pi / 2 * F * v, -np.pi / 8 * (1 - F - 4 * G * v) * v,
+         np.pi / 2 * (F * v - G / 4) * v, np.pi / 2 * G * v, 0.0, 0.0]
+    return H, A, [0.0] * 6
+
+
+def _bb3_ads(path: Path):
+    """The shipped BB3 tables as wawi's test uses them: PoliMi tables interpolated linearly
+    (constant beyond the ends, as interp1d with end fill values), converted to Scanlan form,
+    then the test's sign flips (step2a_bb3_derivatives.json documents each step)."""
+    d = json.loads(path.read_text("utf-8"))
+    axes = {"v_heave": np.array(d["v_heave"]), "v_pitch": np.array(d["v_pitch"])}
+    col = [axes[a] for a in d["abscissa_of_column"]]
+    h, a, p = (np.array(d["polimi"][k]) for k in ("h", "a", "p"))
+
+    def ads(v):
+        hv = [np.interp(v, col[j], h[:, j]) for j in range(6)]
+        av = [np.interp(v, col[j], a[:, j]) for j in range(6)]
+        pv = [np.interp(v, axes["v_pitch"], p[:, j]) for j in range(6)]
+        H = [-hv[0] * v, -hv[1] * v, hv[2] * v * v, hv[3] * np.pi / 2, -hv[4] * v, hv[5]]
+        A = [-av[0] * v, -av[1] * v, av[2] * v * v, av[3] * np.pi / 2, -av[4] * v, av[5]]
+        P = [-pv[4] * v, -pv[1] * v, pv[2] * v * v, pv[3], -pv[0] * v, pv[5]]
+        flip = lambda x, idx: [-x[i] if i in idx else x[i] for i in range(6)]  # noqa: E731
+        return flip(H, (1, 2)), flip(A, (0, 3, 4, 5)), flip(P, (1, 2))
+
+    return ads
+
+
+def _wawi_style_flutter(path: Path, ads, lateral: bool = False, speeds_in_wind=()):
+    """Flutter speed [m/s] and frequency [Hz] of the step-2a modes computed the way wawi does,
+    written independently of bridgeflap: Scanlan derivatives ``ads(v)``, the load matrices
+    ``0.5 rho B^2 w^2 [[P4, P6, -B P3], [H6, H4, -B H3], [-B A6, -B A4, B^2 A3]]`` and ``0.5
+    rho B^2 w [[P1, P5, -B P2], [H5, H1, -B H2], [-B A5, -B A1, B^2 A2]]`` on (y, z, theta)
+    integrated by the trapezoid rule over the 71 nodes (``wawi.wind.phi_aero_sum``), modal M, K
+    from the file, C = 2 xi omega M, and a p-k iteration on omega continued in U along the TS1
+    branch (from still air, 1 m/s steps, crossing refined by Brent). Also returns the TS1
+    branch (f [Hz], zeta) at ``speeds_in_wind``."""
+    from scipy.optimize import brentq
 
     raw = json.loads(path.read_text("utf-8"))
     x = np.array(raw["station_x"])
     m = np.array(raw["generalised_mass"])
     k = np.array(raw["provenance"]["modal_stiffness_k"])
-    z, th = np.array(raw["vertical"]), np.array(raw["torsional"])
+    dofs = [np.array(raw["lateral"]) * (1.0 if lateral else 0.0), np.array(raw["vertical"]),
+            np.array(raw["torsional"])]
     B, rho, xi, n = 31.0, 1.22, 0.003, m.size
     w_n = np.sqrt(k / m)
     Minv, K, C = np.diag(1 / m), np.diag(k), np.diag(2 * xi * w_n * m)
-
-    def integral(a, b):
-        return np.trapezoid(a[:, :, None] * b[:, None, :], x, axis=0)
-
-    Izz, Izt, Itz, Itt = integral(z, z), integral(z, th), integral(th, z), integral(th, th)
+    ints = [[np.trapezoid(dofs[i][:, :, None] * dofs[j][:, None, :], x, axis=0)
+             for j in range(3)] for i in range(3)]
 
     def state_matrix(U, w):
-        v = U / (B * w)
-        kk = 0.5 / v
-        a, b = j1(kk) + y0(kk), y1(kk) - j0(kk)
-        c = a * a + b * b
-        F, G = (j1(kk) * a + y1(kk) * b) / c, -(j1(kk) * j0(kk) + y1(kk) * y0(kk)) / c
-        H1, H2, H3, H4 = -2 * np.pi * F * v, np.pi / 2 * (1 + F + 4 * G * v) * v, \
-            2 * np.pi * (F * v - G / 4) * v, np.pi / 2 * (1 + 4 * G * v)
-        A1, A2, A3, A4 = -np.pi / 2 * F * v, -np.pi / 8 * (1 - F - 4 * G * v) * v, \
-            np.pi / 2 * (F * v - G / 4) * v, np.pi / 2 * G * v
+        H, A, P = ads(U / (B * w))
+        kk = [[P[3], P[5], -B * P[2]], [H[5], H[3], -B * H[2]],
+              [-B * A[5], -B * A[3], B * B * A[2]]]
+        cc = [[P[0], P[4], -B * P[1]], [H[4], H[0], -B * H[1]],
+              [-B * A[4], -B * A[0], B * B * A[1]]]
         q = 0.5 * rho * B ** 2
-        Kae = q * w ** 2 * (H4 * Izz - B * H3 * Izt - B * A4 * Itz + B ** 2 * A3 * Itt)
-        Cae = q * w * (H1 * Izz - B * H2 * Izt - B * A1 * Itz + B ** 2 * A2 * Itt)
+        Kae = q * w ** 2 * sum(kk[i][j] * ints[i][j] for i in range(3) for j in range(3))
+        Cae = q * w * sum(cc[i][j] * ints[i][j] for i in range(3) for j in range(3))
         return np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ (K - Kae), -Minv @ (C - Cae)]])
 
     def pk(U, guess):
@@ -293,28 +323,57 @@ def _wawi_style_flat_plate_flutter(path: Path) -> tuple[float, float]:
         raise AssertionError("p-k iteration did not converge")
 
     p = 1j * w_n[8]                                  # mode 9: TS1, 0.2784 Hz
+    branch = {}
     for U in np.arange(1.0, 100.0, 1.0):
         q = pk(U, p)
+        if U in speeds_in_wind:
+            branch[float(U)] = (q.imag / (2 * np.pi), -q.real / abs(q))
         if q.real > 0:
             break
         p, u_low = q, U
     p_low = p
     u_f = brentq(lambda u: pk(u, p_low).real, u_low, u_low + 1.0, xtol=1e-8)
-    return float(u_f), float(pk(u_f, p_low).imag / (2 * np.pi))
+    return float(u_f), float(pk(u_f, p_low).imag / (2 * np.pi)), branch
 
 
 def test_step2a_flat_plate_flutter_against_a_wawi_style_computation(step2a):
     """bridgeflap on the imported step-2a model (strips, linear interpolation, 4-lag RFA, heave
     sign converted, apparent-inertia moment dropped as in the Scanlan flat plate) against an
-    independent wawi-style p-k on the file's own nodes (:func:`_wawi_style_flat_plate_flutter`).
+    independent wawi-style p-k on the file's own nodes (:func:`_wawi_style_flutter`).
 
     0.5 %: the RFA's C(k) error (<0.5 %, and 0.1 % on this case against bridgeflap's exact p-k)
     plus the strip (12 m, midpoint) versus node (trapezoid) integration of the products of
-    piecewise-linear shapes (measured: ~0.1 %). The same wawi-style code gives 77.48 m/s on
-    the IABSE step-1.1a section (reference 77.45 m/s), so its conventions are wawi's.
+    piecewise-linear shapes (measured: 0.25 % in all). The same wawi-style code gives 77.48 m/s
+    on the IABSE step-1.1a section (reference 77.45 m/s), so its conventions are wawi's.
     """
     spec, _ = step2a
-    u_ref, f_ref = _wawi_style_flat_plate_flutter(Path(spec.structure.file))
+    u_ref, f_ref, _ = _wawi_style_flutter(Path(spec.structure.file), _flat_plate_ads)
     r = flutter(spec, SPEEDS).summary()
     assert r["flutter_speed_m_s"] == pytest.approx(u_ref, rel=5e-3)
     assert r["flutter_frequency_hz"] == pytest.approx(f_ref, rel=5e-3)
+
+
+def test_step2a_tables_reproduce_the_benchmark_with_bb3_derivatives(step2a):
+    """The shipped step-2a modes and BB3 derivative tables give the benchmark's 69.8 m/s.
+
+    This checks the data read out of wawi (modes from JSON, derivatives from the pickle by
+    pickletools), not bridgeflap's aerodynamics: bridgeflap's thin-aerofoil loads are the flat
+    plate. 2 % (issue 13, step 2a) holds by far: measured 69.86 m/s, 0.08 % above the
+    reference, which is itself given to 3 figures. The in-wind TS1 branch is held to wawi's
+    own test tolerances (10 %, 15 % at 68 m/s). Without the lateral DOF (the P derivatives on
+    the torsional modes' y components) the same tables give 68.3 m/s, 2.1 % below: a
+    vertical-torsional derivative model cannot quite reach the reference.
+    """
+    spec, _ = step2a
+    path = Path(spec.structure.file)
+    ads = _bb3_ads(path.with_name("step2a_bb3_derivatives.json"))
+    u, f, branch = _wawi_style_flutter(path, ads, lateral=True,
+                                       speeds_in_wind=(15.0, 30.0, 45.0, 60.0, 68.0))
+    assert u == pytest.approx(69.8, rel=0.02)
+    reference = {15.0: (0.274, 0.008, 0.1), 30.0: (0.267, 0.014, 0.1), 45.0: (0.254, 0.019, 0.1),
+                 60.0: (0.234, 0.015, 0.1), 68.0: (0.220, 0.004, 0.15)}
+    for U, (f_ref, z_ref, tol) in reference.items():
+        assert branch[U][0] == pytest.approx(f_ref, rel=tol), U
+        assert branch[U][1] == pytest.approx(z_ref, rel=tol), U
+    u_vt, _, _ = _wawi_style_flutter(path, ads, lateral=False)
+    assert u_vt < u
