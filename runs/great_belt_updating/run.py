@@ -4,8 +4,12 @@ modal model (model/bridges/great_belt.toml, docs/great_belt.md#updating).
 One family at a time (the FE families are uncoupled), bounded Brent search on log10 of the
 stiffness minimising the RMS log misfit of the paired modes: the step-2a main-span modes paired
 with the FE main-span modes by (family, symmetry, order) -- ``model.modal_import`` compare rows.
-Run: ``PYTHONPATH=. python runs/great_belt_updating/run.py``; prints the values to put in the TOML.
+Run: ``python runs/great_belt_updating/run.py``; prints one JSON object: the updated values to
+put in the TOML, the misfits and the mode comparison (tests/test_runs.py checks that the values
+are the ones in model/bridges/great_belt.toml).
 """
+
+import json
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -28,15 +32,17 @@ def misfit(spec, reference, labels):
 def main():
     spec = load_bridge("great-belt")
     ref = modal_model(load_bridge("iabse-2a"))
+    out = {"bridge": spec.name, "updated": {}}
     for path, labels, bounds in TARGETS.values():
         res = minimize_scalar(lambda v, p=path, s=spec, lab=labels: misfit(
             s.replace(**{p: 10 ** v}), ref, lab), bounds=bounds, method="bounded",
             options={"xatol": 1e-4})
         spec = spec.replace(**{path: float(10 ** res.x)})
-        print(f"{path} = {10 ** res.x:.4g}  rms log misfit {res.fun:.4f}  "
-              f"at bound {bool(np.isclose(res.x, bounds).any())}")
-    for r in compare_modes(modal_model(spec), ref):
-        print(r)
+        out["updated"][path] = {"value": float(10 ** res.x), "rms_log_misfit": float(res.fun),
+                                "modes": list(labels),
+                                "at_bound": bool(np.isclose(res.x, bounds).any())}
+    out["comparison"] = compare_modes(modal_model(spec), ref)
+    print(json.dumps(out))
 
 
 if __name__ == "__main__":

@@ -6,7 +6,7 @@ model is read from wawi's JSON files; the derivative tables from the pickle
 ``AD_funs_BB3_scanlan.pkl`` **with pickletools only** (it walks the opcodes and executes
 nothing: the file is never unpickled). Run::
 
-    python runs/iabse_step2a/extract.py /path/to/wawi    # a work tree of knutankv/wawi
+    python model/bridges/iabse/step2a_extract.py /path/to/wawi   # a work tree of knutankv/wawi
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-OUT = Path(__file__).resolve().parents[2] / "model" / "bridges" / "iabse"
+OUT = Path(__file__).resolve().parent
 COMMIT = "395f0fd"
 FAMILY = ["lateral", "vertical", "vertical", "lateral", "vertical", "vertical", "vertical",
           "lateral", "torsional", "vertical", "torsional", "vertical"]
