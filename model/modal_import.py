@@ -412,6 +412,7 @@ def modal_spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None
     main_index = [s.name for s in spans].index("main")
     spec = ModalBridgeSpec(name=name, spans=tuple(spans), main_span_index=main_index,
                cable=_FEOnly(name, "the cable"), deck=deck, aero=aero,
+               damping=_FEOnly(name, "Rayleigh damping (the modes carry their own ratios)"),
                mesh=_FEOnly(name, "the FE mesh"), sources=sources, structure=structure,
                description=str(data.get("description", "")))
     variants = data.get("variants", {})

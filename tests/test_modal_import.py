@@ -395,3 +395,30 @@ def test_step2a_sensitivities_to_aero_inputs(step2a):
     assert rho["relative_d_divergence_speed"] == pytest.approx(-0.5, abs=1e-6)
     assert b["relative_d_divergence_speed"] == pytest.approx(-1.0, abs=1e-6)
     assert rho["flutter_status"] == "ok" and np.isfinite(rho["d_flutter_speed"])
+
+
+def _bridge_file(tmp_path, **over):
+    _write_npz(tmp_path, **over)
+    (tmp_path / "toy.toml").write_text(
+        'name = "toy"\n[structure]\nkind = "modal"\nfile = "m.npz"\n'
+        'units = { frequency = "Hz", length = "m", rotation = "rad", mass = "kg" }\n'
+        '[deck]\nhalf_chord_m = { value = 10.0, source = "test" }\n', "utf-8")
+    return tmp_path / "toy.toml"
+
+
+def test_cli_modal_bridge_file_with_relative_data_file(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path.parent)            # the data file is found next to the TOML
+    path = _bridge_file(tmp_path)
+    rc = main(["flutter", "--bridge", str(path), "--json", "--speeds", "0:150:1"])
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0 and out["bridge"] == "toy" and out["modes_retained"] == 2
+    assert load_bridge(str(path)).sources["deck.half_chord_m"] == "test"
+
+
+def test_cli_bad_modal_file_is_one_line_exit_2(tmp_path, capsys):
+    x = np.array([0, 100, 200, 150, 400, 500, 600, 700, 800, 900, 1000.0])
+    path = _bridge_file(tmp_path, station_x=x)
+    rc = main(["flutter", "--bridge", str(path), "--json"])
+    cap = capsys.readouterr()
+    assert rc == 2 and cap.out == ""
+    assert cap.err.count("\n") == 1 and "structure.station_x: stations out of order" in cap.err
