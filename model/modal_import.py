@@ -285,6 +285,13 @@ class _FEOnly:
     def __repr__(self):
         return f"<{self._what}: not defined for a modal bridge>"
 
+    def __eq__(self, other):
+        return isinstance(other, _FEOnly) and (self._bridge, self._what) == (
+            other._bridge, other._what)
+
+    def __hash__(self):
+        return hash((self._bridge, self._what))
+
 
 @dataclass(frozen=True)
 class ModalDeck:
