@@ -183,6 +183,8 @@ def shape_derivatives(spec: BridgeSpec, nominal: ModalModel, n_modes: int, path:
     are invariant, so it is dropped. ``dK/dp, dM/dp`` are central differences of the assembled
     family matrices. Returns ``family -> (n_dof, n_retained_in_family)``.
     """
+    if getattr(spec, "structure", None) is not None:  # imported modes do not move with p
+        return {}
     p0 = float(get_path(spec, path))
     h = rel_step * abs(p0)
     plus = assemble(spec.replace(**{path: p0 + h}), erection_gj_factor=erection_gj_factor)

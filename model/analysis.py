@@ -135,7 +135,7 @@ def flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
     """Flutter and torsional divergence of ``spec`` over a grid of wind speeds [m/s]."""
     u = check_speeds(speeds)
     modal, system = bridge_system(spec, n_modes, order, rfa)
-    return FlutterResult(spec, sweep(system, u), int(n_modes), order, rfa, system.n_states,
+    return FlutterResult(spec, sweep(system, u), system.basis.n, order, rfa, system.n_states,
                          modal.modes)
 
 

@@ -205,7 +205,12 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
     erection_gj_factor : float
         Fraction of GJ the deck keeps while erecting (seed §2: one half; 1 gives the paper's
         "full GJ" comparison curve of Fig. 2).
+        An imported modal bridge (:mod:`model.modal_import`) gives its strips instead.
     """
+    if getattr(spec, "structure", None) is not None:
+        from model.modal_import import imported_structure
+
+        return imported_structure(spec)
     statics = dead_load(spec) if statics is None else statics
     elements, node_span, node_x, span_nodes = build_mesh(spec, statics)
     enodes = _element_nodes(elements, span_nodes)

@@ -188,7 +188,13 @@ def solve(structure: StructuralModel, count: int | None = None) -> ModalModel:
     structure : StructuralModel
     count : int, optional
         Keep the lowest ``count`` modes of each family (all when omitted).
+
+    An imported modal bridge's structure (:class:`model.modal_import.ImportedStructure`) gives
+    its :class:`model.modal_import.ImportedModalModel`, which has the same interface.
     """
+    imported = getattr(structure, "modal_model", None)
+    if imported is not None:
+        return imported(count)
     raw = []
     shapes = {}
     for name, fam in structure.families.items():

@@ -61,6 +61,8 @@ def ritz_basis(spec: BridgeSpec, nominal: ModalModel, n_modes: int,
     torsional frequencies of the full FE families (as :func:`model.modes.solve` does). At
     ``spec == nominal.spec`` this reproduces ``nominal.structural_basis(n_modes)``.
     """
+    if getattr(spec, "structure", None) is not None:  # imported modes: nothing to project
+        return nominal.structural_basis(n_modes)      # (a modal bridge varies aero inputs only)
     structure = assemble(spec, erection_gj_factor=erection_gj_factor)
     chosen = chosen_modes(nominal, n_modes)
     n = len(chosen)

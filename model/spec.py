@@ -39,7 +39,10 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-BUILTIN_BRIDGES = ("humber",)
+#: built-in bridge name -> definition file under model/bridges/
+BUILTIN_FILES = {"humber": "humber.toml", "great-belt": "great_belt.toml",
+                 "iabse-2a": "iabse/step2a_bridge.toml"}
+BUILTIN_BRIDGES = tuple(BUILTIN_FILES)
 
 
 
@@ -387,7 +390,7 @@ def _split_variant(s: str) -> tuple[str, str | None]:
 def _read_source(name_or_path: str | Path) -> tuple[str, str]:
     s = str(name_or_path)
     if s in BUILTIN_BRIDGES:
-        return resources.files("model.bridges").joinpath(f"{s}.toml").read_text("utf-8"), s
+        return resources.files("model.bridges").joinpath(BUILTIN_FILES[s]).read_text("utf-8"), s
     path = Path(s)
     if path.suffix.lower() != ".toml":
         raise BridgeflapInputError(
@@ -424,6 +427,10 @@ def spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = Non
     mass and mass moment of inertia as sums of lumped items; ``[deck]`` then must not repeat
     them. ``variant`` applies ``[variants.<variant>]`` (see :func:`load_bridge`).
     """
+    if isinstance(data, dict) and "structure" in data:  # imported modal model
+        from model.modal_import import modal_spec_from_dict
+
+        return modal_spec_from_dict(data, origin, variant)
     sources: dict[str, str] = {}
 
     def value(table: dict, group: str, key: str, default: Any = _MISSING) -> Any:
