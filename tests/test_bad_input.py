@@ -238,6 +238,13 @@ CASES = [
                                "--out", "{d}/prev.npz"], "controller"),
     ("ss-bad-bridge", ["state-space", "--speed", "10", B, "{d}/bad_gj_1e300.toml", "--out",
                        "{d}/prev.npz"], "deck.gj_nm2"),
+    # ---- derivatives
+    ("derivatives-bridge-unknown", ["derivatives", "--bridge", "nosuch"], "bridge"),
+    ("derivatives-lags-neg", ["derivatives", "--lags", "-3"], "lags"),
+    ("derivatives-points-0", ["derivatives", "--points", "0"], "points"),
+    ("derivatives-extra-positional", ["derivatives", "extra"], "arguments"),
+    ("flutter-section-case-controller", ["flutter", B, "iabse-1.1a", "--controller",
+                                         "{d}/no.toml"], "controller"),
     # ---- rfa
     ("rfa-name-bogus", ["rfa", "--name", "bogus"], "arguments"),
     ("rfa-extra-positional", ["rfa", "extra"], "arguments"),

@@ -22,7 +22,7 @@ import scipy.io
 from design.analyses import DEFAULT_SPEEDS
 from design.cli import main
 from design.options import parse_range
-from model.analysis import bridge_system, flutter
+from model.analysis import DEFAULT_MODES, bridge_system, flutter
 from model.spec import load_bridge
 
 FLUTTER_KEYS = {"flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
@@ -138,7 +138,7 @@ def test_state_space_file(capsys, tmp_path, ext):
     else:
         data = scipy.io.loadmat(out)
         names = [str(s).strip() for s in data["state_names"]]
-    _, system = bridge_system(load_bridge("humber"), 16)
+    _, system = bridge_system(load_bridge("humber"), DEFAULT_MODES)
     # same assembly and the same float64 numbers through a lossless file format
     np.testing.assert_allclose(data["A"], system.A(40.0), rtol=1e-12, atol=0)
     np.testing.assert_allclose(data["B"], system.B_gust(40.0), rtol=1e-12, atol=0)
