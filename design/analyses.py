@@ -295,8 +295,14 @@ def _truncation(spec, opts, res) -> dict:
     """
     from model.convergence import truncation_error
 
-    t = truncation_error(spec, int(opts["modes"]), grid(opts["speeds"], "speeds", 0.0),
+    s = res.summary()
+    # the modes actually retained (an imported modal model may hold fewer than asked)
+    t = truncation_error(spec, int(s["modes_retained"]), grid(opts["speeds"], "speeds", 0.0),
                          rfa=opts["rfa"], at_n=res.sweep.summary())
+    if t["reference_modes"] == t["n_modes"]:  # the model holds no further mode to add
+        return {"truncation_reference_modes": t["reference_modes"],
+                "flutter_truncation_error_pct": None, "divergence_truncation_error_pct": None,
+                "truncation_status": "all_modes_retained"}
     return {"truncation_reference_modes": t["reference_modes"],
             "flutter_truncation_error_pct": t["flutter_truncation_error_pct"],
             "divergence_truncation_error_pct": t["divergence_truncation_error_pct"],

@@ -167,13 +167,16 @@ def cmd_flutter(args):
          **controller_report(controller)}
     text = (f"{spec.name} (erected {spec.erected_fraction:.2f}, {s['modes_retained']} modes, "
             f"{s['order']} RFA {s['rfa']}, b = {spec.deck.half_chord_m} m)\n"
-            f"flutter:    {s['flutter_speed_m_s']:.2f} m/s at {s['flutter_frequency_hz']:.4f} Hz"
+            f"flutter:    {_speed_text(s['flutter_speed_m_s'])} at "
+            f"{s['flutter_frequency_hz'] or float('nan'):.4f} Hz"
             f" [{s['flutter_status']}], critical branch {s['critical_branch']['label']}\n"
-            f"divergence: {s['divergence_speed_m_s']:.2f} m/s [{s['divergence_status']}]"
+            f"divergence: {_speed_text(s['divergence_speed_m_s'])} [{s['divergence_status']}]"
             f" (static check {_speed_text(s['divergence_static_speed_m_s'])}"
             f" [{s.get('divergence_static_status', '')}])\n"
             f"governing:  {_speed_text(s['critical_speed_m_s'])} ({s['critical_mechanism']})")
-    if "truncation_status" in s:
+    if s.get("truncation_status") == "all_modes_retained":
+        text += f"\ntruncation: all {s['truncation_reference_modes']} modes of the model retained"
+    elif "truncation_status" in s:
         text += (f"\ntruncation: flutter {s['flutter_truncation_error_pct']:.3g} %, divergence "
                  f"{s['divergence_truncation_error_pct']:.3g} % against "
                  f"{s['truncation_reference_modes']} modes [{s['truncation_status']}]")
