@@ -165,6 +165,8 @@ def cmd_flutter(args):
         res = outcome.result
     s = {**(res.summary() if controller is not None else outcome.summary),
          **controller_report(controller)}
+    if args.pk:
+        s.update(_pk_check(spec, args, controller))
     text = (f"{spec.name} (erected {spec.erected_fraction:.2f}, {s['modes_retained']} modes, "
             f"{s['order']} RFA {s['rfa']}, b = {spec.deck.half_chord_m} m)\n"
             f"flutter:    {_speed_text(s['flutter_speed_m_s'])} at "
@@ -174,6 +176,9 @@ def cmd_flutter(args):
             f" (static check {_speed_text(s['divergence_static_speed_m_s'])}"
             f" [{s.get('divergence_static_status', '')}])\n"
             f"governing:  {_speed_text(s['critical_speed_m_s'])} ({s['critical_mechanism']})")
+    if args.pk:
+        text += (f"\nexact-Theodorsen p-k: flutter {_speed_text(s['pk_flutter_speed_m_s'])} "
+                 f"[{s['pk_flutter_status']}]")
     if s.get("truncation_status") == "all_modes_retained":
         text += f"\ntruncation: all {s['truncation_reference_modes']} modes of the model retained"
     elif "truncation_status" in s:
@@ -183,6 +188,25 @@ def cmd_flutter(args):
     if args.plot:
         save_plot(res, args.plot)
     emit(args, s, text)
+
+
+def _pk_check(spec, args, controller) -> dict:
+    """``flutter --pk``: the exact-Theodorsen p-k on the same generalised coordinates
+    (:func:`model.stability.pk_sweep`; closed loop with the controller's exact K(p))."""
+    from model import stability
+    from model.analysis import bridge_system
+    from model.flaps import DEFAULT_FLAP_CHORD_M, closed_loop_model
+
+    if controller is None:
+        _, system = bridge_system(spec, args.modes)
+    else:
+        c = controller
+        system = closed_loop_model(spec, c.flap_strip_positions_m, c.flap_width_m, args.modes,
+                                   DEFAULT_FLAP_CHORD_M, c.leading_edge,
+                                   c.trailing_edge).system(c.compensator)
+    pk = stability.pk_sweep(system, parse_range(args.speeds, "speeds", 0.0)).summary()
+    return {f"pk_{k}": pk[k] for k in ("flutter_speed_m_s", "flutter_frequency_hz",
+                                        "flutter_status", "critical_branch_label")}
 
 
 def _speed_text(u) -> str:
@@ -345,6 +369,8 @@ def _flutter_arguments(sp):
     sp.add_argument("--order", choices=("modal", "full"), default=_default("flutter", "order"))
     sp.add_argument("--rfa", choices=("rfa4", "jones"), default=_default("flutter", "rfa"))
     sp.add_argument("--controller", default=None, help="controller .toml (closed loop)")
+    sp.add_argument("--pk", action="store_true",
+                    help="also run the exact-Theodorsen p-k check on the same coordinates")
     sp.add_argument("--no-truncation-check", action="store_true",
                     help="skip the truncation-error estimate (a second sweep with 8 more modes)")
     sp.add_argument("--no-added-inertia", action="store_true",
