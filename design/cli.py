@@ -166,7 +166,11 @@ def cmd_flutter(args):
     s = {**(res.summary() if controller is not None else outcome.summary),
          **controller_report(controller)}
     if args.pk:
-        s.update(_pk_check(spec, args, controller))
+        from model.analysis import pk_flutter
+
+        pk = pk_flutter(spec, parse_range(args.speeds, "speeds", 0.0), args.modes, controller)
+        s.update({f"pk_{k}": pk[k] for k in ("flutter_speed_m_s", "flutter_frequency_hz",
+                                              "flutter_status", "critical_branch_label")})
     text = (f"{spec.name} (erected {spec.erected_fraction:.2f}, {s['modes_retained']} modes, "
             f"{s['order']} RFA {s['rfa']}, b = {spec.deck.half_chord_m} m)\n"
             f"flutter:    {_speed_text(s['flutter_speed_m_s'])} at "
@@ -188,25 +192,6 @@ def cmd_flutter(args):
     if args.plot:
         save_plot(res, args.plot)
     emit(args, s, text)
-
-
-def _pk_check(spec, args, controller) -> dict:
-    """``flutter --pk``: the exact-Theodorsen p-k on the same generalised coordinates
-    (:func:`model.stability.pk_sweep`; closed loop with the controller's exact K(p))."""
-    from model import stability
-    from model.analysis import bridge_system
-    from model.flaps import DEFAULT_FLAP_CHORD_M, closed_loop_model
-
-    if controller is None:
-        _, system = bridge_system(spec, args.modes)
-    else:
-        c = controller
-        system = closed_loop_model(spec, c.flap_strip_positions_m, c.flap_width_m, args.modes,
-                                   DEFAULT_FLAP_CHORD_M, c.leading_edge,
-                                   c.trailing_edge).system(c.compensator)
-    pk = stability.pk_sweep(system, parse_range(args.speeds, "speeds", 0.0)).summary()
-    return {f"pk_{k}": pk[k] for k in ("flutter_speed_m_s", "flutter_frequency_hz",
-                                        "flutter_status", "critical_branch_label")}
 
 
 def _speed_text(u) -> str:

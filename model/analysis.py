@@ -435,3 +435,21 @@ def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEF
     base = FlutterResult(spec, sweep(cl, u), int(n_modes), "modal", "rfa4", cl.n_states)
     ol = FlutterResult(spec, sweep(system, u), int(n_modes), "modal", "rfa4", system.n_states)
     return ClosedLoopFlutterResult(base, ol, controller)
+
+
+def pk_flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
+               controller: Controller | None = None) -> dict:
+    """Summary of the exact-Theodorsen p-k check on the same generalised coordinates as
+    :func:`flutter` (closed loop with the controller's exact ``K(p)`` when given):
+    :func:`model.stability.pk_sweep`."""
+    from model.stability import pk_sweep
+
+    u = check_speeds(speeds)
+    if controller is None:
+        _, system = bridge_system(spec, n_modes)
+    else:
+        c = controller
+        system = closed_loop_model(spec, c.flap_strip_positions_m, c.flap_width_m, n_modes,
+                                   DEFAULT_FLAP_CHORD_M, c.leading_edge,
+                                   c.trailing_edge).system(c.compensator)
+    return pk_sweep(system, u).summary()
