@@ -268,7 +268,15 @@ def _run_frequency_ratio(spec, opts, context) -> Outcome:
     status = "ok" if not bad else f"partial: {len(bad)} stages without a symmetric pair"
     arr = {k: np.array([st[k] for st in res.stages], dtype=float)
            for k in ("erected_fraction", "ratio_full_gj", "ratio_half_gj")}
-    return Outcome(status, res.summary(), arr, _figures(context, "frequency_ratio", res), res)
+    figs = _figures(context, "frequency_ratio", res)
+    if context.figures:  # the modes the rule picks (model.analysis.first_symmetric_deck_mode)
+        from model.analysis import first_symmetric_deck_mode
+        from model.modeshape import plot_ratio_modes, ratio_modes
+
+        picked = ratio_modes(spec, first_symmetric_deck_mode, (0.2, 0.5, 0.8, 1.0),
+                             side_spans=opts["side_spans"] or None)
+        figs["frequency_ratio_modes"] = figure_of(plot_ratio_modes(picked))
+    return Outcome(status, res.summary(), arr, figs, res)
 
 
 def _run_flutter(spec, opts, context) -> Outcome:
@@ -284,7 +292,14 @@ def _run_flutter(spec, opts, context) -> Outcome:
     sw = res.sweep
     arr = {"speeds_m_s": sw.speeds, "eigenvalues": sw.eigenvalues, "branches": sw.branches,
            "branch_labels": np.array(sw.branch_labels)}
-    return Outcome(status, s, arr, _figures(context, "flutter", res), res)
+    figs = _figures(context, "flutter", res)
+    if context.figures and s["flutter_status"] == "converged" and opts["order"] == "modal":
+        from model.modeshape import flutter_mode_shape
+
+        shape = flutter_mode_shape(spec, grid(opts["speeds"], "speeds", 0.0), int(opts["modes"]),
+                                   rfa=opts["rfa"])
+        figs["flutter_mode_shape"] = figure_of(shape.plot())
+    return Outcome(status, s, arr, figs, res)
 
 
 def _truncation(spec, opts, res) -> dict:

@@ -132,6 +132,17 @@ def study_report(res: StudyResult, figures: dict) -> str:
               "paper does not state; flutter also depends on the updated TS1/VS1 frequencies "
               "(`python runs/humber_inputs/run.py` shows both for each reading of b and of the "
               "deck mass)."]
+        if f.get("truncation_status") == "converged":
+            L += ["", f"Truncation error against {f['truncation_reference_modes']} modes: "
+                  f"flutter {f['flutter_truncation_error_pct']:.2g} %, divergence "
+                  f"{f['divergence_truncation_error_pct']:.2g} % (model.convergence)."]
+        elif f.get("truncation_status"):
+            L += ["", f"Truncation check: {f['truncation_status']}."]
+        L += ["", f"Flutter onset {f.get('flutter_onset', '-')} (dζ/dU = "
+              f"{_fmt(f.get('flutter_damping_slope_s_per_m'), '.2e')} s/m); second-critical "
+              f"branch {f.get('second_critical_branch_label') or '-'} "
+              f"({f.get('second_flutter_status', '-')}, "
+              f"{_fmt(f.get('second_flutter_speed_m_s'))} m/s)."]
     if "design" in r and isinstance(r["design"].get("coefficients"), dict):
         L += _design_section(r["design"])
     L += ["", "## Figures", ""]
