@@ -32,9 +32,11 @@ from design.cli_common import (
     controller_from_args,
     controller_report,
     emit,
+    limit_text,
     log,
     save_plot,
     spec_from_args,
+    speed_text,
 )
 from design.io import atomic_write
 from design.options import MAX_GRID_VALUE, MAX_MODES, check_int, check_number, parse_range
@@ -130,9 +132,9 @@ def _section_case_flutter(args):
     res = cmd_derivatives.section_case_result(
         args.bridge, speeds, added_inertia=False if args.no_added_inertia else None)
     s = res.summary()
-    text = (f"{args.bridge}: flutter {_speed_text(s['flutter_speed_m_s'])} "
+    text = (f"{args.bridge}: flutter {speed_text(s['flutter_speed_m_s'])} "
             f"[{s['flutter_status']}] (RFA state space), exact p-k "
-            f"{_speed_text(s['section_case']['pk_flutter_speed_m_s'])} "
+            f"{speed_text(s['section_case']['pk_flutter_speed_m_s'])} "
             f"[{s['section_case']['pk_flutter_status']}]; reference "
             f"{s['section_case']['reference_flutter_speed_m_s']} m/s")
     if args.plot:
@@ -173,15 +175,15 @@ def cmd_flutter(args):
                                               "flutter_status", "critical_branch_label")})
     text = (f"{spec.name} (erected {spec.erected_fraction:.2f}, {s['modes_retained']} modes, "
             f"{s['order']} RFA {s['rfa']}, b = {spec.deck.half_chord_m} m)\n"
-            f"flutter:    {_speed_text(s['flutter_speed_m_s'])} at "
+            f"flutter:    {limit_text(s, 'flutter')} at "
             f"{s['flutter_frequency_hz'] or float('nan'):.4f} Hz"
             f" [{s['flutter_status']}], critical branch {s['critical_branch']['label']}\n"
-            f"divergence: {_speed_text(s['divergence_speed_m_s'])} [{s['divergence_status']}]"
-            f" (static check {_speed_text(s['divergence_static_speed_m_s'])}"
+            f"divergence: {limit_text(s, 'divergence')} [{s['divergence_status']}]"
+            f" (static check {speed_text(s['divergence_static_speed_m_s'])}"
             f" [{s.get('divergence_static_status', '')}])\n"
-            f"governing:  {_speed_text(s['critical_speed_m_s'])} ({s['critical_mechanism']})")
+            f"governing:  {speed_text(s['critical_speed_m_s'])} ({s['critical_mechanism']})")
     if args.pk:
-        text += (f"\nexact-Theodorsen p-k: flutter {_speed_text(s['pk_flutter_speed_m_s'])} "
+        text += (f"\nexact-Theodorsen p-k: flutter {speed_text(s['pk_flutter_speed_m_s'])} "
                  f"[{s['pk_flutter_status']}]")
     if s.get("truncation_status") == "all_modes_retained":
         text += f"\ntruncation: all {s['truncation_reference_modes']} modes of the model retained"
@@ -192,11 +194,6 @@ def cmd_flutter(args):
     if args.plot:
         save_plot(res, args.plot)
     emit(args, s, text)
-
-
-def _speed_text(u) -> str:
-    """A speed [m/s] for the text output; ``None``/NaN (not found on the grid) as such."""
-    return "none on the grid" if u is None or u != u else f"{u:.2f} m/s"
 
 
 def cmd_erection(args):

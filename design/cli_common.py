@@ -20,8 +20,8 @@ from design.io import atomic_write, to_jsonable
 from model.errors import BridgeflapInputError
 
 __all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",
-           "controller_from_args", "controller_report", "emit", "log", "save_figure",
-           "save_plot", "spec_from_args"]
+           "controller_from_args", "controller_report", "emit", "limit_text", "log",
+           "save_figure", "save_plot", "spec_from_args", "speed_text"]
 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
@@ -139,3 +139,15 @@ def save_plot(result, path) -> None:
     save_figure(fig, path)
     plt.close(fig)
     log(f"figure written: {path}")
+
+
+def limit_text(s: dict, mech: str) -> str:
+    """A flutter/divergence speed for the text output, or where the grid starts unstable."""
+    first = s.get(f"{mech}_unstable_from_m_s")
+    return (speed_text(s[f"{mech}_speed_m_s"]) if first is None
+            else f"unstable already at the first speed, {first:.2f} m/s")
+
+
+def speed_text(u) -> str:
+    """A speed [m/s] for the text output; ``None``/NaN (not found on the grid) as such."""
+    return "none on the grid" if u is None or u != u else f"{u:.2f} m/s"
