@@ -66,7 +66,7 @@ def screened_starts(settings: DesignSettings, count: int, model=None,
     gain, fast lead) and a start from there can use the whole Ipopt budget (80 iterations,
     ~80 s on 16 modes) to reach a poor local solution. Each candidate is scored by the NLP's
     own merit at the start point: ``weight_robust * gamma_T0 + EIG_SCALE * max(0, max
-    violation of the decay-rate constraints)`` (objective plus an exact l-inf penalty on the
+    violation of the damping constraints)`` (objective plus an exact l-inf penalty on the
     scaled eigenvalue constraints, unit weight) on a 10 m/s speed grid and the robust sample
     points; candidates with ``sup|K| > gain_limit`` are rejected first. Cost: one eig per
     speed and one epigraph evaluation per candidate (~0.2 s on 16 modes).
@@ -179,9 +179,9 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None) -> StartR
         iterations=sum(r.iterations for r in rounds), time_s=time.perf_counter() - t0,
         rounds=tuple(rounds), max_violation_1_s=ver.max_violation_1_s,
         stable_to_m_s=ver.stable_to_m_s, stable_everywhere=ver.stable_everywhere,
-        max_gain=ver.max_gain, meets_decay_rate=ver.meets_decay_rate, gain_ok=gain_ok,
+        max_gain=ver.max_gain, meets_damping=ver.meets_damping, gain_ok=gain_ok,
         # verified: every a posteriori check holds, whatever Ipopt's exit status
-        verified=bool(ver.meets_decay_rate and gain_ok and ver16.stable_everywhere),
+        verified=bool(ver.meets_damping and gain_ok and ver16.stable_everywhere),
         gamma_T_frobenius=res.solve.gamma_T,
         dense_t_peak_check_speeds=res.robust.peak if res.robust is not None else float("nan"),
         robust_bound_holds=res.robust_bound_holds, robust=rob, verification=ver16,
@@ -195,7 +195,7 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
     """Fewest evenly spaced flaps (around mid-span) still stable 0..U_max with the margin.
 
     The optimised ``theta`` is kept; each count is verified on the dense grid with the
-    required decay rate ``sigma_req`` on the verification model (``verification_modes``).
+    minimum damping ratio ``zeta_min`` on the verification model (``verification_modes``).
     Returns the records per count and the minimum. ``spec``: the bridge (default
     ``settings.bridge``).
     """
@@ -240,17 +240,96 @@ def buffeting_comparison(settings: DesignSettings, controller: Controller, speed
         closed_loop_rms_torsion_rad=tuple(cl.rms_torsion.tolist()))
 
 
+#: Closed-loop limits are searched on 0 .. LIMIT_SPEED_FACTOR * speed_max_m_s (step
+#: ``LIMIT_STEP_M_S``; crossings refined by Brent's method in :func:`model.stability.sweep`).
+LIMIT_SPEED_FACTOR = 2.0
+LIMIT_STEP_M_S = 0.5
+#: A damping constraint counts as active when the smallest damping ratio of the movable
+#: branches is within this relative distance of ``zeta_min`` (Ipopt's constr_viol_tol 1e-6
+#: and tol 1e-6 on the x100-scaled constraint put an active one at ~1e-8 1/s, i.e. ~1e-6
+#: relative for |lambda| ~ 1 rad/s; 1 % also names the nearly active speeds an engineer
+#: would call binding).
+ACTIVE_REL_TOL = 0.01
+
+
+def closed_loop_limits(settings: DesignSettings, controller: Controller, spec=None) -> dict:
+    """Closed-loop flutter and divergence speeds and mechanisms on the verification model.
+
+    ``model.analysis.closed_loop_flutter`` on 0 .. ``LIMIT_SPEED_FACTOR * speed_max_m_s``
+    (the one stability sweep of the package) with the open-loop limits for reference; the
+    critical speed is the lower converged limit (``model.analysis.critical_speed``), the
+    static divergence check ``det(K - U^2 P G0(K(0)))`` included.
+    """
+    from model.analysis import closed_loop_flutter
+    from model.spec import load_bridge
+
+    spec = load_bridge(settings.bridge) if spec is None else spec
+    U = np.arange(0.0, LIMIT_SPEED_FACTOR * settings.speed_max_m_s + 1e-9, LIMIT_STEP_M_S)
+    r = closed_loop_flutter(spec, controller, U, n_modes=settings.verification_modes,
+                            flap_chord_m=settings.flap_chord_m).summary()
+    keys = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
+            "divergence_speed_m_s", "divergence_status", "divergence_static_speed_m_s",
+            "critical_speed_m_s", "critical_mechanism", "critical_participation",
+            "open_loop_flutter_speed_m_s", "open_loop_divergence_speed_m_s")
+    out = {k: r.get(k) for k in keys if k in r}
+    crit, stat = r.get("critical_speed_m_s"), r.get("divergence_static_speed_m_s")
+    crit = float("nan") if crit is None else float(crit)
+    stat = float("nan") if stat is None else float(stat)
+    # the sweep's divergence can fail to bracket a root that the static check finds (a real
+    # root that grazes zero): the lower of the two governs
+    if np.isfinite(stat) and not (np.isfinite(crit) and crit <= stat):
+        out["governing_speed_m_s"], out["governing_mechanism"] = stat, "divergence (static)"
+    else:
+        out["governing_speed_m_s"] = crit
+        out["governing_mechanism"] = r.get("critical_mechanism")
+    out["searched_to_m_s"] = float(U[-1])
+    out["modes"] = settings.verification_modes
+    return out
+
+
+def active_constraints(settings: DesignSettings, start, ver) -> dict:
+    """Which constraints bind at the chosen design (``ver``: its dense design-model check).
+
+    ``damping_speeds_m_s``: check-grid speeds where the smallest damping ratio of the movable
+    branches is within ``ACTIVE_REL_TOL`` of ``zeta_min``; ``gain_limit``: the true peak gain
+    within that of the limit; ``coefficient_bounds``: theta entries at their box bounds;
+    ``objective_bound``: the robust epigraph ``gamma_T`` (the objective) is the bound that
+    stops the optimiser when nothing else is active.
+    """
+    s = settings
+    z = np.asarray(ver.damping_ratio)
+    U = np.asarray(ver.speeds_m_s)
+    damp = U[z <= s.zeta_min * (1.0 + ACTIVE_REL_TOL)]
+    gain = bool(start.max_gain >= s.gain_limit * (1.0 - ACTIVE_REL_TOL))
+    th = np.asarray(start.theta)
+    lo = [-s.b_bound] * 3 + [s.a2_bounds[0], s.a1_bounds[0]]
+    hi = [s.b_bound] * 3 + [s.a2_bounds[1], s.a1_bounds[1]]
+    names = ("b2", "b1", "b0", "a2", "a1")
+    bounds = [f"{n} {'lower' if abs(v - a) <= 1e-6 * max(1.0, abs(a)) else 'upper'}"
+              for n, v, a, b in zip(names, th, lo, hi, strict=True)
+              if abs(v - a) <= 1e-6 * max(1.0, abs(a)) or abs(v - b) <= 1e-6 * max(1.0, abs(b))]
+    any_active = bool(damp.size or gain or bounds)
+    return {"damping_speeds_m_s": [float(u) for u in damp],
+            "min_damping_ratio": float(np.min(z)),
+            "min_damping_speed_m_s": float(U[int(np.argmin(z))]),
+            "gain_limit": gain, "coefficient_bounds": bounds,
+            "objective_bound": ("robust epigraph gamma_T (the objective: max margin)"
+                                if s.weight_robust > 0 else "regularisation"),
+            "stability_or_gain_active": any_active,
+            "active_tolerance_relative": ACTIVE_REL_TOL}
+
+
 def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
     """Chosen start and design status from the per-start records of :func:`run_start`.
 
-    ``converged``: the best *verified* start (decay rate on the design model's dense grid,
+    ``converged``: the best *verified* start (damping on the design model's dense grid,
     true peak gain ``max_gain <= gain_limit`` -- no tolerance, the NLP backs off by
     ``GAIN_BACKOFF`` --, stable on the verification model), by the true dense robust margin,
     whatever its Ipopt exit status; ``unverified``: feasible on the design model only;
-    ``infeasible``: no start meets the decay rate and the gain limit (the least violating is
+    ``infeasible``: no start meets the damping and the gain limit (the least violating is
     reported, never as converged); ``failed``: no start produced a design.
     """
-    feasible = [r for r in records if r.meets_decay_rate and r.max_gain <= gain_limit]
+    feasible = [r for r in records if r.meets_damping and r.max_gain <= gain_limit]
     verified = [r for r in feasible if r.verified]
     if verified:
         return max(verified, key=lambda r: r.robust_margin), "converged"
@@ -265,7 +344,7 @@ def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
 def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
     """Multistart design with cutting planes, 16-mode verification and flap-count search.
 
-    Status: ``converged`` (a start meets the decay rate on the design model's dense grid, the
+    Status: ``converged`` (a start meets the damping on the design model's dense grid, the
     gain limit, and is stable on the verification model's dense grid), ``unverified`` (the
     design model is satisfied but the verification model is not stable everywhere -- only
     possible with a reduced design model), ``infeasible`` or ``failed``.
@@ -311,7 +390,9 @@ def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
         _, model = build_model(settings, n_modes=settings.verification_modes,
                                positions=positions, spec=spec)
         prob = DesignProblem(replace(settings, optimise_placement=False), model)
-        absc = prob.verify(theta).abscissa_1_s
+        ver_best = prob.verify(theta)
+        absc = ver_best.abscissa_1_s
+        extras["damping_ratio"] = ver_best.damping_ratio
         _, model_ol = build_model(settings, n_modes=settings.verification_modes, spec=spec)
         ol_parts = DesignProblem(settings, model_ol).A_parts(np.array([0.0, 0.0, 0.0, 1.0, 1.0]))
         extras["open_loop_abscissa"] = closed_loop_abscissa(ol_parts, absc_u)
@@ -320,6 +401,14 @@ def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
                                 tuple(float(x) for x in positions),
                                 settings.flap_width_m, settings.leading_edge,
                                 settings.trailing_edge, settings.gain_limit)
+        _, model_d = build_model(settings, positions=positions, spec=spec)
+        ver_d = DesignProblem(replace(settings, optimise_placement=False), model_d).verify(theta)
+        extras["active_constraints"] = active_constraints(settings, best, ver_d)
+        try:
+            extras["closed_loop_limits"] = closed_loop_limits(settings, controller, spec=spec)
+        except Exception as exc:  # noqa: BLE001 - a report item, not the design
+            extras["closed_loop_limits"] = {"status": f"failed: {exc}"}
+        log(f"closed-loop limits: {extras['closed_loop_limits']}")
         if status in ("converged", "unverified"):
             min_flaps = minimum_flap_count(settings, theta, spec=spec)
             log(f"minimum flap count: {min_flaps.minimum}")

@@ -6,7 +6,8 @@ Problem (docs/methods.md#compensator-design)::
                  + w_flaps sum(w)/n_flaps
     over         theta = (b2, b1, b0, a2, a1), gamma_T  [and w in [0, 1]^n_flaps if
                  optimise_placement]
-    subject to   top-m Re lambda(A_cl(U_i, theta, w)) <= -sigma_req(U_i)  at every design speed
+    subject to   top-m Re lambda + zeta_min |lambda| <= 0 over the movable branches of
+                 A_cl(U_i, theta, w) at every design speed (damping ratio >= zeta_min)
                  ||T(j omega_k, U_j)||_F^2 <= gamma_T^2    robust speeds U_j x frequency grid
                  |K(j omega_k)|^2 <= gain_limit^2          on a frequency grid (and omega -> inf)
                  a2 >= a2_min > 0,  a1 >= a1_min > 0       (stable, proper K)
@@ -17,13 +18,15 @@ Frobenius norm (an upper bound of ``sigma_max``) at ``robust_design_speeds_m_s``
 ``1/gamma_T`` is a guaranteed lower bound of the small-gain margin at those points
 (:mod:`design.robust`); the true margin is checked on a dense grid (:meth:`robust_margin`).
 
-Decay rate. ``sigma_req(U) = min(sigma_min, sigma_per_speed * U)``: the slowest aerodynamic lag
-pole of the RFA moves as ``-beta_1 U / b`` and is (almost) uncontrollable by the flaps, so a
-fixed decay rate cannot be demanded at low speed. At ``U = 0`` the lag states are exactly
-decoupled (their input is proportional to ``U``), their zero eigenvalues are dropped, and the
-structural ones must satisfy ``sigma_min``. The eigenvalue constraints use
-:class:`design.eigen.PolynomialTopRealParts` (analytic eigenvalue Jacobians, limited-memory
-Hessian).
+Damping (issue 14). The constraint is a minimum damping ratio ``zeta_min`` (default 0.5 %) of
+every eigenvalue the flaps can move, written ``Re lambda + zeta_min |lambda| <= 0`` (continuous
+through ``lambda = 0``, where divergence crosses; a real stable root always meets it). The
+copies of the RFA lag poles ``-p_i U / b`` (up to 16 identical ones, the spectral abscissa at
+most speeds) and of the compensator poles are excluded: no flap moves them, and the former
+decay-rate constraint on the top real parts was therefore never active. At ``U = 0`` the lag
+states are exactly decoupled (their input is proportional to ``U``) and dropped. The
+constraints use :class:`design.eigen.PolynomialStructuralDamping` (analytic eigenvalue
+Jacobians through the one assembly, limited-memory Hessian).
 
 Buffeting. ``J_buf`` is the mean over ``buffeting_speeds_m_s`` of the squared RMS vertical and
 torsional deck response (each normalised by its open-loop value) from
@@ -32,7 +35,7 @@ forward-difference Jacobian (step 1e-4 relative); used only when ``weight_buffet
 
 Cutting planes (:meth:`DesignProblem.solve_with_cuts`, at most ``cutting_plane_rounds``
 warm-started re-solves of at most ``resolve_max_iter`` iterations): violating speeds of the dense
-decay-rate check join the design grid; if the true peak ``Compensator.max_gain()`` exceeds the
+damping check join the design grid; if the true peak ``Compensator.max_gain()`` exceeds the
 limit, its frequency joins the gain grid; dense ``sigma_max(T)`` peaks above ``gamma_T`` join the
 robust epigraph. A re-solve only sees sample points and may land on a worse design, so the best
 round (feasible first, then smallest dense peak) is returned and every round is recorded.
@@ -52,12 +55,12 @@ import numpy as np
 import scipy.linalg
 
 from design.buffeting_term import BuffetingCost
-from design.eigen import PolynomialTopRealParts
+from design.eigen import PolynomialStructuralDamping
 from design.plant import (
-    closed_loop_abscissa,
+    damping_check,
     lag_free_indices,
+    lag_rates,
     plant_factors,
-    top_real_parts_numeric,
 )
 from design.records import CutRound, CutsOutcome, RobustMargin, Solve, Verification
 from design.robust import (
@@ -71,7 +74,7 @@ from model.control import Compensator
 
 #: Scale of theta in the regularisation term (a2 ~ 0.01..1 s^2).
 THETA_SCALE = np.array([1.0, 1.0, 1.0, 0.1, 1.0])
-#: Eigenvalue constraints are ~ 0.01 1/s: multiplied by this [s] to be O(1) for Ipopt.
+#: Damping constraints are ~ 0.01 1/s: multiplied by this [s] to be O(1) for Ipopt.
 EIG_SCALE = 100.0
 #: Feasibility tolerance of the dense verification [1/s] (Ipopt's constr_viol_tol 1e-6 on the
 #: scaled constraint is 1e-8 1/s; 1e-6 1/s leaves room for the eig round-off of ~1e-10 1/s).
@@ -94,6 +97,15 @@ ROBUST_CUTS_PER_SPEED = 2
 #: 2.44 at the peak, 2.13 at -2 %); a single point is escaped by shifting the resonance by a
 #: fraction of that, a 1 % spaced cluster bounds the under-read of a shifted peak to ~5 %.
 ROBUST_CLUSTER_STEP = 0.01
+#: Phase 1 (:meth:`DesignProblem.solve_with_cuts`). From a start that violates the damping
+#: constraints the robust epigraph is an obstacle: ``||T(j omega)||`` is infinite where a
+#: branch crosses the imaginary axis at a sample frequency, so Ipopt, which must carry an
+#: unstable branch across the axis to reach feasibility, drives ``gamma_T`` (the objective) to
+#: ~1e2 and stalls there (humber:box from the nominal start: 80 iterations, gamma_T 158). The
+#: phase-1 solve drops the epigraph (objective: the regularisation only) and tightens every
+#: damping constraint by this [1/s] (1/20 of ``zeta_min |lambda|`` at 0.2 rad/s, the lowest
+#: structural frequency, for zeta_min = 0.5 %), so phase 2 starts strictly inside.
+FEASIBILITY_BACKOFF_1_S = 5e-5
 #: Ipopt barrier parameter of a warm-started re-solve (default 0.1 re-centres the iterate
 #: far from the previous solution; 1e-3 keeps it near while staying interior).
 WARM_MU_INIT = 1e-3
@@ -147,13 +159,15 @@ class DesignProblem:
             parts = self.functions["A_parts"](th, ca.DM(self.weights))
         return ca.Function("A_parts_p", [p], list(parts))
 
-    def grid_callback(self, speeds) -> PolynomialTopRealParts:
-        """Top-m real parts at ``speeds`` (lag states dropped at U = 0), cached per grid."""
+    def grid_callback(self, speeds) -> PolynomialStructuralDamping:
+        """Top-m damping measures of the movable branches at ``speeds`` (lag states dropped at
+        U = 0), cached per grid."""
         key = tuple(float(u) for u in speeds)
         if key not in self.callbacks:
-            self.callbacks[key] = PolynomialTopRealParts(
+            self.callbacks[key] = PolynomialStructuralDamping(
                 self.parts_function(), np.array(key), self.settings.n_eig,
-                subsets={0.0: self.keep0}, name=f"top_grid_{len(self.callbacks)}")
+                lag_rates(self.model), self.settings.zeta_min,
+                subsets={0.0: self.keep0}, name=f"damping_grid_{len(self.callbacks)}")
         return self.callbacks[key]
 
     def A_parts(self, theta, weights=None) -> tuple:
@@ -255,21 +269,22 @@ class DesignProblem:
         v = 0.5 * np.mean((np.asarray(z) / z0) ** 2 + (np.asarray(a) / a0) ** 2)
         return float(v) if np.isfinite(v) else 1e3
 
-    def constraint_values(self, theta, speeds) -> np.ndarray:
-        """``top_m Re lambda + sigma_req`` per speed (n_speeds, m) [1/s]; <= 0 is feasible."""
-        parts = self.A_parts(theta)
-        sig = self.settings.sigma_required(speeds)
-        return np.array([top_real_parts_numeric(parts, u, self.settings.n_eig) + sg
-                         for u, sg in zip(speeds, sig, strict=True)])
+    def constraint_values(self, theta, speeds, weights=None) -> np.ndarray:
+        """Largest damping measure ``Re lambda + zeta_min |lambda|`` of the movable branches per
+        speed (n_speeds,) [1/s]; <= 0 is feasible."""
+        return damping_check(self.A_parts(theta, weights), speeds, lag_rates(self.model), theta,
+                             self.settings.zeta_min)["measure_1_s"]
 
     # ---- one solve
     def solve(self, theta0, speeds, max_iter=None, weights0=None, gamma0=None,
-              warm=False) -> Solve:
+              warm=False, feasibility=False) -> Solve:
         """Solve the NLP from ``theta0`` (and ``weights0``) on the design ``speeds`` [m/s].
 
         ``gamma0`` (warm start) is raised to the epigraph value at ``theta0`` when lower, so
         the start satisfies the robust constraints whatever cuts were added; ``warm``
-        starts Ipopt's barrier at ``WARM_MU_INIT`` (a re-solve after cuts).
+        starts Ipopt's barrier at ``WARM_MU_INIT`` (a re-solve after cuts). ``feasibility``:
+        phase 1 -- no robust epigraph, damping constraints tightened by
+        ``FEASIBILITY_BACKOFF_1_S`` (see there).
 
         Returns the :class:`design.records.Solve` record (Ipopt status, iterate, timings).
         """
@@ -287,9 +302,10 @@ class DesignProblem:
             p = th
             x = ca.vertcat(th, gT)
         cb = self.grid_callback(speeds)
-        sig = np.repeat(s.sigma_required(speeds), s.n_eig)
-        g = [EIG_SCALE * (cb(p) + sig)]
-        lbg, ubg = [np.full(sig.size, -np.inf)], [np.zeros(sig.size)]
+        n_eig_cons = len(speeds) * s.n_eig
+        g = [EIG_SCALE * cb(p)]
+        lbg = [np.full(n_eig_cons, -np.inf)]
+        ubg = [np.full(n_eig_cons, -EIG_SCALE * FEASIBILITY_BACKOFF_1_S if feasibility else 0.0)]
         # gain limit |K(j w)| <= L_nlp on the grid (+ gain cuts), at omega = 0 (b0) and at
         # omega -> inf (b2/a2); L_nlp backed off by GAIN_BACKOFF (see there)
         L2 = (s.gain_limit * (1.0 - GAIN_BACKOFF)) ** 2
@@ -305,7 +321,8 @@ class DesignProblem:
         ubg.append(np.zeros(len(oms) + 2))
         f = s.weight_regularisation * ca.sumsqr(th / THETA_SCALE)
         n_rob = 0
-        if s.weight_robust > 0 and (s.robust_design_speeds_m_s or self.robust_cuts):
+        if (s.weight_robust > 0 and (s.robust_design_speeds_m_s or self.robust_cuts)
+                and not feasibility):
             rob, pts = self.robust_function()
             g.append(rob(th, w) - gT * gT)
             n_rob = len(pts)
@@ -334,7 +351,7 @@ class DesignProblem:
             x0 = np.append(x0, w0)
         nlp = {"x": x, "f": f, "g": ca.vertcat(*g)}
         opts = {"ipopt.hessian_approximation": "limited-memory",
-                "ipopt.max_iter": int(max_iter or s.max_iter), "ipopt.print_level": 0,
+                "ipopt.max_iter": int(max_iter or s.max_iter), "ipopt.print_level": int(__import__("os").environ.get("CTL_IPOPT_PRINT", "0")),
                 "print_time": False, "ipopt.tol": 1e-6, "ipopt.acceptable_tol": 1e-4,
                 "ipopt.acceptable_iter": 5, "ipopt.sb": "yes", "ipopt.constr_viol_tol": 1e-6,
                 # an "acceptable" exit must be as feasible as an optimal one (default 1e-2)
@@ -349,7 +366,6 @@ class DesignProblem:
         st = solver.stats()
         xs = np.asarray(sol["x"].full()).ravel()
         gs = np.asarray(sol["g"].full()).ravel()
-        n_eig_cons = len(speeds) * s.n_eig
         evals = cb.evaluations - ev0
         return Solve(theta=xs[:5], gamma_T=float(xs[5]),
                      weights=xs[6:] if s.optimise_placement else self.weights.copy(),
@@ -362,12 +378,14 @@ class DesignProblem:
 
     # ---- verification
     def verify(self, theta, weights=None) -> Verification:
-        """Dense a posteriori check: abscissa on the check grid, constraint, peak gain."""
+        """Dense a posteriori check on the check grid: abscissa (every eigenvalue), damping of
+        the movable branches, peak gain."""
         s = self.settings
         U = s.check_speeds()
         parts = self.A_parts(theta, weights)
-        absc = closed_loop_abscissa(parts, U)
-        viol = absc + s.sigma_required(U)
+        chk = damping_check(parts, U, lag_rates(self.model), theta, s.zeta_min)
+        absc = chk["abscissa_1_s"]
+        viol = chk["measure_1_s"]
         comp = Compensator(*(float(v) for v in theta))
         stable = absc < 0
         stable_to = float(U[-1]) if stable.all() else (
@@ -377,7 +395,10 @@ class DesignProblem:
                             stable_everywhere=bool(stable.all()), stable_to_m_s=stable_to,
                             max_gain=comp.max_gain(), modes=int(self.model.open_loop.basis.n),
                             step_m_s=s.check_step_m_s,
-                            meets_decay_rate=bool(viol.max() <= VIOLATION_TOL))
+                            meets_damping=bool(viol.max() <= VIOLATION_TOL),
+                            min_damping_ratio=float(chk["zeta"].min()),
+                            min_damping_speed_m_s=float(U[int(np.argmin(chk["zeta"]))]),
+                            damping_ratio=chk["zeta"])
 
     def solve_with_cuts(self, theta0, weights0=None) -> CutsOutcome:
         """Solve and re-solve with cutting planes (at most ``cutting_plane_rounds`` re-solves).
@@ -385,8 +406,8 @@ class DesignProblem:
         After each solve the design is checked a posteriori and the worst violations join the
         NLP's sample sets before a warm-started re-solve:
 
-        * decay rate: abscissa on the dense ``check_step_m_s`` grid; the worst speed of each run
-          of violations joins the design speeds;
+        * damping: the movable branches on the dense ``check_step_m_s`` grid; the worst speed
+          of each run of violations joins the design speeds;
         * gain limit: the true peak :meth:`model.control.Compensator.max_gain`; if above
           ``gain_limit`` the stationary frequencies of ``|K(jw)|`` join the gain grid;
         * robustness: ``sigma_max(T)`` on a dense frequency grid (:meth:`robust_margin`) at
@@ -408,6 +429,21 @@ class DesignProblem:
         kept = []
         use_rob = s.weight_robust > 0 and (bool(s.robust_design_speeds_m_s)
                                            or bool(s.robust_speeds_m_s))
+        if np.max(self.constraint_values(theta, sorted(speeds), w)) > 0:
+            ph1 = self.solve(theta, np.array(sorted(speeds)), weights0=w, feasibility=True)
+            ver1 = self.verify(ph1.theta, ph1.weights)
+            history.append(CutRound(
+                round=0, ipopt_status=ph1.ipopt_status, iterations=ph1.iterations,
+                theta=tuple(float(v) for v in ph1.theta), time_s=ph1.time_s,
+                n_speeds=len(speeds), max_violation_1_s=ver1.max_violation_1_s,
+                max_gain=ver1.max_gain, gamma_T_frobenius=float("nan"),
+                dense_t_peak=float("nan"), n_robust_points=0,
+                n_gain_points=len(self.omega_grid()), new_speeds=0, new_gain_cuts=0,
+                new_robust_cuts=0, eig_time_per_speed_s=ph1.eig_time_per_speed_s,
+                placement="phase 1 (feasibility, no robust epigraph)"))
+            if np.max(ph1.constraints_eig_1_s) <= 0:
+                theta, w = ph1.theta, ph1.weights
+        off = len(history)          # the phase-1 record, if any, precedes the rounds
         for rnd in range(s.cutting_plane_rounds + 1):
             res = self.solve(theta, np.array(sorted(speeds)), weights0=w, gamma0=gamma,
                              warm=rnd > 0,
@@ -460,8 +496,8 @@ class DesignProblem:
             self.gain_cuts.extend(new_gain)
             self.robust_cuts.extend(new_rob)
         # a re-solve sees only the sample points and can land on a design whose dense peak
-        # (or gain, decay rate) is worse than before the cuts: return the best round --
-        # feasible (decay rate and gain) first, then the smallest dense peak of sigma_max(T)
+        # (or gain, damping) is worse than before the cuts: return the best round --
+        # feasible (damping and gain) first, then the smallest dense peak of sigma_max(T)
         def rank(i):
             _, _, _, _, ok, pk = kept[i]
             return (not ok, pk if np.isfinite(pk) else np.inf, -i)
@@ -469,8 +505,8 @@ class DesignProblem:
         res, ver, rob, cuts, _, _ = kept[ibest]
         return CutsOutcome(
             solve=res, verification=ver, robust=rob,
-            rounds=tuple(replace(h, chosen=i == ibest) for i, h in enumerate(history)),
-            chosen_round=ibest, design_speeds_m_s=tuple(cuts["speeds"]),
+            rounds=tuple(replace(h, chosen=i - off == ibest) for i, h in enumerate(history)),
+            chosen_round=ibest + off, design_speeds_m_s=tuple(cuts["speeds"]),
             gain_ok=bool(ver.max_gain <= s.gain_limit),
             robust_bound_holds=(bool(rob is not None and rob.peak
                                      <= res.gamma_T * (1.0 + ROBUST_CUT_TOL))

@@ -37,7 +37,7 @@ class DesignResult:
         Dense check grid [m/s] and the chosen design's spectral abscissa on the verification
         model [1/s] (NaN without a design).
     min_flaps : FlapCountSearch or None
-        Fewest evenly spaced flaps meeting the decay rate
+        Fewest evenly spaced flaps meeting the minimum damping
         (:func:`design.driver.minimum_flap_count`; None when not searched).
     wall_time_s : float
     extras : dict
@@ -84,7 +84,9 @@ class DesignResult:
             "flap_positions_m": list(b.flap_positions_m) if b is not None else [],
             "buffeting": (self.extras["buffeting"].to_dict() if "buffeting" in self.extras
                           else {}),
-            "sigma_min_1_s": self.settings.sigma_min_1_s,
+            "zeta_min": self.settings.zeta_min,
+            "active_constraints": self.extras.get("active_constraints", {}),
+            "closed_loop_limits": self.extras.get("closed_loop_limits", {}),
             "spectral_abscissa_by_speed": [
                 {"speed_m_s": float(u), "abscissa_1_s": float(a)}
                 for u, a in zip(self.abscissa_speeds_m_s, self.abscissa_1_s, strict=True)],
@@ -123,7 +125,8 @@ class DesignResult:
         return ax
 
     def plot_margins(self, ax=None):
-        """Spectral abscissa against speed with the required decay rate, and the layout."""
+        """Spectral abscissa and the smallest damping ratio of the movable branches against
+        speed with the required ``zeta_min``, and the layout."""
         import matplotlib.pyplot as plt
 
         if ax is None:
@@ -133,7 +136,13 @@ class DesignResult:
         if ol is not None:
             ax[0].plot(self.abscissa_speeds_m_s, ol, "k--", label="open loop")
         U = self.abscissa_speeds_m_s
-        ax[0].plot(U, -self.settings.sigma_required(U), "r:", label="-sigma_req")
+        z = self.extras.get("damping_ratio")
+        if z is not None:
+            tw = ax[0].twinx()
+            tw.plot(U, 100 * np.clip(z, -0.2, None), "g-", lw=0.8, label="min damping ratio")
+            tw.axhline(100 * self.settings.zeta_min, color="r", ls=":", label="zeta_min")
+            tw.set_ylabel("min damping ratio of movable branches [%]")
+            tw.legend(loc="lower left")
         ax[0].axhline(0, color="k", lw=0.7)
         ax[0].set_xlabel("U [m/s]")
         ax[0].set_ylabel("max Re lambda [1/s]")

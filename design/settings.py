@@ -43,6 +43,11 @@ class DesignSettings:
     """Definition of the design problem (defaults: Humber, seed §6; overridable by TOML).
 
     Units: lengths [m], speeds [m/s], rates [1/s], frequencies [rad/s], gains [rad/rad].
+
+    ``zeta_min`` [-] is the minimum damping ratio ``-Re lambda / |lambda|`` demanded of every
+    closed-loop branch the flaps can move (default 0.5 %, half the structural 1 %), at every
+    design speed 0..``speed_max_m_s``; the copies of the aerodynamic lag poles ``-p_i U / b``
+    and of the compensator poles are excluded (:mod:`design.eigen`).
     """
 
     bridge: str = "humber"
@@ -56,8 +61,7 @@ class DesignSettings:
     speed_max_m_s: float = 85.0
     design_step_m_s: float = 5.0
     check_step_m_s: float = 0.25
-    sigma_min_1_s: float = 0.004
-    sigma_per_speed_1_m: float = 2.5e-4
+    zeta_min: float = 0.005
     n_eig: int = 3
     gain_limit: float = 15.0
     omega_min_rad_s: float = 1e-3
@@ -93,7 +97,10 @@ class DesignSettings:
                      "check_step_m_s", "omega_min_rad_s", "omega_max_rad_s",
                      "robust_omega_min_rad_s", "robust_omega_max_rad_s"):
             _num(name, getattr(self, name), positive=True)
-        for name in ("sigma_min_1_s", "sigma_per_speed_1_m", "weight_regularisation",
+        _num("zeta_min", self.zeta_min, nonneg=True)
+        if self.zeta_min >= 1.0:
+            raise BridgeflapInputError("zeta_min", f"must be < 1, got {self.zeta_min!r}")
+        for name in ("weight_regularisation",
                      "weight_buffeting", "weight_robust", "weight_flaps"):
             _num(name, getattr(self, name), nonneg=True)
         for name in ("n_modes", "verification_modes", "flap_count", "n_eig", "n_omega",
@@ -133,11 +140,6 @@ class DesignSettings:
         n = int(round(self.speed_max_m_s / self.check_step_m_s))
         return np.linspace(0.0, self.speed_max_m_s, n + 1)
 
-    def sigma_required(self, U) -> np.ndarray:
-        """Required decay rate ``min(sigma_min, sigma_per_speed U)`` [1/s] (``sigma_min`` at 0)."""
-        U = np.asarray(U, float)
-        return np.where(U > 0, np.minimum(self.sigma_min_1_s, self.sigma_per_speed_1_m * U),
-                        self.sigma_min_1_s)
 
 
 _TOML_KEYS = {f for f in DesignSettings.__dataclass_fields__ if f != "extras"}
