@@ -351,7 +351,7 @@ class DesignProblem:
             x0 = np.append(x0, w0)
         nlp = {"x": x, "f": f, "g": ca.vertcat(*g)}
         opts = {"ipopt.hessian_approximation": "limited-memory",
-                "ipopt.max_iter": int(max_iter or s.max_iter), "ipopt.print_level": int(__import__("os").environ.get("CTL_IPOPT_PRINT", "0")),
+                "ipopt.max_iter": int(max_iter or s.max_iter), "ipopt.print_level": 0,
                 "print_time": False, "ipopt.tol": 1e-6, "ipopt.acceptable_tol": 1e-4,
                 "ipopt.acceptable_iter": 5, "ipopt.sb": "yes", "ipopt.constr_viol_tol": 1e-6,
                 # an "acceptable" exit must be as feasible as an optimal one (default 1e-2)
