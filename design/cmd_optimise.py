@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import tempfile
@@ -34,6 +35,7 @@ def cmd_optimise(args):
     tmp = Path(tempfile.mkdtemp(dir=parent, prefix=f".{out.name}."))
     try:
         payload = result.summary()
+        (tmp / "ipopt_history.json").write_text(json.dumps(result.history(), allow_nan=False))
         ctrl_file = out / "controller.toml"
         if result.candidate is not None:
             if result.controller is not None:

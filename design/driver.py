@@ -139,13 +139,62 @@ def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,
     return DesignProblem(replace(settings, optimise_placement=False), model).verify(theta)
 
 
-def run_start(settings: DesignSettings, theta0, index: int, spec=None) -> StartRecord:
+def _progress_bar(index: int, show):
+    """tqdm bar on stderr counting one start's Ipopt iterations (None when not shown:
+    ``show`` None means "stderr is a terminal")."""
+    import sys
+
+    if show is None:
+        show = sys.stderr.isatty()
+    if not show:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(desc=f"start {index} Ipopt", unit="it", file=sys.stderr, leave=False,
+                position=index)
+
+
+def round_layout(S, z, budget=0) -> np.ndarray:
+    """0/1 flap weights from relaxed placement variables ``z`` (``w = S z``).
+
+    The groups (mirror pairs with ``symmetric_layout``) are taken largest ``z`` first: with a
+    ``budget`` > 0 while the flap count stays within it, otherwise every group with
+    ``z > 0.5``; at least the largest group is kept, so a layout never loses every flap.
+    The rounded layout stays symmetric because whole groups are kept.
+    """
+    S = np.asarray(S, float)
+    z = np.asarray(z, float)
+    sizes = S.sum(axis=0)
+    keep = np.zeros(z.size, bool)
+    count = 0.0
+    for j in np.argsort(-z, kind="stable"):
+        if budget > 0:
+            if count + sizes[j] > budget:
+                continue
+        elif z[j] <= 0.5:
+            break
+        keep[j] = True
+        count += sizes[j]
+    if not keep.any():
+        keep[int(np.argmax(z))] = True
+    return (S @ keep.astype(float) > 0.5).astype(float)
+
+
+def run_start(settings: DesignSettings, theta0, index: int, spec=None,
+              progress_bar=None) -> StartRecord:
     """One start: solve with cuts (placement: round the weights, re-solve), then the dense
     robust margin and the check on the verification model. A failure is a record (STYLE).
-    ``spec``: the bridge (default ``settings.bridge``)."""
+    ``spec``: the bridge (default ``settings.bridge``); ``progress_bar``: a tqdm bar of the
+    Ipopt iterations on stderr (None: when stderr is a terminal)."""
     t0 = time.perf_counter()
     spec, model = build_model(settings, spec=spec)
     prob = DesignProblem(settings, model, spec=spec)
+    bar = _progress_bar(index, progress_bar)
+    if bar is not None:
+        def tick(i, f, x):
+            bar.update(1)
+            bar.set_postfix_str(f"objective {f:.4g}", refresh=False)
+        prob.on_iteration = tick
     theta0 = tuple(float(v) for v in theta0)
     w_cont = None
     try:
@@ -154,18 +203,21 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None) -> StartR
         weights = np.ones(model.n_flaps)
         if settings.optimise_placement:
             w_cont = tuple(float(v) for v in res.solve.weights)
-            weights = (np.asarray(w_cont) > 0.5).astype(float)
-            if not weights.any():
-                weights[np.argmax(w_cont)] = 1.0
+            weights = round_layout(prob.symmetry, prob.z_of(w_cont), settings.flap_budget)
             fixed = DesignProblem(replace(settings, optimise_placement=False), model,
                                   weights=weights, spec=spec)
+            fixed.on_iteration = prob.on_iteration
             res = fixed.solve_with_cuts(res.theta)
             rounds += [replace(r, placement="rounded") for r in res.rounds]
             prob = fixed
     except Exception as exc:  # noqa: BLE001 - solver failure is data (STYLE)
+        if bar is not None:
+            bar.close()
         return StartRecord(start=index, theta0=theta0, ipopt_status=f"failed: {exc}",
                            success=False, time_s=time.perf_counter() - t0,
                            weights_continuous=w_cont)
+    if bar is not None:
+        bar.close()
     theta = res.theta
     ver = res.verification
     rob = prob.robust_margin(theta, weights=weights)
@@ -341,7 +393,23 @@ def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
     return min(cands, key=lambda r: (max(r.max_violation_1_s, 0.0), r.max_gain)), "infeasible"
 
 
-def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
+def warm_start_theta(warm_start) -> np.ndarray:
+    """Coefficients (b2, b1, b0, a2, a1) of a warm start: a :class:`model.control.Controller`,
+    a :class:`model.control.Compensator` or five numbers."""
+    k = getattr(warm_start, "compensator", warm_start)
+    if isinstance(k, Compensator):
+        return np.array([k.b2, k.b1, k.b0, k.a2, k.a1], float)
+    th = np.asarray(warm_start, float).ravel()
+    if th.size != 5 or not np.all(np.isfinite(th)):
+        from model.errors import BridgeflapInputError
+
+        raise BridgeflapInputError("warm_start", "needs a Controller, a Compensator or five "
+                                                 "finite coefficients (b2, b1, b0, a2, a1)")
+    return th
+
+
+def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
+           progress_bar=None) -> DesignResult:
     """Multistart design with cutting planes, 16-mode verification and flap-count search.
 
     Status: ``converged`` (a start meets the damping on the design model's dense grid, the
@@ -355,21 +423,31 @@ def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
     progress : callable, optional
         ``str -> None``, called with one line per start and step.
     spec : model.spec.BridgeSpec, optional
-        The bridge, e.g. a modified built-in one (default: ``load_bridge(settings.bridge)``).
+        The bridge, e.g. a modified built-in one or a variant (default:
+        ``load_bridge(settings.bridge)``); every model of the design is built on it.
+    warm_start : Controller, Compensator or array_like, optional
+        Start 0 from this compensator instead of :data:`NOMINAL_START` (e.g. a design of a
+        neighbouring bridge); the other starts are Sobol points as usual.
+    progress_bar : bool, optional
+        tqdm bars of the Ipopt iterations on stderr (default: when stderr is a terminal).
     """
     t0 = time.perf_counter()
     log = progress or (lambda msg: None)
-    # start 0 is a nominal phase-lead-free design (K ~ -1 static, light lag), the others Sobol
-    starts0 = np.vstack([NOMINAL_START, screened_starts(settings, settings.starts - 1, spec=spec)])[
+    # start 0 is a nominal phase-lead-free design (K ~ -1 static, light lag) or the warm
+    # start, the others Sobol
+    first = NOMINAL_START if warm_start is None else warm_start_theta(warm_start)
+    starts0 = np.vstack([first, screened_starts(settings, settings.starts - 1, spec=spec)])[
         :settings.starts]
     n = len(starts0)
     if settings.parallel and settings.starts > 1:
         from concurrent.futures import ProcessPoolExecutor
 
         with ProcessPoolExecutor(max_workers=min(2, settings.starts)) as ex:
-            records = list(ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n))
+            records = list(ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n,
+                                  [progress_bar] * n))
     else:
-        records = [run_start(settings, th, i, spec) for i, th in enumerate(starts0)]
+        records = [run_start(settings, th, i, spec, progress_bar)
+                   for i, th in enumerate(starts0)]
     for r in records:
         log(f"start {r.start}: {r.ipopt_status} in {r.time_s:.1f} s, "
             f"{r.iterations} iterations, {r.cut_rounds} cut rounds, "

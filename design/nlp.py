@@ -111,6 +111,44 @@ FEASIBILITY_BACKOFF_1_S = 5e-5
 WARM_MU_INIT = 1e-3
 
 
+class IterationCallback(ca.Callback):
+    """Ipopt ``iteration_callback``: calls ``fun(iteration, objective, x)`` once per Ipopt
+    iteration (drives the progress bar of :func:`design.driver.design`). CasADi passes the
+    nlpsol outputs (x, f, g, lam_x, lam_g, lam_p); keep the object alive during the solve."""
+
+    def __init__(self, name, nx, ng, fun):
+        ca.Callback.__init__(self)
+        self._nx, self._ng, self._fun, self.count = int(nx), int(ng), fun, 0
+        self.construct(name, {})
+
+    def get_n_in(self):
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i):
+        return "ret"
+
+    def get_sparsity_in(self, i):
+        n = ca.nlpsol_out(i)
+        if n == "f":
+            return ca.Sparsity.scalar()
+        if n in ("x", "lam_x"):
+            return ca.Sparsity.dense(self._nx)
+        if n in ("g", "lam_g"):
+            return ca.Sparsity.dense(self._ng)
+        return ca.Sparsity(0, 0)
+
+    def eval(self, arg):
+        self._fun(self.count, float(arg[1]), np.asarray(arg[0]).ravel())
+        self.count += 1
+        return [0]
+
+
 class DesignProblem:
     """Compensator NLP for a flap layout (build once, solve from many starts).
 
@@ -140,20 +178,50 @@ class DesignProblem:
         #: gain-constraint frequencies, on top of the settings' sample grids.
         self.robust_cuts: list[tuple[float, float]] = []
         self.gain_cuts: list[float] = []
+        #: ``(iteration, objective, x) -> None`` called once per Ipopt iteration (progress).
+        self.on_iteration = None
+
+    @property
+    def symmetry(self) -> np.ndarray:
+        """``S`` (n_flaps, n_z) with ``w = S z``: with ``symmetric_layout`` the flap at ``x`` and
+        its mirror at ``-x`` share one weight (the layout's positions are symmetric about
+        mid-span, sorted), otherwise the identity."""
+        nF = self.model.n_flaps
+        if not self.settings.symmetric_layout:
+            return np.eye(nF)
+        pos = np.asarray(self.model.flaps.position_m, float)
+        order = np.argsort(pos)
+        if not np.allclose(pos[order], -pos[order][::-1], atol=1e-6):
+            return np.eye(nF)           # not a symmetric layout: independent weights
+        nz = (nF + 1) // 2
+        S = np.zeros((nF, nz))
+        for r, i in enumerate(order):
+            S[i, min(r, nF - 1 - r)] = 1.0
+        return S
+
+    @property
+    def n_z(self) -> int:
+        """Placement variables: one weight per flap, or per mirror pair (symmetric)."""
+        return self.symmetry.shape[1]
+
+    def z_of(self, weights) -> np.ndarray:
+        """Placement variables of per-flap ``weights`` (least squares through ``S``)."""
+        S = self.symmetry
+        return np.linalg.lstsq(S, np.asarray(weights, float), rcond=None)[0]
 
     @property
     def n_p(self) -> int:
-        """Number of callback parameters: theta, plus the weights when placement is free."""
-        return 5 + (self.model.n_flaps if self.settings.optimise_placement else 0)
+        """Number of callback parameters: theta, plus the placement variables when free."""
+        return 5 + (self.n_z if self.settings.optimise_placement else 0)
 
     # ---- pieces
     def parts_function(self) -> ca.Function:
         """``p -> (A0, A1, A2)`` with ``p = theta`` or ``(theta, w)`` (placement)."""
         th = ca.SX.sym("theta", 5)
         if self.settings.optimise_placement:
-            w = ca.SX.sym("w", self.model.n_flaps)
-            p = ca.vertcat(th, w)
-            parts = self.functions["A_parts"](th, w)
+            z = ca.SX.sym("z", self.n_z)
+            p = ca.vertcat(th, z)
+            parts = self.functions["A_parts"](th, ca.mtimes(ca.DM(self.symmetry), z))
         else:
             p = th
             parts = self.functions["A_parts"](th, ca.DM(self.weights))
@@ -257,7 +325,10 @@ class DesignProblem:
         return r.rms_vertical, r.rms_torsion
 
     def buffeting_cost(self, theta, weights=None) -> float:
-        """``J_buf``: mean of the squared RMS ratios to the open loop (NaN/unstable -> 1e3)."""
+        """``J_buf``: mean of the squared RMS ratios to the open loop (NaN/unstable -> 1e3).
+        ``weights``: per flap, or the placement variables ``z`` (expanded by ``S``)."""
+        if weights is not None and len(weights) != self.model.n_flaps:
+            weights = self.symmetry @ np.asarray(weights, float)
         if self._buffeting_ref is None:
             self._buffeting_ref = self.buffeting_rms([0.0, 0.0, 0.0, 1.0, 1.0])
         try:
@@ -294,9 +365,10 @@ class DesignProblem:
         th = ca.MX.sym("theta", 5)
         gT = ca.MX.sym("gamma_T")
         if s.optimise_placement:
-            w = ca.MX.sym("w", nF)
-            p = ca.vertcat(th, w)
-            x = ca.vertcat(th, gT, w)
+            z = ca.MX.sym("z", self.n_z)
+            w = ca.mtimes(ca.DM(self.symmetry), z)
+            p = ca.vertcat(th, z)
+            x = ca.vertcat(th, gT, z)
         else:
             w = ca.DM(self.weights)
             p = th
@@ -335,6 +407,11 @@ class DesignProblem:
             f = f + s.weight_buffeting * bcb(p)
         if s.optimise_placement and s.weight_flaps > 0:
             f = f + s.weight_flaps * ca.sum1(w) / nF
+        if s.optimise_placement and s.flap_budget > 0:
+            # flap-count budget: sum of the relaxed weights <= flap_budget (linear)
+            g.append(ca.sum1(w) - float(s.flap_budget))
+            lbg.append(np.array([-np.inf]))
+            ubg.append(np.zeros(1))
         lbx = [-s.b_bound, -s.b_bound, -s.b_bound, s.a2_bounds[0], s.a1_bounds[0], 0.0]
         ubx = [s.b_bound, s.b_bound, s.b_bound, s.a2_bounds[1], s.a1_bounds[1], 1e4]
         theta0 = np.asarray(theta0, float)
@@ -346,9 +423,9 @@ class DesignProblem:
             gT0 = min(max(gT0, 1e-3, 0.0 if gamma0 is None else float(gamma0)), 1e3)
         x0 = np.append(theta0, gT0)
         if s.optimise_placement:
-            lbx += [0.0] * nF
-            ubx += [1.0] * nF
-            x0 = np.append(x0, w0)
+            lbx += [0.0] * self.n_z
+            ubx += [1.0] * self.n_z
+            x0 = np.append(x0, np.clip(self.z_of(w0), 0.0, 1.0))
         nlp = {"x": x, "f": f, "g": ca.vertcat(*g)}
         opts = {"ipopt.hessian_approximation": "limited-memory",
                 "ipopt.max_iter": int(max_iter or s.max_iter), "ipopt.print_level": 0,
@@ -358,6 +435,11 @@ class DesignProblem:
                 "ipopt.acceptable_constr_viol_tol": 1e-6}
         if warm:
             opts["ipopt.mu_init"] = WARM_MU_INIT
+        if self.on_iteration is not None:
+            it_cb = IterationCallback("design_iterations", x.size1(), nlp["g"].size1(),
+                                      self.on_iteration)
+            self.callbacks["iterations"] = it_cb
+            opts["iteration_callback"] = it_cb
         solver = ca.nlpsol("design", "ipopt", nlp, opts)
         ev0, et0 = cb.evaluations, cb.eval_time_s
         t0 = time.perf_counter()
@@ -367,14 +449,19 @@ class DesignProblem:
         xs = np.asarray(sol["x"].full()).ravel()
         gs = np.asarray(sol["g"].full()).ravel()
         evals = cb.evaluations - ev0
+        its = st.get("iterations", {})
+        history = {k: [float(v) for v in its[k]] for k in ("obj", "inf_pr", "inf_du", "mu")
+                   if k in its}
         return Solve(theta=xs[:5], gamma_T=float(xs[5]),
-                     weights=xs[6:] if s.optimise_placement else self.weights.copy(),
+                     weights=(self.symmetry @ xs[6:] if s.optimise_placement
+                              else self.weights.copy()),
                      ipopt_status=st["return_status"], success=bool(st["success"]),
                      iterations=int(st["iter_count"]), time_s=elapsed,
                      objective=float(sol["f"]),
                      constraints_eig_1_s=gs[:n_eig_cons] / EIG_SCALE, n_speeds=len(speeds),
                      eig_evaluations=evals,
-                     eig_time_per_speed_s=(cb.eval_time_s - et0) / max(evals, 1) / len(speeds))
+                     eig_time_per_speed_s=(cb.eval_time_s - et0) / max(evals, 1) / len(speeds),
+                     history=history)
 
     # ---- verification
     def verify(self, theta, weights=None) -> Verification:
@@ -429,7 +516,8 @@ class DesignProblem:
         kept = []
         use_rob = s.weight_robust > 0 and (bool(s.robust_design_speeds_m_s)
                                            or bool(s.robust_speeds_m_s))
-        if np.max(self.constraint_values(theta, sorted(speeds), w)) > 0:
+        viol0 = float(np.max(self.constraint_values(theta, sorted(speeds), w)))
+        if viol0 > 0:
             ph1 = self.solve(theta, np.array(sorted(speeds)), weights0=w, feasibility=True)
             ver1 = self.verify(ph1.theta, ph1.weights)
             history.append(CutRound(
@@ -440,8 +528,9 @@ class DesignProblem:
                 dense_t_peak=float("nan"), n_robust_points=0,
                 n_gain_points=len(self.omega_grid()), new_speeds=0, new_gain_cuts=0,
                 new_robust_cuts=0, eig_time_per_speed_s=ph1.eig_time_per_speed_s,
-                placement="phase 1 (feasibility, no robust epigraph)"))
-            if np.max(ph1.constraints_eig_1_s) <= 0:
+                placement="phase 1 (feasibility, no robust epigraph)", history=ph1.history))
+            # phase 2 from the phase-1 point when it is less violating than the start
+            if float(np.max(ph1.constraints_eig_1_s)) < viol0:
                 theta, w = ph1.theta, ph1.weights
         off = len(history)          # the phase-1 record, if any, precedes the rounds
         for rnd in range(s.cutting_plane_rounds + 1):
@@ -463,6 +552,12 @@ class DesignProblem:
                 for U, pk in zip(rob.speeds_m_s, rob.peaks, strict=True):
                     new_rob += [(float(U), om * (1.0 + k * ROBUST_CLUSTER_STEP))
                                 for om, v in pk if v > lim for k in (-2, -1, 0, 1, 2)]
+                if not rob_ok:
+                    # peak tracking: the dense peak of every speed joins too (the resonance
+                    # it sits on moves with theta; a point on it keeps the bound honest there)
+                    new_rob += [(float(U), float(om))
+                                for U, om in zip(rob.speeds_m_s, rob.peak_omega_rad_s,
+                                                 strict=True)]
                 new_rob = [c for c in dict.fromkeys(new_rob) if c not in self.robust_cuts]
             new_gain = []
             if not gain_ok:
@@ -485,7 +580,7 @@ class DesignProblem:
                 n_robust_points=len(self.robust_function()[1]) if use_rob else 0,
                 n_gain_points=len(self.omega_grid()), new_speeds=len(new_speeds),
                 new_gain_cuts=len(new_gain), new_robust_cuts=len(new_rob),
-                eig_time_per_speed_s=res.eig_time_per_speed_s))
+                eig_time_per_speed_s=res.eig_time_per_speed_s, history=res.history))
             kept.append((res, ver, rob, dict(speeds=sorted(speeds), robust_cuts=list(
                 self.robust_cuts), gain_cuts=list(self.gain_cuts)), eig_ok and gain_ok, peak))
             if (eig_ok and gain_ok and rob_ok) or not _a2_ok(theta):

@@ -125,6 +125,7 @@ class Solve:
     n_speeds: int
     eig_evaluations: int
     eig_time_per_speed_s: float
+    history: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -153,6 +154,9 @@ class CutRound:
     eig_time_per_speed_s: float
     chosen: bool = False
     placement: str | None = None
+    #: Ipopt's per-iteration ``obj``, ``inf_pr``, ``inf_du``, ``mu`` (not in the JSON summary;
+    #: written to ``ipopt_history.json`` by :meth:`design.result.DesignResult.history`)
+    history: dict | None = None
 
     def to_dict(self) -> dict:
         """One entry of ``rounds``."""

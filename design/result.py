@@ -102,6 +102,20 @@ class DesignResult:
             "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"},
         }
 
+    def history(self) -> dict:
+        """Ipopt iteration history of every start and round (``ipopt_history.json``):
+        per round its label, status and the per-iteration ``obj``, ``inf_pr``, ``inf_du``,
+        ``mu`` lists."""
+        out = []
+        for s in self.starts:
+            for r in s.rounds:
+                out.append({"start": s.start, "round": r.round,
+                            "placement": r.placement, "status": r.ipopt_status,
+                            "iterations": r.iterations,
+                            **{k: [x if np.isfinite(x) else None for x in v]
+                               for k, v in (r.history or {}).items()}})
+        return {"rounds": out}
+
     def plot_bode(self, ax=None):
         """|K(jw)| and phase of the designed compensator with the gain limit."""
         import matplotlib.pyplot as plt

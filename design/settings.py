@@ -78,12 +78,14 @@ class DesignSettings:
     buffeting_speeds_m_s: tuple = (10.0, 20.0, 25.0)
     optimise_placement: bool = False
     weight_flaps: float = 0.0
+    symmetric_layout: bool = True
+    flap_budget: int = 0
     starts: int = 2
     seed: int = 1
     parallel: bool = False
     max_iter: int = 80
-    resolve_max_iter: int = 20
-    cutting_plane_rounds: int = 2
+    resolve_max_iter: int = 60
+    cutting_plane_rounds: int = 5
     b_bound: float = 15.0
     a2_bounds: tuple = (1e-3, 5.0)
     a1_bounds: tuple = (1e-2, 10.0)
@@ -123,6 +125,12 @@ class DesignSettings:
                 _num(name, v, positive=True)
         if not isinstance(self.optimise_placement, bool):
             raise BridgeflapInputError("optimise_placement", "must be true or false")
+        if not isinstance(self.symmetric_layout, bool):
+            raise BridgeflapInputError("symmetric_layout", "must be true or false")
+        if (isinstance(self.flap_budget, bool) or not isinstance(self.flap_budget, int)
+                or not 0 <= self.flap_budget <= self.flap_count):
+            raise BridgeflapInputError("flap_budget", "must be an integer in 0..flap_count "
+                                                      f"(0: no budget), got {self.flap_budget!r}")
 
     def positions(self, count: int | None = None) -> np.ndarray:
         """Evenly spaced, touching flap centres from the main-span mid-point [m]."""

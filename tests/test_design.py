@@ -128,11 +128,21 @@ def test_robust_constraint_gradient_matches_finite_differences(small):
 
 
 def test_placement_weight_gradient_matches_finite_differences(small):
-    # (d) eigenvalue constraints with free flap weights: d Re lambda / d(theta, w)
+    # (d) damping constraints with free flap weights: d g / d(theta, w), independent weights
+    # and the symmetric ones (one per mirror pair, 3 for 5 flaps)
     s, model = small
-    prob = DesignProblem(replace(s, optimise_placement=True), model)
+    prob = DesignProblem(replace(s, optimise_placement=True, symmetric_layout=False), model)
     cb = prob.grid_callback([0.0, 40.0, 70.0])
     p0 = np.concatenate([THETA, [1.0, 0.8, 0.6, 0.9, 0.7]])
+    sym = DesignProblem(replace(s, optimise_placement=True), model)
+    assert sym.n_z == 3
+    np.testing.assert_array_equal(sym.symmetry @ [0.1, 0.2, 0.3], [0.1, 0.2, 0.3, 0.2, 0.1])
+    cbs = sym.grid_callback([0.0, 40.0, 70.0])
+    ps = np.concatenate([THETA, [1.0, 0.6, 0.7]])
+    Js = np.asarray(ca.Function("J", [x := ca.MX.sym("xs", 8)],
+                                [ca.jacobian(cbs(x), x)])(ps).full())
+    Jsfd = _central_fd(cbs._plain_values, ps, 1e-6)
+    np.testing.assert_allclose(Js, Jsfd, rtol=0, atol=1e-6 * np.abs(Jsfd).max())
     x = ca.MX.sym("x", p0.size)
     Jn = np.asarray(ca.Function("J", [x], [ca.jacobian(cb(x), x)])(p0).full())
     Jfd = _central_fd(cb._plain_values, p0, 1e-6)
@@ -379,3 +389,31 @@ def test_failed_design_summary_keeps_the_optimise_contract():
     row = summ["start_table"][0]
     assert (row["status"], row["iterations"], row["cut_rounds"], row["verified"],
             row["chosen"]) == ("failed: x", 0, 0, False, False)
+
+
+def test_round_layout_keeps_whole_mirror_pairs_within_budget():
+    # 5 flaps, 3 groups (outer pair, inner pair, centre): w = S z
+    from design.driver import round_layout
+
+    S = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 1, 0], [1, 0, 0]], float)
+    # budget 3: the inner pair (0.9) and the centre (0.8) fit, the outer pair (0.85) would not
+    np.testing.assert_array_equal(round_layout(S, [0.85, 0.9, 0.8], 3), [0, 1, 1, 1, 0])
+    # no budget: every group above 0.5
+    np.testing.assert_array_equal(round_layout(S, [0.6, 0.2, 0.9]), [1, 0, 1, 0, 1])
+    # nothing above 0.5: the largest group is kept (a layout never loses every flap)
+    np.testing.assert_array_equal(round_layout(S, [0.1, 0.4, 0.2]), [0, 1, 0, 1, 0])
+    # the result is symmetric whatever z is
+    w = round_layout(S, [0.3, 0.7, 0.55], 4)
+    np.testing.assert_array_equal(w, w[::-1])
+
+
+def test_placement_budget_constraint_holds(small):
+    # relaxed weights with a flap-count budget of 2 (of 5): the solution's weights sum to <= 2
+    # (Ipopt constr_viol_tol 1e-6) and stay symmetric (one variable per mirror pair)
+    s, model = small
+    s2 = replace(s, optimise_placement=True, flap_budget=2, max_iter=15,
+                 robust_design_speeds_m_s=(40.0,))
+    prob = DesignProblem(s2, model)
+    res = prob.solve(THETA, np.array([0.0, 40.0, 70.0]))
+    assert res.weights.sum() <= 2.0 + 1e-6
+    np.testing.assert_allclose(res.weights, res.weights[::-1], rtol=0, atol=1e-12)
