@@ -28,6 +28,7 @@ from design.records import (
     BuffetingComparison,
     FlapCountCheck,
     FlapCountSearch,
+    ParetoPoint,
     StartRecord,
     Verification,
 )
@@ -35,6 +36,7 @@ from design.result import DesignResult
 from design.settings import DesignSettings
 from model.control import Compensator, Controller
 
+NAN = float("nan")
 #: Nominal first start (b2, b1, b0, a2, a1): static gain -1 (flap against pitch), mild rate.
 NOMINAL_START = np.array([0.0, 0.5, -1.0, 0.05, 0.5])
 #: Candidates screened per Sobol start (:func:`screened_starts`).
@@ -239,7 +241,9 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
         robust_bound_holds=res.robust_bound_holds, robust=rob, verification=ver16,
         robust_cuts=res.robust_cuts, gain_cuts=res.gain_cuts,
         flap_positions_m=tuple(float(x) for x in positions),
-        design_speeds_m_s=res.design_speeds_m_s, weights_continuous=w_cont)
+        design_speeds_m_s=res.design_speeds_m_s, weights_continuous=w_cont,
+        nlp_active_speeds_m_s=nlp_active_speeds(res.solve, res.design_speeds_m_s,
+                                                settings.n_eig))
 
 
 def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
@@ -249,9 +253,12 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
     The optimised ``theta`` is kept; each count is verified on the dense grid with the
     minimum damping ratio ``zeta_min`` on the verification model (``verification_modes``).
     Returns the records per count and the minimum. ``spec``: the bridge (default
-    ``settings.bridge``).
+    ``settings.bridge``). Counts: ``counts``, else ``min_flap_counts``, else (default) every
+    count from ``flap_count`` down to 1 (the same-K check is cheap: one dense sweep each).
     """
     counts = settings.min_flap_counts if counts is None else counts
+    if not counts:
+        counts = tuple(range(settings.flap_count, 0, -1))
     rows = []
     best = None
     for c in counts:
@@ -269,6 +276,66 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
         if ok:
             best = int(c) if best is None else min(best, int(c))
     return FlapCountSearch(minimum=best, counts=tuple(rows), modes=settings.verification_modes)
+
+
+def flap_count_pareto(settings: DesignSettings, theta0, counts=None, spec=None,
+                      log=None) -> dict:
+    """Flap count against robust margin and stable speed, K(s) re-optimised for every count.
+
+    Counts from ``flap_count`` down (``counts`` overrides; default every count
+    ``pareto_step`` apart down to 1), each the evenly spaced symmetric layout
+    :meth:`DesignSettings.positions`; each is designed by
+    :meth:`design.nlp.DesignProblem.solve_with_cuts` warm-started from the previous count's
+    K (the first from ``theta0``) and verified like a design (damping and gain on the design
+    model, stability on the verification model). The search stops after two consecutive
+    counts that do not verify (fewer flaps have less authority). Returns ``{"points": [...],
+    "minimum_verified": count or None}``.
+    """
+    log = log or (lambda msg: None)
+    if counts is None:
+        counts = list(range(settings.flap_count, 0, -max(1, settings.pareto_step)))
+    pts, theta, fails = [], np.asarray(theta0, float), 0
+    for c in counts:
+        t0 = time.perf_counter()
+        pos = settings.positions(c)
+        _, model = build_model(settings, positions=pos, spec=spec)
+        prob = DesignProblem(replace(settings, optimise_placement=False), model, spec=spec)
+        try:
+            res = prob.solve_with_cuts(theta)
+        except Exception as exc:  # noqa: BLE001 - a failed count is a point (STYLE)
+            pts.append(ParetoPoint(c, f"failed: {exc}", False, NAN, NAN, NAN, NAN, 0,
+                                   time.perf_counter() - t0, tuple(theta)))
+            fails += 1
+            if fails >= 2:
+                break
+            continue
+        th = res.theta
+        ver = res.verification
+        ver16 = (verify_layout(settings, th, pos, spec=spec)
+                 if settings.verification_modes != settings.n_modes else ver)
+        ok = bool(ver.meets_damping and ver.max_gain <= settings.gain_limit
+                  and ver16.stable_everywhere)
+        rob = prob.robust_margin(th)
+        pts.append(ParetoPoint(
+            flap_count=int(c), ipopt_status=res.solve.ipopt_status, verified=ok,
+            robust_margin=rob.margin, max_gain=ver.max_gain,
+            min_damping_ratio=ver.min_damping_ratio, stable_to_m_s=ver16.stable_to_m_s,
+            iterations=sum(r.iterations for r in res.rounds),
+            time_s=time.perf_counter() - t0, theta=tuple(float(v) for v in th)))
+        log(f"pareto: {c} flaps {'verified' if ok else 'not verified'}, margin "
+            f"{rob.margin:.3g}, stable to {ver16.stable_to_m_s} m/s")
+        if ok:
+            theta, fails = th, 0
+        else:
+            fails += 1
+            if fails >= 2:
+                break
+    good = [p.flap_count for p in pts if p.verified]
+    return {"points": [p.to_dict() for p in pts],
+            "minimum_verified": min(good) if good else None,
+            "criterion": "K(s) re-optimised per count; verified = damping >= zeta_min and "
+                         "gain <= gain_limit on the design model, stable on the "
+                         "verification model (dense grids)"}
 
 
 def buffeting_comparison(settings: DesignSettings, controller: Controller, speeds=None,
@@ -339,6 +406,23 @@ def closed_loop_limits(settings: DesignSettings, controller: Controller, spec=No
     return out
 
 
+#: A damping constraint of the NLP is active at its solution when within this [1/s] of 0
+#: (the constraint enters scaled by EIG_SCALE = 100; Ipopt's tol 1e-6 on the scaled
+#: complementarity leaves an active one at ~1e-8 1/s; 1e-5 1/s is 0.2 % of zeta_min |lambda|
+#: at the flutter frequency ~1 rad/s).
+ACTIVE_ABS_TOL_1_S = 1e-5
+
+
+def nlp_active_speeds(solve, speeds, n_eig) -> tuple:
+    """Design speeds [m/s] where a damping constraint of the NLP solution is active."""
+    g = np.asarray(solve.constraints_eig_1_s, float).reshape(-1, n_eig)
+    sp = np.asarray(sorted(speeds), float)
+    if g.shape[0] != sp.size:
+        return ()
+    return tuple(float(u) for u, row in zip(sp, g, strict=True)
+                 if np.max(row) >= -ACTIVE_ABS_TOL_1_S)
+
+
 def active_constraints(settings: DesignSettings, start, ver) -> dict:
     """Which constraints bind at the chosen design (``ver``: its dense design-model check).
 
@@ -360,8 +444,10 @@ def active_constraints(settings: DesignSettings, start, ver) -> dict:
     bounds = [f"{n} {'lower' if abs(v - a) <= 1e-6 * max(1.0, abs(a)) else 'upper'}"
               for n, v, a, b in zip(names, th, lo, hi, strict=True)
               if abs(v - a) <= 1e-6 * max(1.0, abs(a)) or abs(v - b) <= 1e-6 * max(1.0, abs(b))]
-    any_active = bool(damp.size or gain or bounds)
+    nlp = list(getattr(start, "nlp_active_speeds_m_s", ()))
+    any_active = bool(damp.size or gain or bounds or nlp)
     return {"damping_speeds_m_s": [float(u) for u in damp],
+            "nlp_active_damping_speeds_m_s": nlp,
             "min_damping_ratio": float(np.min(z)),
             "min_damping_speed_m_s": float(U[int(np.argmin(z))]),
             "gain_limit": gain, "coefficient_bounds": bounds,
@@ -439,6 +525,14 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
     starts0 = np.vstack([first, screened_starts(settings, settings.starts - 1, spec=spec)])[
         :settings.starts]
     n = len(starts0)
+    phases, tp = {}, [time.perf_counter()]
+
+    def mark(name):
+        now = time.perf_counter()
+        phases[name] = phases.get(name, 0.0) + now - tp[0]
+        tp[0] = now
+
+    mark("screening starts")
     if settings.parallel and settings.starts > 1:
         from concurrent.futures import ProcessPoolExecutor
 
@@ -456,6 +550,7 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
             f"{settings.verification_modes}-mode check stable: "
             f"{r.verification.stable_everywhere if r.verification else None}, verified: "
             f"{r.verified}")
+    mark("starts (Ipopt, cuts, verification)")
     best, status = select_start(records, settings.gain_limit)
     controller = None
     absc_u = settings.check_speeds()
@@ -482,18 +577,31 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
         _, model_d = build_model(settings, positions=positions, spec=spec)
         ver_d = DesignProblem(replace(settings, optimise_placement=False), model_d).verify(theta)
         extras["active_constraints"] = active_constraints(settings, best, ver_d)
+        mark("chosen design checks")
         try:
-            extras["closed_loop_limits"] = closed_loop_limits(settings, controller, spec=spec)
+            lim = closed_loop_limits(settings, controller, spec=spec)
+            log(f"closed loop: flutter {lim['flutter_speed_m_s']:.2f} m/s "
+                f"({lim['flutter_status']}), divergence {lim['divergence_speed_m_s']:.2f} m/s "
+                f"({lim['divergence_status']}; static {lim['divergence_static_speed_m_s']:.2f}"
+                f"), governing {lim['governing_speed_m_s']:.2f} m/s "
+                f"{lim['governing_mechanism']}")
         except Exception as exc:  # noqa: BLE001 - a report item, not the design
-            extras["closed_loop_limits"] = {"status": f"failed: {exc}"}
-        log(f"closed-loop limits: {extras['closed_loop_limits']}")
+            lim = {"status": f"failed: {exc}"}
+        extras["closed_loop_limits"] = lim
+        mark("closed-loop limits")
         if status in ("converged", "unverified"):
             min_flaps = minimum_flap_count(settings, theta, spec=spec)
-            log(f"minimum flap count: {min_flaps.minimum}")
+            log(f"minimum flap count (same K): {min_flaps.minimum}")
+            mark("flap-count check (same K)")
+            if settings.pareto:
+                extras["pareto"] = flap_count_pareto(settings, theta, spec=spec, log=log)
+                mark("flap-count Pareto (K re-optimised)")
             try:
                 extras["buffeting"] = buffeting_comparison(settings, controller, spec=spec)
             except Exception as exc:  # noqa: BLE001 - a report item, not the design
                 extras["buffeting"] = BuffetingComparison(status=f"failed: {exc}")
+            mark("buffeting comparison")
+    extras["phase_times_s"] = phases
     usable = controller if status == "converged" else None
     return DesignResult(status=status, settings=settings, controller=usable,
                         candidate=controller,

@@ -257,6 +257,7 @@ class StartRecord:
     flap_positions_m: tuple = ()
     design_speeds_m_s: tuple = ()
     weights_continuous: tuple | None = None
+    nlp_active_speeds_m_s: tuple = ()
 
     @property
     def failed(self) -> bool:
@@ -381,3 +382,34 @@ class BuffetingComparison:
                 "closed_loop_rms_vertical_m": list(self.closed_loop_rms_vertical_m),
                 "open_loop_rms_torsion_rad": list(self.open_loop_rms_torsion_rad),
                 "closed_loop_rms_torsion_rad": list(self.closed_loop_rms_torsion_rad)}
+
+
+@dataclass(frozen=True)
+class ParetoPoint:
+    """One flap count of the Pareto search (``design.driver.flap_count_pareto``): K(s)
+    re-optimised for the evenly spaced symmetric layout of ``flap_count`` flaps, verified.
+
+    ``verified``: damping and gain on the design model's dense grid and stable on the
+    verification model's (the same criterion as a converged design); ``robust_margin`` the
+    dense small-gain margin [-]; ``stable_to_m_s`` on the verification model [m/s];
+    ``theta`` the re-optimised coefficients.
+    """
+
+    flap_count: int
+    ipopt_status: str
+    verified: bool
+    robust_margin: float
+    max_gain: float
+    min_damping_ratio: float
+    stable_to_m_s: float
+    iterations: int
+    time_s: float
+    theta: tuple
+
+    def to_dict(self) -> dict:
+        """One entry of ``pareto.points``."""
+        return {"flap_count": self.flap_count, "status": self.ipopt_status,
+                "verified": self.verified, "robust_margin": self.robust_margin,
+                "max_gain": self.max_gain, "min_damping_ratio": self.min_damping_ratio,
+                "stable_to_m_s": self.stable_to_m_s, "iterations": self.iterations,
+                "time_s": self.time_s, "theta": list(self.theta)}

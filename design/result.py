@@ -77,6 +77,9 @@ class DesignResult:
                                         "sensitivity of the flap loop (small-gain theorem)",
             "robust_T_inf_by_speed": b.t_inf_by_speed() if b is not None else {},
             "gamma_T_frobenius": b.gamma_T_frobenius if b is not None else NAN,
+            # the optimiser's own margin 1/gamma_T against the verified one (peak tracking)
+            "robust_margin_optimiser": (1.0 / b.gamma_T_frobenius
+                                        if b is not None and b.gamma_T_frobenius > 0 else NAN),
             "closed_loop_stable_to_m_s": b.stable_to_m_s if b is not None else NAN,
             "design_modes": self.settings.n_modes,
             "verification": (b.verification.to_dict()
@@ -86,6 +89,7 @@ class DesignResult:
                           else {}),
             "zeta_min": self.settings.zeta_min,
             "active_constraints": self.extras.get("active_constraints", {}),
+            "pareto": self.extras.get("pareto", {}),
             "closed_loop_limits": self.extras.get("closed_loop_limits", {}),
             "spectral_abscissa_by_speed": [
                 {"speed_m_s": float(u), "abscissa_1_s": float(a)}

@@ -89,7 +89,9 @@ class DesignSettings:
     b_bound: float = 15.0
     a2_bounds: tuple = (1e-3, 5.0)
     a1_bounds: tuple = (1e-2, 10.0)
-    min_flap_counts: tuple = (25, 21, 17, 13, 9, 7, 5, 3, 1)
+    min_flap_counts: tuple = ()
+    pareto: bool = False
+    pareto_step: int = 2
     extras: dict = field(default_factory=dict, compare=False)
 
     def __post_init__(self):
@@ -106,7 +108,8 @@ class DesignSettings:
                      "weight_buffeting", "weight_robust", "weight_flaps"):
             _num(name, getattr(self, name), nonneg=True)
         for name in ("n_modes", "verification_modes", "flap_count", "n_eig", "n_omega",
-                     "n_robust_omega", "starts", "max_iter", "resolve_max_iter"):
+                     "n_robust_omega", "starts", "max_iter", "resolve_max_iter",
+                     "pareto_step"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise BridgeflapInputError(name, f"must be a positive integer, got {v!r}")
@@ -125,6 +128,8 @@ class DesignSettings:
                 _num(name, v, positive=True)
         if not isinstance(self.optimise_placement, bool):
             raise BridgeflapInputError("optimise_placement", "must be true or false")
+        if not isinstance(self.pareto, bool):
+            raise BridgeflapInputError("pareto", "must be true or false")
         if not isinstance(self.symmetric_layout, bool):
             raise BridgeflapInputError("symmetric_layout", "must be true or false")
         if (isinstance(self.flap_budget, bool) or not isinstance(self.flap_budget, int)
@@ -197,4 +202,4 @@ def quick_settings(settings: DesignSettings) -> DesignSettings:
     status says whether it holds.
     """
     return replace(settings, starts=1, design_step_m_s=max(settings.design_step_m_s, 10.0),
-                   cutting_plane_rounds=1, min_flap_counts=(25, 13, 5))
+                   cutting_plane_rounds=1, min_flap_counts=(25, 13, 5), pareto=False)
