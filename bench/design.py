@@ -4,16 +4,16 @@ Default: the full default ``optimise`` (the packaged design definition, every st
 verification, closed-loop limits, flap-count check, buffeting comparison) through
 :func:`design.driver.design`: wall time, Ipopt iterations per start and round, and the share
 of the wall time per phase (``DesignResult.extras["phase_times_s"]``; inside the starts, the
-Ipopt share and the eigenvalue-constraint share). The machine is shared: quote the best of
+Ipopt share of each start). The machine is shared: quote the best of
 several runs taken at a quiet moment, with the load average printed here.
 
-``--solves``: for each (retained modes, design step) pair, one Ipopt solve (robust epigraph
-on, no cutting planes) from the same start: build time, wall time, Ipopt iterations, time per eigenvalue
-constraint evaluation (one ``eig`` with left/right vectors at one speed; the Jacobian reuses
-it), time of one robust-constraint evaluation and its Jacobian (all points), and the dense
-check on the same model; the optimiser's gamma_T (Frobenius bound at the sample points) against
-the dense sigma_max peak of T at the robust check speeds (the robust cutting-plane test) and
-the time of that dense check.
+``--solves``: for each (retained modes, design step) pair, one Ipopt solve (robust epigraph on, no
+cutting planes) from the same start: build time, wall time, Ipopt iterations, time per eigenvalue
+constraint evaluation (one ``eig`` with left/right vectors at one speed; the Jacobian reuses it),
+time of one robust-constraint evaluation and its Jacobian (all points), and the dense check on the
+same model; the optimiser's gamma_T (Frobenius bound at the sample points) against the dense
+sigma_max peak of T at the robust check speeds (the robust cutting-plane test) and the time of that
+dense check.
 """
 
 from __future__ import annotations
