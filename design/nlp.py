@@ -54,7 +54,7 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from design.buffeting_term import BuffetingCost
+from design.buffeting_term import BuffetingCost, SymbolicBuffeting
 from design.eigen import PolynomialStructuralDamping
 from design.plant import (
     damping_check,
@@ -401,7 +401,12 @@ class DesignProblem:
             lbg.append(np.full(n_rob, -np.inf))
             ubg.append(np.zeros(n_rob))
             f = f + s.weight_robust * gT
-        if s.weight_buffeting > 0:
+        if s.weight_buffeting > 0 and s.buffeting_term == "casadi":
+            if "buffeting_sym" not in self.callbacks:
+                self.callbacks["buffeting_sym"] = SymbolicBuffeting(
+                    self, theta0, self.weights if weights0 is None else weights0)
+            f = f + s.weight_buffeting * self.callbacks["buffeting_sym"](th, w)
+        elif s.weight_buffeting > 0:
             bcb = BuffetingCost(self, self.n_p)
             self.callbacks["buffeting"] = bcb
             f = f + s.weight_buffeting * bcb(p)

@@ -76,6 +76,7 @@ class DesignSettings:
     weight_regularisation: float = 1e-3
     weight_buffeting: float = 0.0
     buffeting_speeds_m_s: tuple = (10.0, 20.0, 25.0)
+    buffeting_term: str = "callback"
     optimise_placement: bool = False
     weight_flaps: float = 0.0
     symmetric_layout: bool = True
@@ -128,6 +129,9 @@ class DesignSettings:
                 _num(name, v, positive=True)
         if not isinstance(self.optimise_placement, bool):
             raise BridgeflapInputError("optimise_placement", "must be true or false")
+        if self.buffeting_term not in ("callback", "casadi"):
+            raise BridgeflapInputError("buffeting_term", "must be 'callback' (numpy, forward "
+                                       f"differences) or 'casadi', got {self.buffeting_term!r}")
         if not isinstance(self.pareto, bool):
             raise BridgeflapInputError("pareto", "must be true or false")
         if not isinstance(self.symmetric_layout, bool):
