@@ -183,14 +183,18 @@ def round_layout(S, z, budget=0) -> np.ndarray:
 
 
 def run_start(settings: DesignSettings, theta0, index: int, spec=None,
-              progress_bar=None) -> StartRecord:
+              progress_bar=None, variants=()) -> StartRecord:
     """One start: solve with cuts (placement: round the weights, re-solve), then the dense
     robust margin and the check on the verification model. A failure is a record (STYLE).
     ``spec``: the bridge (default ``settings.bridge``); ``progress_bar``: a tqdm bar of the
-    Ipopt iterations on stderr (None: when stderr is a terminal)."""
+    Ipopt iterations on stderr (None: when stderr is a terminal); ``variants``: bridge
+    variants (BridgeSpec) of a multi-model design -- every damping constraint and check on
+    every variant as well."""
     t0 = time.perf_counter()
     spec, model = build_model(settings, spec=spec)
     prob = DesignProblem(settings, model, spec=spec)
+    prob.variants = [DesignProblem(settings, build_model(settings, spec=v)[1], spec=v)
+                     for v in variants]
     bar = _progress_bar(index, progress_bar)
     if bar is not None:
         def tick(i, f, x):
@@ -209,6 +213,9 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
             fixed = DesignProblem(replace(settings, optimise_placement=False), model,
                                   weights=weights, spec=spec)
             fixed.on_iteration = prob.on_iteration
+            fixed.variants = [DesignProblem(replace(settings, optimise_placement=False),
+                                            v.model, weights=weights, spec=v.spec)
+                              for v in prob.variants]
             res = fixed.solve_with_cuts(res.theta)
             rounds += [replace(r, placement="rounded") for r in res.rounds]
             prob = fixed
@@ -227,6 +234,8 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     ver16 = (verify_layout(settings, theta, positions, spec=spec)
              if settings.verification_modes != settings.n_modes else ver)
     gain_ok = bool(ver.max_gain <= settings.gain_limit)
+    vchecks = [q.verify(theta, weights) for q in prob.variants]
+    variants_ok = all(v.meets_damping for v in vchecks)
     return StartRecord(
         start=index, theta0=theta0, theta=tuple(float(v) for v in theta),
         ipopt_status=res.solve.ipopt_status, success=res.solve.success,
@@ -235,7 +244,8 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
         stable_to_m_s=ver.stable_to_m_s, stable_everywhere=ver.stable_everywhere,
         max_gain=ver.max_gain, meets_damping=ver.meets_damping, gain_ok=gain_ok,
         # verified: every a posteriori check holds, whatever Ipopt's exit status
-        verified=bool(ver.meets_damping and gain_ok and ver16.stable_everywhere),
+        verified=bool(ver.meets_damping and gain_ok and ver16.stable_everywhere
+                      and variants_ok),
         gamma_T_frobenius=res.solve.gamma_T,
         dense_t_peak_check_speeds=res.robust.peak if res.robust is not None else float("nan"),
         robust_bound_holds=res.robust_bound_holds, robust=rob, verification=ver16,
@@ -243,7 +253,10 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
         flap_positions_m=tuple(float(x) for x in positions),
         design_speeds_m_s=res.design_speeds_m_s, weights_continuous=w_cont,
         nlp_active_speeds_m_s=nlp_active_speeds(res.solve, res.design_speeds_m_s,
-                                                settings.n_eig))
+                                                settings.n_eig),
+        variant_checks=tuple({"meets_damping": v.meets_damping,
+                              "min_damping_ratio": v.min_damping_ratio,
+                              "stable_to_m_s": v.stable_to_m_s} for v in vchecks))
 
 
 def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
@@ -494,6 +507,39 @@ def warm_start_theta(warm_start) -> np.ndarray:
     return th
 
 
+def sample_variants(settings: DesignSettings, spec, count: int, seed: int) -> list:
+    """``count`` bridge variants of ``spec``: a scrambled Sobol' sample of the estimated-input
+    ranges of the global sensitivity study (:data:`design.screening.DEFAULT_UNCERTAIN_RANGES`)
+    without the ``variant_fixed`` parameters (held at ``spec``'s values)."""
+    from design.designs import sobol
+    from design.screening import DEFAULT_UNCERTAIN_RANGES
+
+    if count <= 0:
+        return []
+    ranges = {k: v for k, v in DEFAULT_UNCERTAIN_RANGES.items()
+              if k not in settings.variant_fixed}
+    return [spec.replace(**{k: v for k, v in case.items() if k in ranges})
+            for case in sobol(ranges, int(count), int(seed))]
+
+
+def fresh_variant_check(settings: DesignSettings, controller: Controller, specs) -> dict:
+    """A posteriori check of a design on fresh variants (not in the design set) on the finer
+    ``fresh_variant_modes`` model: the fraction stable 0..speed_max and meeting ``zeta_min``."""
+    rows = []
+    th = warm_start_theta(controller)
+    for v in specs:
+        ver = verify_layout(settings, th, controller.flap_strip_positions_m,
+                            n_modes=settings.fresh_variant_modes, spec=v)
+        rows.append({"stable_everywhere": ver.stable_everywhere,
+                     "stable_to_m_s": ver.stable_to_m_s, "meets_damping": ver.meets_damping,
+                     "min_damping_ratio": ver.min_damping_ratio})
+    n = max(len(rows), 1)
+    return {"count": len(rows), "modes": settings.fresh_variant_modes,
+            "fraction_stable": sum(r["stable_everywhere"] for r in rows) / n,
+            "fraction_meeting_damping": sum(r["meets_damping"] for r in rows) / n,
+            "variants": rows}
+
+
 def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
            progress_bar=None) -> DesignResult:
     """Multistart design with cutting planes, 16-mode verification and flap-count search.
@@ -522,6 +568,10 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
     # start 0 is a nominal phase-lead-free design (K ~ -1 static, light lag) or the warm
     # start, the others Sobol
     first = NOMINAL_START if warm_start is None else warm_start_theta(warm_start)
+    from model.spec import load_bridge
+
+    base = load_bridge(settings.bridge) if spec is None else spec
+    variants = sample_variants(settings, base, settings.variants, settings.variant_seed)
     starts0 = np.vstack([first, screened_starts(settings, settings.starts - 1, spec=spec)])[
         :settings.starts]
     n = len(starts0)
@@ -538,9 +588,9 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
 
         with ProcessPoolExecutor(max_workers=min(2, settings.starts)) as ex:
             records = list(ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n,
-                                  [progress_bar] * n))
+                                  [progress_bar] * n, [variants] * n))
     else:
-        records = [run_start(settings, th, i, spec, progress_bar)
+        records = [run_start(settings, th, i, spec, progress_bar, variants)
                    for i, th in enumerate(starts0)]
     for r in records:
         log(f"start {r.start}: {r.ipopt_status} in {r.time_s:.1f} s, "
@@ -593,6 +643,14 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
             min_flaps = minimum_flap_count(settings, theta, spec=spec)
             log(f"minimum flap count (same K): {min_flaps.minimum}")
             mark("flap-count check (same K)")
+            if settings.fresh_variants > 0:
+                fresh = sample_variants(settings, base, settings.fresh_variants,
+                                        settings.variant_seed + 1000)
+                extras["fresh_variants"] = fresh_variant_check(settings, controller, fresh)
+                extras["fresh_variants"]["design_variants"] = len(variants)
+                log(f"fresh variants: {extras['fresh_variants']['fraction_stable']:.2f} "
+                    f"stable 0..{settings.speed_max_m_s} m/s")
+                mark("fresh-variant check")
             if settings.pareto:
                 extras["pareto"] = flap_count_pareto(settings, theta, spec=spec, log=log)
                 mark("flap-count Pareto (K re-optimised)")

@@ -180,6 +180,9 @@ class DesignProblem:
         self.gain_cuts: list[float] = []
         #: ``(iteration, objective, x) -> None`` called once per Ipopt iteration (progress).
         self.on_iteration = None
+        #: Multi-model design: problems on bridge variants (same layout and settings) whose
+        #: damping constraints join the NLP and whose dense checks join the verification.
+        self.variants: list[DesignProblem] = []
 
     @property
     def symmetry(self) -> np.ndarray:
@@ -431,6 +434,11 @@ class DesignProblem:
             lbx += [0.0] * self.n_z
             ubx += [1.0] * self.n_z
             x0 = np.append(x0, np.clip(self.z_of(w0), 0.0, 1.0))
+        for v in self.variants:     # multi-model: every damping constraint on every variant
+            g.append(EIG_SCALE * v.grid_callback(speeds)(p))
+            lbg.append(np.full(n_eig_cons, -np.inf))
+            ubg.append(np.full(n_eig_cons, -EIG_SCALE * FEASIBILITY_BACKOFF_1_S
+                               if feasibility else 0.0))
         nlp = {"x": x, "f": f, "g": ca.vertcat(*g)}
         opts = {"ipopt.hessian_approximation": "limited-memory",
                 "ipopt.max_iter": int(max_iter or s.max_iter), "ipopt.print_level": 0,
@@ -521,7 +529,8 @@ class DesignProblem:
         kept = []
         use_rob = s.weight_robust > 0 and (bool(s.robust_design_speeds_m_s)
                                            or bool(s.robust_speeds_m_s))
-        viol0 = float(np.max(self.constraint_values(theta, sorted(speeds), w)))
+        viol0 = max(float(np.max(q.constraint_values(theta, sorted(speeds), w)))
+                    for q in [self, *self.variants])
         if viol0 > 0:
             ph1 = self.solve(theta, np.array(sorted(speeds)), weights0=w, feasibility=True)
             ver1 = self.verify(ph1.theta, ph1.weights)
@@ -545,7 +554,8 @@ class DesignProblem:
             theta, w = res.theta, res.weights
             gamma = res.gamma_T if use_rob else None
             ver = self.verify(theta, w)
-            eig_ok = ver.max_violation_1_s <= VIOLATION_TOL
+            vvers = [v.verify(theta, w) for v in self.variants]
+            eig_ok = all(vv.max_violation_1_s <= VIOLATION_TOL for vv in [ver, *vvers])
             gain_ok = ver.max_gain <= s.gain_limit
             rob_ok, new_rob = True, []
             rob = None
@@ -573,9 +583,9 @@ class DesignProblem:
                             * (1.0 - GAIN_BACKOFF) and float(x) not in self.gain_cuts]
             new_speeds = []
             if not eig_ok:
-                new_speeds = [u for u in _worst_per_run(ver.speeds_m_s,
-                                                        ver.violation_1_s > VIOLATION_TOL,
-                                                        ver.violation_1_s) if u not in speeds]
+                viol = np.max([vv.violation_1_s for vv in [ver, *vvers]], axis=0)
+                new_speeds = [u for u in _worst_per_run(ver.speeds_m_s, viol > VIOLATION_TOL,
+                                                        viol) if u not in speeds]
             peak = rob.peak if rob else float("nan")
             history.append(CutRound(
                 round=rnd, ipopt_status=res.ipopt_status, iterations=res.iterations,

@@ -258,6 +258,7 @@ class StartRecord:
     design_speeds_m_s: tuple = ()
     weights_continuous: tuple | None = None
     nlp_active_speeds_m_s: tuple = ()
+    variant_checks: tuple = ()
 
     @property
     def failed(self) -> bool:
@@ -279,6 +280,8 @@ class StartRecord:
         out = {"start": self.start, "theta0": list(self.theta0)}
         if self.weights_continuous is not None:
             out["weights_continuous"] = list(self.weights_continuous)
+        if self.variant_checks:
+            out["variant_checks"] = list(self.variant_checks)
         if self.failed:
             return out | {"status": self.ipopt_status, "success": self.success,
                           "time_s": self.time_s}

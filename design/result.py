@@ -90,6 +90,7 @@ class DesignResult:
             "zeta_min": self.settings.zeta_min,
             "active_constraints": self.extras.get("active_constraints", {}),
             "pareto": self.extras.get("pareto", {}),
+            "fresh_variants": self.extras.get("fresh_variants", {}),
             "closed_loop_limits": self.extras.get("closed_loop_limits", {}),
             "spectral_abscissa_by_speed": [
                 {"speed_m_s": float(u), "abscissa_1_s": float(a)}

@@ -92,6 +92,11 @@ class DesignSettings:
     a1_bounds: tuple = (1e-2, 10.0)
     min_flap_counts: tuple = ()
     pareto: bool = False
+    variants: int = 0
+    fresh_variants: int = 0
+    fresh_variant_modes: int = 30
+    variant_seed: int = 7
+    variant_fixed: tuple = ("deck.half_chord_m", "aero.coherence_decay")
     pareto_step: int = 2
     extras: dict = field(default_factory=dict, compare=False)
 
@@ -110,7 +115,7 @@ class DesignSettings:
             _num(name, getattr(self, name), nonneg=True)
         for name in ("n_modes", "verification_modes", "flap_count", "n_eig", "n_omega",
                      "n_robust_omega", "starts", "max_iter", "resolve_max_iter",
-                     "pareto_step"):
+                     "pareto_step", "fresh_variant_modes"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise BridgeflapInputError(name, f"must be a positive integer, got {v!r}")
@@ -129,6 +134,10 @@ class DesignSettings:
                 _num(name, v, positive=True)
         if not isinstance(self.optimise_placement, bool):
             raise BridgeflapInputError("optimise_placement", "must be true or false")
+        for name in ("variants", "fresh_variants", "variant_seed"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise BridgeflapInputError(name, f"must be an integer >= 0, got {v!r}")
         if self.buffeting_term not in ("callback", "casadi"):
             raise BridgeflapInputError("buffeting_term", "must be 'callback' (numpy, forward "
                                        f"differences) or 'casadi', got {self.buffeting_term!r}")
@@ -190,7 +199,7 @@ def load_settings(path=None, **overrides) -> DesignSettings:
     unknown = sorted(set(flat) - _TOML_KEYS)
     if unknown:
         raise BridgeflapInputError(unknown[0], "unknown design setting")
-    for key in ("a2_bounds", "a1_bounds", "min_flap_counts", "robust_speeds_m_s",
+    for key in ("a2_bounds", "a1_bounds", "min_flap_counts", "robust_speeds_m_s", "variant_fixed",
                 "robust_design_speeds_m_s", "buffeting_speeds_m_s"):
         if key in flat:
             flat[key] = tuple(flat[key])
