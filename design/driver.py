@@ -9,10 +9,17 @@ Verification. Every solution is checked a posteriori on the dense ``check_step_m
 the design model is reduced, on the ``verification_modes`` model that ``bridgeflap flutter``
 uses (:data:`model.analysis.DEFAULT_MODES`); the result reports both honestly.
 
-Placement. With ``optimise_placement`` the per-flap weights ``w`` (load factor, 1 = fitted)
-are NLP variables with a penalty ``weight_flaps * sum(w)/n_flaps``; the solution is rounded
-(``w > 0.5`` fitted), ``theta`` re-solved for the rounded layout and re-verified. The minimum
-flap count search over evenly spaced layouts remains as the fallback.
+Placement. With ``optimise_placement`` the per-flap weights ``w`` (load factor, 1 = fitted;
+one per mirror pair with ``symmetric_layout``) are NLP variables with an optional budget
+``sum(w) <= flap_budget`` and penalty ``weight_flaps * sum(w)/n_flaps``; the solution is
+rounded by whole pairs (:func:`round_layout`), ``theta`` re-solved for the rounded layout and
+re-verified. :func:`minimum_flap_count` checks every evenly spaced count with the same K;
+:func:`flap_count_pareto` (``pareto = true``) re-optimises and verifies K for every count.
+
+Every result reports the closed-loop flutter and divergence limits and mechanism
+(:func:`closed_loop_limits`) and the constraints active at the optimum
+(:func:`active_constraints`). Multi-model (``variants`` > 0): damping constraints on bridge
+variants sampled over the estimated-input ranges, fresh variants checked a posteriori.
 """
 
 from __future__ import annotations
