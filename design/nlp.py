@@ -610,7 +610,10 @@ class DesignProblem:
                 self.robust_cuts), gain_cuts=list(self.gain_cuts)), eig_ok and gain_ok, peak))
             if (eig_ok and gain_ok and rob_ok) or not _a2_ok(theta):
                 break
-            if rnd == s.cutting_plane_rounds or not (new_speeds or new_gain or new_rob):
+            # no new cut: stop, unless the solve ran out of iterations short of the checks --
+            # then the next round continues it (re-solve to convergence)
+            if rnd == s.cutting_plane_rounds or not (new_speeds or new_gain or new_rob
+                                                     or not res.success):
                 break
             speeds.extend(new_speeds)
             self.gain_cuts.extend(new_gain)
