@@ -546,3 +546,26 @@ def test_multi_model_design_constrains_every_variant(small_box):
     if res.success:     # a converged solve is feasible on every variant's design grid
         for q in prob.variants:
             assert np.max(q.constraint_values(res.theta, s2.design_speeds())) <= 1e-6
+
+
+def test_closed_loop_limits_reported_with_mechanism(small_box):
+    # the reported limits are model.analysis.closed_loop_flutter's, searched to 2 x 85 m/s,
+    # and the governing one is the lower of the sweep's critical speed and the static check
+    from design.driver import closed_loop_limits
+    from model.analysis import closed_loop_flutter
+    from model.spec import load_bridge
+
+    s, model = small_box
+    ctrl = Controller(Compensator(*THETA), tuple(s.positions()), s.flap_width_m)
+    lim = closed_loop_limits(s, ctrl)
+    ref = closed_loop_flutter(load_bridge(s.bridge), ctrl, np.arange(0.0, 170.0001, 0.5),
+                              n_modes=6).summary()
+    assert lim["searched_to_m_s"] == 170.0 and lim["modes"] == 6
+    for k in ("flutter_speed_m_s", "divergence_speed_m_s", "divergence_static_speed_m_s"):
+        assert lim[k] == ref[k] or (np.isnan(lim[k]) and np.isnan(ref[k]))
+    assert lim["flutter_status"] in ("converged", "no_crossing_in_range", "bracket_failed",
+                                     "unstable_at_first_speed")
+    cands = [v for v in (ref["critical_speed_m_s"], ref["divergence_static_speed_m_s"])
+             if np.isfinite(v)]
+    assert lim["governing_speed_m_s"] == min(cands)
+    assert lim["governing_mechanism"] in ("flutter", "divergence", "divergence (static)")
