@@ -569,3 +569,22 @@ def test_closed_loop_limits_reported_with_mechanism(small_box):
              if np.isfinite(v)]
     assert lim["governing_speed_m_s"] == min(cands)
     assert lim["governing_mechanism"] in ("flutter", "divergence", "divergence (static)")
+
+
+@pytest.mark.slow
+def test_b1425_with_5m_flaps_is_stable_to_85(tmp_path):
+    # the built-in b = 14.25 m Humber with 5 m flaps (design/studies/humber_b1425_flaps5m.toml,
+    # one start): stable 0..85 m/s on the 16-mode model (0.25 m/s grid) with the closed-loop
+    # limit above 85 m/s and the gain limit met (3 m flaps: no such K found, the golden case)
+    from pathlib import Path
+
+    from design.driver import design
+
+    card = Path(__file__).resolve().parents[1] / "design" / "studies" / "humber_b1425_flaps5m.toml"
+    s = load_settings(card, starts=1, parallel=False)
+    assert s.bridge == "humber" and s.flap_chord_m == 5.0
+    res = design(s, progress_bar=False)
+    d = res.summary()
+    assert d["verification"]["stable_everywhere"] and d["closed_loop_stable_to_m_s"] == 85.0
+    assert d["closed_loop_limits"]["governing_speed_m_s"] > 85.0
+    assert d["max_gain"] <= 15.0
