@@ -57,6 +57,8 @@ from model.control import Compensator, Controller
 NAN = float("nan")
 #: Nominal first start (b2, b1, b0, a2, a1): static gain -1 (flap against pitch), mild rate.
 NOMINAL_START = np.array([0.0, 0.5, -1.0, 0.05, 0.5])
+#: The same-K search over every count stops after this many consecutive failing counts.
+MISSES_TO_STOP = 3
 #: Candidates screened per Sobol start (:func:`screened_starts`).
 SCREEN_FACTOR = 8
 
@@ -285,14 +287,26 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
     minimum damping ratio ``zeta_min`` on the verification model (``verification_modes``).
     Returns the records per count and the minimum. ``spec``: the bridge (default
     ``settings.bridge``). Counts: ``counts``, else ``min_flap_counts``, else (default) every
-    count from ``flap_count`` down to 1 (the same-K check is cheap: one dense sweep each).
+    count from ``flap_count`` down to 1, stopping after ``MISSES_TO_STOP`` consecutive
+    failing counts (the same-K check is cheap: one dense sweep each, one modal solution).
     """
     counts = settings.min_flap_counts if counts is None else counts
-    if not counts:
+    every = not counts
+    if every:
         counts = tuple(range(settings.flap_count, 0, -1))
+    if modal is None:           # one modal solution for every count (the layout changes only)
+        from model.fe import assemble
+        from model.modes import solve
+        from model.spec import load_bridge
+
+        spec = load_bridge(settings.bridge) if spec is None else spec
+        modal = solve(assemble(spec))
     rows = []
     best = None
+    misses = 0
     for c in counts:
+        if every and misses >= MISSES_TO_STOP:
+            break               # fewer flaps, less authority: stop after a run of failures
         if c > settings.flap_count:
             continue
         _, model = build_model(settings, c, modal, n_modes=settings.verification_modes,
@@ -306,6 +320,7 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
                                    max_violation_1_s=ver.max_violation_1_s))
         if ok:
             best = int(c) if best is None else min(best, int(c))
+        misses = 0 if ok else misses + 1
     return FlapCountSearch(minimum=best, counts=tuple(rows), modes=settings.verification_modes)
 
 
