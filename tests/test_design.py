@@ -588,3 +588,23 @@ def test_b1425_with_5m_flaps_is_stable_to_85(tmp_path):
     assert d["verification"]["stable_everywhere"] and d["closed_loop_stable_to_m_s"] == 85.0
     assert d["closed_loop_limits"]["governing_speed_m_s"] > 85.0
     assert d["max_gain"] <= 15.0
+
+
+def test_iteration_callback_history_and_warm_start(small_box):
+    # the Ipopt iteration callback fires once per iteration (and once for iteration 0), the
+    # saved history has one entry per call, and a warm start is parsed from a Controller
+    from design.driver import warm_start_theta
+
+    s, model = small_box
+    prob = DesignProblem(replace(s, max_iter=6), model)
+    seen = []
+    prob.on_iteration = lambda i, f, x: seen.append((i, f))
+    res = prob.solve(THETA, np.array([0.0, 40.0, 80.0]))
+    assert len(seen) == res.iterations + 1
+    assert len(res.history["obj"]) == len(seen)
+    assert [f for _, f in seen] == pytest.approx(res.history["obj"], rel=1e-12)
+    ctrl = Controller(Compensator(*THETA), tuple(s.positions()), s.flap_width_m)
+    np.testing.assert_array_equal(warm_start_theta(ctrl), THETA)
+    np.testing.assert_array_equal(warm_start_theta(ctrl.compensator), THETA)
+    with pytest.raises(BridgeflapInputError, match="warm_start"):
+        warm_start_theta([1.0, 2.0])
