@@ -608,3 +608,22 @@ def test_iteration_callback_history_and_warm_start(small_box):
     np.testing.assert_array_equal(warm_start_theta(ctrl.compensator), THETA)
     with pytest.raises(BridgeflapInputError, match="warm_start"):
         warm_start_theta([1.0, 2.0])
+
+
+def test_pareto_points_are_each_verified(small_box):
+    # K re-optimised per count; each point's "verified" is recomputed here from an
+    # independent dense check of its own theta on its own layout (damping, gain, stability)
+    from design.driver import flap_count_pareto, verify_layout
+
+    s, _ = small_box
+    s2 = replace(s, max_iter=40, resolve_max_iter=20, cutting_plane_rounds=1,
+                 design_step_m_s=10.0)
+    out = flap_count_pareto(s2, THETA, counts=[5, 3])
+    assert [p["flap_count"] for p in out["points"]][:1] == [5]
+    for p in out["points"]:
+        ver = verify_layout(s2, np.array(p["theta"]), s2.positions(p["flap_count"]))
+        ok = ver.meets_damping and ver.max_gain <= s2.gain_limit and ver.stable_everywhere
+        assert p["verified"] == ok
+        assert np.isfinite(p["robust_margin"])
+    good = [p["flap_count"] for p in out["points"] if p["verified"]]
+    assert out["minimum_verified"] == (min(good) if good else None)
