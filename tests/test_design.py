@@ -358,7 +358,7 @@ def test_humber_design_stable_on_16_modes(tmp_path, capsys):
     ver = prob.verify(theta)
     assert ver.modes == DEFAULT_MODES and ver.step_m_s == 0.25
     assert ver.stable_everywhere and ver.stable_to_m_s == 85.0
-    assert ver.max_violation_1_s <= 1e-6      # the decay rate too (VIOLATION_TOL)
+    assert ver.max_violation_1_s <= 1e-6      # the minimum damping too (VIOLATION_TOL)
     # the reported margin is the true sigma_max one, and the open loop really flutters
     assert payload["robust_margin"] == pytest.approx(prob.robust_margin(theta).margin,
                                                      rel=1e-9)
