@@ -1,12 +1,19 @@
-"""Benchmark: Humber compensator design solves (``python -m bench.design [--json]``).
+"""Benchmark: Humber compensator design (``python -m bench.design [--json] [--solves]``).
 
-For each (retained modes, design step) pair, one Ipopt solve (robust epigraph on, no cutting
-planes) from the same start: build time, wall time, Ipopt iterations, time per eigenvalue
-constraint evaluation (one ``eig`` with left/right vectors at one speed; the Jacobian reuses
-it), time of one robust-constraint evaluation and its Jacobian (all points), and the dense
-check on the same model; the optimiser's gamma_T (Frobenius bound at the sample points) against
-the dense sigma_max peak of T at the robust check speeds (the robust cutting-plane test) and
-the time of that dense check.
+Default: the full default ``optimise`` (the packaged design definition, every start, cuts,
+verification, closed-loop limits, flap-count check, buffeting comparison) through
+:func:`design.driver.design`: wall time, Ipopt iterations per start and round, and the share
+of the wall time per phase (``DesignResult.extras["phase_times_s"]``; inside the starts, the
+Ipopt share of each start). The machine is shared: quote the best of
+several runs taken at a quiet moment, with the load average printed here.
+
+``--solves``: for each (retained modes, design step) pair, one Ipopt solve (robust epigraph on, no
+cutting planes) from the same start: build time, wall time, Ipopt iterations, time per eigenvalue
+constraint evaluation (one ``eig`` with left/right vectors at one speed; the Jacobian reuses it),
+time of one robust-constraint evaluation and its Jacobian (all points), and the dense check on the
+same model; the optimiser's gamma_T (Frobenius bound at the sample points) against the dense
+sigma_max peak of T at the robust check speeds (the robust cutting-plane test) and the time of that
+dense check.
 """
 
 from __future__ import annotations
@@ -66,16 +73,73 @@ def run(modes=(8, 12, 16), steps=(10.0, 5.0)) -> list[dict]:
                          "gamma_T_frobenius": round(res.gamma_T, 4),
                          "dense_T_peak": round(rm.peak, 4),
                          "dense_T_check_s": round(dense_s, 2),
-                         "max_violation_dense_1_s": ver.max_violation_1_s,
+                         "max_damping_violation_dense_1_s": ver.max_violation_1_s,
                          "stable_to_m_s": ver.stable_to_m_s})
     return rows
+
+
+def run_full(definition=None, quick=False) -> dict:
+    """One full default design: wall time, Ipopt iterations, share of time per phase."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    from design.cmd_optimise import DEFAULT_DEFINITION
+    from design.driver import design
+    from design.settings import load_settings, quick_settings
+
+    s = load_settings(definition or DEFAULT_DEFINITION)
+    if quick:
+        s = quick_settings(s)
+    load0 = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    res = design(s, progress_bar=False)
+    wall = time.perf_counter() - t0
+    phases = dict(res.extras.get("phase_times_s", {}))
+    starts = []
+    for st in res.starts:
+        ipopt_s = sum(r.time_s for r in st.rounds)
+        starts.append({"start": st.start, "status": st.ipopt_status,
+                       "ipopt_iterations": st.iterations,
+                       "rounds": [{"placement": r.placement, "round": r.round,
+                                   "iterations": r.iterations, "time_s": round(r.time_s, 2)}
+                                  for r in st.rounds],
+                       "start_time_s": round(st.time_s, 2), "ipopt_time_s": round(ipopt_s, 2),
+                       "ipopt_share_of_start": round(ipopt_s / st.time_s, 3)
+                       if st.time_s else None,
+                       "verified": st.verified, "robust_margin": st.robust_margin})
+    return {"status": res.status, "wall_time_s": round(wall, 2),
+            "load_average_1min_before": round(load0, 2),
+            "load_average_1min_after": round(os.getloadavg()[0], 2),
+            "parallel_starts": bool(s.parallel and s.starts > 1),
+            "ipopt_iterations_total": sum(st["ipopt_iterations"] for st in starts),
+            "phase_share": {k: round(v / wall, 3) for k, v in phases.items()},
+            "phase_time_s": {k: round(v, 2) for k, v in phases.items()},
+            "starts": starts}
 
 
 def main(argv=None) -> int:
     """Command-line entry."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--json", action="store_true")
+    p.add_argument("--solves", action="store_true",
+                   help="time single solves per (modes, design step) instead")
+    p.add_argument("--quick", action="store_true", help="quick settings (full design only)")
     args = p.parse_args(argv)
+    if not args.solves:
+        out = run_full(quick=args.quick)
+        if args.json:
+            print(json.dumps({"design_full": out}))
+        else:
+            print(f"status {out['status']}, wall {out['wall_time_s']} s (load average "
+                  f"{out['load_average_1min_before']} -> {out['load_average_1min_after']}), "
+                  f"Ipopt iterations {out['ipopt_iterations_total']}")
+            for k, v in out["phase_time_s"].items():
+                print(f"  {k}: {v} s ({100 * out['phase_share'][k]:.1f} %)")
+            for st in out["starts"]:
+                print(f"  start {st['start']}: {st['status']}, {st['ipopt_iterations']} "
+                      f"iterations, Ipopt {st['ipopt_time_s']} s of {st['start_time_s']} s; "
+                      "rounds " + ", ".join(f"{r['placement'] or r['round']}: "
+                                            f"{r['iterations']} it {r['time_s']} s"
+                                            for r in st["rounds"]))
+        return 0
     rows = run()
     if args.json:
         print(json.dumps({"design": rows}))

@@ -81,3 +81,67 @@ class BuffetingCost(ca.Callback):
 
         self._jac = _J()
         return self._jac
+
+
+class SymbolicBuffeting:
+    """``J_buf(theta, w)`` as the CasADi spectral integral of the design card (issue 14 item 6).
+
+    Per buffeting speed ``U``, :func:`model.symbolic.buffeting_rms_function` on the closed-loop
+    functions ``A_cl(U, theta, w)``, ``B_gust(U, theta, w)`` of the one assembly: the
+    one-sided spectral integral (trapezoid rule, frequency grid and load projection frozen at
+    the reference design) of the vertical and the torsional RMS at two fixed strips -- the
+    main-span strips where the reference closed loop's RMS is largest. Exactly
+    differentiable in the compensator coefficients and the flap weights (CasADi AD), unlike
+    :class:`BuffetingCost`. ``J_buf = 0.5 mean_U ((z / z0)^2 + (a / a0)^2)`` with ``z0, a0``
+    the same integral with ``K = 0`` (flaps fitted, zero gain).
+
+    Parameters
+    ----------
+    problem : design.nlp.DesignProblem
+    theta_ref, w_ref : array_like
+        Reference design (frozen grid, strips): e.g. the start point.
+    n_base, peaks_per_mode : int
+        Grid of :func:`model.spectral.adaptive_frequency_grid` (coarser than the numpy path:
+        one dense 2 n_x solve per frequency in the expression graph).
+    """
+
+    def __init__(self, problem, theta_ref, w_ref=None, n_base=40, peaks_per_mode=15):
+        from model.buffeting import _main_span_mask, buffeting
+        from model.control import Compensator
+        from model.gust import gust_field
+        from model.spec import load_bridge
+        from model.symbolic import buffeting_rms_function
+
+        s = problem.settings
+        spec = problem.spec if problem.spec is not None else load_bridge(s.bridge)
+        model = problem.model
+        fun = model.casadi_functions()
+        th0 = np.asarray(theta_ref, float)
+        w0 = np.ones(model.n_flaps) if w_ref is None else np.asarray(w_ref, float)
+        sys_cl = model.system(Compensator(*(float(v) for v in th0)), weights=w0)
+        strip_x = np.asarray(model.open_loop.basis.strip_x, float)
+        ns = strip_x.size
+        main = _main_span_mask(spec, strip_x)
+        ref = buffeting(sys_cl, np.asarray(s.buffeting_speeds_m_s, float), spec=spec,
+                        n_modes=int(model.open_loop.basis.n))
+        gust = gust_field(spec)
+        th, w = ca.MX.sym("theta", 5), ca.MX.sym("w", model.n_flaps)
+        k0 = ca.DM([0.0, 0.0, 0.0, float(th0[3]), float(th0[4])])
+        terms, self.rows, self.omegas = [], [], []
+        for i, U in enumerate(s.buffeting_speeds_m_s):
+            jv = int(np.argmax(np.where(main, ref.rms_heave[i], -np.inf)))
+            jt = int(np.argmax(np.where(main, ref.rms_pitch[i], -np.inf)))
+            f, om = buffeting_rms_function(fun["A_cl"], fun["B_gust"], [ca.DM(th0), ca.DM(w0)],
+                                           sys_cl.C_out, strip_x, float(U), gust,
+                                           [jv, ns + jt], n_base=n_base,
+                                           peaks_per_mode=peaks_per_mode)
+            r0 = np.asarray(f(k0, ca.DM(w0)).full()).ravel()
+            r = f(th, w)
+            terms.append((r[0] / r0[0]) ** 2 + (r[1] / r0[1]) ** 2)
+            self.rows.append((jv, ns + jt))
+            self.omegas.append(om)
+        self.function = ca.Function("J_buf", [th, w], [0.5 * sum(terms) / len(terms)],
+                                    ["theta", "w"], ["J_buf"])
+
+    def __call__(self, theta, w):
+        return self.function(theta, w)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 from pathlib import Path
@@ -53,6 +54,7 @@ def _design_and_write(args, settings, out):
     write_marker(tmp, "optimise")
     try:
         payload = result.summary()
+        (tmp / "ipopt_history.json").write_text(json.dumps(result.history(), allow_nan=False))
         ctrl_file = out / "controller.toml"
         if result.candidate is not None:
             if result.controller is not None:

@@ -9,10 +9,17 @@ Verification. Every solution is checked a posteriori on the dense ``check_step_m
 the design model is reduced, on the ``verification_modes`` model that ``bridgeflap flutter``
 uses (:data:`model.analysis.DEFAULT_MODES`); the result reports both honestly.
 
-Placement. With ``optimise_placement`` the per-flap weights ``w`` (load factor, 1 = fitted)
-are NLP variables with a penalty ``weight_flaps * sum(w)/n_flaps``; the solution is rounded
-(``w > 0.5`` fitted), ``theta`` re-solved for the rounded layout and re-verified. The minimum
-flap count search over evenly spaced layouts remains as the fallback.
+Placement. With ``optimise_placement`` the per-flap weights ``w`` (load factor, 1 = fitted;
+one per mirror pair with ``symmetric_layout``) are NLP variables with an optional budget
+``sum(w) <= flap_budget`` and penalty ``weight_flaps * sum(w)/n_flaps``; the solution is
+rounded by whole pairs (:func:`round_layout`), ``theta`` re-solved for the rounded layout and
+re-verified. :func:`minimum_flap_count` checks every evenly spaced count with the same K;
+:func:`flap_count_pareto` (``pareto = true``) re-optimises and verifies K for every count.
+
+Every result reports the closed-loop flutter and divergence limits and mechanism
+(:func:`closed_loop_limits`) and the constraints active at the optimum
+(:func:`active_constraints`). Multi-model (``variants`` > 0): damping constraints on bridge
+variants sampled over the estimated-input ranges, fresh variants checked a posteriori.
 """
 
 from __future__ import annotations
@@ -22,6 +29,18 @@ from dataclasses import replace
 
 import numpy as np
 
+from design.checks import (  # noqa: F401 - re-exported (tests, API)
+    ACTIVE_ABS_TOL_1_S,
+    ACTIVE_REL_TOL,
+    LIMIT_SPEED_FACTOR,
+    LIMIT_STEP_M_S,
+    active_constraints,
+    closed_loop_limits,
+    flap_count_pareto,
+    fresh_variant_check,
+    nlp_active_speeds,
+    sample_variants,
+)
 from design.nlp import EIG_SCALE, VIOLATION_TOL, DesignProblem
 from design.plant import closed_loop_abscissa
 from design.records import (
@@ -35,8 +54,11 @@ from design.result import DesignResult
 from design.settings import DesignSettings
 from model.control import Compensator, Controller
 
+NAN = float("nan")
 #: Nominal first start (b2, b1, b0, a2, a1): static gain -1 (flap against pitch), mild rate.
 NOMINAL_START = np.array([0.0, 0.5, -1.0, 0.05, 0.5])
+#: The same-K search over every count stops after this many consecutive failing counts.
+MISSES_TO_STOP = 3
 #: Candidates screened per Sobol start (:func:`screened_starts`).
 SCREEN_FACTOR = 8
 
@@ -66,7 +88,7 @@ def screened_starts(settings: DesignSettings, count: int, model=None,
     gain, fast lead) and a start from there can use the whole Ipopt budget (80 iterations,
     ~80 s on 16 modes) to reach a poor local solution. Each candidate is scored by the NLP's
     own merit at the start point: ``weight_robust * gamma_T0 + EIG_SCALE * max(0, max
-    violation of the decay-rate constraints)`` (objective plus an exact l-inf penalty on the
+    violation of the damping constraints)`` (objective plus an exact l-inf penalty on the
     scaled eigenvalue constraints, unit weight) on a 10 m/s speed grid and the robust sample
     points; candidates with ``sup|K| > gain_limit`` are rejected first. Cost: one eig per
     speed and one epigraph evaluation per candidate (~0.2 s on 16 modes).
@@ -139,13 +161,66 @@ def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,
     return DesignProblem(replace(settings, optimise_placement=False), model).verify(theta)
 
 
-def run_start(settings: DesignSettings, theta0, index: int, spec=None) -> StartRecord:
+def _progress_bar(index: int, show):
+    """tqdm bar on stderr counting one start's Ipopt iterations (None when not shown:
+    ``show`` None means "stderr is a terminal")."""
+    import sys
+
+    if show is None:
+        show = sys.stderr.isatty()
+    if not show:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(desc=f"start {index} Ipopt", unit="it", file=sys.stderr, leave=False,
+                position=index)
+
+
+def round_layout(S, z, budget=0) -> np.ndarray:
+    """0/1 flap weights from relaxed placement variables ``z`` (``w = S z``).
+
+    The groups (mirror pairs with ``symmetric_layout``) are taken largest ``z`` first: with a
+    ``budget`` > 0 while the flap count stays within it, otherwise every group with
+    ``z > 0.5``; at least the largest group is kept, so a layout never loses every flap.
+    The rounded layout stays symmetric because whole groups are kept.
+    """
+    S = np.asarray(S, float)
+    z = np.asarray(z, float)
+    sizes = S.sum(axis=0)
+    keep = np.zeros(z.size, bool)
+    count = 0.0
+    for j in np.argsort(-z, kind="stable"):
+        if budget > 0:
+            if count + sizes[j] > budget:
+                continue
+        elif z[j] <= 0.5:
+            break
+        keep[j] = True
+        count += sizes[j]
+    if not keep.any():
+        keep[int(np.argmax(z))] = True
+    return (S @ keep.astype(float) > 0.5).astype(float)
+
+
+def run_start(settings: DesignSettings, theta0, index: int, spec=None,
+              progress_bar=None, variants=()) -> StartRecord:
     """One start: solve with cuts (placement: round the weights, re-solve), then the dense
     robust margin and the check on the verification model. A failure is a record (STYLE).
-    ``spec``: the bridge (default ``settings.bridge``)."""
+    ``spec``: the bridge (default ``settings.bridge``); ``progress_bar``: a tqdm bar of the
+    Ipopt iterations on stderr (None: when stderr is a terminal); ``variants``: bridge
+    variants (BridgeSpec) of a multi-model design -- every damping constraint and check on
+    every variant as well."""
     t0 = time.perf_counter()
     spec, model = build_model(settings, spec=spec)
     prob = DesignProblem(settings, model, spec=spec)
+    prob.variants = [DesignProblem(settings, build_model(settings, spec=v)[1], spec=v)
+                     for v in variants]
+    bar = _progress_bar(index, progress_bar)
+    if bar is not None:
+        def tick(i, f, x):
+            bar.update(1)
+            bar.set_postfix_str(f"objective {f:.4g}", refresh=False)
+        prob.on_iteration = tick
     theta0 = tuple(float(v) for v in theta0)
     w_cont = None
     try:
@@ -154,18 +229,24 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None) -> StartR
         weights = np.ones(model.n_flaps)
         if settings.optimise_placement:
             w_cont = tuple(float(v) for v in res.solve.weights)
-            weights = (np.asarray(w_cont) > 0.5).astype(float)
-            if not weights.any():
-                weights[np.argmax(w_cont)] = 1.0
+            weights = round_layout(prob.symmetry, prob.z_of(w_cont), settings.flap_budget)
             fixed = DesignProblem(replace(settings, optimise_placement=False), model,
                                   weights=weights, spec=spec)
+            fixed.on_iteration = prob.on_iteration
+            fixed.variants = [DesignProblem(replace(settings, optimise_placement=False),
+                                            v.model, weights=weights, spec=v.spec)
+                              for v in prob.variants]
             res = fixed.solve_with_cuts(res.theta)
             rounds += [replace(r, placement="rounded") for r in res.rounds]
             prob = fixed
     except Exception as exc:  # noqa: BLE001 - solver failure is data (STYLE)
+        if bar is not None:
+            bar.close()
         return StartRecord(start=index, theta0=theta0, ipopt_status=f"failed: {exc}",
                            success=False, time_s=time.perf_counter() - t0,
                            weights_continuous=w_cont)
+    if bar is not None:
+        bar.close()
     theta = res.theta
     ver = res.verification
     rob = prob.robust_margin(theta, weights=weights)
@@ -173,21 +254,29 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None) -> StartR
     ver16 = (verify_layout(settings, theta, positions, spec=spec)
              if settings.verification_modes != settings.n_modes else ver)
     gain_ok = bool(ver.max_gain <= settings.gain_limit)
+    vchecks = [q.verify(theta, weights) for q in prob.variants]
+    variants_ok = all(v.meets_damping for v in vchecks)
     return StartRecord(
         start=index, theta0=theta0, theta=tuple(float(v) for v in theta),
         ipopt_status=res.solve.ipopt_status, success=res.solve.success,
         iterations=sum(r.iterations for r in rounds), time_s=time.perf_counter() - t0,
         rounds=tuple(rounds), max_violation_1_s=ver.max_violation_1_s,
         stable_to_m_s=ver.stable_to_m_s, stable_everywhere=ver.stable_everywhere,
-        max_gain=ver.max_gain, meets_decay_rate=ver.meets_decay_rate, gain_ok=gain_ok,
+        max_gain=ver.max_gain, meets_damping=ver.meets_damping, gain_ok=gain_ok,
         # verified: every a posteriori check holds, whatever Ipopt's exit status
-        verified=bool(ver.meets_decay_rate and gain_ok and ver16.stable_everywhere),
+        verified=bool(ver.meets_damping and gain_ok and ver16.stable_everywhere
+                      and variants_ok),
         gamma_T_frobenius=res.solve.gamma_T,
         dense_t_peak_check_speeds=res.robust.peak if res.robust is not None else float("nan"),
         robust_bound_holds=res.robust_bound_holds, robust=rob, verification=ver16,
         robust_cuts=res.robust_cuts, gain_cuts=res.gain_cuts,
         flap_positions_m=tuple(float(x) for x in positions),
-        design_speeds_m_s=res.design_speeds_m_s, weights_continuous=w_cont)
+        design_speeds_m_s=res.design_speeds_m_s, weights_continuous=w_cont,
+        nlp_active_speeds_m_s=nlp_active_speeds(res.solve, res.design_speeds_m_s,
+                                                settings.n_eig),
+        variant_checks=tuple({"meets_damping": v.meets_damping,
+                              "min_damping_ratio": v.min_damping_ratio,
+                              "stable_to_m_s": v.stable_to_m_s} for v in vchecks))
 
 
 def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
@@ -195,14 +284,29 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
     """Fewest evenly spaced flaps (around mid-span) still stable 0..U_max with the margin.
 
     The optimised ``theta`` is kept; each count is verified on the dense grid with the
-    required decay rate ``sigma_req`` on the verification model (``verification_modes``).
+    minimum damping ratio ``zeta_min`` on the verification model (``verification_modes``).
     Returns the records per count and the minimum. ``spec``: the bridge (default
-    ``settings.bridge``).
+    ``settings.bridge``). Counts: ``counts``, else ``min_flap_counts``, else (default) every
+    count from ``flap_count`` down to 1, stopping after ``MISSES_TO_STOP`` consecutive
+    failing counts (the same-K check is cheap: one dense sweep each, one modal solution).
     """
     counts = settings.min_flap_counts if counts is None else counts
+    every = not counts
+    if every:
+        counts = tuple(range(settings.flap_count, 0, -1))
+    if modal is None:           # one modal solution for every count (the layout changes only)
+        from model.fe import assemble
+        from model.modes import solve
+        from model.spec import load_bridge
+
+        spec = load_bridge(settings.bridge) if spec is None else spec
+        modal = solve(assemble(spec))
     rows = []
     best = None
+    misses = 0
     for c in counts:
+        if every and misses >= MISSES_TO_STOP:
+            break               # fewer flaps, less authority: stop after a run of failures
         if c > settings.flap_count:
             continue
         _, model = build_model(settings, c, modal, n_modes=settings.verification_modes,
@@ -216,6 +320,7 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
                                    max_violation_1_s=ver.max_violation_1_s))
         if ok:
             best = int(c) if best is None else min(best, int(c))
+        misses = 0 if ok else misses + 1
     return FlapCountSearch(minimum=best, counts=tuple(rows), modes=settings.verification_modes)
 
 
@@ -243,14 +348,14 @@ def buffeting_comparison(settings: DesignSettings, controller: Controller, speed
 def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
     """Chosen start and design status from the per-start records of :func:`run_start`.
 
-    ``converged``: the best *verified* start (decay rate on the design model's dense grid,
+    ``converged``: the best *verified* start (damping on the design model's dense grid,
     true peak gain ``max_gain <= gain_limit`` -- no tolerance, the NLP backs off by
     ``GAIN_BACKOFF`` --, stable on the verification model), by the true dense robust margin,
     whatever its Ipopt exit status; ``unverified``: feasible on the design model only;
-    ``infeasible``: no start meets the decay rate and the gain limit (the least violating is
+    ``infeasible``: no start meets the damping and the gain limit (the least violating is
     reported, never as converged); ``failed``: no start produced a design.
     """
-    feasible = [r for r in records if r.meets_decay_rate and r.max_gain <= gain_limit]
+    feasible = [r for r in records if r.meets_damping and r.max_gain <= gain_limit]
     verified = [r for r in feasible if r.verified]
     if verified:
         return max(verified, key=lambda r: r.robust_margin), "converged"
@@ -262,10 +367,26 @@ def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
     return min(cands, key=lambda r: (max(r.max_violation_1_s, 0.0), r.max_gain)), "infeasible"
 
 
-def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
+def warm_start_theta(warm_start) -> np.ndarray:
+    """Coefficients (b2, b1, b0, a2, a1) of a warm start: a :class:`model.control.Controller`,
+    a :class:`model.control.Compensator` or five numbers."""
+    k = getattr(warm_start, "compensator", warm_start)
+    if isinstance(k, Compensator):
+        return np.array([k.b2, k.b1, k.b0, k.a2, k.a1], float)
+    th = np.asarray(warm_start, float).ravel()
+    if th.size != 5 or not np.all(np.isfinite(th)):
+        from model.errors import BridgeflapInputError
+
+        raise BridgeflapInputError("warm_start", "needs a Controller, a Compensator or five "
+                                                 "finite coefficients (b2, b1, b0, a2, a1)")
+    return th
+
+
+def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
+           progress_bar=None) -> DesignResult:
     """Multistart design with cutting planes, 16-mode verification and flap-count search.
 
-    Status: ``converged`` (a start meets the decay rate on the design model's dense grid, the
+    Status: ``converged`` (a start meets the damping on the design model's dense grid, the
     gain limit, and is stable on the verification model's dense grid), ``unverified`` (the
     design model is satisfied but the verification model is not stable everywhere -- only
     possible with a reduced design model), ``infeasible`` or ``failed``.
@@ -276,21 +397,43 @@ def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
     progress : callable, optional
         ``str -> None``, called with one line per start and step.
     spec : model.spec.BridgeSpec, optional
-        The bridge, e.g. a modified built-in one (default: ``load_bridge(settings.bridge)``).
+        The bridge, e.g. a modified built-in one or a variant (default:
+        ``load_bridge(settings.bridge)``); every model of the design is built on it.
+    warm_start : Controller, Compensator or array_like, optional
+        Start 0 from this compensator instead of :data:`NOMINAL_START` (e.g. a design of a
+        neighbouring bridge); the other starts are Sobol points as usual.
+    progress_bar : bool, optional
+        tqdm bars of the Ipopt iterations on stderr (default: when stderr is a terminal).
     """
     t0 = time.perf_counter()
     log = progress or (lambda msg: None)
-    # start 0 is a nominal phase-lead-free design (K ~ -1 static, light lag), the others Sobol
-    starts0 = np.vstack([NOMINAL_START, screened_starts(settings, settings.starts - 1, spec=spec)])[
+    # start 0 is a nominal phase-lead-free design (K ~ -1 static, light lag) or the warm
+    # start, the others Sobol
+    first = NOMINAL_START if warm_start is None else warm_start_theta(warm_start)
+    from model.spec import load_bridge
+
+    base = load_bridge(settings.bridge) if spec is None else spec
+    variants = sample_variants(settings, base, settings.variants, settings.variant_seed)
+    starts0 = np.vstack([first, screened_starts(settings, settings.starts - 1, spec=spec)])[
         :settings.starts]
     n = len(starts0)
+    phases, tp = {}, [time.perf_counter()]
+
+    def mark(name):
+        now = time.perf_counter()
+        phases[name] = phases.get(name, 0.0) + now - tp[0]
+        tp[0] = now
+
+    mark("screening starts")
     if settings.parallel and settings.starts > 1:
         from concurrent.futures import ProcessPoolExecutor
 
         with ProcessPoolExecutor(max_workers=min(2, settings.starts)) as ex:
-            records = list(ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n))
+            records = list(ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n,
+                                  [progress_bar] * n, [variants] * n))
     else:
-        records = [run_start(settings, th, i, spec) for i, th in enumerate(starts0)]
+        records = [run_start(settings, th, i, spec, progress_bar, variants)
+                   for i, th in enumerate(starts0)]
     for r in records:
         log(f"start {r.start}: {r.ipopt_status} in {r.time_s:.1f} s, "
             f"{r.iterations} iterations, {r.cut_rounds} cut rounds, "
@@ -299,6 +442,7 @@ def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
             f"{settings.verification_modes}-mode check stable: "
             f"{r.verification.stable_everywhere if r.verification else None}, verified: "
             f"{r.verified}")
+    mark("starts (Ipopt, cuts, verification)")
     best, status = select_start(records, settings.gain_limit)
     controller = None
     absc_u = settings.check_speeds()
@@ -311,7 +455,9 @@ def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
         _, model = build_model(settings, n_modes=settings.verification_modes,
                                positions=positions, spec=spec)
         prob = DesignProblem(replace(settings, optimise_placement=False), model)
-        absc = prob.verify(theta).abscissa_1_s
+        ver_best = prob.verify(theta)
+        absc = ver_best.abscissa_1_s
+        extras["damping_ratio"] = ver_best.damping_ratio
         _, model_ol = build_model(settings, n_modes=settings.verification_modes, spec=spec)
         ol_parts = DesignProblem(settings, model_ol).A_parts(np.array([0.0, 0.0, 0.0, 1.0, 1.0]))
         extras["open_loop_abscissa"] = closed_loop_abscissa(ol_parts, absc_u)
@@ -320,13 +466,42 @@ def design(settings: DesignSettings, progress=None, spec=None) -> DesignResult:
                                 tuple(float(x) for x in positions),
                                 settings.flap_width_m, settings.leading_edge,
                                 settings.trailing_edge, settings.gain_limit)
+        _, model_d = build_model(settings, positions=positions, spec=spec)
+        ver_d = DesignProblem(replace(settings, optimise_placement=False), model_d).verify(theta)
+        extras["active_constraints"] = active_constraints(settings, best, ver_d)
+        mark("chosen design checks")
+        try:
+            lim = closed_loop_limits(settings, controller, spec=spec)
+            log(f"closed loop: flutter {lim['flutter_speed_m_s']:.2f} m/s "
+                f"({lim['flutter_status']}), divergence {lim['divergence_speed_m_s']:.2f} m/s "
+                f"({lim['divergence_status']}; static {lim['divergence_static_speed_m_s']:.2f}"
+                f"), governing {lim['governing_speed_m_s']:.2f} m/s "
+                f"{lim['governing_mechanism']}")
+        except Exception as exc:  # noqa: BLE001 - a report item, not the design
+            lim = {"status": f"failed: {exc}"}
+        extras["closed_loop_limits"] = lim
+        mark("closed-loop limits")
         if status in ("converged", "unverified"):
             min_flaps = minimum_flap_count(settings, theta, spec=spec)
-            log(f"minimum flap count: {min_flaps.minimum}")
+            log(f"minimum flap count (same K): {min_flaps.minimum}")
+            mark("flap-count check (same K)")
+            if settings.fresh_variants > 0:
+                fresh = sample_variants(settings, base, settings.fresh_variants,
+                                        settings.variant_seed + 1000)
+                extras["fresh_variants"] = fresh_variant_check(settings, controller, fresh)
+                extras["fresh_variants"]["design_variants"] = len(variants)
+                log(f"fresh variants: {extras['fresh_variants']['fraction_stable']:.2f} "
+                    f"stable 0..{settings.speed_max_m_s} m/s")
+                mark("fresh-variant check")
+            if settings.pareto:
+                extras["pareto"] = flap_count_pareto(settings, theta, spec=spec, log=log)
+                mark("flap-count Pareto (K re-optimised)")
             try:
                 extras["buffeting"] = buffeting_comparison(settings, controller, spec=spec)
             except Exception as exc:  # noqa: BLE001 - a report item, not the design
                 extras["buffeting"] = BuffetingComparison(status=f"failed: {exc}")
+            mark("buffeting comparison")
+    extras["phase_times_s"] = phases
     usable = controller if status == "converged" else None
     return DesignResult(status=status, settings=settings, controller=usable,
                         candidate=controller,

@@ -41,7 +41,8 @@ import scipy.linalg
 
 from model.spectrum import DEFECT_TOL, eigenvalue_derivatives
 
-__all__ = ["PolynomialTopRealParts"]
+__all__ = ["PolynomialStructuralDamping", "PolynomialTopRealParts", "damping_measure",
+           "fixed_pole_copies", "structural_selection"]
 
 class _VectorIO:
     """CasADi Callback boilerplate: one dense input ``p`` of length ``self._n_p`` and one dense
@@ -258,3 +259,170 @@ class _GridJacobianCallback(_JacobianCallback):
 
     def get_sparsity_out(self, i):
         return ca.Sparsity.dense(self._parent.m * self._parent.speeds.size, self._parent._n_p)
+
+
+#: Relative distance ``|lambda - lambda_copy| / max(|lambda_copy|, COPY_FLOOR)`` below which an
+#: eigenvalue is a copy of a fixed pole (an uncoupled aerodynamic lag state ``-p_i U / b`` or a
+#: compensator pole of a flap whose loop is uncontrollable). The copies are eigenvalues of
+#: decoupled diagonal blocks, exact to round-off (~1e-14 relative); a coupled eigenvalue that
+#: the flaps move sits ~ the coupling away. 1e-7 separates the two by orders of magnitude.
+COPY_TOL = 1e-7
+#: Absolute floor of the copy test [1/s] (the lag copies approach 0 as U -> 0).
+COPY_FLOOR = 1e-6
+
+
+def fixed_pole_copies(lam, lag_rates_1_m, U, theta) -> np.ndarray:
+    """Mask of the eigenvalues ``lam`` that are copies of poles no flap can move.
+
+    Parameters
+    ----------
+    lam : ndarray (complex)
+        Closed-loop eigenvalues at speed ``U`` [1/s].
+    lag_rates_1_m : array_like
+        RFA lag-pole rates ``p_i / b`` [1/m]: the lag copies are ``-p_i U / b``.
+    U : float
+        Wind speed [m/s].
+    theta : array_like
+        Compensator coefficients (b2, b1, b0, a2, a1): its poles (roots of ``a2 s^2 + a1 s +
+        1``) are the compensator copies.
+    """
+    lam = np.asarray(lam, complex)
+    targets = [-float(r) * U for r in np.atleast_1d(lag_rates_1_m)] if U > 0 else []
+    a2, a1 = float(theta[3]), float(theta[4])
+    if a2 > 0:
+        targets += list(np.roots([a2, a1, 1.0]))
+    elif a1 > 0:
+        targets.append(-1.0 / a1)
+    mask = np.zeros(lam.shape, bool)
+    for t in targets:
+        mask |= np.abs(lam - t) <= COPY_TOL * max(abs(t), COPY_FLOOR)
+    return mask
+
+
+def damping_measure(lam, zeta_min) -> np.ndarray:
+    """``Re lambda + zeta_min |lambda|`` [1/s]: ``<= 0`` iff the damping ratio ``-Re lambda /
+    |lambda| >= zeta_min`` (continuous through ``lambda = 0``, where divergence crosses)."""
+    lam = np.asarray(lam, complex)
+    return lam.real + float(zeta_min) * np.abs(lam)
+
+
+def structural_selection(lam, lag_rates_1_m, U, theta, zeta_min, m) -> np.ndarray:
+    """Indices of the ``m`` movable eigenvalues (not fixed-pole copies, ``Im >= 0``) with the
+    largest :func:`damping_measure`, largest first (padded by repeating the last)."""
+    lam = np.asarray(lam, complex)
+    ok = ~fixed_pole_copies(lam, lag_rates_1_m, U, theta) & (lam.imag >= 0)
+    idx = np.flatnonzero(ok)
+    g = damping_measure(lam[idx], zeta_min)
+    idx = idx[np.argsort(-g, kind="stable")][:m]
+    if idx.size == 0:
+        raise ValueError(f"no movable eigenvalue at U = {U} m/s")
+    return np.concatenate([idx, np.repeat(idx[-1:], m - idx.size)])
+
+
+class PolynomialStructuralDamping(PolynomialTopRealParts):
+    """Damping constraints ``Re lambda + zeta_min |lambda|`` of the movable branches.
+
+    The closed-loop spectrum of the flap design holds many eigenvalues no flap can move: the
+    copies of the RFA lag poles ``-p_i U / b`` (the lag states of modes the flaps and the
+    other modes do not couple to) and the copies of the compensator poles (per-flap
+    compensators beyond the rank of the plant). They are stable and fixed; the spectral
+    abscissa of the closed loop is often one of them (issue 14), so a constraint on it does
+    no work. This callback removes them (:func:`fixed_pole_copies`) and returns, per speed,
+    the ``m`` largest damping measures :func:`damping_measure` of the remaining eigenvalues
+    in the upper half-plane (the structural branches, plus the coupled lag and compensator
+    eigenvalues, which are real and stable and therefore satisfy it).
+
+    Jacobian: ``d lambda`` from :func:`model.spectrum.eigenvalue_derivatives` (complex), then
+    ``d g = Re d lambda + zeta_min Re(conj(lambda) d lambda) / |lambda|``. Nearly defective
+    rows fall back to central differences as in the parent class.
+
+    Parameters
+    ----------
+    parts_fun, speeds, m, subsets : see :class:`PolynomialTopRealParts`
+    lag_rates_1_m : array_like
+        ``p_i / b`` [1/m] of the RFA lag poles.
+    zeta_min : float
+        Required damping ratio [-].
+    theta_of_p : callable, optional
+        ``p -> theta`` (default: the first five entries of ``p``).
+    """
+
+    def __init__(self, parts_fun, speeds, m, lag_rates_1_m, zeta_min, subsets=None,
+                 theta_of_p=None, name="structural_damping_grid", **kw):
+        self.lag_rates = np.asarray(lag_rates_1_m, float).ravel()
+        self.zeta_min = float(zeta_min)
+        self._theta_of_p = theta_of_p or (lambda p: np.asarray(p, float)[:5])
+        super().__init__(parts_fun, speeds, m, subsets=subsets, name=name, **kw)
+
+    def _decompose(self, p):
+        key = p.tobytes()
+        if key != self._key:
+            t0 = time.perf_counter()
+            th = self._theta_of_p(p)
+            rows = []
+            for u, A in zip(self.speeds, self.matrices(p), strict=True):
+                if not np.all(np.isfinite(A)):
+                    rows.append(None)
+                    continue
+                lam, vl, vr = scipy.linalg.eig(A, left=True, right=True)
+                idx = structural_selection(lam, self.lag_rates, u, th, self.zeta_min, self.m)
+                rows.append((lam[idx], vl[:, idx], vr[:, idx]))
+            self._key, self._store = key, rows
+            self.evaluations += 1
+            self.eval_time_s += time.perf_counter() - t0
+        return self._store
+
+    def values(self, p) -> np.ndarray:
+        """Stacked damping measures [1/s] (m per speed, largest first); NaN if not finite."""
+        p = np.asarray(p, float).ravel()
+        return np.concatenate([np.full(self.m, np.nan) if r is None
+                               else damping_measure(r[0], self.zeta_min)
+                               for r in self._decompose(p)])
+
+    def eigenvalues(self, p) -> list:
+        """The selected eigenvalues per speed [1/s] (None where ``A`` is not finite)."""
+        return [None if r is None else r[0]
+                for r in self._decompose(np.asarray(p, float).ravel())]
+
+    def jacobian(self, p) -> np.ndarray:
+        """Analytic Jacobian [(m * n_speeds, n_p)], central differences for defective rows."""
+        p = np.asarray(p, float).ravel()
+        rows = self._decompose(p)
+        outs = self._dparts(ca.DM(p))
+        outs = outs if isinstance(outs, (list, tuple)) else [outs]
+        dparts = [ca.DM(d).sparse() for d in outs]
+        J = np.full((self.m * self.speeds.size, self._n_p), np.nan)
+        n = self._n
+        bad_rows = []
+        for s, (u, ix, r) in enumerate(zip(self.speeds, self._idx, rows, strict=True)):
+            if r is None:
+                continue
+            dA = sum(u**j * d for j, d in enumerate(dparts))
+            if ix is not None:
+                flat = (ix[:, None] + n * ix[None, :]).ravel(order="F")
+                dA = dA[flat]
+            dlam, bad = eigenvalue_derivatives(r[1], r[2], dA, self.defect_tol)
+            lam = r[0][:, None]
+            mag = np.abs(lam)
+            dmag = np.where(mag > 0, (lam.conj() * dlam).real / np.where(mag > 0, mag, 1.0),
+                            np.abs(dlam))
+            J[s * self.m:(s + 1) * self.m] = dlam.real + self.zeta_min * dmag
+            bad_rows.extend(s * self.m + int(i) for i in np.flatnonzero(bad))
+        if bad_rows:
+            for k in range(self._n_p):
+                h = self.fd_step * max(1.0, abs(p[k]))
+                e = np.zeros_like(p)
+                e[k] = h
+                fp, fm = self._plain_values(p + e), self._plain_values(p - e)
+                J[bad_rows, k] = (fp[bad_rows] - fm[bad_rows]) / (2.0 * h)
+            self.fd_fallback_count += len(bad_rows)
+        return J
+
+    def _plain_values(self, p):
+        th = self._theta_of_p(p)
+        out = []
+        for u, A in zip(self.speeds, self.matrices(p), strict=True):
+            lam = scipy.linalg.eigvals(A)
+            idx = structural_selection(lam, self.lag_rates, u, th, self.zeta_min, self.m)
+            out.append(damping_measure(lam[idx], self.zeta_min))
+        return np.concatenate(out)

@@ -6,7 +6,8 @@ Problem (docs/methods.md#compensator-design)::
                  + w_flaps sum(w)/n_flaps
     over         theta = (b2, b1, b0, a2, a1), gamma_T  [and w in [0, 1]^n_flaps if
                  optimise_placement]
-    subject to   top-m Re lambda(A_cl(U_i, theta, w)) <= -sigma_req(U_i)  at every design speed
+    subject to   top-m Re lambda + zeta_min |lambda| <= 0 over the movable branches of
+                 A_cl(U_i, theta, w) at every design speed (damping ratio >= zeta_min)
                  ||T(j omega_k, U_j)||_F^2 <= gamma_T^2    robust speeds U_j x frequency grid
                  |K(j omega_k)|^2 <= gain_limit^2          on a frequency grid (and omega -> inf)
                  a2 >= a2_min > 0,  a1 >= a1_min > 0       (stable, proper K)
@@ -17,26 +18,38 @@ Frobenius norm (an upper bound of ``sigma_max``) at ``robust_design_speeds_m_s``
 ``1/gamma_T`` is a guaranteed lower bound of the small-gain margin at those points
 (:mod:`design.robust`); the true margin is checked on a dense grid (:meth:`robust_margin`).
 
-Decay rate. ``sigma_req(U) = min(sigma_min, sigma_per_speed * U)``: the slowest aerodynamic lag
-pole of the RFA moves as ``-beta_1 U / b`` and is (almost) uncontrollable by the flaps, so a
-fixed decay rate cannot be demanded at low speed. At ``U = 0`` the lag states are exactly
-decoupled (their input is proportional to ``U``), their zero eigenvalues are dropped, and the
-structural ones must satisfy ``sigma_min``. The eigenvalue constraints use
-:class:`design.eigen.PolynomialTopRealParts` (analytic eigenvalue Jacobians, limited-memory
-Hessian).
+Damping (issue 14). The constraint is a minimum damping ratio ``zeta_min`` (default 0.5 %) of
+every eigenvalue the flaps can move, written ``Re lambda + zeta_min |lambda| <= 0`` (continuous
+through ``lambda = 0``, where divergence crosses; a real stable root always meets it). The
+copies of the RFA lag poles ``-p_i U / b`` (up to 16 identical ones, the spectral abscissa at
+most speeds) and of the compensator poles are excluded: no flap moves them, and the former
+decay-rate constraint on the top real parts was therefore never active. At ``U = 0`` the lag
+states are exactly decoupled (their input is proportional to ``U``) and dropped. The
+constraints use :class:`design.eigen.PolynomialStructuralDamping` (analytic eigenvalue
+Jacobians through the one assembly, limited-memory Hessian).
 
 Buffeting. ``J_buf`` is the mean over ``buffeting_speeds_m_s`` of the squared RMS vertical and
 torsional deck response (each normalised by its open-loop value) from
 :func:`model.buffeting.buffeting`, evaluated numerically in a :class:`casadi.Callback` with a
 forward-difference Jacobian (step 1e-4 relative); used only when ``weight_buffeting > 0``.
 
-Cutting planes (:meth:`DesignProblem.solve_with_cuts`, at most ``cutting_plane_rounds``
-warm-started re-solves of at most ``resolve_max_iter`` iterations): violating speeds of the dense
-decay-rate check join the design grid; if the true peak ``Compensator.max_gain()`` exceeds the
-limit, its frequency joins the gain grid; dense ``sigma_max(T)`` peaks above ``gamma_T`` join the
-robust epigraph. A re-solve only sees sample points and may land on a worse design, so the best
-round (feasible first, then smallest dense peak) is returned and every round is recorded.
-A design whose true peak gain exceeds ``gain_limit`` is never ``converged``.
+Phase 1 and cutting planes (:meth:`DesignProblem.solve_with_cuts`). From a start that violates
+the damping constraints a phase-1 solve without the robust epigraph finds a strictly feasible
+point first (``FEASIBILITY_BACKOFF_1_S``). Then at most ``cutting_plane_rounds`` warm-started
+re-solves of at most ``resolve_max_iter`` iterations: violating speeds of the dense damping
+check join the design grid; if the true peak ``Compensator.max_gain()`` exceeds the limit, its
+frequency joins the gain grid; dense ``sigma_max(T)`` peaks above ``gamma_T`` join the robust
+epigraph, and while the bound fails the dense peak frequency of every check speed is tracked
+(joins as well), so the optimiser's margin ``1/gamma_T`` converges to the verified one
+(tests: within 1 %). The best round (feasible first, then smallest dense peak) is returned and
+every round is recorded. A design whose true peak gain exceeds ``gain_limit`` is never
+``converged``.
+
+Placement (``optimise_placement``): relaxed weights ``w = S z`` in [0, 1], one per mirror pair
+with ``symmetric_layout`` (:attr:`DesignProblem.symmetry`), an optional flap-count budget
+``sum(w) <= flap_budget`` and penalty ``weight_flaps``; rounding and the re-solve of K for the
+rounded layout are in :mod:`design.driver`. Multi-model: :attr:`DesignProblem.variants` add
+every damping constraint and dense check on bridge variants.
 
 Multistart, verification on the ``verification_modes`` model, placement rounding and the
 result records: :mod:`design.driver`; settings: :mod:`design.settings`.
@@ -45,21 +58,20 @@ result records: :mod:`design.driver`; settings: :mod:`design.settings`.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 
 import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from design.buffeting_term import BuffetingCost
-from design.eigen import PolynomialTopRealParts
+from design.buffeting_term import BuffetingCost, SymbolicBuffeting
+from design.eigen import PolynomialStructuralDamping
 from design.plant import (
-    closed_loop_abscissa,
+    damping_check,
     lag_free_indices,
+    lag_rates,
     plant_factors,
-    top_real_parts_numeric,
 )
-from design.records import CutRound, CutsOutcome, RobustMargin, Solve, Verification
+from design.records import CutsOutcome, RobustMargin, Solve, Verification
 from design.robust import (
     k_complex,
     robust_dense_omega,
@@ -71,7 +83,7 @@ from model.control import Compensator
 
 #: Scale of theta in the regularisation term (a2 ~ 0.01..1 s^2).
 THETA_SCALE = np.array([1.0, 1.0, 1.0, 0.1, 1.0])
-#: Eigenvalue constraints are ~ 0.01 1/s: multiplied by this [s] to be O(1) for Ipopt.
+#: Damping constraints are ~ 0.01 1/s: multiplied by this [s] to be O(1) for Ipopt.
 EIG_SCALE = 100.0
 #: Feasibility tolerance of the dense verification [1/s] (Ipopt's constr_viol_tol 1e-6 on the
 #: scaled constraint is 1e-8 1/s; 1e-6 1/s leaves room for the eig round-off of ~1e-10 1/s).
@@ -94,9 +106,56 @@ ROBUST_CUTS_PER_SPEED = 2
 #: 2.44 at the peak, 2.13 at -2 %); a single point is escaped by shifting the resonance by a
 #: fraction of that, a 1 % spaced cluster bounds the under-read of a shifted peak to ~5 %.
 ROBUST_CLUSTER_STEP = 0.01
+#: Phase 1 (:meth:`DesignProblem.solve_with_cuts`). From a start that violates the damping
+#: constraints the robust epigraph is an obstacle: ``||T(j omega)||`` is infinite where a
+#: branch crosses the imaginary axis at a sample frequency, so Ipopt, which must carry an
+#: unstable branch across the axis to reach feasibility, drives ``gamma_T`` (the objective) to
+#: ~1e2 and stalls there (humber:box from the nominal start: 80 iterations, gamma_T 158). The
+#: phase-1 solve drops the epigraph (objective: the regularisation only) and tightens every
+#: damping constraint by this [1/s] (1/20 of ``zeta_min |lambda|`` at 0.2 rad/s, the lowest
+#: structural frequency, for zeta_min = 0.5 %), so phase 2 starts strictly inside.
+FEASIBILITY_BACKOFF_1_S = 5e-5
 #: Ipopt barrier parameter of a warm-started re-solve (default 0.1 re-centres the iterate
 #: far from the previous solution; 1e-3 keeps it near while staying interior).
 WARM_MU_INIT = 1e-3
+
+
+class IterationCallback(ca.Callback):
+    """Ipopt ``iteration_callback``: calls ``fun(iteration, objective, x)`` once per Ipopt
+    iteration (drives the progress bar of :func:`design.driver.design`). CasADi passes the
+    nlpsol outputs (x, f, g, lam_x, lam_g, lam_p); keep the object alive during the solve."""
+
+    def __init__(self, name, nx, ng, fun):
+        ca.Callback.__init__(self)
+        self._nx, self._ng, self._fun, self.count = int(nx), int(ng), fun, 0
+        self.construct(name, {})
+
+    def get_n_in(self):
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i):
+        return "ret"
+
+    def get_sparsity_in(self, i):
+        n = ca.nlpsol_out(i)
+        if n == "f":
+            return ca.Sparsity.scalar()
+        if n in ("x", "lam_x"):
+            return ca.Sparsity.dense(self._nx)
+        if n in ("g", "lam_g"):
+            return ca.Sparsity.dense(self._ng)
+        return ca.Sparsity(0, 0)
+
+    def eval(self, arg):
+        self._fun(self.count, float(arg[1]), np.asarray(arg[0]).ravel())
+        self.count += 1
+        return [0]
 
 
 class DesignProblem:
@@ -128,32 +187,67 @@ class DesignProblem:
         #: gain-constraint frequencies, on top of the settings' sample grids.
         self.robust_cuts: list[tuple[float, float]] = []
         self.gain_cuts: list[float] = []
+        #: ``(iteration, objective, x) -> None`` called once per Ipopt iteration (progress).
+        self.on_iteration = None
+        #: Multi-model design: problems on bridge variants (same layout and settings) whose
+        #: damping constraints join the NLP and whose dense checks join the verification.
+        self.variants: list[DesignProblem] = []
+
+    @property
+    def symmetry(self) -> np.ndarray:
+        """``S`` (n_flaps, n_z) with ``w = S z``: with ``symmetric_layout`` the flap at ``x`` and
+        its mirror at ``-x`` share one weight (the layout's positions are symmetric about
+        mid-span, sorted), otherwise the identity."""
+        nF = self.model.n_flaps
+        if not self.settings.symmetric_layout:
+            return np.eye(nF)
+        pos = np.asarray(self.model.flaps.position_m, float)
+        order = np.argsort(pos)
+        if not np.allclose(pos[order], -pos[order][::-1], atol=1e-6):
+            return np.eye(nF)           # not a symmetric layout: independent weights
+        nz = (nF + 1) // 2
+        S = np.zeros((nF, nz))
+        for r, i in enumerate(order):
+            S[i, min(r, nF - 1 - r)] = 1.0
+        return S
+
+    @property
+    def n_z(self) -> int:
+        """Placement variables: one weight per flap, or per mirror pair (symmetric)."""
+        return self.symmetry.shape[1]
+
+    def z_of(self, weights) -> np.ndarray:
+        """Placement variables of per-flap ``weights`` (least squares through ``S``)."""
+        S = self.symmetry
+        return np.linalg.lstsq(S, np.asarray(weights, float), rcond=None)[0]
 
     @property
     def n_p(self) -> int:
-        """Number of callback parameters: theta, plus the weights when placement is free."""
-        return 5 + (self.model.n_flaps if self.settings.optimise_placement else 0)
+        """Number of callback parameters: theta, plus the placement variables when free."""
+        return 5 + (self.n_z if self.settings.optimise_placement else 0)
 
     # ---- pieces
     def parts_function(self) -> ca.Function:
         """``p -> (A0, A1, A2)`` with ``p = theta`` or ``(theta, w)`` (placement)."""
         th = ca.SX.sym("theta", 5)
         if self.settings.optimise_placement:
-            w = ca.SX.sym("w", self.model.n_flaps)
-            p = ca.vertcat(th, w)
-            parts = self.functions["A_parts"](th, w)
+            z = ca.SX.sym("z", self.n_z)
+            p = ca.vertcat(th, z)
+            parts = self.functions["A_parts"](th, ca.mtimes(ca.DM(self.symmetry), z))
         else:
             p = th
             parts = self.functions["A_parts"](th, ca.DM(self.weights))
         return ca.Function("A_parts_p", [p], list(parts))
 
-    def grid_callback(self, speeds) -> PolynomialTopRealParts:
-        """Top-m real parts at ``speeds`` (lag states dropped at U = 0), cached per grid."""
+    def grid_callback(self, speeds) -> PolynomialStructuralDamping:
+        """Top-m damping measures of the movable branches at ``speeds`` (lag states dropped at
+        U = 0), cached per grid."""
         key = tuple(float(u) for u in speeds)
         if key not in self.callbacks:
-            self.callbacks[key] = PolynomialTopRealParts(
+            self.callbacks[key] = PolynomialStructuralDamping(
                 self.parts_function(), np.array(key), self.settings.n_eig,
-                subsets={0.0: self.keep0}, name=f"top_grid_{len(self.callbacks)}")
+                lag_rates(self.model), self.settings.zeta_min,
+                subsets={0.0: self.keep0}, name=f"damping_grid_{len(self.callbacks)}")
         return self.callbacks[key]
 
     def A_parts(self, theta, weights=None) -> tuple:
@@ -243,7 +337,10 @@ class DesignProblem:
         return r.rms_vertical, r.rms_torsion
 
     def buffeting_cost(self, theta, weights=None) -> float:
-        """``J_buf``: mean of the squared RMS ratios to the open loop (NaN/unstable -> 1e3)."""
+        """``J_buf``: mean of the squared RMS ratios to the open loop (NaN/unstable -> 1e3).
+        ``weights``: per flap, or the placement variables ``z`` (expanded by ``S``)."""
+        if weights is not None and len(weights) != self.model.n_flaps:
+            weights = self.symmetry @ np.asarray(weights, float)
         if self._buffeting_ref is None:
             self._buffeting_ref = self.buffeting_rms([0.0, 0.0, 0.0, 1.0, 1.0])
         try:
@@ -255,21 +352,22 @@ class DesignProblem:
         v = 0.5 * np.mean((np.asarray(z) / z0) ** 2 + (np.asarray(a) / a0) ** 2)
         return float(v) if np.isfinite(v) else 1e3
 
-    def constraint_values(self, theta, speeds) -> np.ndarray:
-        """``top_m Re lambda + sigma_req`` per speed (n_speeds, m) [1/s]; <= 0 is feasible."""
-        parts = self.A_parts(theta)
-        sig = self.settings.sigma_required(speeds)
-        return np.array([top_real_parts_numeric(parts, u, self.settings.n_eig) + sg
-                         for u, sg in zip(speeds, sig, strict=True)])
+    def constraint_values(self, theta, speeds, weights=None) -> np.ndarray:
+        """Largest damping measure ``Re lambda + zeta_min |lambda|`` of the movable branches per
+        speed (n_speeds,) [1/s]; <= 0 is feasible."""
+        return damping_check(self.A_parts(theta, weights), speeds, lag_rates(self.model), theta,
+                             self.settings.zeta_min)["measure_1_s"]
 
     # ---- one solve
     def solve(self, theta0, speeds, max_iter=None, weights0=None, gamma0=None,
-              warm=False) -> Solve:
+              warm=False, feasibility=False) -> Solve:
         """Solve the NLP from ``theta0`` (and ``weights0``) on the design ``speeds`` [m/s].
 
         ``gamma0`` (warm start) is raised to the epigraph value at ``theta0`` when lower, so
         the start satisfies the robust constraints whatever cuts were added; ``warm``
-        starts Ipopt's barrier at ``WARM_MU_INIT`` (a re-solve after cuts).
+        starts Ipopt's barrier at ``WARM_MU_INIT`` (a re-solve after cuts). ``feasibility``:
+        phase 1 -- no robust epigraph, damping constraints tightened by
+        ``FEASIBILITY_BACKOFF_1_S`` (see there).
 
         Returns the :class:`design.records.Solve` record (Ipopt status, iterate, timings).
         """
@@ -279,17 +377,19 @@ class DesignProblem:
         th = ca.MX.sym("theta", 5)
         gT = ca.MX.sym("gamma_T")
         if s.optimise_placement:
-            w = ca.MX.sym("w", nF)
-            p = ca.vertcat(th, w)
-            x = ca.vertcat(th, gT, w)
+            z = ca.MX.sym("z", self.n_z)
+            w = ca.mtimes(ca.DM(self.symmetry), z)
+            p = ca.vertcat(th, z)
+            x = ca.vertcat(th, gT, z)
         else:
             w = ca.DM(self.weights)
             p = th
             x = ca.vertcat(th, gT)
         cb = self.grid_callback(speeds)
-        sig = np.repeat(s.sigma_required(speeds), s.n_eig)
-        g = [EIG_SCALE * (cb(p) + sig)]
-        lbg, ubg = [np.full(sig.size, -np.inf)], [np.zeros(sig.size)]
+        n_eig_cons = len(speeds) * s.n_eig
+        g = [EIG_SCALE * cb(p)]
+        lbg = [np.full(n_eig_cons, -np.inf)]
+        ubg = [np.full(n_eig_cons, -EIG_SCALE * FEASIBILITY_BACKOFF_1_S if feasibility else 0.0)]
         # gain limit |K(j w)| <= L_nlp on the grid (+ gain cuts), at omega = 0 (b0) and at
         # omega -> inf (b2/a2); L_nlp backed off by GAIN_BACKOFF (see there)
         L2 = (s.gain_limit * (1.0 - GAIN_BACKOFF)) ** 2
@@ -305,19 +405,30 @@ class DesignProblem:
         ubg.append(np.zeros(len(oms) + 2))
         f = s.weight_regularisation * ca.sumsqr(th / THETA_SCALE)
         n_rob = 0
-        if s.weight_robust > 0 and (s.robust_design_speeds_m_s or self.robust_cuts):
+        if (s.weight_robust > 0 and (s.robust_design_speeds_m_s or self.robust_cuts)
+                and not feasibility):
             rob, pts = self.robust_function()
             g.append(rob(th, w) - gT * gT)
             n_rob = len(pts)
             lbg.append(np.full(n_rob, -np.inf))
             ubg.append(np.zeros(n_rob))
             f = f + s.weight_robust * gT
-        if s.weight_buffeting > 0:
+        if s.weight_buffeting > 0 and s.buffeting_term == "casadi":
+            if "buffeting_sym" not in self.callbacks:
+                self.callbacks["buffeting_sym"] = SymbolicBuffeting(
+                    self, theta0, self.weights if weights0 is None else weights0)
+            f = f + s.weight_buffeting * self.callbacks["buffeting_sym"](th, w)
+        elif s.weight_buffeting > 0:
             bcb = BuffetingCost(self, self.n_p)
             self.callbacks["buffeting"] = bcb
             f = f + s.weight_buffeting * bcb(p)
         if s.optimise_placement and s.weight_flaps > 0:
             f = f + s.weight_flaps * ca.sum1(w) / nF
+        if s.optimise_placement and s.flap_budget > 0:
+            # flap-count budget: sum of the relaxed weights <= flap_budget (linear)
+            g.append(ca.sum1(w) - float(s.flap_budget))
+            lbg.append(np.array([-np.inf]))
+            ubg.append(np.zeros(1))
         lbx = [-s.b_bound, -s.b_bound, -s.b_bound, s.a2_bounds[0], s.a1_bounds[0], 0.0]
         ubx = [s.b_bound, s.b_bound, s.b_bound, s.a2_bounds[1], s.a1_bounds[1], 1e4]
         theta0 = np.asarray(theta0, float)
@@ -329,9 +440,14 @@ class DesignProblem:
             gT0 = min(max(gT0, 1e-3, 0.0 if gamma0 is None else float(gamma0)), 1e3)
         x0 = np.append(theta0, gT0)
         if s.optimise_placement:
-            lbx += [0.0] * nF
-            ubx += [1.0] * nF
-            x0 = np.append(x0, w0)
+            lbx += [0.0] * self.n_z
+            ubx += [1.0] * self.n_z
+            x0 = np.append(x0, np.clip(self.z_of(w0), 0.0, 1.0))
+        for v in self.variants:     # multi-model: every damping constraint on every variant
+            g.append(EIG_SCALE * v.grid_callback(speeds)(p))
+            lbg.append(np.full(n_eig_cons, -np.inf))
+            ubg.append(np.full(n_eig_cons, -EIG_SCALE * FEASIBILITY_BACKOFF_1_S
+                               if feasibility else 0.0))
         nlp = {"x": x, "f": f, "g": ca.vertcat(*g)}
         opts = {"ipopt.hessian_approximation": "limited-memory",
                 "ipopt.max_iter": int(max_iter or s.max_iter), "ipopt.print_level": 0,
@@ -341,6 +457,11 @@ class DesignProblem:
                 "ipopt.acceptable_constr_viol_tol": 1e-6}
         if warm:
             opts["ipopt.mu_init"] = WARM_MU_INIT
+        if self.on_iteration is not None:
+            it_cb = IterationCallback("design_iterations", x.size1(), nlp["g"].size1(),
+                                      self.on_iteration)
+            self.callbacks["iterations"] = it_cb
+            opts["iteration_callback"] = it_cb
         solver = ca.nlpsol("design", "ipopt", nlp, opts)
         ev0, et0 = cb.evaluations, cb.eval_time_s
         t0 = time.perf_counter()
@@ -349,25 +470,31 @@ class DesignProblem:
         st = solver.stats()
         xs = np.asarray(sol["x"].full()).ravel()
         gs = np.asarray(sol["g"].full()).ravel()
-        n_eig_cons = len(speeds) * s.n_eig
         evals = cb.evaluations - ev0
+        its = st.get("iterations", {})
+        history = {k: [float(v) for v in its[k]] for k in ("obj", "inf_pr", "inf_du", "mu")
+                   if k in its}
         return Solve(theta=xs[:5], gamma_T=float(xs[5]),
-                     weights=xs[6:] if s.optimise_placement else self.weights.copy(),
+                     weights=(self.symmetry @ xs[6:] if s.optimise_placement
+                              else self.weights.copy()),
                      ipopt_status=st["return_status"], success=bool(st["success"]),
                      iterations=int(st["iter_count"]), time_s=elapsed,
                      objective=float(sol["f"]),
                      constraints_eig_1_s=gs[:n_eig_cons] / EIG_SCALE, n_speeds=len(speeds),
                      eig_evaluations=evals,
-                     eig_time_per_speed_s=(cb.eval_time_s - et0) / max(evals, 1) / len(speeds))
+                     eig_time_per_speed_s=(cb.eval_time_s - et0) / max(evals, 1) / len(speeds),
+                     history=history)
 
     # ---- verification
     def verify(self, theta, weights=None) -> Verification:
-        """Dense a posteriori check: abscissa on the check grid, constraint, peak gain."""
+        """Dense a posteriori check on the check grid: abscissa (every eigenvalue), damping of
+        the movable branches, peak gain."""
         s = self.settings
         U = s.check_speeds()
         parts = self.A_parts(theta, weights)
-        absc = closed_loop_abscissa(parts, U)
-        viol = absc + s.sigma_required(U)
+        chk = damping_check(parts, U, lag_rates(self.model), theta, s.zeta_min)
+        absc = chk["abscissa_1_s"]
+        viol = chk["measure_1_s"]
         comp = Compensator(*(float(v) for v in theta))
         stable = absc < 0
         stable_to = float(U[-1]) if stable.all() else (
@@ -377,7 +504,10 @@ class DesignProblem:
                             stable_everywhere=bool(stable.all()), stable_to_m_s=stable_to,
                             max_gain=comp.max_gain(), modes=int(self.model.open_loop.basis.n),
                             step_m_s=s.check_step_m_s,
-                            meets_decay_rate=bool(viol.max() <= VIOLATION_TOL))
+                            meets_damping=bool(viol.max() <= VIOLATION_TOL),
+                            min_damping_ratio=float(chk["zeta"].min()),
+                            min_damping_speed_m_s=float(U[int(np.argmin(chk["zeta"]))]),
+                            damping_ratio=chk["zeta"])
 
     def solve_with_cuts(self, theta0, weights0=None) -> CutsOutcome:
         """Solve and re-solve with cutting planes (at most ``cutting_plane_rounds`` re-solves).
@@ -385,8 +515,8 @@ class DesignProblem:
         After each solve the design is checked a posteriori and the worst violations join the
         NLP's sample sets before a warm-started re-solve:
 
-        * decay rate: abscissa on the dense ``check_step_m_s`` grid; the worst speed of each run
-          of violations joins the design speeds;
+        * damping: the movable branches on the dense ``check_step_m_s`` grid; the worst speed
+          of each run of violations joins the design speeds;
         * gain limit: the true peak :meth:`model.control.Compensator.max_gain`; if above
           ``gain_limit`` the stationary frequencies of ``|K(jw)|`` join the gain grid;
         * robustness: ``sigma_max(T)`` on a dense frequency grid (:meth:`robust_margin`) at
@@ -398,85 +528,9 @@ class DesignProblem:
         force, ``gain_ok`` and ``robust_bound_holds`` (dense peak <= gamma_T within
         ``ROBUST_CUT_TOL``).
         """
-        s = self.settings
-        speeds = list(self.settings.design_speeds())
-        history = []
-        theta = np.asarray(theta0, float)
-        w = self.weights if weights0 is None else np.asarray(weights0, float)
-        gamma = None
-        res = ver = rob = None
-        kept = []
-        use_rob = s.weight_robust > 0 and (bool(s.robust_design_speeds_m_s)
-                                           or bool(s.robust_speeds_m_s))
-        for rnd in range(s.cutting_plane_rounds + 1):
-            res = self.solve(theta, np.array(sorted(speeds)), weights0=w, gamma0=gamma,
-                             warm=rnd > 0,
-                             max_iter=s.resolve_max_iter if rnd > 0 else s.max_iter)
-            theta, w = res.theta, res.weights
-            gamma = res.gamma_T if use_rob else None
-            ver = self.verify(theta, w)
-            eig_ok = ver.max_violation_1_s <= VIOLATION_TOL
-            gain_ok = ver.max_gain <= s.gain_limit
-            rob_ok, new_rob = True, []
-            rob = None
-            if use_rob and _a2_ok(theta):
-                rob = self.robust_margin(theta, speeds=self.robust_check_speeds(), weights=w,
-                                         peaks=ROBUST_CUTS_PER_SPEED)
-                lim = gamma * (1.0 + ROBUST_CUT_TOL)
-                rob_ok = bool(rob.peak <= lim)
-                for U, pk in zip(rob.speeds_m_s, rob.peaks, strict=True):
-                    new_rob += [(float(U), om * (1.0 + k * ROBUST_CLUSTER_STEP))
-                                for om, v in pk if v > lim for k in (-2, -1, 0, 1, 2)]
-                new_rob = [c for c in dict.fromkeys(new_rob) if c not in self.robust_cuts]
-            new_gain = []
-            if not gain_ok:
-                comp = Compensator(*(float(v) for v in theta))
-                wst = comp.stationary_frequencies()
-                new_gain = [float(x) for x in wst
-                            if abs(comp.frequency_response(x)) > s.gain_limit
-                            * (1.0 - GAIN_BACKOFF) and float(x) not in self.gain_cuts]
-            new_speeds = []
-            if not eig_ok:
-                new_speeds = [u for u in _worst_per_run(ver.speeds_m_s,
-                                                        ver.violation_1_s > VIOLATION_TOL,
-                                                        ver.violation_1_s) if u not in speeds]
-            peak = rob.peak if rob else float("nan")
-            history.append(CutRound(
-                round=rnd, ipopt_status=res.ipopt_status, iterations=res.iterations,
-                theta=tuple(float(v) for v in theta), time_s=res.time_s, n_speeds=len(speeds),
-                max_violation_1_s=ver.max_violation_1_s, max_gain=ver.max_gain,
-                gamma_T_frobenius=res.gamma_T, dense_t_peak=peak,
-                n_robust_points=len(self.robust_function()[1]) if use_rob else 0,
-                n_gain_points=len(self.omega_grid()), new_speeds=len(new_speeds),
-                new_gain_cuts=len(new_gain), new_robust_cuts=len(new_rob),
-                eig_time_per_speed_s=res.eig_time_per_speed_s))
-            kept.append((res, ver, rob, dict(speeds=sorted(speeds), robust_cuts=list(
-                self.robust_cuts), gain_cuts=list(self.gain_cuts)), eig_ok and gain_ok, peak))
-            if (eig_ok and gain_ok and rob_ok) or not _a2_ok(theta):
-                break
-            if rnd == s.cutting_plane_rounds or not (new_speeds or new_gain or new_rob):
-                break
-            speeds.extend(new_speeds)
-            self.gain_cuts.extend(new_gain)
-            self.robust_cuts.extend(new_rob)
-        # a re-solve sees only the sample points and can land on a design whose dense peak
-        # (or gain, decay rate) is worse than before the cuts: return the best round --
-        # feasible (decay rate and gain) first, then the smallest dense peak of sigma_max(T)
-        def rank(i):
-            _, _, _, _, ok, pk = kept[i]
-            return (not ok, pk if np.isfinite(pk) else np.inf, -i)
-        ibest = min(range(len(kept)), key=rank)
-        res, ver, rob, cuts, _, _ = kept[ibest]
-        return CutsOutcome(
-            solve=res, verification=ver, robust=rob,
-            rounds=tuple(replace(h, chosen=i == ibest) for i, h in enumerate(history)),
-            chosen_round=ibest, design_speeds_m_s=tuple(cuts["speeds"]),
-            gain_ok=bool(ver.max_gain <= s.gain_limit),
-            robust_bound_holds=(bool(rob is not None and rob.peak
-                                     <= res.gamma_T * (1.0 + ROBUST_CUT_TOL))
-                                if use_rob else None),
-            robust_cuts=tuple(tuple(c) for c in cuts["robust_cuts"]),
-            gain_cuts=tuple(cuts["gain_cuts"]))
+        from design.cuts import solve_with_cuts
+
+        return solve_with_cuts(self, theta0, weights0)
 
     # ---- robustness
     def robust_dense_omega(self, theta, U, weights=None) -> np.ndarray:
@@ -500,22 +554,3 @@ class DesignProblem:
                     else np.asarray(omega, float))
 
         return robust_margin(self.model, theta, speeds, w, omega_at, peaks=peaks)
-
-
-def _worst_per_run(U, bad, viol) -> list[float]:
-    """The worst speed in each run of consecutive violations."""
-    out, i = [], 0
-    while i < len(U):
-        if bad[i]:
-            j = i
-            while j + 1 < len(U) and bad[j + 1]:
-                j += 1
-            out.append(float(U[i + int(np.argmax(viol[i:j + 1]))]))
-            i = j + 1
-        else:
-            i += 1
-    return out
-
-
-def _a2_ok(theta) -> bool:
-    return bool(theta[3] > 0 and theta[4] > 0)

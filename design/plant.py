@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
+from design.eigen import damping_measure, fixed_pole_copies
 from model.spectrum import polynomial_abscissa
 
 
@@ -43,6 +44,43 @@ def closed_loop_abscissa(A_parts, U) -> np.ndarray:
     """Spectral abscissa [1/s] of ``A0 + U A1 + U^2 A2`` per speed (lag states dropped at 0)."""
     A0, A1, A2, keep0 = A_parts
     return polynomial_abscissa((A0, A1, A2), U, keep0)
+
+
+def lag_rates(model) -> np.ndarray:
+    """RFA lag-pole rates ``p_i / b`` [1/m]: the lag copies sit at ``-p_i U / b``."""
+    ol = model.open_loop
+    return np.asarray(ol.rfa.poles, float) / float(ol.aero.half_chord)
+
+
+def movable_spectrum(A_parts, U, rates, theta) -> tuple[np.ndarray, np.ndarray]:
+    """All eigenvalues [1/s] at ``U`` [m/s] and the movable ones (no fixed-pole copies,
+    ``Im >= 0``; :func:`design.eigen.fixed_pole_copies`)."""
+    A0, A1, A2, keep0 = A_parts
+    A = A0 + U * A1 + U * U * A2
+    if U == 0:
+        A = A[np.ix_(keep0, keep0)]
+    lam = scipy.linalg.eigvals(A)
+    mv = lam[~fixed_pole_copies(lam, rates, U, theta) & (lam.imag >= 0)]
+    return lam, mv
+
+
+def damping_check(A_parts, speeds, rates, theta, zeta_min) -> dict:
+    """Dense damping check per speed: ``abscissa_1_s`` (all eigenvalues), ``measure_1_s``
+    (largest ``Re lambda + zeta_min |lambda|`` of the movable branches, <= 0 meets the
+    damping), ``zeta`` (their smallest damping ratio ``-Re lambda / |lambda|``, -1 for a
+    real unstable root) and ``omega_rad_s`` (``|lambda|`` of that branch)."""
+    out = {k: [] for k in ("abscissa_1_s", "measure_1_s", "zeta", "omega_rad_s")}
+    for u in np.atleast_1d(np.asarray(speeds, float)):
+        lam, mv = movable_spectrum(A_parts, float(u), rates, theta)
+        g = damping_measure(mv, zeta_min)
+        mag = np.abs(mv)
+        z = np.where(mag > 0, -mv.real / np.where(mag > 0, mag, 1.0), 0.0)
+        i = int(np.argmin(z))
+        out["abscissa_1_s"].append(float(lam.real.max()))
+        out["measure_1_s"].append(float(g.max()))
+        out["zeta"].append(float(z[i]))
+        out["omega_rad_s"].append(float(mag[i]))
+    return {k: np.array(v) for k, v in out.items()}
 
 
 def top_real_parts_numeric(A_parts, U, m) -> np.ndarray:

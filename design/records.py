@@ -2,7 +2,7 @@
 
 Each record's ``to_dict()`` is its part of the ``bridgeflap optimise --json`` contract; the
 JSON keys are those of the contract (``status`` for the Ipopt exit status, ``max_violation``
-for the dense decay-rate violation of a verification), the fields say their units.
+for the dense damping violation of a verification), the fields say their units.
 """
 
 from __future__ import annotations
@@ -21,8 +21,9 @@ class Verification:
     Attributes
     ----------
     speeds_m_s, abscissa_1_s, violation_1_s : ndarray
-        Check grid [m/s], spectral abscissa [1/s] and ``abscissa + sigma_req`` [1/s] (<= 0
-        meets the decay rate).
+        Check grid [m/s], spectral abscissa (every eigenvalue) [1/s] and the largest damping
+        measure ``Re lambda + zeta_min |lambda|`` of the movable branches [1/s] (<= 0 meets
+        the minimum damping ratio; :func:`design.plant.damping_check`).
     max_violation_1_s : float
         Largest violation [1/s].
     stable_everywhere : bool
@@ -34,8 +35,15 @@ class Verification:
         Retained modes of the checked model.
     step_m_s : float
         Grid step [m/s].
-    meets_decay_rate : bool
+    meets_damping : bool
         ``max_violation_1_s`` within the feasibility tolerance (``design.nlp.VIOLATION_TOL``).
+    min_damping_ratio : float
+        Smallest damping ratio of the movable branches over the grid [-] (-1: a real root
+        in the right half-plane).
+    min_damping_speed_m_s : float
+        Where it occurs [m/s].
+    damping_ratio : ndarray
+        That smallest damping ratio per speed [-].
     """
 
     speeds_m_s: np.ndarray
@@ -47,7 +55,10 @@ class Verification:
     max_gain: float
     modes: int
     step_m_s: float
-    meets_decay_rate: bool
+    meets_damping: bool
+    min_damping_ratio: float = NAN
+    min_damping_speed_m_s: float = NAN
+    damping_ratio: np.ndarray | None = None
 
     def to_dict(self) -> dict:
         """The scalar part (the ``verification`` JSON object)."""
@@ -55,7 +66,9 @@ class Verification:
                 "stable_everywhere": self.stable_everywhere,
                 "stable_to_m_s": self.stable_to_m_s, "max_gain": self.max_gain,
                 "modes": self.modes, "step_m_s": self.step_m_s,
-                "meets_decay_rate": self.meets_decay_rate,
+                "meets_damping": self.meets_damping,
+                "min_damping_ratio": self.min_damping_ratio,
+                "min_damping_speed_m_s": self.min_damping_speed_m_s,
                 "max_abscissa_1_s": float(np.max(self.abscissa_1_s))}
 
 
@@ -95,9 +108,9 @@ class Solve:
     """One Ipopt solve of the NLP (``DesignProblem.solve``).
 
     ``theta`` (b2, b1, b0, a2, a1), ``weights`` per flap [-], ``gamma_T`` the Frobenius
-    epigraph value [-], ``constraints_eig_1_s`` the top-m real parts plus ``sigma_req`` at the
-    design speeds [1/s] (<= 0 feasible), ``eig_time_per_speed_s`` one eigen-evaluation per
-    speed [s].
+    epigraph value [-], ``constraints_eig_1_s`` the top-m damping measures ``Re lambda +
+    zeta_min |lambda|`` at the design speeds [1/s] (<= 0 feasible), ``eig_time_per_speed_s``
+    one eigen-evaluation per speed [s].
     """
 
     theta: np.ndarray
@@ -112,6 +125,7 @@ class Solve:
     n_speeds: int
     eig_evaluations: int
     eig_time_per_speed_s: float
+    history: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -140,6 +154,9 @@ class CutRound:
     eig_time_per_speed_s: float
     chosen: bool = False
     placement: str | None = None
+    #: Ipopt's per-iteration ``obj``, ``inf_pr``, ``inf_du``, ``mu`` (not in the JSON summary;
+    #: written to ``ipopt_history.json`` by :meth:`design.result.DesignResult.history`)
+    history: dict | None = None
 
     def to_dict(self) -> dict:
         """One entry of ``rounds``."""
@@ -200,7 +217,7 @@ class StartRecord:
         Ipopt iterations over all rounds.
     max_violation_1_s, stable_to_m_s, stable_everywhere, max_gain :
         Dense check on the design model [1/s], [m/s], -, [rad/rad].
-    meets_decay_rate, gain_ok, verified : bool
+    meets_damping, gain_ok, verified : bool
         ``verified``: every a posteriori check holds, also on the verification model.
     gamma_T_frobenius : float
         Optimiser's epigraph value [-].
@@ -227,7 +244,7 @@ class StartRecord:
     stable_to_m_s: float = NAN
     stable_everywhere: bool = False
     max_gain: float = NAN
-    meets_decay_rate: bool = False
+    meets_damping: bool = False
     gain_ok: bool = False
     verified: bool = False
     gamma_T_frobenius: float = NAN
@@ -240,6 +257,8 @@ class StartRecord:
     flap_positions_m: tuple = ()
     design_speeds_m_s: tuple = ()
     weights_continuous: tuple | None = None
+    nlp_active_speeds_m_s: tuple = ()
+    variant_checks: tuple = ()
 
     @property
     def failed(self) -> bool:
@@ -261,6 +280,8 @@ class StartRecord:
         out = {"start": self.start, "theta0": list(self.theta0)}
         if self.weights_continuous is not None:
             out["weights_continuous"] = list(self.weights_continuous)
+        if self.variant_checks:
+            out["variant_checks"] = list(self.variant_checks)
         if self.failed:
             return out | {"status": self.ipopt_status, "success": self.success,
                           "time_s": self.time_s}
@@ -271,7 +292,7 @@ class StartRecord:
             "rounds": [r.to_dict() for r in self.rounds], "cut_rounds": self.cut_rounds,
             "max_violation_1_s": self.max_violation_1_s, "stable_to_m_s": self.stable_to_m_s,
             "stable_everywhere": self.stable_everywhere, "max_gain": self.max_gain,
-            "meets_decay_rate": self.meets_decay_rate, "gain_ok": self.gain_ok,
+            "meets_damping": self.meets_damping, "gain_ok": self.gain_ok,
             "verified": self.verified, "gamma_T_frobenius": self.gamma_T_frobenius,
             "dense_T_peak_check_speeds": self.dense_t_peak_check_speeds,
             "robust_bound_holds": self.robust_bound_holds, "robust_margin": self.robust_margin,
@@ -302,7 +323,7 @@ class StartRecord:
 
 @dataclass(frozen=True)
 class FlapCountCheck:
-    """One evenly spaced layout of the flap-count search: ``meets_margin`` is the decay rate
+    """One evenly spaced layout of the flap-count search: ``meets_margin`` is the minimum damping
     on the dense grid of the verification model, same K(s)."""
 
     flap_count: int
@@ -321,7 +342,8 @@ class FlapCountCheck:
 
 @dataclass(frozen=True)
 class FlapCountSearch:
-    """Fewest evenly spaced flaps meeting the decay rate (``design.driver.minimum_flap_count``).
+    """Fewest evenly spaced flaps meeting the minimum damping
+    (``design.driver.minimum_flap_count``).
 
     ``minimum`` None when no checked count meets it; ``modes`` of the verification model.
     """
@@ -329,7 +351,8 @@ class FlapCountSearch:
     minimum: int | None
     counts: tuple[FlapCountCheck, ...]
     modes: int
-    criterion: str = "max Re lambda <= -sigma_req(U) on the dense grid, same K(s)"
+    criterion: str = ("damping ratio >= zeta_min of the movable branches on the dense grid, "
+                      "same K(s)")
 
     def to_dict(self) -> dict:
         """The ``minimum_flaps`` JSON object."""
@@ -362,3 +385,34 @@ class BuffetingComparison:
                 "closed_loop_rms_vertical_m": list(self.closed_loop_rms_vertical_m),
                 "open_loop_rms_torsion_rad": list(self.open_loop_rms_torsion_rad),
                 "closed_loop_rms_torsion_rad": list(self.closed_loop_rms_torsion_rad)}
+
+
+@dataclass(frozen=True)
+class ParetoPoint:
+    """One flap count of the Pareto search (``design.driver.flap_count_pareto``): K(s)
+    re-optimised for the evenly spaced symmetric layout of ``flap_count`` flaps, verified.
+
+    ``verified``: damping and gain on the design model's dense grid and stable on the
+    verification model's (the same criterion as a converged design); ``robust_margin`` the
+    dense small-gain margin [-]; ``stable_to_m_s`` on the verification model [m/s];
+    ``theta`` the re-optimised coefficients.
+    """
+
+    flap_count: int
+    ipopt_status: str
+    verified: bool
+    robust_margin: float
+    max_gain: float
+    min_damping_ratio: float
+    stable_to_m_s: float
+    iterations: int
+    time_s: float
+    theta: tuple
+
+    def to_dict(self) -> dict:
+        """One entry of ``pareto.points``."""
+        return {"flap_count": self.flap_count, "status": self.ipopt_status,
+                "verified": self.verified, "robust_margin": self.robust_margin,
+                "max_gain": self.max_gain, "min_damping_ratio": self.min_damping_ratio,
+                "stable_to_m_s": self.stable_to_m_s, "iterations": self.iterations,
+                "time_s": self.time_s, "theta": list(self.theta)}

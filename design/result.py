@@ -37,7 +37,7 @@ class DesignResult:
         Dense check grid [m/s] and the chosen design's spectral abscissa on the verification
         model [1/s] (NaN without a design).
     min_flaps : FlapCountSearch or None
-        Fewest evenly spaced flaps meeting the decay rate
+        Fewest evenly spaced flaps meeting the minimum damping
         (:func:`design.driver.minimum_flap_count`; None when not searched).
     wall_time_s : float
     extras : dict
@@ -77,6 +77,9 @@ class DesignResult:
                                         "sensitivity of the flap loop (small-gain theorem)",
             "robust_T_inf_by_speed": b.t_inf_by_speed() if b is not None else {},
             "gamma_T_frobenius": b.gamma_T_frobenius if b is not None else NAN,
+            # the optimiser's own margin 1/gamma_T against the verified one (peak tracking)
+            "robust_margin_optimiser": (1.0 / b.gamma_T_frobenius
+                                        if b is not None and b.gamma_T_frobenius > 0 else NAN),
             "closed_loop_stable_to_m_s": b.stable_to_m_s if b is not None else NAN,
             "design_modes": self.settings.n_modes,
             "verification": (b.verification.to_dict()
@@ -84,7 +87,11 @@ class DesignResult:
             "flap_positions_m": list(b.flap_positions_m) if b is not None else [],
             "buffeting": (self.extras["buffeting"].to_dict() if "buffeting" in self.extras
                           else {}),
-            "sigma_min_1_s": self.settings.sigma_min_1_s,
+            "zeta_min": self.settings.zeta_min,
+            "active_constraints": self.extras.get("active_constraints", {}),
+            "pareto": self.extras.get("pareto", {}),
+            "fresh_variants": self.extras.get("fresh_variants", {}),
+            "closed_loop_limits": self.extras.get("closed_loop_limits", {}),
             "spectral_abscissa_by_speed": [
                 {"speed_m_s": float(u), "abscissa_1_s": float(a)}
                 for u, a in zip(self.abscissa_speeds_m_s, self.abscissa_1_s, strict=True)],
@@ -99,6 +106,20 @@ class DesignResult:
             "wall_time_s": self.wall_time_s,
             "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"},
         }
+
+    def history(self) -> dict:
+        """Ipopt iteration history of every start and round (``ipopt_history.json``):
+        per round its label, status and the per-iteration ``obj``, ``inf_pr``, ``inf_du``,
+        ``mu`` lists."""
+        out = []
+        for s in self.starts:
+            for r in s.rounds:
+                out.append({"start": s.start, "round": r.round,
+                            "placement": r.placement, "status": r.ipopt_status,
+                            "iterations": r.iterations,
+                            **{k: [x if np.isfinite(x) else None for x in v]
+                               for k, v in (r.history or {}).items()}})
+        return {"rounds": out}
 
     def plot_bode(self, ax=None):
         """|K(jw)| and phase of the designed compensator with the gain limit."""
@@ -123,7 +144,8 @@ class DesignResult:
         return ax
 
     def plot_margins(self, ax=None):
-        """Spectral abscissa against speed with the required decay rate, and the layout."""
+        """Spectral abscissa and the smallest damping ratio of the movable branches against
+        speed with the required ``zeta_min``, and the layout."""
         import matplotlib.pyplot as plt
 
         if ax is None:
@@ -133,7 +155,13 @@ class DesignResult:
         if ol is not None:
             ax[0].plot(self.abscissa_speeds_m_s, ol, "k--", label="open loop")
         U = self.abscissa_speeds_m_s
-        ax[0].plot(U, -self.settings.sigma_required(U), "r:", label="-sigma_req")
+        z = self.extras.get("damping_ratio")
+        if z is not None:
+            tw = ax[0].twinx()
+            tw.plot(U, 100 * np.clip(z, -0.2, None), "g-", lw=0.8, label="min damping ratio")
+            tw.axhline(100 * self.settings.zeta_min, color="r", ls=":", label="zeta_min")
+            tw.set_ylabel("min damping ratio of movable branches [%]")
+            tw.legend(loc="lower left")
         ax[0].axhline(0, color="k", lw=0.7)
         ax[0].set_xlabel("U [m/s]")
         ax[0].set_ylabel("max Re lambda [1/s]")

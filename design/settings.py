@@ -43,6 +43,11 @@ class DesignSettings:
     """Definition of the design problem (defaults: Humber, seed §6; overridable by TOML).
 
     Units: lengths [m], speeds [m/s], rates [1/s], frequencies [rad/s], gains [rad/rad].
+
+    ``zeta_min`` [-] is the minimum damping ratio ``-Re lambda / |lambda|`` demanded of every
+    closed-loop branch the flaps can move (default 0.5 %, half the structural 1 %), at every
+    design speed 0..``speed_max_m_s``; the copies of the aerodynamic lag poles ``-p_i U / b``
+    and of the compensator poles are excluded (:mod:`design.eigen`).
     """
 
     bridge: str = "humber"
@@ -56,8 +61,7 @@ class DesignSettings:
     speed_max_m_s: float = 85.0
     design_step_m_s: float = 5.0
     check_step_m_s: float = 0.25
-    sigma_min_1_s: float = 0.004
-    sigma_per_speed_1_m: float = 2.5e-4
+    zeta_min: float = 0.005
     n_eig: int = 3
     gain_limit: float = 15.0
     omega_min_rad_s: float = 1e-3
@@ -72,18 +76,28 @@ class DesignSettings:
     weight_regularisation: float = 1e-3
     weight_buffeting: float = 0.0
     buffeting_speeds_m_s: tuple = (10.0, 20.0, 25.0)
+    buffeting_term: str = "callback"
     optimise_placement: bool = False
     weight_flaps: float = 0.0
+    symmetric_layout: bool = True
+    flap_budget: int = 0
     starts: int = 2
     seed: int = 1
     parallel: bool = False
     max_iter: int = 80
-    resolve_max_iter: int = 20
-    cutting_plane_rounds: int = 2
+    resolve_max_iter: int = 60
+    cutting_plane_rounds: int = 5
     b_bound: float = 15.0
     a2_bounds: tuple = (1e-3, 5.0)
     a1_bounds: tuple = (1e-2, 10.0)
-    min_flap_counts: tuple = (25, 21, 17, 13, 9, 7, 5, 3, 1)
+    min_flap_counts: tuple = ()
+    pareto: bool = False
+    variants: int = 0
+    fresh_variants: int = 0
+    fresh_variant_modes: int = 30
+    variant_seed: int = 7
+    variant_fixed: tuple = ("deck.half_chord_m", "aero.coherence_decay")
+    pareto_step: int = 2
     extras: dict = field(default_factory=dict, compare=False)
 
     def __post_init__(self):
@@ -93,11 +107,15 @@ class DesignSettings:
                      "check_step_m_s", "omega_min_rad_s", "omega_max_rad_s",
                      "robust_omega_min_rad_s", "robust_omega_max_rad_s"):
             _num(name, getattr(self, name), positive=True)
-        for name in ("sigma_min_1_s", "sigma_per_speed_1_m", "weight_regularisation",
+        _num("zeta_min", self.zeta_min, nonneg=True)
+        if self.zeta_min >= 1.0:
+            raise BridgeflapInputError("zeta_min", f"must be < 1, got {self.zeta_min!r}")
+        for name in ("weight_regularisation",
                      "weight_buffeting", "weight_robust", "weight_flaps"):
             _num(name, getattr(self, name), nonneg=True)
         for name in ("n_modes", "verification_modes", "flap_count", "n_eig", "n_omega",
-                     "n_robust_omega", "starts", "max_iter", "resolve_max_iter"):
+                     "n_robust_omega", "starts", "max_iter", "resolve_max_iter",
+                     "pareto_step", "fresh_variant_modes"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise BridgeflapInputError(name, f"must be a positive integer, got {v!r}")
@@ -124,7 +142,8 @@ class DesignSettings:
         for name in ("robust_design_speeds_m_s", "robust_speeds_m_s", "buffeting_speeds_m_s"):
             for v in getattr(self, name):
                 _num(name, v, positive=True)
-        for name in ("optimise_placement", "leading_edge", "trailing_edge", "parallel"):
+        for name in ("optimise_placement", "leading_edge", "trailing_edge", "parallel",
+                     "pareto", "symmetric_layout"):
             if not isinstance(getattr(self, name), bool):
                 raise BridgeflapInputError(name, f"must be true or false, got "
                                                  f"{getattr(self, name)!r}")
@@ -136,6 +155,17 @@ class DesignSettings:
         if not isinstance(self.bridge, str) or not self.bridge:
             raise BridgeflapInputError("bridge", f"must be a bridge name or path, got "
                                                  f"{self.bridge!r}")
+        for name in ("variants", "fresh_variants", "variant_seed"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise BridgeflapInputError(name, f"must be an integer >= 0, got {v!r}")
+        if self.buffeting_term not in ("callback", "casadi"):
+            raise BridgeflapInputError("buffeting_term", "must be 'callback' (numpy, forward "
+                                       f"differences) or 'casadi', got {self.buffeting_term!r}")
+        if (isinstance(self.flap_budget, bool) or not isinstance(self.flap_budget, int)
+                or not 0 <= self.flap_budget <= self.flap_count):
+            raise BridgeflapInputError("flap_budget", "must be an integer in 0..flap_count "
+                                                      f"(0: no budget), got {self.flap_budget!r}")
 
     def positions(self, count: int | None = None) -> np.ndarray:
         """Evenly spaced, touching flap centres from the main-span mid-point [m]."""
@@ -153,11 +183,6 @@ class DesignSettings:
         n = int(round(self.speed_max_m_s / self.check_step_m_s))
         return np.linspace(0.0, self.speed_max_m_s, n + 1)
 
-    def sigma_required(self, U) -> np.ndarray:
-        """Required decay rate ``min(sigma_min, sigma_per_speed U)`` [1/s] (``sigma_min`` at 0)."""
-        U = np.asarray(U, float)
-        return np.where(U > 0, np.minimum(self.sigma_min_1_s, self.sigma_per_speed_1_m * U),
-                        self.sigma_min_1_s)
 
 
 _TOML_KEYS = {f for f in DesignSettings.__dataclass_fields__ if f != "extras"}
@@ -193,7 +218,7 @@ def load_settings(path=None, **overrides) -> DesignSettings:
     unknown = sorted(set(flat) - _TOML_KEYS)
     if unknown:
         raise BridgeflapInputError(unknown[0], "unknown design setting")
-    for key in ("a2_bounds", "a1_bounds", "min_flap_counts", "robust_speeds_m_s",
+    for key in ("a2_bounds", "a1_bounds", "min_flap_counts", "robust_speeds_m_s", "variant_fixed",
                 "robust_design_speeds_m_s", "buffeting_speeds_m_s"):
         if key in flat:
             if not isinstance(flat[key], list | tuple):
@@ -211,4 +236,4 @@ def quick_settings(settings: DesignSettings) -> DesignSettings:
     status says whether it holds.
     """
     return replace(settings, starts=1, design_step_m_s=max(settings.design_step_m_s, 10.0),
-                   cutting_plane_rounds=1, min_flap_counts=(25, 13, 5))
+                   cutting_plane_rounds=1, min_flap_counts=(25, 13, 5), pareto=False)

@@ -29,6 +29,15 @@ def small():
     return s, model
 
 
+@pytest.fixture(scope="module")
+def small_box():
+    # humber:box (b = 11 m, where a design exists), 6 modes, 5 flap pairs
+    s = load_settings(bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
+                      robust_design_speeds_m_s=(30.0, 60.0), n_robust_omega=8)
+    spec, model = build_model(s)
+    return s, model
+
+
 def _central_fd(fun, p, h):
     cols = []
     for k in range(p.size):
@@ -128,11 +137,21 @@ def test_robust_constraint_gradient_matches_finite_differences(small):
 
 
 def test_placement_weight_gradient_matches_finite_differences(small):
-    # (d) eigenvalue constraints with free flap weights: d Re lambda / d(theta, w)
+    # (d) damping constraints with free flap weights: d g / d(theta, w), independent weights
+    # and the symmetric ones (one per mirror pair, 3 for 5 flaps)
     s, model = small
-    prob = DesignProblem(replace(s, optimise_placement=True), model)
+    prob = DesignProblem(replace(s, optimise_placement=True, symmetric_layout=False), model)
     cb = prob.grid_callback([0.0, 40.0, 70.0])
     p0 = np.concatenate([THETA, [1.0, 0.8, 0.6, 0.9, 0.7]])
+    sym = DesignProblem(replace(s, optimise_placement=True), model)
+    assert sym.n_z == 3
+    np.testing.assert_array_equal(sym.symmetry @ [0.1, 0.2, 0.3], [0.1, 0.2, 0.3, 0.2, 0.1])
+    cbs = sym.grid_callback([0.0, 40.0, 70.0])
+    ps = np.concatenate([THETA, [1.0, 0.6, 0.7]])
+    Js = np.asarray(ca.Function("J", [x := ca.MX.sym("xs", 8)],
+                                [ca.jacobian(cbs(x), x)])(ps).full())
+    Jsfd = _central_fd(cbs._plain_values, ps, 1e-6)
+    np.testing.assert_allclose(Js, Jsfd, rtol=0, atol=1e-6 * np.abs(Jsfd).max())
     x = ca.MX.sym("x", p0.size)
     Jn = np.asarray(ca.Function("J", [x], [ca.jacobian(cb(x), x)])(p0).full())
     Jfd = _central_fd(cb._plain_values, p0, 1e-6)
@@ -176,12 +195,12 @@ def _rec(start, viol, gain, verified, margin, stable_to=85.0):
     ver = Verification(speeds_m_s=np.zeros(1), abscissa_1_s=np.zeros(1),
                        violation_1_s=np.zeros(1), max_violation_1_s=viol,
                        stable_everywhere=True, stable_to_m_s=stable_to, max_gain=gain, modes=16,
-                       step_m_s=0.25, meets_decay_rate=viol <= 1e-6)
+                       step_m_s=0.25, meets_damping=viol <= 1e-6)
     rob = RobustMargin(speeds_m_s=np.array([70.0]), t_inf=np.array([1.0 / margin]),
                        peak_omega_rad_s=np.array([1.0]), peaks=(), margin=margin)
     return StartRecord(start=start, theta0=(0.0,) * 5, ipopt_status="Solve_Succeeded",
                        success=True, time_s=1.0, theta=(0.0,) * 5, max_violation_1_s=viol,
-                       max_gain=gain, meets_decay_rate=viol <= 1e-6, gain_ok=gain <= 15.0,
+                       max_gain=gain, meets_damping=viol <= 1e-6, gain_ok=gain <= 15.0,
                        verified=verified, robust=rob, verification=ver)
 
 
@@ -209,7 +228,8 @@ def test_gain_cuts_enforce_true_peak(small):
     res = prob.solve_with_cuts(np.array([0.2, 0.3, -1.0, 0.05, 0.1]))
     kmax = Compensator(*res.theta).max_gain()
     assert res.gain_ok == (kmax <= 2.0)
-    for r in res.rounds[:-1]:
+    cut_rounds = [r for r in res.rounds if r.placement is None]     # not the phase-1 solve
+    for r in cut_rounds[:-1]:
         c = Compensator(*r.theta)
         finite = [w for w in c.stationary_frequencies() if abs(c.frequency_response(w)) > 2.0]
         if finite:      # a peak between grid points (not at 0 or infinity, constrained exactly)
@@ -295,10 +315,11 @@ def test_buffeting_weight_lowers_rms(buffeting_problem):
         res = prob.solve(THETA, speeds)
         z, a = prob.buffeting_rms(res.theta)
         out[wb] = (float(z[0]), float(a[0]), prob.buffeting_cost(res.theta))
-    # J_buf (the weighted quantity) strictly lower; both RMS not higher (1e-9: round-off)
+    # J_buf (the weighted quantity, the mean of both squared RMS ratios) strictly lower, and
+    # at least one RMS lower: J_buf may trade a little of one for more of the other (damping
+    # constraints: vertical +1e-4 relative, torsion lower), which the sum permits
     assert out[2.0][2] < out[0.0][2]
-    assert out[2.0][0] <= out[0.0][0] * (1 + 1e-9)
-    assert out[2.0][1] <= out[0.0][1] * (1 + 1e-9)
+    assert out[2.0][0] < out[0.0][0] or out[2.0][1] < out[0.0][1]
 
 
 @pytest.mark.slow
@@ -337,7 +358,7 @@ def test_humber_design_stable_on_16_modes(tmp_path, capsys):
     ver = prob.verify(theta)
     assert ver.modes == DEFAULT_MODES and ver.step_m_s == 0.25
     assert ver.stable_everywhere and ver.stable_to_m_s == 85.0
-    assert ver.max_violation_1_s <= 1e-6      # the decay rate too (VIOLATION_TOL)
+    assert ver.max_violation_1_s <= 1e-6      # the minimum damping too (VIOLATION_TOL)
     # the reported margin is the true sigma_max one, and the open loop really flutters
     assert payload["robust_margin"] == pytest.approx(prob.robust_margin(theta).margin,
                                                      rel=1e-9)
@@ -377,3 +398,232 @@ def test_failed_design_summary_keeps_the_optimise_contract():
     row = summ["start_table"][0]
     assert (row["status"], row["iterations"], row["cut_rounds"], row["verified"],
             row["chosen"]) == ("failed: x", 0, 0, False, False)
+
+
+def test_round_layout_keeps_whole_mirror_pairs_within_budget():
+    # 5 flaps, 3 groups (outer pair, inner pair, centre): w = S z
+    from design.driver import round_layout
+
+    S = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 1, 0], [1, 0, 0]], float)
+    # budget 3: the inner pair (0.9) and the centre (0.8) fit, the outer pair (0.85) would not
+    np.testing.assert_array_equal(round_layout(S, [0.85, 0.9, 0.8], 3), [0, 1, 1, 1, 0])
+    # no budget: every group above 0.5
+    np.testing.assert_array_equal(round_layout(S, [0.6, 0.2, 0.9]), [1, 0, 1, 0, 1])
+    # nothing above 0.5: the largest group is kept (a layout never loses every flap)
+    np.testing.assert_array_equal(round_layout(S, [0.1, 0.4, 0.2]), [0, 1, 0, 1, 0])
+    # the result is symmetric whatever z is
+    w = round_layout(S, [0.3, 0.7, 0.55], 4)
+    np.testing.assert_array_equal(w, w[::-1])
+
+
+def test_placement_budget_constraint_holds(small):
+    # relaxed weights with a flap-count budget of 2 (of 5): the solution's weights sum to <= 2
+    # (Ipopt constr_viol_tol 1e-6) and stay symmetric (one variable per mirror pair)
+    s, model = small
+    s2 = replace(s, optimise_placement=True, flap_budget=2, max_iter=15,
+                 robust_design_speeds_m_s=(40.0,))
+    prob = DesignProblem(s2, model)
+    res = prob.solve(THETA, np.array([0.0, 40.0, 70.0]))
+    assert res.weights.sum() <= 2.0 + 1e-6
+    np.testing.assert_allclose(res.weights, res.weights[::-1], rtol=0, atol=1e-12)
+
+
+def test_damping_constraint_is_active_when_only_regularised(small_box):
+    # objective |theta/scale|^2 only (no robust term): it pulls K towards 0, the open loop
+    # (K = 0) flutters at 70 m/s on this model, so the NLP optimum must sit on a damping
+    # constraint -- the constraints act (issue 14: the decay-rate constraints never did)
+    from design.driver import ACTIVE_ABS_TOL_1_S, active_constraints, nlp_active_speeds
+
+    s, model = small_box
+    s2 = replace(s, weight_robust=0.0, max_iter=80)
+    prob = DesignProblem(s2, model)
+    speeds = s2.design_speeds()
+    assert prob.verify(np.array([0.0, 0.0, 0.0, 1e-3, 1e-2])).stable_to_m_s < 85.0
+    res = prob.solve(THETA, speeds)
+    assert res.success, res.ipopt_status
+    act_speeds = nlp_active_speeds(res, speeds, s2.n_eig)
+    assert act_speeds, res.constraints_eig_1_s.max()
+    assert res.constraints_eig_1_s.max() <= ACTIVE_ABS_TOL_1_S      # and none violated
+    rec = StartRecord(start=0, theta0=tuple(THETA), ipopt_status=res.ipopt_status,
+                      success=True, time_s=0.0, theta=tuple(res.theta),
+                      max_gain=Compensator(*res.theta).max_gain(),
+                      nlp_active_speeds_m_s=act_speeds)
+    act = active_constraints(s2, rec, prob.verify(res.theta))
+    assert act["stability_or_gain_active"]
+    assert act["nlp_active_damping_speeds_m_s"] == list(act_speeds)
+
+
+def test_copies_of_lag_and_compensator_poles_are_excluded(small):
+    # the excluded eigenvalues are exactly the fixed copies: -p_i U / b and the roots of
+    # a2 s^2 + a1 s + 1; every other eigenvalue is kept
+    from design.eigen import fixed_pole_copies
+    from design.plant import lag_rates
+
+    s, model = small
+    prob = DesignProblem(s, model)
+    A0, A1, A2, _ = prob.A_parts(THETA)
+    U = 40.0
+    lam = np.linalg.eigvals(A0 + U * A1 + U * U * A2)
+    mask = fixed_pole_copies(lam, lag_rates(model), U, THETA)
+    targets = np.concatenate([-lag_rates(model) * U, np.roots([THETA[3], THETA[4], 1.0])])
+    dist = np.min(np.abs(lam[:, None] - targets[None, :]) / np.abs(targets[None, :]), axis=1)
+    np.testing.assert_array_equal(mask, dist <= 1e-7)
+    # 5 flaps on 6 modes: at least the lag states of the modes no load reaches are copies
+    assert mask.sum() > 0 and (~mask).sum() >= 2 * model.open_loop.basis.n
+
+
+def test_peak_tracking_margin_matches_verified_within_one_percent(small_box):
+    # robust peak tracking to convergence: the optimiser's margin 1/gamma_T equals the dense
+    # sigma_max margin at the check speeds within 1 % (issue 14 item 4). gamma_T bounds the
+    # Frobenius norm >= sigma_max, so 1/gamma_T <= the true margin; near a resonance T is
+    # nearly rank one and the two meet -- the 1 % is the issue's acceptance tolerance.
+    s, model = small_box
+    s2 = replace(s, max_iter=60, resolve_max_iter=60, cutting_plane_rounds=5,
+                 design_step_m_s=10.0)
+    prob = DesignProblem(s2, model)
+    res = prob.solve_with_cuts(THETA)
+    assert res.robust_bound_holds
+    opt = 1.0 / res.solve.gamma_T
+    ver = 1.0 / res.robust.peak
+    assert opt == pytest.approx(ver, rel=0.01)
+
+
+def test_symbolic_buffeting_term_matches_numeric_and_is_differentiable(buffeting_problem):
+    # the CasADi spectral integral (frozen grid) against model.buffeting's adaptive one at
+    # the reference design, and its AD gradient against central differences of itself
+    from design.buffeting_term import SymbolicBuffeting
+    from model.buffeting import buffeting
+
+    s, spec, model = buffeting_problem
+    prob = DesignProblem(s, model, spec=spec)
+    sb = SymbolicBuffeting(prob, THETA)
+    w1 = np.ones(model.n_flaps)
+    sys_cl = model.system(Compensator(*THETA))
+    ref = buffeting(sys_cl, list(s.buffeting_speeds_m_s), spec=spec, n_modes=6)
+    sys_0 = model.system(Compensator(0.0, 0.0, 0.0, THETA[3], THETA[4]))
+    ref0 = buffeting(sys_0, list(s.buffeting_speeds_m_s), spec=spec, n_modes=6)
+    ns = ref.strip_x.size
+    want = []
+    for i, (jv, jt) in enumerate(sb.rows):
+        want.append((ref.rms_heave[i, jv] / ref0.rms_heave[i, jv]) ** 2
+                    + (ref.rms_pitch[i, jt - ns] / ref0.rms_pitch[i, jt - ns]) ** 2)
+    j_num = 0.5 * np.mean(want)
+    # frozen coarse grid (n_base 40, 15 points per peak) vs the converged adaptive grid
+    # (tolerance 5e-3 on each RMS): ratios of squares agree to ~2 x 2 x 5e-3; 3 % allowed
+    assert float(sb(THETA, w1)) == pytest.approx(j_num, rel=0.03)
+    th = ca.MX.sym("th", 5)
+    g = np.asarray(ca.Function("g", [th], [ca.gradient(sb(th, w1), th)])(THETA).full()).ravel()
+    f = lambda p: float(sb(p, w1))  # noqa: E731
+    gfd = np.array([(f(THETA + e) - f(THETA - e)) / (2 * 1e-6) for e in np.eye(5) * 1e-6])
+    # exact AD vs central differences of the same function: truncation ~h^2 f''' ~ 1e-10,
+    # round-off ~eps J / h ~ 1e-10; 1e-6 relative to the largest entry is generous
+    np.testing.assert_allclose(g, gfd, rtol=0, atol=1e-6 * np.abs(gfd).max())
+    assert np.abs(g).max() > 1e-4
+
+
+def test_multi_model_design_constrains_every_variant(small_box):
+    # two variants of the small humber:box model (Sobol' over the estimated-input ranges,
+    # half-chord held): the NLP carries one damping block per model, and a short solve_with_cuts
+    # reports feasibility only when every variant's dense check meets zeta_min
+    from design.driver import sample_variants
+    from model.spec import load_bridge
+
+    s, model = small_box
+    s2 = replace(s, max_iter=30, resolve_max_iter=20, cutting_plane_rounds=1,
+                 design_step_m_s=10.0, weight_robust=0.0)
+    base = load_bridge(s2.bridge)
+    specs = sample_variants(s2, base, 2, s2.variant_seed)
+    assert len(specs) == 2 and all(v.deck.half_chord_m == base.deck.half_chord_m for v in specs)
+    assert specs[0].deck.gj_nm2 != base.deck.gj_nm2
+    prob = DesignProblem(s2, model, spec=base)
+    prob.variants = [DesignProblem(s2, build_model(s2, spec=v)[1], spec=v) for v in specs]
+    res = prob.solve(THETA, s2.design_speeds())
+    n = len(s2.design_speeds()) * s2.n_eig
+    assert len(res.constraints_eig_1_s) == n          # the nominal block is reported
+    # every variant's damping block was evaluated by Ipopt (its own callback, same grid)
+    key = tuple(float(u) for u in s2.design_speeds())
+    assert all(q.callbacks[key].evaluations > 0 for q in prob.variants)
+    if res.success:     # a converged solve is feasible on every variant's design grid
+        for q in prob.variants:
+            assert np.max(q.constraint_values(res.theta, s2.design_speeds())) <= 1e-6
+
+
+def test_closed_loop_limits_reported_with_mechanism(small_box):
+    # the reported limits are model.analysis.closed_loop_flutter's, searched to 2 x 85 m/s,
+    # and the governing one is the lower of the sweep's critical speed and the static check
+    from design.driver import closed_loop_limits
+    from model.analysis import closed_loop_flutter
+    from model.spec import load_bridge
+
+    s, model = small_box
+    ctrl = Controller(Compensator(*THETA), tuple(s.positions()), s.flap_width_m)
+    lim = closed_loop_limits(s, ctrl)
+    ref = closed_loop_flutter(load_bridge(s.bridge), ctrl, np.arange(0.0, 170.0001, 0.5),
+                              n_modes=6).summary()
+    assert lim["searched_to_m_s"] == 170.0 and lim["modes"] == 6
+    for k in ("flutter_speed_m_s", "divergence_speed_m_s", "divergence_static_speed_m_s"):
+        assert lim[k] == ref[k] or (np.isnan(lim[k]) and np.isnan(ref[k]))
+    assert lim["flutter_status"] in ("converged", "no_crossing_in_range", "bracket_failed",
+                                     "unstable_at_first_speed")
+    cands = [v for v in (ref["critical_speed_m_s"], ref["divergence_static_speed_m_s"])
+             if np.isfinite(v)]
+    assert lim["governing_speed_m_s"] == min(cands)
+    assert lim["governing_mechanism"] in ("flutter", "divergence", "divergence (static)")
+
+
+@pytest.mark.slow
+def test_b1425_with_5m_flaps_is_stable_to_85(tmp_path):
+    # the built-in b = 14.25 m Humber with 5 m flaps (design/studies/humber_b1425_flaps5m.toml,
+    # one start): stable 0..85 m/s on the 16-mode model (0.25 m/s grid) with the closed-loop
+    # limit above 85 m/s and the gain limit met (3 m flaps: no such K found, the golden case)
+    from pathlib import Path
+
+    from design.driver import design
+
+    card = Path(__file__).resolve().parents[1] / "design" / "studies" / "humber_b1425_flaps5m.toml"
+    s = load_settings(card, starts=1, parallel=False)
+    assert s.bridge == "humber" and s.flap_chord_m == 5.0
+    res = design(s, progress_bar=False)
+    d = res.summary()
+    assert d["verification"]["stable_everywhere"] and d["closed_loop_stable_to_m_s"] == 85.0
+    assert d["closed_loop_limits"]["governing_speed_m_s"] > 85.0
+    assert d["max_gain"] <= 15.0
+
+
+def test_iteration_callback_history_and_warm_start(small_box):
+    # the Ipopt iteration callback fires once per iteration (and once for iteration 0), the
+    # saved history has one entry per call, and a warm start is parsed from a Controller
+    from design.driver import warm_start_theta
+
+    s, model = small_box
+    prob = DesignProblem(replace(s, max_iter=6), model)
+    seen = []
+    prob.on_iteration = lambda i, f, x: seen.append((i, f))
+    res = prob.solve(THETA, np.array([0.0, 40.0, 80.0]))
+    assert len(seen) == res.iterations + 1
+    assert len(res.history["obj"]) == len(seen)
+    assert [f for _, f in seen] == pytest.approx(res.history["obj"], rel=1e-12)
+    ctrl = Controller(Compensator(*THETA), tuple(s.positions()), s.flap_width_m)
+    np.testing.assert_array_equal(warm_start_theta(ctrl), THETA)
+    np.testing.assert_array_equal(warm_start_theta(ctrl.compensator), THETA)
+    with pytest.raises(BridgeflapInputError, match="warm_start"):
+        warm_start_theta([1.0, 2.0])
+
+
+def test_pareto_points_are_each_verified(small_box):
+    # K re-optimised per count; each point's "verified" is recomputed here from an
+    # independent dense check of its own theta on its own layout (damping, gain, stability)
+    from design.driver import flap_count_pareto, verify_layout
+
+    s, _ = small_box
+    s2 = replace(s, max_iter=40, resolve_max_iter=20, cutting_plane_rounds=1,
+                 design_step_m_s=10.0)
+    out = flap_count_pareto(s2, THETA, counts=[5, 3])
+    assert [p["flap_count"] for p in out["points"]][:1] == [5]
+    for p in out["points"]:
+        ver = verify_layout(s2, np.array(p["theta"]), s2.positions(p["flap_count"]))
+        ok = ver.meets_damping and ver.max_gain <= s2.gain_limit and ver.stable_everywhere
+        assert p["verified"] == ok
+        assert np.isfinite(p["robust_margin"])
+    good = [p["flap_count"] for p in out["points"] if p["verified"]]
+    assert out["minimum_verified"] == (min(good) if good else None)

@@ -81,7 +81,7 @@ def test_optimisation_example(tmp_path):
     assert printed["status"] == res["status"] == "converged"
     # the seed's requirements: stable 0..85 m/s on the verification model, sup|K| <= 15
     assert res["closed_loop_stable_to_m_s"] == 85.0
-    assert res["verification"]["stable_everywhere"] and res["verification"]["meets_decay_rate"]
+    assert res["verification"]["stable_everywhere"] and res["verification"]["meets_damping"]
     assert res["max_gain"] <= res["gain_limit"] == 15.0
     assert _finite_in(res["robust_margin"], 0.1, 1.0)
     assert all(math.isfinite(v) for v in res["coefficients"].values())

@@ -1,0 +1,218 @@
+"""Checks and reports around a compensator design (:func:`design.driver.design`).
+
+Closed-loop flutter/divergence limits and mechanism, the constraints active at the optimum,
+the flap-count Pareto with K re-optimised per count, and the multi-model variants (sampling
+and the a posteriori check on fresh variants). Split from :mod:`design.driver` (one job per
+file); the driver re-exports these names.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from design.nlp import DesignProblem
+from design.records import ParetoPoint
+from design.settings import DesignSettings
+from model.control import Controller
+
+NAN = float("nan")
+
+
+def _driver():
+    import design.driver as driver
+
+    return driver
+
+
+def flap_count_pareto(settings: DesignSettings, theta0, counts=None, spec=None,
+                      log=None) -> dict:
+    """Flap count against robust margin and stable speed, K(s) re-optimised for every count.
+
+    Counts from ``flap_count`` down (``counts`` overrides; default every count
+    ``pareto_step`` apart down to 1), each the evenly spaced symmetric layout
+    :meth:`DesignSettings.positions`; each is designed by
+    :meth:`design.nlp.DesignProblem.solve_with_cuts` warm-started from the previous count's
+    K (the first from ``theta0``) and verified like a design (damping and gain on the design
+    model, stability on the verification model). The search stops after two consecutive
+    counts that do not verify (fewer flaps have less authority). Returns ``{"points": [...],
+    "minimum_verified": count or None}``.
+    """
+    log = log or (lambda msg: None)
+    if counts is None:
+        counts = list(range(settings.flap_count, 0, -max(1, settings.pareto_step)))
+    pts, theta, fails = [], np.asarray(theta0, float), 0
+    for c in counts:
+        t0 = time.perf_counter()
+        pos = settings.positions(c)
+        _, model = _driver().build_model(settings, positions=pos, spec=spec)
+        prob = DesignProblem(replace(settings, optimise_placement=False), model, spec=spec)
+        try:
+            res = prob.solve_with_cuts(theta)
+        except Exception as exc:  # noqa: BLE001 - a failed count is a point (STYLE)
+            pts.append(ParetoPoint(c, f"failed: {exc}", False, NAN, NAN, NAN, NAN, 0,
+                                   time.perf_counter() - t0, tuple(theta)))
+            fails += 1
+            if fails >= 2:
+                break
+            continue
+        th = res.theta
+        ver = res.verification
+        ver16 = (_driver().verify_layout(settings, th, pos, spec=spec)
+                 if settings.verification_modes != settings.n_modes else ver)
+        ok = bool(ver.meets_damping and ver.max_gain <= settings.gain_limit
+                  and ver16.stable_everywhere)
+        rob = prob.robust_margin(th)
+        pts.append(ParetoPoint(
+            flap_count=int(c), ipopt_status=res.solve.ipopt_status, verified=ok,
+            robust_margin=rob.margin, max_gain=ver.max_gain,
+            min_damping_ratio=ver.min_damping_ratio, stable_to_m_s=ver16.stable_to_m_s,
+            iterations=sum(r.iterations for r in res.rounds),
+            time_s=time.perf_counter() - t0, theta=tuple(float(v) for v in th)))
+        log(f"pareto: {c} flaps {'verified' if ok else 'not verified'}, margin "
+            f"{rob.margin:.3g}, stable to {ver16.stable_to_m_s} m/s")
+        if ok:
+            theta, fails = th, 0
+        else:
+            fails += 1
+            if fails >= 2:
+                break
+    good = [p.flap_count for p in pts if p.verified]
+    return {"points": [p.to_dict() for p in pts],
+            "minimum_verified": min(good) if good else None,
+            "criterion": "K(s) re-optimised per count; verified = damping >= zeta_min and "
+                         "gain <= gain_limit on the design model, stable on the "
+                         "verification model (dense grids)"}
+
+
+#: Closed-loop limits are searched on 0 .. LIMIT_SPEED_FACTOR * speed_max_m_s (step
+#: ``LIMIT_STEP_M_S``; crossings refined by Brent's method in :func:`model.stability.sweep`).
+LIMIT_SPEED_FACTOR = 2.0
+LIMIT_STEP_M_S = 0.5
+#: A damping constraint counts as active when the smallest damping ratio of the movable
+#: branches is within this relative distance of ``zeta_min`` (Ipopt's constr_viol_tol 1e-6
+#: and tol 1e-6 on the x100-scaled constraint put an active one at ~1e-8 1/s, i.e. ~1e-6
+#: relative for |lambda| ~ 1 rad/s; 1 % also names the nearly active speeds an engineer
+#: would call binding).
+ACTIVE_REL_TOL = 0.01
+
+
+def closed_loop_limits(settings: DesignSettings, controller: Controller, spec=None) -> dict:
+    """Closed-loop flutter and divergence speeds and mechanisms on the verification model.
+
+    ``model.analysis.closed_loop_flutter`` on 0 .. ``LIMIT_SPEED_FACTOR * speed_max_m_s``
+    (the one stability sweep of the package) with the open-loop limits for reference; the
+    critical speed is the lower converged limit (``model.analysis.critical_speed``), the
+    static divergence check ``det(K - U^2 P G0(K(0)))`` included.
+    """
+    from model.analysis import closed_loop_flutter
+    from model.spec import load_bridge
+
+    spec = load_bridge(settings.bridge) if spec is None else spec
+    U = np.arange(0.0, LIMIT_SPEED_FACTOR * settings.speed_max_m_s + 1e-9, LIMIT_STEP_M_S)
+    r = closed_loop_flutter(spec, controller, U, n_modes=settings.verification_modes,
+                            flap_chord_m=settings.flap_chord_m).summary()
+    keys = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
+            "divergence_speed_m_s", "divergence_status", "divergence_static_speed_m_s",
+            "critical_speed_m_s", "critical_mechanism", "critical_participation",
+            "open_loop_flutter_speed_m_s", "open_loop_divergence_speed_m_s")
+    out = {k: r.get(k) for k in keys if k in r}
+    crit, stat = r.get("critical_speed_m_s"), r.get("divergence_static_speed_m_s")
+    crit = float("nan") if crit is None else float(crit)
+    stat = float("nan") if stat is None else float(stat)
+    # the sweep's divergence can fail to bracket a root that the static check finds (a real
+    # root that grazes zero): the lower of the two governs
+    if np.isfinite(stat) and not (np.isfinite(crit) and crit <= stat):
+        out["governing_speed_m_s"], out["governing_mechanism"] = stat, "divergence (static)"
+    else:
+        out["governing_speed_m_s"] = crit
+        out["governing_mechanism"] = r.get("critical_mechanism")
+    out["searched_to_m_s"] = float(U[-1])
+    out["modes"] = settings.verification_modes
+    return out
+
+
+#: A damping constraint of the NLP is active at its solution when within this [1/s] of 0
+#: (the constraint enters scaled by EIG_SCALE = 100; Ipopt's tol 1e-6 on the scaled
+#: complementarity leaves an active one at ~1e-8 1/s; 1e-5 1/s is 0.2 % of zeta_min |lambda|
+#: at the flutter frequency ~1 rad/s).
+ACTIVE_ABS_TOL_1_S = 1e-5
+
+
+def nlp_active_speeds(solve, speeds, n_eig) -> tuple:
+    """Design speeds [m/s] where a damping constraint of the NLP solution is active."""
+    g = np.asarray(solve.constraints_eig_1_s, float).reshape(-1, n_eig)
+    sp = np.asarray(sorted(speeds), float)
+    if g.shape[0] != sp.size:
+        return ()
+    return tuple(float(u) for u, row in zip(sp, g, strict=True)
+                 if np.max(row) >= -ACTIVE_ABS_TOL_1_S)
+
+
+def active_constraints(settings: DesignSettings, start, ver) -> dict:
+    """Which constraints bind at the chosen design (``ver``: its dense design-model check).
+
+    ``damping_speeds_m_s``: check-grid speeds where the smallest damping ratio of the movable
+    branches is within ``ACTIVE_REL_TOL`` of ``zeta_min``; ``gain_limit``: the true peak gain
+    within that of the limit; ``coefficient_bounds``: theta entries at their box bounds;
+    ``objective_bound``: the robust epigraph ``gamma_T`` (the objective) is the bound that
+    stops the optimiser when nothing else is active.
+    """
+    s = settings
+    z = np.asarray(ver.damping_ratio)
+    U = np.asarray(ver.speeds_m_s)
+    damp = U[z <= s.zeta_min * (1.0 + ACTIVE_REL_TOL)]
+    gain = bool(start.max_gain >= s.gain_limit * (1.0 - ACTIVE_REL_TOL))
+    th = np.asarray(start.theta)
+    lo = [-s.b_bound] * 3 + [s.a2_bounds[0], s.a1_bounds[0]]
+    hi = [s.b_bound] * 3 + [s.a2_bounds[1], s.a1_bounds[1]]
+    names = ("b2", "b1", "b0", "a2", "a1")
+    bounds = [f"{n} {'lower' if abs(v - a) <= 1e-6 * max(1.0, abs(a)) else 'upper'}"
+              for n, v, a, b in zip(names, th, lo, hi, strict=True)
+              if abs(v - a) <= 1e-6 * max(1.0, abs(a)) or abs(v - b) <= 1e-6 * max(1.0, abs(b))]
+    nlp = list(getattr(start, "nlp_active_speeds_m_s", ()))
+    any_active = bool(damp.size or gain or bounds or nlp)
+    return {"damping_speeds_m_s": [float(u) for u in damp],
+            "nlp_active_damping_speeds_m_s": nlp,
+            "min_damping_ratio": float(np.min(z)),
+            "min_damping_speed_m_s": float(U[int(np.argmin(z))]),
+            "gain_limit": gain, "coefficient_bounds": bounds,
+            "objective_bound": ("robust epigraph gamma_T (the objective: max margin)"
+                                if s.weight_robust > 0 else "regularisation"),
+            "stability_or_gain_active": any_active,
+            "active_tolerance_relative": ACTIVE_REL_TOL}
+
+
+def sample_variants(settings: DesignSettings, spec, count: int, seed: int) -> list:
+    """``count`` bridge variants of ``spec``: a scrambled Sobol' sample of the estimated-input
+    ranges of the global sensitivity study (:data:`design.screening.DEFAULT_UNCERTAIN_RANGES`)
+    without the ``variant_fixed`` parameters (held at ``spec``'s values)."""
+    from design.designs import sobol
+    from design.screening import DEFAULT_UNCERTAIN_RANGES
+
+    if count <= 0:
+        return []
+    ranges = {k: v for k, v in DEFAULT_UNCERTAIN_RANGES.items()
+              if k not in settings.variant_fixed}
+    return [spec.replace(**{k: v for k, v in case.items() if k in ranges})
+            for case in sobol(ranges, int(count), int(seed))]
+
+
+def fresh_variant_check(settings: DesignSettings, controller: Controller, specs) -> dict:
+    """A posteriori check of a design on fresh variants (not in the design set) on the finer
+    ``fresh_variant_modes`` model: the fraction stable 0..speed_max and meeting ``zeta_min``."""
+    rows = []
+    th = _driver().warm_start_theta(controller)
+    for v in specs:
+        ver = _driver().verify_layout(settings, th, controller.flap_strip_positions_m,
+                            n_modes=settings.fresh_variant_modes, spec=v)
+        rows.append({"stable_everywhere": ver.stable_everywhere,
+                     "stable_to_m_s": ver.stable_to_m_s, "meets_damping": ver.meets_damping,
+                     "min_damping_ratio": ver.min_damping_ratio})
+    n = max(len(rows), 1)
+    return {"count": len(rows), "modes": settings.fresh_variant_modes,
+            "fraction_stable": sum(r["stable_everywhere"] for r in rows) / n,
+            "fraction_meeting_damping": sum(r["meets_damping"] for r in rows) / n,
+            "variants": rows}

@@ -1,0 +1,153 @@
+"""The cutting-plane loop of the compensator NLP (:meth:`design.nlp.DesignProblem.solve_with_cuts`).
+
+Phase 1 (feasibility, no robust epigraph) from an infeasible start, then warm-started
+re-solves with damping-speed, gain and robust cuts and robust peak tracking; the best round
+is returned and every round recorded (docstrings of :mod:`design.nlp`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from design.nlp import (
+    GAIN_BACKOFF,
+    ROBUST_CLUSTER_STEP,
+    ROBUST_CUT_TOL,
+    ROBUST_CUTS_PER_SPEED,
+    VIOLATION_TOL,
+)
+from design.records import CutRound, CutsOutcome
+from model.control import Compensator
+
+
+def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
+    """Solve ``prob`` (a :class:`design.nlp.DesignProblem`) with phase 1 and cutting planes;
+    see :meth:`design.nlp.DesignProblem.solve_with_cuts`."""
+    s = prob.settings
+    speeds = list(prob.settings.design_speeds())
+    history = []
+    theta = np.asarray(theta0, float)
+    w = prob.weights if weights0 is None else np.asarray(weights0, float)
+    gamma = None
+    res = ver = rob = None
+    kept = []
+    use_rob = s.weight_robust > 0 and (bool(s.robust_design_speeds_m_s)
+                                       or bool(s.robust_speeds_m_s))
+    viol0 = max(float(np.max(q.constraint_values(theta, sorted(speeds), w)))
+                for q in [prob, *prob.variants])
+    if viol0 > 0:
+        ph1 = prob.solve(theta, np.array(sorted(speeds)), weights0=w, feasibility=True)
+        ver1 = prob.verify(ph1.theta, ph1.weights)
+        history.append(CutRound(
+            round=0, ipopt_status=ph1.ipopt_status, iterations=ph1.iterations,
+            theta=tuple(float(v) for v in ph1.theta), time_s=ph1.time_s,
+            n_speeds=len(speeds), max_violation_1_s=ver1.max_violation_1_s,
+            max_gain=ver1.max_gain, gamma_T_frobenius=float("nan"),
+            dense_t_peak=float("nan"), n_robust_points=0,
+            n_gain_points=len(prob.omega_grid()), new_speeds=0, new_gain_cuts=0,
+            new_robust_cuts=0, eig_time_per_speed_s=ph1.eig_time_per_speed_s,
+            placement="phase 1 (feasibility, no robust epigraph)", history=ph1.history))
+        # phase 2 from the phase-1 point when it is less violating than the start
+        if float(np.max(ph1.constraints_eig_1_s)) < viol0:
+            theta, w = ph1.theta, ph1.weights
+    off = len(history)          # the phase-1 record, if any, precedes the rounds
+    for rnd in range(s.cutting_plane_rounds + 1):
+        res = prob.solve(theta, np.array(sorted(speeds)), weights0=w, gamma0=gamma,
+                         warm=rnd > 0,
+                         max_iter=s.resolve_max_iter if rnd > 0 else s.max_iter)
+        theta, w = res.theta, res.weights
+        gamma = res.gamma_T if use_rob else None
+        ver = prob.verify(theta, w)
+        vvers = [v.verify(theta, w) for v in prob.variants]
+        eig_ok = all(vv.max_violation_1_s <= VIOLATION_TOL for vv in [ver, *vvers])
+        gain_ok = ver.max_gain <= s.gain_limit
+        rob_ok, new_rob = True, []
+        rob = None
+        if use_rob and _a2_ok(theta):
+            rob = prob.robust_margin(theta, speeds=prob.robust_check_speeds(), weights=w,
+                                     peaks=ROBUST_CUTS_PER_SPEED)
+            lim = gamma * (1.0 + ROBUST_CUT_TOL)
+            rob_ok = bool(rob.peak <= lim)
+            for U, pk in zip(rob.speeds_m_s, rob.peaks, strict=True):
+                new_rob += [(float(U), om * (1.0 + k * ROBUST_CLUSTER_STEP))
+                            for om, v in pk if v > lim for k in (-2, -1, 0, 1, 2)]
+            if not rob_ok:
+                # peak tracking: the dense peak of every speed joins too (the resonance
+                # it sits on moves with theta; a point on it keeps the bound honest there)
+                new_rob += [(float(U), float(om))
+                            for U, om in zip(rob.speeds_m_s, rob.peak_omega_rad_s,
+                                             strict=True)]
+            new_rob = [c for c in dict.fromkeys(new_rob) if c not in prob.robust_cuts]
+        new_gain = []
+        if not gain_ok:
+            comp = Compensator(*(float(v) for v in theta))
+            wst = comp.stationary_frequencies()
+            new_gain = [float(x) for x in wst
+                        if abs(comp.frequency_response(x)) > s.gain_limit
+                        * (1.0 - GAIN_BACKOFF) and float(x) not in prob.gain_cuts]
+        new_speeds = []
+        if not eig_ok:
+            viol = np.max([vv.violation_1_s for vv in [ver, *vvers]], axis=0)
+            new_speeds = [u for u in _worst_per_run(ver.speeds_m_s, viol > VIOLATION_TOL,
+                                                    viol) if u not in speeds]
+        peak = rob.peak if rob else float("nan")
+        history.append(CutRound(
+            round=rnd, ipopt_status=res.ipopt_status, iterations=res.iterations,
+            theta=tuple(float(v) for v in theta), time_s=res.time_s, n_speeds=len(speeds),
+            max_violation_1_s=ver.max_violation_1_s, max_gain=ver.max_gain,
+            gamma_T_frobenius=res.gamma_T, dense_t_peak=peak,
+            n_robust_points=len(prob.robust_function()[1]) if use_rob else 0,
+            n_gain_points=len(prob.omega_grid()), new_speeds=len(new_speeds),
+            new_gain_cuts=len(new_gain), new_robust_cuts=len(new_rob),
+            eig_time_per_speed_s=res.eig_time_per_speed_s, history=res.history))
+        kept.append((res, ver, rob, dict(speeds=sorted(speeds), robust_cuts=list(
+            prob.robust_cuts), gain_cuts=list(prob.gain_cuts)), eig_ok and gain_ok, peak))
+        if (eig_ok and gain_ok and rob_ok) or not _a2_ok(theta):
+            break
+        # no new cut: stop, unless the solve ran out of iterations short of the checks --
+        # then the next round continues it (re-solve to convergence)
+        if rnd == s.cutting_plane_rounds or not (new_speeds or new_gain or new_rob
+                                                 or not res.success):
+            break
+        speeds.extend(new_speeds)
+        prob.gain_cuts.extend(new_gain)
+        prob.robust_cuts.extend(new_rob)
+    # a re-solve sees only the sample points and can land on a design whose dense peak
+    # (or gain, damping) is worse than before the cuts: return the best round --
+    # feasible (damping and gain) first, then the smallest dense peak of sigma_max(T)
+    def rank(i):
+        _, _, _, _, ok, pk = kept[i]
+        return (not ok, pk if np.isfinite(pk) else np.inf, -i)
+    ibest = min(range(len(kept)), key=rank)
+    res, ver, rob, cuts, _, _ = kept[ibest]
+    return CutsOutcome(
+        solve=res, verification=ver, robust=rob,
+        rounds=tuple(replace(h, chosen=i - off == ibest) for i, h in enumerate(history)),
+        chosen_round=ibest + off, design_speeds_m_s=tuple(cuts["speeds"]),
+        gain_ok=bool(ver.max_gain <= s.gain_limit),
+        robust_bound_holds=(bool(rob is not None and rob.peak
+                                 <= res.gamma_T * (1.0 + ROBUST_CUT_TOL))
+                            if use_rob else None),
+        robust_cuts=tuple(tuple(c) for c in cuts["robust_cuts"]),
+        gain_cuts=tuple(cuts["gain_cuts"]))
+
+
+def _worst_per_run(U, bad, viol) -> list[float]:
+    """The worst speed in each run of consecutive violations."""
+    out, i = [], 0
+    while i < len(U):
+        if bad[i]:
+            j = i
+            while j + 1 < len(U) and bad[j + 1]:
+                j += 1
+            out.append(float(U[i + int(np.argmax(viol[i:j + 1]))]))
+            i = j + 1
+        else:
+            i += 1
+    return out
+
+
+def _a2_ok(theta) -> bool:
+    return bool(theta[3] > 0 and theta[4] > 0)
