@@ -75,8 +75,9 @@ def test_packaged_definition_loads():
     s = load_settings(Path(__file__).resolve().parents[1] / "runs" / "humber_flaps.toml")
     assert s.flap_count == 25 and s.gain_limit == 15.0
     assert s.flap_count * s.flap_width_m == pytest.approx(1410.0)
-    # the controller is designed and verified on the model `bridgeflap flutter` uses
-    assert s.n_modes == DEFAULT_MODES and s.verification_modes == DEFAULT_MODES
+    # the controller is verified on the model `bridgeflap flutter` uses, finer than (or equal
+    # to) the design model, so truncation errors of the design model can be caught
+    assert s.verification_modes == DEFAULT_MODES and s.n_modes <= DEFAULT_MODES
     # touching strips are a valid Controller layout (no nudged pitch needed)
     Controller(Compensator(*THETA), tuple(s.positions()), s.flap_width_m)
 
