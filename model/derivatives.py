@@ -368,17 +368,27 @@ class PolimiDerivatives(FlutterDerivatives):
 
     Evaluation as in wawi's IABSE 1.1c data: the PoliMi coefficients are interpolated linearly
     in ``v`` and held at their end values outside the table (scipy ``interp1d`` with
-    ``bounds_error=False`` and ``fill_value=(first, last)``), then converted.
+    ``bounds_error=False`` and ``fill_value=(first, last)``), then converted. ``column_v``
+    (optional, 6 axes) gives column ``i`` of ``h`` and ``a`` its own reduced velocities (the
+    ``p`` columns stay on ``v``), as in the IABSE step-2a "BB3" tables.
     """
 
     v: tuple = ()
     polimi: dict = field(default_factory=dict, compare=False)
+    column_v: tuple = ()
 
     def values(self, K: ArrayLike) -> dict:
         Ka = np.asarray(K, float)
         v = np.atleast_1d(1.0 / Ka).ravel()
         vt = np.asarray(self.v, float)
-        tabs = {f: np.column_stack([np.interp(v, vt, np.asarray(self.polimi[f], float)[:, i])
+
+        def axis(f, i):
+            # the columns i of h and a may have their own abscissae (IABSE 2a "BB3": h1/a1 and
+            # h4/a4 on the heave test's reduced velocities, the others on the pitch test's)
+            return np.asarray(self.column_v[i], float) if self.column_v and f != "p" else vt
+
+        tabs = {f: np.column_stack([np.interp(v, axis(f, i),
+                                              np.asarray(self.polimi[f], float)[:, i])
                                     for i in range(6)]) for f in "hap"}
         out = polimi_to_scanlan(v, tabs["h"], tabs["a"], tabs["p"])
         return {k: val.reshape(Ka.shape) for k, val in out.items()}
