@@ -443,7 +443,7 @@ def read_polimi_derivatives(path, chord_m: float, field_name: str = "derivatives
     lateral = bool(np.any(tabs["p"]) or np.any(tabs["h"][:, 4:]) or np.any(tabs["a"][:, 4:]))
     every = np.concatenate(list(axes.values()))
     return PolimiDerivatives(
-        float(chord_m), path.stem, f"{path} (PoliMi form, {d.get('source', 'no source')})",
+        float(chord_m), path.stem, f"{path.name} (PoliMi form; provenance in the file)",
         (float(1 / every.max()), float(1 / every.min())), lateral,
         tuple(axes["v_pitch"].tolist()),
         {f: tuple(map(tuple, t.tolist())) for f, t in tabs.items()},
