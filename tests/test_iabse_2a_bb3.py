@@ -143,3 +143,31 @@ def test_bad_derivative_file_names_the_field(tmp_path):
     with pytest.raises(BridgeflapInputError) as e:
         derivatives_from_dict({"file": str(bad)}, tmp_path).table(31.0)
     assert e.value.field == "derivatives.v_pitch"
+
+
+def test_cli_flutter_bb3_has_the_humber_keys_and_pk(capsys):
+    from design.cli import main
+
+    rc = main(["flutter", "--bridge", "iabse-2a:bb3", "--json", "--pk"])
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0
+    rc = main(["flutter", "--bridge", "iabse-2a", "--json"])
+    ref = json.loads(capsys.readouterr().out)
+    pk_keys = {"pk_flutter_speed_m_s", "pk_flutter_frequency_hz", "pk_flutter_status",
+               "pk_critical_branch_label"}
+    assert rc == 0 and set(out) == set(ref) | pk_keys
+    assert out["bridge"] == "iabse-2a:bb3" and out["modes_retained"] == 12
+    assert out["truncation_status"] == "all_modes_retained"
+    # 1 % as in test_bb3_exact_pk_and_rfa_agree (the CLI grid 0-85 m/s)
+    assert out["pk_flutter_status"] == "converged"
+    assert out["pk_flutter_speed_m_s"] == pytest.approx(out["flutter_speed_m_s"], rel=0.01)
+
+
+def test_cli_derivatives_reports_the_bb3_fit(capsys):
+    from design.cli import main
+
+    rc = main(["derivatives", "--bridge", "iabse-2a:bb3", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0
+    assert out["derivatives"] == "step2a_bb3_derivatives" and out["n_lags"] == 3
+    assert out["fit_k_min"] == pytest.approx(0.1) and "P1" in out["fit_relative_error"]
