@@ -66,6 +66,8 @@ def _source(args):
     from model.spec import load_bridge
 
     spec = load_bridge(args.bridge)
+    if getattr(spec, "derivatives", None) is not None:  # a modal bridge's derivative tables
+        return spec.name, spec.derivatives.table(2 * spec.deck.half_chord_m), spec.derivatives
     keep = spec.aero.added_inertia if ai is None else ai
     return spec.name, dv.flat_plate(2 * spec.deck.half_chord_m, keep), None
 
@@ -81,7 +83,12 @@ def run(args):
     if args.points < 2:
         raise BridgeflapInputError("points", f"must be at least 2, got {args.points}")
     name, src, case = _source(args)
-    if case is not None:
+    if hasattr(case, "fit_k_range"):  # [derivatives] of a modal bridge (model.modal_import)
+        d = 3 if src.lateral and case.lateral else 2
+        fit = case.fit(src.chord_m, d) if args.lags is None else fit_roger(
+            src, n_lags=args.lags, n_dof=d, k_range=case.fit_k_range, weighting=case.weighting)
+        case = None
+    elif case is not None:
         fit = case_fit(case, args.lags)
     else:
         fit = fit_roger(src, n_lags=4 if args.lags is None else args.lags, k_range=(0.01, 6.0))

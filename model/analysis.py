@@ -48,6 +48,10 @@ def bridge_system(spec: BridgeSpec, n_modes: int = DEFAULT_MODES, order: str = "
     if int(n_modes) < 1:
         raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")
     modal = modal_model(spec) if modal is None else modal
+    if getattr(spec, "derivatives", None) is not None:  # flutter-derivative tables (modal bridge)
+        from model.modal_import import derivative_bridge_system
+
+        return modal, derivative_bridge_system(spec, modal, int(n_modes))
     system = statespace.spec_system(spec, modal.structural_basis(int(n_modes)), order, rfa)
     return modal, system
 
@@ -135,8 +139,8 @@ def flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
     """Flutter and torsional divergence of ``spec`` over a grid of wind speeds [m/s]."""
     u = check_speeds(speeds)
     modal, system = bridge_system(spec, n_modes, order, rfa)
-    return FlutterResult(spec, sweep(system, u), system.basis.n, order, rfa, system.n_states,
-                         modal.modes)
+    return FlutterResult(spec, sweep(system, u), system.basis.n, order,
+                         system.extras.get("rfa", rfa), system.n_states, modal.modes)
 
 
 @dataclass(frozen=True)

@@ -66,8 +66,11 @@ def _counts(counts) -> tuple[int, ...]:
 
 
 def _available(modal) -> int:
-    """Number of vertical and torsional modes the modal model holds."""
-    return sum(m.family in ("vertical", "torsional") for m in modal.modes)
+    """Number of vertical and torsional modes the modal model holds (and lateral ones when
+    flutter-derivative loads retain them, :mod:`model.modal_import`)."""
+    der = getattr(getattr(modal, "spec", None), "derivatives", None)
+    fams = ("vertical", "torsional") + (("lateral",) if der is not None and der.lateral else ())
+    return sum(m.family in fams for m in modal.modes)
 
 
 def _modal(spec: BridgeSpec) -> ModalModel:
@@ -78,7 +81,12 @@ def _modal(spec: BridgeSpec) -> ModalModel:
 
 def _solve(spec, modal, n, u, order, rfa) -> dict:
     """One stability sweep with ``n`` modes: the numbers the ladder needs."""
-    system = statespace.spec_system(spec, modal.structural_basis(int(n)), order, rfa)
+    if getattr(spec, "derivatives", None) is not None:  # flutter-derivative loads
+        from model.modal_import import derivative_bridge_system
+
+        system = derivative_bridge_system(spec, modal, int(n))
+    else:
+        system = statespace.spec_system(spec, modal.structural_basis(int(n)), order, rfa)
     sw = sweep(system, u)
     s = sw.summary()
     return {"n_modes": int(n), "states": int(system.n_states),

@@ -368,17 +368,19 @@ class PolimiDerivatives(FlutterDerivatives):
 
     Evaluation as in wawi's IABSE 1.1c data: the PoliMi coefficients are interpolated linearly
     in ``v`` and held at their end values outside the table (scipy ``interp1d`` with
-    ``bounds_error=False`` and ``fill_value=(first, last)``), then converted.
-    """
+    ``bounds_error=False`` and ``fill_value=(first, last)``), then converted. ``column_v``:
+    optional own abscissae of the 6 ``h``/``a`` columns (IABSE 2a; ``p`` stays on ``v``)."""
 
     v: tuple = ()
     polimi: dict = field(default_factory=dict, compare=False)
+    column_v: tuple = ()
 
     def values(self, K: ArrayLike) -> dict:
-        Ka = np.asarray(K, float)
+        Ka, vt = np.asarray(K, float), np.asarray(self.v, float)
         v = np.atleast_1d(1.0 / Ka).ravel()
-        vt = np.asarray(self.v, float)
-        tabs = {f: np.column_stack([np.interp(v, vt, np.asarray(self.polimi[f], float)[:, i])
+        ax = [np.asarray(c, float) for c in self.column_v] or [vt] * 6  # own h/a abscissae
+        tabs = {f: np.column_stack([np.interp(v, vt if f == "p" else ax[i],
+                                              np.asarray(self.polimi[f], float)[:, i])
                                     for i in range(6)]) for f in "hap"}
         out = polimi_to_scanlan(v, tabs["h"], tabs["a"], tabs["p"])
         return {k: val.reshape(Ka.shape) for k, val in out.items()}
@@ -585,8 +587,7 @@ def _fit_errors(source, fit, K, d):
     return out
 
 
-#: names served by :mod:`model.derivative_system` (the projection and the state space), kept
-#: importable from here (PEP 562, resolved on first use: that module imports this one)
+#: names served by :mod:`model.derivative_system`, importable from here (PEP 562, on first use)
 _SYSTEM_NAMES = ("DerivativeFrozen", "DerivativeSystem", "derivative_system", "flat_plate_fit",
                  "section_generalised", "strip_matrix")
 

@@ -19,7 +19,7 @@ import numpy as np
 from model.errors import BridgeflapInputError
 
 __all__ = ["FAMILIES", "NORMALISATIONS", "UNIT_FACTORS", "ModalData", "export_modal",
-           "needs_fe", "read_modal_file", "units_from_table"]
+           "needs_fe", "read_modal_file", "read_polimi_derivatives", "units_from_table"]
 
 FAMILIES = ("vertical", "torsional", "lateral")
 UNIT_FACTORS = {
@@ -359,3 +359,92 @@ def export_modal(modal, path, count: int | None = None) -> Path:
     else:
         raise BridgeflapInputError("path", f"unsupported type {suffix!r} (.npz, .json, .csv)")
     return path
+
+
+# ------------------------------------------------------------------- derivative tables
+
+#: PoliMi columns whose conversion to Scanlan form differs between the IABSE 1.1c functions
+#: (model.derivatives.polimi_to_scanlan: pi/2) and the step-2a "BB3" file's own statement
+#: (factor 1): they must be zero in a BB3-form file, so that the two readings agree
+_AMBIGUOUS_POLIMI = {"h": (5,), "a": (5,), "p": (3, 5)}
+
+
+def read_polimi_derivatives(path, chord_m: float, field_name: str = "derivatives.file"):
+    """PoliMi flutter-derivative tables of the IABSE step-2a "BB3" form (plain JSON).
+
+    The file (``model/bridges/iabse/step2a_bb3_derivatives.json``) gives ``v_heave`` and
+    ``v_pitch`` (reduced velocities ``U / (omega B)``, increasing), ``abscissa_of_column``
+    (which of the two each of the 6 ``h``/``a`` columns is tabulated on; ``p`` is on
+    ``v_pitch``) and ``polimi`` ``{"h", "a", "p"}`` tables (rows = reduced velocities, 6
+    columns). Returns a :class:`model.derivatives.PolimiDerivatives` (linear interpolation of
+    the PoliMi coefficients in ``v``, end values held, then
+    :func:`model.derivatives.polimi_to_scanlan`) with ``lateral=True`` when ``p`` or the
+    lateral ``h``/``a`` columns are non-zero.
+
+    Raises
+    ------
+    BridgeflapInputError
+        Missing file or key, tables of the wrong size, NaN, axes not positive and increasing,
+        non-zero columns whose conversion is ambiguous (``h6``, ``a6``, ``p4``, ``p6``).
+    """
+    from model.derivatives import PolimiDerivatives
+
+    path = Path(path)
+    if not path.is_file():
+        raise BridgeflapInputError(field_name, f"file not found: {path}")
+    try:
+        d = json.loads(path.read_text("utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise BridgeflapInputError(field_name, f"malformed JSON in {path}: {exc}") from None
+    if not isinstance(d, dict):
+        raise BridgeflapInputError(field_name, "must be a JSON object")
+    axes = {}
+    for key in ("v_heave", "v_pitch"):
+        try:
+            v = np.asarray(d[key], float)
+        except KeyError:
+            raise BridgeflapInputError(f"derivatives.{key}", f"missing in {path.name}") from None
+        except (TypeError, ValueError):
+            raise BridgeflapInputError(f"derivatives.{key}", "not numeric") from None
+        if (v.ndim != 1 or v.size < 2 or not np.all(np.isfinite(v)) or np.any(v <= 0)
+                or np.any(np.diff(v) <= 0)):
+            raise BridgeflapInputError(f"derivatives.{key}", "must be at least two positive, "
+                                       "strictly increasing reduced velocities")
+        axes[key] = v
+    if axes["v_heave"].size != axes["v_pitch"].size:
+        raise BridgeflapInputError("derivatives.v_heave", "must have as many points as v_pitch")
+    cols = d.get("abscissa_of_column")
+    if (not isinstance(cols, list) or len(cols) != 6
+            or any(c not in axes for c in cols)):
+        raise BridgeflapInputError("derivatives.abscissa_of_column",
+                                   "must list 6 of 'v_heave' / 'v_pitch'")
+    tabs = {}
+    n = axes["v_pitch"].size
+    pol = d.get("polimi")
+    if not isinstance(pol, dict):
+        raise BridgeflapInputError("derivatives.polimi", f"missing in {path.name}")
+    for fam in "hap":
+        try:
+            t = np.asarray(pol[fam], float)
+        except KeyError:
+            raise BridgeflapInputError(f"derivatives.polimi.{fam}", "missing") from None
+        except (TypeError, ValueError):
+            raise BridgeflapInputError(f"derivatives.polimi.{fam}", "not numeric") from None
+        if t.shape != (n, 6):
+            raise BridgeflapInputError(f"derivatives.polimi.{fam}", f"is {t.shape}, expected "
+                                       f"({n}, 6): one row per reduced velocity")
+        if not np.all(np.isfinite(t)):
+            raise BridgeflapInputError(f"derivatives.polimi.{fam}", "contains NaN or inf")
+        for i in _AMBIGUOUS_POLIMI[fam]:
+            if np.any(t[:, i] != 0):
+                raise BridgeflapInputError(f"derivatives.polimi.{fam}{i + 1}",
+                                           "must be zero (its Scanlan conversion is ambiguous)")
+        tabs[fam] = t
+    lateral = bool(np.any(tabs["p"]) or np.any(tabs["h"][:, 4:]) or np.any(tabs["a"][:, 4:]))
+    every = np.concatenate(list(axes.values()))
+    return PolimiDerivatives(
+        float(chord_m), path.stem, f"{path.name} (PoliMi form; provenance in the file)",
+        (float(1 / every.max()), float(1 / every.min())), lateral,
+        tuple(axes["v_pitch"].tolist()),
+        {f: tuple(map(tuple, t.tolist())) for f, t in tabs.items()},
+        tuple(tuple(axes[c].tolist()) for c in cols))

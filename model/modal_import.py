@@ -29,6 +29,7 @@ heave down.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass, field
 from importlib import resources
@@ -44,6 +45,7 @@ from model.modal_files import (
     ModalData,
     export_modal,
     read_modal_file,
+    read_polimi_derivatives,
     units_from_table,
 )
 from model.modal_files import needs_fe as _needs_fe
@@ -62,8 +64,11 @@ __all__ = [
     "ImportedStructure",
     "ModalBridgeSpec",
     "ModalData",
+    "DerivativeLoads",
     "ModalStructure",
     "compare_modes",
+    "derivative_bridge_system",
+    "derivatives_from_dict",
     "export_modal",
     "imported_structure",
     "modal_spec_from_dict",
@@ -74,7 +79,8 @@ __all__ = [
 _STRUCTURE_KEYS = {"kind", "file", "modes_file", "units", "normalisation", "vertical_positive",
                    "deck_segments_m", "strip_length_m", "main_span_m", "mass_kg_per_m",
                    "mass_inertia_kgm2_per_m", "mass_check_tolerance", "source"}
-_TOP_KEYS = {"name", "description", "structure", "deck", "aero", "variants"}
+_TOP_KEYS = {"name", "description", "structure", "deck", "aero", "derivatives", "variants"}
+_DERIVATIVE_KEYS = {"file", "form", "lateral", "n_lags", "fit_k_range", "weighting", "source"}
 #: parameters a study may vary on a modal bridge (the FE ones need the cable model)
 MODAL_PARAMETER_PATHS = ("deck.half_chord_m", "aero.air_density_kg_m3", "aero.deck_height_m",
                          "aero.turbulence_intensity", "aero.coherence_decay",
@@ -268,6 +274,116 @@ def structure_from_dict(table: dict, base: Path) -> ModalStructure:
         mass_check_tolerance=0.05 if tol is None else tol, source=table.get("source", ""))
 
 
+# -------------------------------------------------------------- flutter-derivative loads
+
+
+@dataclass(frozen=True)
+class DerivativeLoads:
+    """The ``[derivatives]`` section: self-excited loads from flutter-derivative tables.
+
+    Instead of the thin-aerofoil (Theodorsen) strip loads, the deck's self-excited loads come
+    from measured flutter derivatives (:mod:`model.derivatives`), turned into a Roger RFA
+    state space on the modal coordinates (:func:`derivative_bridge_system`). ``file`` is a
+    table of the ``form`` ``"polimi-json"`` (:func:`model.modal_files.read_polimi_derivatives`,
+    the IABSE step-2a "BB3" file); ``lateral`` includes the lateral DOF (the drag and
+    lateral-coupling derivatives on the lateral shapes of the modes, lateral modes retained)
+    when the modal file has lateral shapes; ``n_lags``, ``fit_k_range`` (``[K_min, K_max]``
+    of ``K = B omega / U``, default the table's) and ``weighting`` set the RFA
+    (:func:`model.derivatives.fit_roger`).
+    """
+
+    file: str
+    form: str = "polimi-json"
+    lateral: bool = True
+    n_lags: int = 2
+    fit_k_range: tuple | None = None
+    weighting: str = "derivative"
+    source: str = ""
+
+    def table(self, chord_m: float):
+        """The :class:`~model.derivatives.FlutterDerivatives` of the file (deck chord B [m])."""
+        return _derivative_table(self.file, float(chord_m))
+
+    def fit(self, chord_m: float, n_dof: int):
+        """The Roger fit (cached per chord and DOF count)."""
+        return _derivative_fit(self, float(chord_m), int(n_dof))
+
+
+@functools.lru_cache(maxsize=8)
+def _derivative_table(file: str, chord_m: float):
+    return read_polimi_derivatives(file, chord_m)
+
+
+@functools.lru_cache(maxsize=8)
+def _derivative_fit(loads: DerivativeLoads, chord_m: float, n_dof: int):
+    from model.derivatives import fit_roger
+
+    return fit_roger(loads.table(chord_m), n_lags=loads.n_lags, n_dof=n_dof,
+                     k_range=loads.fit_k_range, weighting=loads.weighting)
+
+
+def derivatives_from_dict(table, base: Path, where: str = "derivatives") -> DerivativeLoads:
+    """The :class:`DerivativeLoads` of a ``[derivatives]`` table (file relative to ``base``)."""
+    if not isinstance(table, dict):
+        raise BridgeflapInputError(where, "must be a table")
+    unknown = sorted(set(table) - _DERIVATIVE_KEYS)
+    if unknown:
+        raise BridgeflapInputError(f"{where}.{unknown[0]}", "unknown key")
+    f = table.get("file")
+    if not isinstance(f, str) or not f:
+        raise BridgeflapInputError(f"{where}.file", "missing or not a string")
+    form = table.get("form", "polimi-json")
+    if form != "polimi-json":
+        raise BridgeflapInputError(f"{where}.form", f"must be \"polimi-json\", got {form!r}")
+    lateral = table.get("lateral", True)
+    if not isinstance(lateral, bool):
+        raise BridgeflapInputError(f"{where}.lateral", "must be true or false")
+    n_lags = table.get("n_lags", 2)
+    if isinstance(n_lags, bool) or not isinstance(n_lags, int) or not 0 <= n_lags <= 8:
+        raise BridgeflapInputError(f"{where}.n_lags", f"must be an integer 0..8, got {n_lags!r}")
+    rng = table.get("fit_k_range")
+    if rng is not None:
+        if (not isinstance(rng, list | tuple) or len(rng) != 2
+                or not all(isinstance(t, int | float) and not isinstance(t, bool) for t in rng)
+                or not 0 < rng[0] < rng[1] or not math.isfinite(rng[1])):
+            raise BridgeflapInputError(f"{where}.fit_k_range", "must be [K_min, K_max] with "
+                                       "0 < K_min < K_max")
+        rng = (float(rng[0]), float(rng[1]))
+    w = table.get("weighting", "derivative")
+    if w not in ("derivative", "row"):
+        raise BridgeflapInputError(f"{where}.weighting", "must be \"derivative\" or \"row\"")
+    src = table.get("source", "")
+    if not isinstance(src, str):
+        raise BridgeflapInputError(f"{where}.source", "must be a string")
+    q = Path(f)
+    return DerivativeLoads(file=str(q if q.is_absolute() else base / q), form=form,
+                           lateral=lateral, n_lags=n_lags, fit_k_range=rng, weighting=w,
+                           source=src)
+
+
+def derivative_bridge_system(spec, modal, n_modes: int):
+    """Aeroelastic state space of a modal bridge with ``[derivatives]`` loads.
+
+    The hook of :func:`model.analysis.bridge_system`: :meth:`ImportedModalModel.derivative_basis`
+    (lateral modes and shapes when ``lateral``), the table of the file with ``B = 2 b`` of the
+    deck, its Roger fit and :func:`model.derivative_system.derivative_system` (whose
+    ``frozen()`` is the exact p-k on the interpolated tables, :func:`model.stability.pk_sweep`).
+    ``extras["rfa"]`` names the fit (``roger<n>:<table>``) for the flutter summary.
+    """
+    from model.derivative_system import derivative_system
+
+    loads = spec.derivatives
+    basis, phi_p = modal.derivative_basis(int(n_modes), loads.lateral)
+    chord = 2.0 * spec.deck.half_chord_m
+    source = loads.table(chord)
+    if not source.lateral:
+        phi_p = None
+    fit = loads.fit(chord, 2 if phi_p is None else 3)
+    system = derivative_system(basis, source, spec.aero.air_density_kg_m3, fit=fit, phi_p=phi_p)
+    system.extras.update(rfa=f"{fit.name}:{source.name}", lateral_dof=phi_p is not None)
+    return system
+
+
 # ------------------------------------------------------------------------------ the bridge
 
 
@@ -322,6 +438,7 @@ class ModalBridgeSpec(sm.BridgeSpec):
 
     structure: ModalStructure | None = None
     description: str = ""
+    derivatives: DerivativeLoads | None = None
 
     def __post_init__(self):
         if self.structure is None:
@@ -417,11 +534,13 @@ def modal_spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None
         if hi - lo > 1e-9:
             spans.append(sm.Span(name=nm, length_m=hi - lo))
     main_index = [s.name for s in spans].index("main")
+    der = data.get("derivatives")
+    der = None if der is None else derivatives_from_dict(der, base)
     spec = ModalBridgeSpec(name=name, spans=tuple(spans), main_span_index=main_index,
                cable=_FEOnly(name, "the cable"), deck=deck, aero=aero,
                damping=_FEOnly(name, "Rayleigh damping (the modes carry their own ratios)"),
                mesh=_FEOnly(name, "the FE mesh"), sources=sources, structure=structure,
-               description=str(data.get("description", "")))
+               description=str(data.get("description", "")), derivatives=der)
     variants = data.get("variants", {})
     if variant is None:
         return spec
@@ -430,6 +549,10 @@ def modal_spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None
     changes = {}
     for path, raw in variants[variant].items():
         if path == "description":
+            continue
+        if path == "derivatives":  # a variant with flutter-derivative loads
+            spec = dataclasses.replace(spec, derivatives=derivatives_from_dict(
+                raw, base, f"variants.{variant}.derivatives"))
             continue
         if isinstance(raw, dict):
             sources[path] = f"variant {variant}: {raw.get('source', 'not stated')}"

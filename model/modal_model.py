@@ -138,6 +138,34 @@ class ImportedModalModel:
             strip_length=st.strip_length, strip_x=st.strip_x,
             labels=tuple(self.modes[i].label for i in chosen))
 
+    def derivative_basis(self, count: int, lateral: bool = True) -> tuple:
+        """``(basis, phi_p)`` for flutter-derivative loads (:mod:`model.derivative_system`).
+
+        With ``lateral`` and lateral shapes in the file: the lowest ``count`` modes of all
+        families together (lateral modes included, since the drag derivatives act on them)
+        and ``phi_p`` ``(n_strip, n)`` the strip lateral displacement [m, the file's y] of
+        each coordinate (the torsional modes' lateral components included). Otherwise
+        :meth:`structural_basis` and ``None``.
+        """
+        if not lateral or "lateral" not in self.strip_shapes:
+            return self.structural_basis(count), None
+        if count < 1:
+            raise BridgeflapInputError("modes", f"at least one mode is needed, got {count}")
+        d = self.structure.spec.structure.data
+        chosen = list(range(len(self.modes)))[:count]
+        cols = [self.order[i] for i in chosen]
+        gm = d.generalised_mass[cols]
+        omega = 2 * np.pi * np.array([self.modes[i].frequency_hz for i in chosen])
+        zeta = np.array([self.modes[i].damping_ratio for i in chosen])
+        st = self.structure
+        basis = StructuralBasis(
+            M=np.diag(gm), C=np.diag(2 * zeta * omega * gm), K=np.diag(gm * omega ** 2),
+            phi_h=self.strip_shapes["vertical"][:, cols],
+            phi_a=self.strip_shapes["torsional"][:, cols],
+            strip_length=st.strip_length, strip_x=st.strip_x,
+            labels=tuple(self.modes[i].label for i in chosen))
+        return basis, self.strip_shapes["lateral"][:, cols]
+
     def plot(self, labels=None, ax=None):
         """Deck shapes (own family) of the first modes along the deck, normalised."""
         import matplotlib.pyplot as plt

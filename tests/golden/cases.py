@@ -36,6 +36,7 @@ CASES = [
     ("flutter_iabse_2a", ["flutter", "--bridge", "iabse-2a"], False),
     ("flutter_great_belt", ["flutter", "--bridge", "great-belt", "--speeds", "0:150:0.5"], False),
     ("flutter_iabse_1_1c", ["flutter", "--bridge", "iabse-1.1c"], False),
+    ("flutter_iabse_2a_bb3", ["flutter", "--bridge", "iabse-2a:bb3"], False),
     ("state_space", ["state-space", "--speed", "40", "--out", "{out}/ss.npz"], False),
     ("sensitivity", ["sensitivity"], True),
     ("doe_4", ["doe", str(ROOT / "runs" / "doe_gj_sag" / "doe.toml"), "--quick",
