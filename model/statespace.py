@@ -156,7 +156,19 @@ def build(basis: StructuralBasis, half_chord: float, air_density: float,
 
 def spec_system(spec, basis: StructuralBasis, order: str = "modal",
                 rfa: RationalApprox | str = "rfa4") -> AeroelasticSystem:
-    """:func:`build` with the deck half-chord and the aerodynamic inputs of a bridge spec."""
+    """:func:`build` with the deck half-chord and the aerodynamic inputs of a bridge spec.
+
+    A bridge whose self-excited loads come from flutter-derivative tables (``[derivatives]``
+    of a modal bridge) is refused here: its state space is built by
+    :func:`model.modal_import.derivative_bridge_system` for flutter only, and an analysis that
+    builds Theodorsen deck loads (buffeting, flaps and design, sensitivities, state-space
+    export, mode shapes) must not silently use the flat plate instead.
+    """
+    if getattr(spec, "derivatives", None) is not None:
+        raise BridgeflapInputError(
+            "derivatives", "this bridge's loads are flutter-derivative tables, which only "
+            "`flutter` (and its --pk check) uses so far; use the flat-plate bridge for this "
+            "analysis")
     a = spec.aero
     return build(basis, spec.deck.half_chord_m, a.air_density_kg_m3, rfa=rfa, order=order,
                  added_inertia=a.added_inertia, lift_slope_buffeting=a.lift_slope_buffeting,

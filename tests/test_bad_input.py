@@ -245,6 +245,7 @@ CASES = [
     ("derivatives-extra-positional", ["derivatives", "extra"], "arguments"),
     ("flutter-section-case-controller", ["flutter", B, "iabse-1.1a", "--controller",
                                          "{d}/no.toml"], "controller"),
+    ("buffeting-derivative-loads", ["buffeting", B, "iabse-2a:bb3"], "derivatives"),
     # ---- rfa
     ("rfa-name-bogus", ["rfa", "--name", "bogus"], "arguments"),
     ("rfa-extra-positional", ["rfa", "extra"], "arguments"),
