@@ -125,7 +125,8 @@ def _pk_continue(frozen, u0, p0, s0, u1, halvings=12):
             h = step / 2
             continue
         ok &= bool(good)
-        s = (q - p) / (t - u)
+        if abs(t - u) > 1e-9 * max(abs(u1), 1.0):  # no slope from a denormal-sized step
+            s = (q - p) / (t - u)
         p, u, h = complex(q), t, 2 * step
     return p, s, ok
 

@@ -204,7 +204,10 @@ def _track_interval(system, u0, l0, s0, u1, lam1, omega_tol, budget, halvings=6)
             h = step / 2
             continue
         budget.forced += int(ambiguous)
-        s = (cur - l) / (t - u)
+        if t - u > 1e-9 * max(abs(u1), 1.0):
+            # slope of the linear predictor; a sub-nanometre-per-second step (a grid starting
+            # at a denormal speed such as 5e-324 m/s) would overflow it and carries no slope
+            s = (cur - l) / (t - u)
         l, u, h = cur, t, 2 * step
     return l, s
 
@@ -232,7 +235,8 @@ def _follow(system, u0, lam0, u1, omega_tol, halvings=10):
             h = step / 2
             continue
         ok &= bool(d[k] <= UNAMBIGUOUS * d2)
-        s = (lam[k] - lam_c) / (t - u)
+        if abs(t - u) > 1e-9 * max(abs(u1), 1.0):  # no slope from a denormal-sized step
+            s = (lam[k] - lam_c) / (t - u)
         lam_c, u, h = complex(lam[k]), t, 2 * step
     return lam_c, ok
 

@@ -313,3 +313,21 @@ def test_flags_on_a_scattered_design_and_missing_labels():
     assert flag_branch_neighbours([], ["a"]) == []
     with pytest.raises(ValueError):
         flag_branch_neighbours(rows, ["a"], design="nope")
+
+
+def test_grid_starting_at_a_denormal_speed(coarse_humber):
+    """A grid whose first speed is the smallest subnormal float (found by hypothesis 6.170 in
+    the property test): tracking from U = 0 used to overflow the predictor's slope. The result
+    must equal that of the grid starting at exactly 0 (the first point differs by 5e-324 m/s,
+    far below any eigenvalue change: 1e-9 relative)."""
+    import numpy as np
+
+    from model.analysis import flutter
+
+    u = np.arange(0.0, 100.01, 5.0)
+    v = u.copy()
+    v[0] = 5e-324
+    a, b = (flutter(coarse_humber, g, n_modes=10).summary() for g in (u, v))
+    for k in ("flutter_speed_m_s", "divergence_speed_m_s"):
+        assert (a[k] is None and b[k] is None) or abs(a[k] - b[k]) <= 1e-9 * abs(a[k]), k
+    assert a["flutter_status"] == b["flutter_status"]
