@@ -357,7 +357,9 @@ def test_humber_design_stable_on_16_modes(tmp_path, capsys):
     prob = DesignProblem(s, build_model(s, positions=ctrl.flap_strip_positions_m)[1])
     theta = np.array([getattr(ctrl.compensator, n) for n in ("b2", "b1", "b0", "a2", "a1")])
     ver = prob.verify(theta)
-    assert ver.modes == DEFAULT_MODES and ver.step_m_s == 0.25
+    # prob.verify is the design model's own dense check (16 modes); the 30-mode verification
+    # is the payload's, asserted above
+    assert ver.modes == s.n_modes and ver.step_m_s == 0.25
     assert ver.stable_everywhere and ver.stable_to_m_s == 85.0
     assert ver.max_violation_1_s <= 1e-6      # the minimum damping too (VIOLATION_TOL)
     # the reported margin is the true sigma_max one, and the open loop really flutters

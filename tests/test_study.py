@@ -236,7 +236,11 @@ def test_default_study_quick_runs_and_names_every_status(tmp_path):
         # the study's controller file is usable by the CLI, and the closed loop it reports as
         # stable really is stable on the 16-mode model over the paper's 0-85 m/s range
         ctl = out / design["controller_file"]
+        # on the bridge and the model the design says it was verified on (the study's [design]
+        # keeps the settings' default of 16 verification modes)
         r = subprocess.run([*CLI, "flutter", "--controller", str(ctl), "--speeds", "0:85:0.5",
-                            "--json"], cwd=tmp_path, env=_env(), capture_output=True,
-                           text=True, check=True)
+                            "--bridge", design["settings"]["bridge"],
+                            "--modes", str(design["verification"]["modes"]),
+                            "--no-truncation-check", "--json"], cwd=tmp_path, env=_env(),
+                           capture_output=True, text=True, check=True)
         assert json.loads(r.stdout)["flutter_status"] == "no_crossing_in_range"
