@@ -39,7 +39,7 @@ def modes(model_dir: Path) -> dict:
             "model.modal_dry.xi0 in tests/test_IABSE_step2a.py; vertical = DOF z (index 2 of "
             "6, positive up), torsional = DOF theta_x (index 3), lateral = DOF y (index 1) at "
             "the 71 deck nodes; family per mode classified from the shapes "
-            "(GREAT_BELT_DATA.md section 4.1). The torsional modes 9 and 11 carry a y "
+            "(docs/great_belt.md). The torsional modes 9 and 11 carry a y "
             "component of 4-10 m/rad that their generalised mass does not include (M = I int "
             "theta^2 dx); it does not enter lift/moment aerodynamics."),
         "provenance": {"modal_stiffness_k": k.tolist(),
