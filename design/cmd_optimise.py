@@ -84,9 +84,12 @@ def _design_and_write(args, settings, out):
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     payload["controller_file"] = str(ctrl_file) if result.controller is not None else None
+    def g(value, spec):  # strict-JSON numbers: None is "not a number"
+        return "nan" if value is None else format(value, spec)
+
     lines = [f"status {payload['status']}; K(s) coefficients {payload['coefficients']}",
-             f"flaps {payload['flap_count']}, max gain {payload['max_gain']:.3g} "
-             f"(limit {settings.gain_limit}), robust margin {payload['robust_margin']:.3g}, "
+             f"flaps {payload['flap_count']}, max gain {g(payload['max_gain'], '.3g')} "
+             f"(limit {settings.gain_limit}), robust margin {g(payload['robust_margin'], '.3g')}, "
              f"stable to {payload['closed_loop_stable_to_m_s']} m/s on the "
              f"{payload['design_modes']}-mode design model",
              f"verification ({payload['verification'].get('modes')} modes, "
@@ -95,14 +98,11 @@ def _design_and_write(args, settings, out):
              f"{payload['verification'].get('stable_to_m_s')} m/s",
              f"minimum flap count {payload['minimum_flaps']['minimum']}",
              f"controller written: {payload['controller_file']}"]
-    lines.append(f"optimiser gamma_T (Frobenius, sample points) {payload['gamma_T_frobenius']:.4g}"
-                 f" vs dense sigma_max peak {payload['dense_T_peak']:.4g} (bound holds at the "
+    lines.append(f"optimiser gamma_T (Frobenius, sample points) "
+                 f"{g(payload['gamma_T_frobenius'], '.4g')} vs dense sigma_max peak "
+                 f"{g(payload['dense_T_peak'], '.4g')} (bound holds at the "
                  f"check speeds: {payload['robust_bound_holds']})")
-    lines.append("start | Ipopt status | iterations | cut rounds | time [s] | margin | "
-                 "max gain | verified | chosen")
-    lines += [f"{s['start']} | {s['status']} | {s['iterations']} | {s['cut_rounds']} | "
-              f"{s['time_s']:.1f} | {s['robust_margin']:.3g} | {s['max_gain']:.4g} | "
-              f"{s['verified']} | {s['chosen']}" for s in payload["start_table"]]
+    lines.append(result.table("simple"))
     emit(args, payload, "\n".join(lines))
     if result.controller is None:
         # the design failed its checks: its candidate is in the JSON (for diagnosis), but no

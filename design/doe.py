@@ -62,6 +62,7 @@ from design.outputs import (
     write_marker,
 )
 from model.errors import BridgeflapInputError
+from model.results import ResultData
 
 __all__ = [
     "BatchResult",
@@ -80,7 +81,7 @@ _CASE_ID_CHARS = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ
 # batch execution
 # --------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class BatchResult:
+class BatchResult(ResultData):
     """Outcome of :func:`run_batch`.
 
     Attributes
@@ -104,6 +105,26 @@ class BatchResult:
     rows: tuple[dict, ...]
     reused: int = 0
     stale: int = 0
+
+    def _rows(self) -> list[dict]:
+        return flat_case_rows(self.rows)
+
+
+def flat_case_rows(rows) -> list[dict]:
+    """One flat dict per case record: ``case_id``, ``status``, the parameters and the scalar
+    results (``critical_speed_m_s``, ...; nested keys ``a.b``; a result key already taken by a
+    parameter is prefixed ``result.``), ``elapsed_s`` and ``error`` (the ``table.csv`` row)."""
+    out = []
+    for row in rows:
+        p: dict = {}
+        _flatten(row.get("params") or {}, "", p)
+        r: dict = {}
+        _flatten(row.get("result") or {}, "", r)
+        taken = {"case_id", "status", "elapsed_s", "error"} | set(p)
+        out.append({"case_id": row["case_id"], "status": row["status"], **p,
+                    **{(f"result.{k}" if k in taken else k): v for k, v in r.items()},
+                    "elapsed_s": row.get("elapsed_s"), "error": row.get("error")})
+    return out
 
 
 def _one_line(text: str, limit: int = 500) -> str:

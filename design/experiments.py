@@ -24,7 +24,7 @@ import math
 import os
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +42,7 @@ from design.options import (
     table,
 )
 from model.errors import BridgeflapInputError
+from model.results import ResultData
 from model.spec import PARAMETER_PATHS
 
 __all__ = ["DOE_ANALYSES", "MAX_DOE_CASES", "DoeConfig", "DoeParameter", "DoeResult",
@@ -240,7 +241,7 @@ def _check_size(kind: str, params: Mapping, levels: int, n: int) -> int:
 
 
 @dataclass(frozen=True)
-class DoeResult:
+class DoeResult(ResultData):
     """Outcome of :func:`run_doe`: counts, the table and the case records."""
 
     config: DoeConfig
@@ -249,7 +250,7 @@ class DoeResult:
     succeeded: int
     failed: int
     reused: int
-    table: Path
+    table: Path = field()  # the table.csv path (shadows ResultData.table: no default)
     rows: tuple
 
     def summary(self) -> dict:
@@ -258,6 +259,12 @@ class DoeResult:
                 "cases": self.cases, "succeeded": self.succeeded, "failed": self.failed,
                 "reused": self.reused, "table": str(self.table), "out_dir": str(self.out_dir),
                 "statuses": {r["case_id"]: r["status"] for r in self.rows}}
+
+    def _rows(self) -> list[dict]:
+        """Parameters and results in one flat row per case (:func:`design.doe.flat_case_rows`)."""
+        from design.doe import flat_case_rows
+
+        return flat_case_rows(self.rows)
 
     def plot(self, ax=None, output: str | None = None):
         """Scatter of an output over the first two parameters (failed cases as crosses)."""

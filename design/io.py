@@ -16,24 +16,22 @@ number" (failed solve, no flutter in the range, ...); the status field next to i
 from __future__ import annotations
 
 import contextlib
-import dataclasses
-import datetime as _dt
-import enum
 import json
-import math
 import os
 import sys
 import tempfile
 import uuid
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, BinaryIO
 
 import numpy as np
 
 from model.errors import BridgeflapInputError
+from model.results import jsonable
 
 __all__ = [
+    "atomic_save_netcdf",
     "atomic_savez",
     "atomic_write",
     "atomic_write_json",
@@ -50,57 +48,17 @@ __all__ = [
 def to_jsonable(obj: Any) -> Any:
     """Convert ``obj`` to plain JSON types (dict, list, str, int, float, bool, None).
 
-    Parameters
-    ----------
-    obj : Any
-        Nested structure of dicts, lists/tuples/sets, dataclass instances, numpy scalars and
-        arrays, :class:`pathlib.Path`, enums, dates, complex numbers and Python scalars.
-
-    Returns
-    -------
-    Any
-        The same structure in JSON types: numpy scalars become Python scalars, arrays nested
-        lists, dataclasses dicts of their fields, paths strings, enums their value, dates ISO
-        strings, complex numbers ``{"real": x, "imag": y}``, mapping keys strings, and every
-        NaN or infinite float ``None``.
+    The one converter of the package, :func:`model.results.jsonable`: numpy scalars become
+    Python scalars, arrays nested lists, dataclasses dicts of their fields, paths strings,
+    enums their value, dates ISO strings, complex numbers ``{"real": x, "imag": y}``, mapping
+    keys strings, and every NaN or infinite float ``None``.
 
     Raises
     ------
     TypeError
         For an object with no JSON representation (the message names its type).
     """
-    if obj is None or isinstance(obj, (bool, str)):
-        return obj
-    if isinstance(obj, (int, np.integer)) and not isinstance(obj, np.bool_):
-        return int(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    if isinstance(obj, (float, np.floating)):
-        value = float(obj)
-        return value if math.isfinite(value) else None
-    if isinstance(obj, (complex, np.complexfloating)):
-        value = complex(obj)
-        return {"real": to_jsonable(value.real), "imag": to_jsonable(value.imag)}
-    if isinstance(obj, np.ndarray):
-        return [to_jsonable(item) for item in obj.tolist()] if obj.ndim else to_jsonable(obj[()])
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return {f.name: to_jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
-    if isinstance(obj, Mapping):
-        return {
-            str(to_jsonable(k)) if not isinstance(k, str) else k: to_jsonable(v)
-            for k, v in obj.items()
-        }
-    if isinstance(obj, (list, tuple)):
-        return [to_jsonable(item) for item in obj]
-    if isinstance(obj, (set, frozenset)):
-        return [to_jsonable(item) for item in sorted(obj, key=repr)]
-    if isinstance(obj, os.PathLike):
-        return os.fspath(obj)
-    if isinstance(obj, enum.Enum):
-        return to_jsonable(obj.value)
-    if isinstance(obj, (_dt.datetime, _dt.date, _dt.time)):
-        return obj.isoformat()
-    raise TypeError(f"cannot convert an object of type {type(obj).__name__} to JSON")
+    return jsonable(obj)
 
 
 def _fsync_dir(folder: Path) -> None:
@@ -219,6 +177,18 @@ def atomic_savez(path: str | os.PathLike, **arrays: Any) -> Path:
         The target path.
     """
     return atomic_write(path, lambda handle: np.savez(handle, **arrays))
+
+
+def atomic_save_netcdf(path: str | os.PathLike, dataset: Any) -> Path:
+    """Write an :class:`xarray.Dataset` as NetCDF-3 (xarray's scipy engine) atomically.
+
+    NetCDF-3 has no boolean attribute type: booleans are stored as ints; NaN is kept (NetCDF
+    has a NaN). Read back with ``xarray.open_dataset(path, engine="scipy")``.
+    """
+    ds = dataset.copy()
+    ds.attrs = {k: (int(v) if isinstance(v, bool) else v) for k, v in ds.attrs.items()}
+    data = bytes(ds.to_netcdf(engine="scipy"))
+    return atomic_write(path, lambda fh: fh.write(data))
 
 
 def ensure_writable_dir(path: str | os.PathLike, field: str = "out") -> Path:

@@ -9,12 +9,13 @@ import numpy as np
 from design.records import FlapCountSearch, StartRecord
 from design.settings import THETA_NAMES, DesignSettings
 from model.control import Controller
+from model.results import ResultData, jsonable
 
 NAN = float("nan")
 
 
 @dataclass(frozen=True)
-class DesignResult:
+class DesignResult(ResultData):
     """Outcome of :func:`design.driver.design`.
 
     Attributes
@@ -58,13 +59,13 @@ class DesignResult:
     extras: dict = field(default_factory=dict, compare=False)
 
     def summary(self) -> dict:
-        """JSON-ready summary (the ``bridgeflap optimise`` contract)."""
+        """Strict-JSON summary (the ``bridgeflap optimise`` contract; not-a-number -> None)."""
         k = self.candidate.compensator if self.candidate else None
         coeffs = ({n: getattr(k, n) for n in THETA_NAMES} if k else
                   {n: NAN for n in THETA_NAMES})
         b = self.best
         margin = b.robust_margin if b is not None else NAN
-        return {
+        return jsonable({
             "status": self.status,
             "controller_usable": self.controller is not None,
             "coefficients": coeffs,
@@ -105,7 +106,12 @@ class DesignResult:
                               else {"minimum": None, "counts": []}),
             "wall_time_s": self.wall_time_s,
             "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"},
-        }
+        })
+
+    def _rows(self) -> list[dict]:
+        """The start table: one row per start (``time_s``, ``robust_margin`` [-], ...)."""
+        b = self.best
+        return [s.table_row(b is not None and s.start == b.start) for s in self.starts]
 
     def history(self) -> dict:
         """Ipopt iteration history of every start and round (``ipopt_history.json``):

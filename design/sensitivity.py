@@ -66,6 +66,7 @@ from model.analysis import DEFAULT_MODES, bridge_system, modal_model
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import assemble
 from model.modes import ModalModel
+from model.results import ResultData, jsonable, table_text
 from model.ritz import chosen_modes, ritz_basis
 from model.spec import PARAMETER_PATHS, BridgeSpec, get_path
 from model.spectrum import eigenvalue_derivative
@@ -260,7 +261,7 @@ def check_parameters(parameters: Sequence[str]) -> tuple[str, ...]:
 
 
 @dataclass(frozen=True)
-class SensitivityResult:
+class SensitivityResult(ResultData):
     """Local sensitivities of the flutter and divergence speeds.
 
     Attributes
@@ -303,18 +304,30 @@ class SensitivityResult:
                 "derivatives": {r["parameter"]: {k: v for k, v in r.items() if k != "parameter"}
                                 for r in self.rows}}
 
-    def table(self) -> str:
-        """Plain-text table of the IFT derivatives and both checks."""
-        lines = [f"{'parameter':30s} {'value':>10s} {'dUF/dp IFT':>12s} {'full FD':>12s} "
-                 f"{'fixed-basis':>12s} {'Ritz FD':>12s} {'p/UF dUF/dp':>11s} {'p/UD dUD/dp':>11s}"]
-        for r in self.rows:
-            lines.append(f"{r['parameter']:30s} {r['value']:10.4g} {r['d_flutter_speed']:12.5g} "
-                         f"{r['d_flutter_speed_fd']:12.5g} "
-                         f"{r['d_flutter_speed_fixed_basis']:12.5g} "
-                         f"{r['d_flutter_speed_ritz_fd']:12.5g} "
-                         f"{r['relative_d_flutter_speed']:11.4f} "
-                         f"{r['relative_d_divergence_speed']:11.4f}")
-        return "\n".join(lines)
+    def _rows(self) -> list[dict]:
+        """Per parameter, keys with units: ``value_si`` (the parameter in SI units),
+        ``d_<q>_speed_m_s_per_unit[_fd|_fixed_basis|_ritz_fd]`` ([m/s] per SI unit of the
+        parameter), ``relative_d_<q>_speed...`` [-], statuses as in :attr:`rows`."""
+        return [{_unit_key(k): v for k, v in r.items()} for r in self.rows]
+
+    def to_dict(self) -> dict:
+        """Strict JSON: :meth:`summary` with the derivative keys named with their units."""
+        s = self.summary()
+        s["derivatives"] = {r["parameter"]: {k: v for k, v in r.items() if k != "parameter"}
+                            for r in self._rows()}
+        return jsonable(s)
+
+    def table(self, fmt: str = "simple") -> str:
+        """Text table of the IFT derivatives and both checks (:mod:`tabulate`)."""
+        cols = {"parameter": "parameter", "value_si": "value",
+                "d_flutter_speed_m_s_per_unit": "dUF/dp IFT",
+                "d_flutter_speed_m_s_per_unit_fd": "full FD",
+                "d_flutter_speed_m_s_per_unit_fixed_basis": "fixed-basis",
+                "d_flutter_speed_m_s_per_unit_ritz_fd": "Ritz FD",
+                "relative_d_flutter_speed": "p/UF dUF/dp",
+                "relative_d_divergence_speed": "p/UD dUD/dp"}
+        frame = self.to_dataframe().reindex(columns=list(cols)).rename(columns=cols)
+        return table_text(frame, fmt, floatfmt=".5g")
 
     def plot(self, ax=None):
         """Tornado plot of the relative derivatives ``(p/U) dU/dp`` (flutter and divergence)."""
@@ -338,6 +351,17 @@ class SensitivityResult:
         ax.grid(alpha=0.3, axis="x")
         ax.legend(fontsize=8)
         return ax
+
+
+def _unit_key(key: str) -> str:
+    """``d_flutter_speed_fd`` -> ``d_flutter_speed_m_s_per_unit_fd``; ``value`` -> ``value_si``."""
+    if key == "value":
+        return "value_si"
+    for q in ("flutter", "divergence"):
+        stem = f"d_{q}_speed"
+        if key.startswith(stem) and not key.startswith(f"{stem}_m_s"):
+            return f"{stem}_m_s_per_unit{key[len(stem):]}"
+    return key
 
 
 def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARAMETERS,

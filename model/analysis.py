@@ -23,6 +23,7 @@ from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import assemble
 from model.flaps import DEFAULT_FLAP_CHORD_M, closed_loop_model
 from model.modes import ModalModel, solve
+from model.results import ResultData
 from model.spec import BridgeSpec, check_fraction
 from model.stability import StabilitySweep, check_speeds, sweep
 
@@ -57,7 +58,7 @@ def bridge_system(spec: BridgeSpec, n_modes: int = DEFAULT_MODES, order: str = "
 
 
 @dataclass(frozen=True)
-class FlutterResult:
+class FlutterResult(ResultData):
     """Stability sweep of one bridge state."""
 
     spec: BridgeSpec
@@ -98,6 +99,16 @@ class FlutterResult:
                   "added_inertia": self.spec.aero.added_inertia})
         return s
 
+    def to_dataframe(self):
+        """The sweep, one row per speed x branch (:func:`model.results.sweep_frame`)."""
+        return self.sweep.to_dataframe()
+
+    def to_xarray(self):
+        """The sweep as an ``xarray.Dataset`` (:func:`model.results.sweep_dataset`)."""
+        return self.sweep.to_xarray({"bridge": self.spec.name, "modes_retained": self.n_modes,
+                                     "erected_fraction": self.spec.erected_fraction,
+                                     "order": self.order, "rfa": self.rfa})
+
     def plot(self, axes=None):
         """Root locus and damping/frequency against speed."""
         return self.sweep.plot(axes, title=f"{self.spec.name} (erected "
@@ -135,16 +146,24 @@ def critical_speed(summary) -> dict:
 
 
 def flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
-            order: str = "modal", rfa: str = "rfa4") -> FlutterResult:
-    """Flutter and torsional divergence of ``spec`` over a grid of wind speeds [m/s]."""
+            order: str = "modal", rfa: str = "rfa4", speed_tol: float = 1e-3) -> FlutterResult:
+    """Flutter and torsional divergence of ``spec`` over a grid of wind speeds [m/s].
+
+    ``speed_tol`` [m/s] is the width to which each crossing is refined
+    (:func:`model.stability.sweep`).
+    """
     u = check_speeds(speeds)
+    tol = float(speed_tol)
+    if not (np.isfinite(tol) and tol > 0):
+        raise BridgeflapInputError("speed_tol",
+                                   f"must be a positive number of m/s, got {speed_tol!r}")
     modal, system = bridge_system(spec, n_modes, order, rfa)
-    return FlutterResult(spec, sweep(system, u), system.basis.n, order,
+    return FlutterResult(spec, sweep(system, u, speed_tol=tol), system.basis.n, order,
                          system.extras.get("rfa", rfa), system.n_states, modal.modes)
 
 
 @dataclass(frozen=True)
-class _StagesResult:
+class _StagesResult(ResultData):
     """Rows of numbers (units in the key names) per erected fraction of one bridge, plus the
     completed bridge as its own row (joints closed: full GJ and EI)."""
 
@@ -157,6 +176,11 @@ class _StagesResult:
         """JSON-ready ``{"bridge", "side_spans", "stages", "completed_bridge"}``."""
         return {"bridge": self.bridge, "side_spans": self.side_spans,
                 "stages": list(self.stages), "completed_bridge": dict(self.completed)}
+
+
+    def _rows(self) -> list[dict]:
+        """The stages, then the completed bridge as its own row."""
+        return [dict(r) for r in self.stages] + ([dict(self.completed)] if self.completed else [])
 
 
 def _axes(ax):
@@ -389,7 +413,7 @@ def frequency_ratio(spec: BridgeSpec, fractions, side_spans: str | None = None
 
 
 @dataclass(frozen=True)
-class ClosedLoopFlutterResult:
+class ClosedLoopFlutterResult(ResultData):
     """Closed-loop stability sweep plus the open-loop reference."""
 
     base: object            # model.analysis.FlutterResult of the closed loop
@@ -417,6 +441,14 @@ class ClosedLoopFlutterResult:
             "open_loop_divergence_status": ol["divergence_status"],
         })
         return s
+
+    def to_dataframe(self):
+        """The closed-loop sweep, one row per speed x branch."""
+        return self.base.to_dataframe()
+
+    def to_xarray(self):
+        """The closed-loop sweep as an ``xarray.Dataset``."""
+        return self.base.to_xarray()
 
     def plot(self, axes=None):
         """Closed-loop root locus and damping/frequency against speed."""

@@ -38,6 +38,7 @@ import numpy as np
 
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.gust import GustField, coherence_projection, gust_field
+from model.results import ResultData
 from model.simulation import simulate_monte_carlo
 from model.spectral import (
     adaptive_frequency_grid,
@@ -168,7 +169,7 @@ def _strip_rms(grid, Gqq, Cl):
 # result
 # ----------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class BuffetingResult:
+class BuffetingResult(ResultData):
     """Buffeting response against wind speed.
 
     Attributes
@@ -257,6 +258,18 @@ class BuffetingResult:
             "elapsed_s": self.elapsed_s,
             "inputs": dict(self.inputs),
         }
+
+    def _rows(self) -> list[dict]:
+        """One row per speed (units in the column names)."""
+        s = self.summary()
+        keys = {"speed_m_s": "speeds_m_s", "rms_vertical_m": "rms_vertical_m",
+                "rms_torsion_rad": "rms_torsion_rad",
+                "rms_vertical_over_width": "rms_vertical_over_width", "status": "status",
+                "convergence_rel": "convergence", "grid_points": "grid_points",
+                "spectral_abscissa_1_s": "spectral_abscissa_1_s",
+                "standard_error_vertical_m": "standard_error_vertical_m",
+                "x_max_vertical_m": "x_max_vertical_m"}
+        return [{k: s[v][i] for k, v in keys.items()} for i in range(self.speeds.size)]
 
     def _argmax_x(self, row) -> float:
         vals = np.where(self.main_span, row, -np.inf)

@@ -16,6 +16,7 @@ import scipy.linalg as sla
 from model.basis import StructuralBasis
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import StructuralModel, assemble
+from model.results import ResultData, jsonable
 from model.spec import BridgeSpec
 
 
@@ -49,7 +50,7 @@ class Mode:
 
 
 @dataclass(frozen=True)
-class ModalModel:
+class ModalModel(ResultData):
     """All modes of a bridge state, with the shapes the aerodynamics needs.
 
     Attributes
@@ -79,6 +80,36 @@ class ModalModel:
     def table(self) -> list[dict]:
         """Modes as JSON-ready dicts, sorted by frequency."""
         return [m.as_dict() for m in self.modes]
+
+    def _rows(self) -> list[dict]:
+        return self.table()
+
+    def to_dict(self) -> dict:
+        """Strict-JSON ``{"bridge", "erected_fraction", "modes"}`` (shapes: :meth:`deck_shapes`)."""
+        return jsonable({"bridge": self.spec.name,
+                         "erected_fraction": self.spec.erected_fraction,
+                         "modes": self.table()})
+
+    def deck_shapes(self) -> dict:
+        """Mass-normalised deck mode shapes at the structural nodes, per mode.
+
+        Returns
+        -------
+        dict
+            ``node_x_m`` (n_node,) node positions from the north anchorage [m],
+            ``node_span`` (n_node,) span index, ``labels`` (n_mode,), ``family`` (n_mode,),
+            ``frequency_hz`` (n_mode,) and ``shape`` (n_mode, n_node): the deck field of each
+            mode (heave [m], pitch [rad] or lateral [m] per unit modal coordinate, by family).
+        """
+        st = self.structure
+        shape = np.array([st.families[m.family].node_map @ self.shape(i)
+                          for i, m in enumerate(self.modes)])
+        return {"node_x_m": np.asarray(st.global_x(st.node_span, st.node_x), float),
+                "node_span": np.asarray(st.node_span, int),
+                "labels": np.array([m.label for m in self.modes], dtype=str),
+                "family": np.array([m.family for m in self.modes], dtype=str),
+                "frequency_hz": np.array([m.frequency_hz for m in self.modes], float),
+                "shape": shape}
 
     def find(self, label: str) -> Mode:
         """The mode with a label such as ``"TS1"``."""

@@ -43,6 +43,7 @@ from model.pk import (  # noqa: F401 - the p-k check is part of this module's pu
     pk_residual,
     pk_sweep,
 )
+from model.results import ResultData, sweep_dataset, sweep_frame
 from model.statespace import AeroelasticSystem, divergence_speed_static
 from model.tracking import (  # noqa: F401 - statuses and helpers are re-exported
     BRACKET_FAILED,
@@ -74,7 +75,7 @@ from model.tracking import (  # noqa: F401 - statuses and helpers are re-exporte
 
 
 @dataclass(frozen=True)
-class StabilitySweep:
+class StabilitySweep(ResultData):
     """Result of :func:`sweep`.
 
     Attributes
@@ -179,6 +180,14 @@ class StabilitySweep:
             "speed_min_m_s": float(self.speeds[0]),
             "speed_max_m_s": float(self.speeds[-1]),
         }
+
+    def to_dataframe(self):
+        """One row per speed x branch (:func:`model.results.sweep_frame`)."""
+        return sweep_frame(self)
+
+    def to_xarray(self, attrs=None):
+        """The branches on ``(branch, speed_m_s)`` (:func:`model.results.sweep_dataset`)."""
+        return sweep_dataset(self, attrs)
 
     def plot_root_locus(self, ax=None, title: str = "root locus (magenta: U = 0)"):
         """Tracked branches in the complex plane, coloured by wind speed, with a colour bar."""

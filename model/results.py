@@ -1,0 +1,188 @@
+"""Results as data: strict-JSON dicts, pandas tables and xarray datasets of every result.
+
+Every result record (:class:`model.stability.StabilitySweep`, :class:`model.analysis.FlutterResult`,
+:class:`model.modes.ModalModel`, :class:`model.buffeting.BuffetingResult`, the design records, ...)
+mixes in :class:`ResultData` and so has
+
+* ``to_dict()`` -- plain JSON types with units in the key names; NaN and +-inf become ``None``
+  (strict JSON, RFC 8259), numpy scalars and arrays Python numbers and lists
+  (:func:`jsonable`);
+* ``to_dataframe()`` -- a :class:`pandas.DataFrame` for anything tabular, every numeric column
+  named with its unit (``speed_m_s``, ``frequency_hz``, ``damping_ratio``, ``real_part_1_s``);
+* ``table(fmt)`` -- that frame as text (:mod:`tabulate`; ``"github"`` Markdown by default).
+
+Sweeps are also ``xarray.Dataset`` objects (:func:`sweep_dataset`: coordinates ``speed_m_s`` and
+``branch``, units in ``attrs``), written as NetCDF-3 with xarray's scipy engine
+(:func:`design.io.atomic_save_netcdf`; no netCDF4/h5netcdf dependency). pandas, xarray and
+tabulate are imported lazily, so importing the model stays cheap.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import enum
+import math
+import os
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+__all__ = ["ResultData", "UNITLESS_COLUMNS", "jsonable", "sweep_dataset",
+           "sweep_frame", "table_text"]
+
+#: Column names that carry no unit because they are labels, statuses or counts.
+UNITLESS_COLUMNS = frozenset({
+    "label", "branch", "family", "symmetry", "span", "status", "stage", "parameter", "case_id",
+    "error", "mechanism", "critical_mechanism", "critical_branch_label", "flutter_status",
+    "divergence_status", "flutter_onset", "second_critical_branch_label",
+    "second_flutter_status", "grid_points", "start", "order", "kind", "method", "bridge",
+    "name", "chosen", "placement", "flap_count", "iterations",
+})
+
+#: Suffixes that name a unit (or say "dimensionless": ``_ratio``, ``_share``, ``_rel``, ...).
+UNIT_SUFFIXES = ("_m_s", "_hz", "_1_s", "_m", "_rad", "_s", "_ratio", "_share", "_per_unit",
+                 "_over_width", "_rel", "_kg", "_kg_m", "_n", "_nm", "_deg", "_rad_s",
+                 "_per_m", "_s_per_m", "_fraction", "_gain", "_margin", "_count", "_status",
+                 "_label", "_flag", "_ok", "_holds", "_index", "_convergence")
+
+
+def jsonable(obj: Any) -> Any:
+    """``obj`` in plain JSON types; NaN/inf -> ``None`` (:func:`design.io.to_jsonable`).
+
+    Numpy scalars become Python scalars, arrays nested lists, dataclasses dicts of their fields
+    (or their ``to_dict()``), paths strings, enums their value, dates ISO strings, complex
+    numbers ``{"real": x, "imag": y}`` and mapping keys strings.
+
+    Raises
+    ------
+    TypeError
+        For an object with no JSON representation (the message names its type).
+    """
+    if obj is None or isinstance(obj, (bool, str)):
+        return obj
+    if isinstance(obj, (int, np.integer)) and not isinstance(obj, np.bool_):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if isinstance(obj, (float, np.floating)):
+        value = float(obj)
+        return value if math.isfinite(value) else None
+    if isinstance(obj, (complex, np.complexfloating)):
+        value = complex(obj)
+        return {"real": jsonable(value.real), "imag": jsonable(value.imag)}
+    if isinstance(obj, np.ndarray):
+        return [jsonable(item) for item in obj.tolist()] if obj.ndim else jsonable(obj[()])
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, Mapping):
+        return {k if isinstance(k, str) else str(jsonable(k)): jsonable(v)
+                for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(item) for item in obj]
+    if isinstance(obj, (set, frozenset)):
+        return [jsonable(item) for item in sorted(obj, key=repr)]
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    if isinstance(obj, enum.Enum):
+        return jsonable(obj.value)
+    if isinstance(obj, (_dt.datetime, _dt.date, _dt.time)):
+        return obj.isoformat()
+    raise TypeError(f"cannot convert an object of type {type(obj).__name__} to JSON")
+
+
+def table_text(frame, fmt: str = "github", floatfmt: str = ".6g") -> str:
+    """A :class:`pandas.DataFrame` as a text table (:func:`tabulate.tabulate`); NaN -> blank."""
+    from tabulate import tabulate
+
+    return tabulate(frame, headers="keys", tablefmt=fmt, floatfmt=floatfmt, showindex=False,
+                    missingval="")
+
+
+class ResultData:
+    """Mixin of every result record: ``to_dict``, ``to_dataframe``, ``table``.
+
+    ``to_dict`` is the record's ``summary()`` (its JSON contract) when it has one, else its
+    fields, made strict-JSON by :func:`jsonable`. Tabular records override
+    :meth:`_rows` (a list of flat dicts with units in the keys) or :meth:`to_dataframe`.
+    """
+
+    def to_dict(self) -> dict:
+        """Strict-JSON dict (units in the key names, NaN/inf as ``None``)."""
+        summary = getattr(self, "summary", None)
+        if callable(summary):
+            return jsonable(summary())
+        if dataclasses.is_dataclass(self):
+            return {f.name: jsonable(getattr(self, f.name)) for f in dataclasses.fields(self)
+                    if f.repr}
+        raise TypeError(f"{type(self).__name__} has no data to convert")
+
+    def _rows(self) -> list[dict]:
+        raise TypeError(f"{type(self).__name__} is not tabular")
+
+    def to_dataframe(self):
+        """Table of the result (:class:`pandas.DataFrame`), one unit-named column per quantity."""
+        import pandas as pd
+
+        return pd.DataFrame(self._rows())
+
+    def table(self, fmt: str = "github") -> str:
+        """:meth:`to_dataframe` as text (``fmt``: any :mod:`tabulate` format)."""
+        return table_text(self.to_dataframe(), fmt)
+
+
+# ------------------------------------------------------------------------------- sweeps
+_SWEEP_UNITS = {"frequency_hz": "Hz", "damping_ratio": "1", "real_part_1_s": "1/s",
+                "imag_part_1_s": "1/s"}
+
+
+def _sweep_fields(sweep) -> dict:
+    lam = np.asarray(sweep.branches)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        zeta = -lam.real / np.abs(lam)
+    return {"frequency_hz": np.abs(lam.imag) / (2 * np.pi), "damping_ratio": zeta,
+            "real_part_1_s": lam.real, "imag_part_1_s": lam.imag}
+
+
+def sweep_frame(sweep):
+    """Long table of a :class:`~model.stability.StabilitySweep`: one row per speed x branch.
+
+    Columns ``speed_m_s``, ``branch`` (its label at U = 0), ``frequency_hz``,
+    ``damping_ratio`` [-], ``real_part_1_s`` and ``imag_part_1_s`` [1/s].
+    """
+    import pandas as pd
+
+    u = np.asarray(sweep.speeds, float)
+    labels = list(sweep.branch_labels)
+    fields = _sweep_fields(sweep)
+    data = {"speed_m_s": np.tile(u, len(labels)), "branch": np.repeat(labels, u.size)}
+    data.update({k: v.reshape(-1) for k, v in fields.items()})
+    return pd.DataFrame(data)
+
+
+def sweep_dataset(sweep, attrs: Mapping | None = None):
+    """The tracked branches of a sweep as an :class:`xarray.Dataset`.
+
+    Coordinates ``speed_m_s`` [m/s] and ``branch`` (label); variables ``frequency_hz``,
+    ``damping_ratio``, ``real_part_1_s``, ``imag_part_1_s`` on ``(branch, speed_m_s)``, each
+    with ``attrs["units"]``; the dataset attrs hold the flutter and divergence numbers
+    (strict: NaN kept as NaN, which NetCDF stores).
+    """
+    import xarray as xr
+
+    fields = _sweep_fields(sweep)
+    ds = xr.Dataset(
+        {k: (("branch", "speed_m_s"), v, {"units": _SWEEP_UNITS[k]}) for k, v in fields.items()},
+        coords={"speed_m_s": ("speed_m_s", np.asarray(sweep.speeds, float), {"units": "m/s"}),
+                "branch": ("branch", np.asarray(list(sweep.branch_labels), dtype=str))})
+    meta = {"flutter_speed_m_s": float(sweep.flutter.speed),
+            "flutter_frequency_hz": float(sweep.flutter.frequency_hz),
+            "flutter_status": str(sweep.flutter.status),
+            "divergence_speed_m_s": float(sweep.divergence.speed),
+            "divergence_status": str(sweep.divergence.status),
+            "critical_branch_label": str(sweep.critical_branch or "")}
+    meta.update({k: (v if isinstance(v, (str, int, float)) else str(v))
+                 for k, v in (attrs or {}).items()})
+    ds.attrs.update(meta)
+    return ds
