@@ -263,7 +263,7 @@ def _speeds_for_section(args):
 
 
 def cmd_state_space(args):
-    from model.analysis import bridge_system
+    from model.control_plant import closed_loop_plant, plant_data
 
     spec = spec_from_args(args)
     if not (np.isfinite(args.speed) and args.speed >= 0):
@@ -273,36 +273,25 @@ def cmd_state_space(args):
         raise BridgeflapInputError("out", "must end in .npz or .mat")
     check_writable_parent("out", out)
     controller = controller_from_args(args)
-    if controller is not None:
-        from model.flaps import closed_loop_state_space
-
-        A, B, C, D, names, inputs, outputs = closed_loop_state_space(spec, controller, args.speed,
-                                                                     args.modes)
-    else:
-        _, system = bridge_system(spec, args.modes)
-        A, B = system.A(args.speed), system.B_gust(args.speed)
-        C = system.C_out
-        D = np.zeros((C.shape[0], B.shape[1]))
-        names = list(system.index.names)
-        ns = system.basis.n_strip
-        inputs = [f"gust_w[strip{i}] (m/s, up, before admittance)" for i in range(ns)]
-        outputs = ([f"heave[strip{i}] (m, down)" for i in range(ns)]
-                   + [f"pitch[strip{i}] (rad, nose-up)" for i in range(ns)])
-    data = {"A": A, "B": B, "C": C, "D": D, "state_names": np.array(names),
-            "input_names": np.array(inputs), "output_names": np.array(outputs),
-            "wind_speed_m_s": np.array(args.speed)}
+    if controller is not None and args.inputs == "gust":  # the package's closed loop
+        plant = closed_loop_plant(spec, controller, args.speed, args.modes)
+    else:  # open loop; a controller gives only its flap layout
+        plant = plant_data(spec, args.speed, args.inputs, args.modes, controller=controller,
+                           flaps=args.flaps)
+    A, B, C = plant.A, plant.B, plant.C
     if out.suffix.lower() == ".npz":
-        atomic_write(out, lambda fh: np.savez(fh, **data))
+        atomic_write(out, lambda fh: np.savez(fh, **plant.arrays()))
     else:
         import scipy.io
 
-        atomic_write(out, lambda fh: scipy.io.savemat(fh, data))
-    payload = {"out": str(out), "states": int(A.shape[0]), "inputs": int(B.shape[1]),
-               "outputs": int(C.shape[0]), "wind_speed_m_s": args.speed,
+        atomic_write(out, lambda fh: scipy.io.savemat(fh, plant.arrays(mat=True)))
+    payload = {"out": str(out), "input_set": args.inputs, "states": int(A.shape[0]),
+               "inputs": int(B.shape[1]), "outputs": int(C.shape[0]),
+               "wind_speed_m_s": args.speed,
                "spectral_abscissa_1_s": float(np.linalg.eigvals(A).real.max()),
                **controller_report(controller)}
-    emit(args, payload, f"wrote {out}: {A.shape[0]} states, {B.shape[1]} inputs, "
-                         f"{C.shape[0]} outputs at U = {args.speed} m/s")
+    emit(args, payload, f"wrote {out}: {A.shape[0]} states, {B.shape[1]} inputs "
+                        f"({args.inputs}), {C.shape[0]} outputs at U = {args.speed} m/s")
 
 
 def cmd_rfa(args):
@@ -388,7 +377,12 @@ def _state_space_arguments(sp):
     add_common(sp)
     sp.add_argument("--speed", type=float, required=True, help="[m/s]")
     sp.add_argument("--modes", type=int, default=DEFAULT_MODES)
-    sp.add_argument("--controller", default=None)
+    sp.add_argument("--controller", default=None,
+                    help="with --inputs gust: its closed loop; else only its flap layout")
+    sp.add_argument("--inputs", choices=("gust", "flaps", "both"), default="gust",
+                    help="gust[i] strip gusts, flap_te[f]/flap_le[f] flap angles, or both")
+    sp.add_argument("--flaps", type=int, default=5,
+                    help="flaps side by side over the main span (flap inputs, no --controller)")
     sp.add_argument("--out", required=True)
 
 

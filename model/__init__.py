@@ -36,6 +36,8 @@ _PUBLIC = {
     "Compensator": "model.control", "Controller": "model.control",
     "load_controller": "model.control", "save_controller": "model.control",
     "closed_loop_model": "model.flaps", "closed_loop_state_space": "model.flaps",
+    "plant": "model.control_plant", "plant_data": "model.control_plant",
+    "Plant": "model.control_plant",
     "build_symbolic": "model.symbolic", "closed_loop_functions": "model.symbolic",
     "section_basis": "model.section", "typical_section": "model.section",
 }
