@@ -12,6 +12,7 @@ from __future__ import annotations
 import datetime as _dt
 import importlib.metadata
 import importlib.util
+import json
 import os
 import platform
 import re
@@ -23,11 +24,15 @@ from typing import Any
 
 from design.io import to_jsonable
 
-__all__ = ["build_manifest", "git_info", "ipopt_version", "package_versions"]
+__all__ = ["build_info", "build_manifest", "git_info", "ipopt_version", "package_versions",
+           "provenance"]
 
 UNKNOWN = "unknown"
 _PACKAGES = ("bridgeflap", "numpy", "scipy", "casadi", "matplotlib", "dask", "distributed")
 _GIT_TIMEOUT_S = 5.0
+_ROOT = Path(__file__).resolve().parent.parent
+#: The build record setup.py writes into the model package.
+BUILD_INFO_NAME = "_build_info.json"
 
 
 def package_versions() -> dict[str, str]:
@@ -39,12 +44,7 @@ def package_versions() -> dict[str, str]:
         Distribution name -> version; ``"ipopt"`` is the Ipopt bundled with CasADi. A package
         that is not installed or whose version cannot be read is ``"unknown"``.
     """
-    versions = {}
-    for name in _PACKAGES:
-        try:
-            versions[name] = importlib.metadata.version(name)
-        except importlib.metadata.PackageNotFoundError:
-            versions[name] = UNKNOWN
+    versions = {name: package_versions_one(name) for name in _PACKAGES}
     versions["ipopt"] = ipopt_version()
     return versions
 
@@ -129,6 +129,66 @@ def git_info(source_dir: str | Path | None = None) -> dict[str, Any]:
     return {"commit": commit, "dirty": None if status is None else bool(status)}
 
 
+def build_info(path: str | Path | None = None) -> dict[str, Any] | None:
+    """The build record ``model/_build_info.json`` written by ``setup.py`` (``None`` if absent).
+
+    Returns
+    -------
+    dict or None
+        ``{"version", "commit", "dirty", "built_utc"}`` of the build this installation came
+        from (a wheel or an sdist); ``None`` for a source checkout that was never built.
+    """
+    path = Path(path) if path is not None else _ROOT / "model" / BUILD_INFO_NAME
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def _source_version() -> str:
+    """``project.version`` of the checkout's pyproject.toml (an uninstalled checkout)."""
+    try:
+        import tomllib
+    except ImportError:  # Python 3.10
+        import tomli as tomllib
+    try:
+        return str(tomllib.loads((_ROOT / "pyproject.toml").read_text())["project"]["version"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return UNKNOWN
+
+
+def provenance(source_dir: str | Path | None = None, build_path: str | Path | None = None
+               ) -> dict[str, Any]:
+    """Version and commit of the running bridgeflap, installed or not.
+
+    The commit is the checkout's (:func:`git_info`) when the code runs from a git work tree,
+    else the one recorded at build time (:func:`build_info`); ``source`` says which
+    (``"checkout"``, ``"build"`` or ``"unknown"`` when neither exists). The version is the
+    installed distribution's, else the build record's, else the checkout's pyproject.toml.
+    """
+    git = git_info(source_dir)
+    build = build_info(build_path)
+    version = package_versions_one("bridgeflap")
+    if version == UNKNOWN:
+        version = (build or {}).get("version") or _source_version()
+    if git["commit"] != UNKNOWN:
+        out = {**git, "source": "checkout"}
+    elif build and build.get("commit", UNKNOWN) != UNKNOWN:
+        out = {"commit": build["commit"], "dirty": build.get("dirty"), "source": "build"}
+    else:
+        out = {**git, "source": UNKNOWN}
+    return {"version": version, **out, "built_utc": (build or {}).get("built_utc")}
+
+
+def package_versions_one(name: str) -> str:
+    """Installed version of distribution ``name`` or ``"unknown"``."""
+    try:
+        return importlib.metadata.version(name)
+    except importlib.metadata.PackageNotFoundError:
+        return UNKNOWN
+
+
 def _cwd() -> str:
     try:
         return os.getcwd()
@@ -149,16 +209,19 @@ def build_manifest(config: dict) -> dict:
     -------
     dict
         JSON-ready mapping with keys ``time_utc`` (ISO 8601), ``host``, ``platform``,
-        ``python``, ``packages`` (see :func:`package_versions`), ``git`` (see
-        :func:`git_info`), ``command_line`` (``sys.argv``), ``cwd`` and ``config``.
+        ``python``, ``packages`` (see :func:`package_versions`), ``git`` (``commit``,
+        ``dirty`` and its ``source``, :func:`provenance`), ``bridgeflap`` (``version``,
+        ``commit``, ``built_utc``), ``command_line`` (``sys.argv``), ``cwd`` and ``config``.
     """
+    prov = provenance()
     return {
         "time_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "host": socket.gethostname(),
         "platform": platform.platform(),
         "python": f"{platform.python_implementation()} {platform.python_version()}",
         "packages": package_versions(),
-        "git": git_info(),
+        "git": {k: prov[k] for k in ("commit", "dirty", "source")},
+        "bridgeflap": {k: prov[k] for k in ("version", "commit", "built_utc")},
         "command_line": list(sys.argv),
         "cwd": _cwd(),
         "config": to_jsonable(config),
