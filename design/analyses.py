@@ -246,7 +246,13 @@ def _run_modes(spec, opts, context) -> Outcome:
          "cable_main_sag_m": modal.structure.statics.main_sag_m,
          "modes": modal.table()[: int(opts["count"])], "table1": compare_table1(modal)}
     freq = np.array([m["frequency_hz"] for m in s["modes"]])
-    return Outcome("ok", s, {"frequency_hz": freq}, _figures(context, "modes", modal), modal)
+    # mode shapes along the deck (model.modes.ModalModel.deck_shapes), the listed modes only
+    shapes = modal.deck_shapes()
+    n = freq.size
+    arr = {"frequency_hz": freq, "labels": shapes["labels"][:n], "family": shapes["family"][:n],
+           "node_x_m": shapes["node_x_m"], "node_span": shapes["node_span"],
+           "shape": shapes["shape"][:n]}
+    return Outcome("ok", s, arr, _figures(context, "modes", modal), modal)
 
 
 def _modes_case(outcome: Outcome) -> dict:

@@ -41,6 +41,7 @@ from design.cli_common import (
 from design.io import atomic_write
 from design.options import MAX_GRID_VALUE, MAX_MODES, check_int, check_number, parse_range
 from model.errors import BridgeflapError, BridgeflapInputError
+from model.results import table_text
 from model.spec import SIDE_SPAN_SEQUENCES, check_fraction
 
 __all__ = ["COMMANDS", "Command", "build_parser", "main"]
@@ -72,12 +73,9 @@ def cmd_modes(args):
              f"H = {payload['cable_horizontal_tension_n'] / 1e6:.2f} MN per cable, "
              f"sag {payload['cable_main_sag_m']:.2f} m, "
              f"lambda^2 = {payload['irvine_lambda_sq']:.1f}",
-             f"{'mode':10s} {'family':10s} {'symmetry':14s} {'f [Hz]':>8s} {'zeta [%]':>8s}"
-             f" {'main-span':>9s}"]
-    for m in modes:
-        lines.append(f"{m['label']:10s} {m['family']:10s} {m['symmetry']:14s} "
-                     f"{m['frequency_hz']:8.4f} {100 * m['damping_ratio']:8.3f}"
-                     f" {m['main_span_share']:9.2f}")
+             table_text(modal.to_dataframe()[: args.count][
+                 ["label", "family", "symmetry", "frequency_hz", "damping_ratio",
+                  "main_span_share"]], "simple")]
     if args.plot:
         save_plot(modal, args.plot)
     emit(args, payload, "\n".join(lines))
@@ -202,12 +200,10 @@ def cmd_erection(args):
     check_plot_target(args)
     res = _run("erection", load_bridge(args.bridge), fractions=args.fractions,
                speeds=args.speeds, modes=args.modes, side_spans=args.side_spans or "")
+    cols = ["erected_fraction", "flutter_speed_m_s", "flutter_status", "divergence_speed_m_s",
+            "divergence_status", "stage"]
     lines = [f"side spans while erecting: {res.side_spans}",
-             "erected  flutter [m/s]  status         divergence [m/s]  status     stage"]
-    for s in (*res.stages, res.completed):
-        lines.append(f"{s['erected_fraction']:7.3f}  {s['flutter_speed_m_s']:13.2f}  "
-                     f"{s['flutter_status']:13s}  {s['divergence_speed_m_s']:16.2f}  "
-                     f"{s['divergence_status']:9s}  {s['stage']}")
+             table_text(res.to_dataframe()[cols], "simple")]
     if args.plot:
         save_plot(res, args.plot)
     emit(args, res.summary(), "\n".join(lines))

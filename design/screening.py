@@ -21,7 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
+from design.io import atomic_write_text
 from model.errors import BridgeflapInputError
+from model.results import ResultData
 from model.spec import PARAMETER_PATHS
 
 __all__ = ["DEFAULT_UNCERTAIN_RANGES", "GlobalSensitivityResult", "global_sensitivity"]
@@ -48,7 +50,7 @@ DEFAULT_UNCERTAIN_RANGES = {
 
 
 @dataclass(frozen=True)
-class GlobalSensitivityResult:
+class GlobalSensitivityResult(ResultData):
     """Global sensitivity indices and uncertainty band of the flutter and divergence speeds.
 
     Attributes
@@ -81,6 +83,33 @@ class GlobalSensitivityResult:
         return {"method": self.method, "ranges": {k: list(v) for k, v in self.ranges.items()},
                 "indices": self.indices, "band": self.band, "cases": self.cases,
                 "succeeded": self.succeeded, "failed": self.failed, "out_dir": self.out_dir}
+
+    def _rows(self) -> list[dict]:
+        """One row per output x parameter: Morris ``mu_star_m_s``, ``mu_m_s``, ``sigma_m_s``,
+        ``mu_star_conf_m_s``; Sobol' ``S1_index``, ``ST_index`` and their ``_conf`` [-]."""
+        unit = "_m_s" if self.method == "morris" else "_index"
+        rows = []
+        for out, idx in self.indices.items():
+            for name, vals in idx.items():
+                if isinstance(vals, dict):
+                    row = {"output": out, "parameter": name}
+                    for k, v in vals.items():
+                        stem, conf = (k[:-5], "_conf") if k.endswith("_conf") else (k, "")
+                        row[f"{stem}{unit}{conf}"] = v
+                    rows.append(row)
+        return rows
+
+    def write_indices(self, folder) -> Path | None:
+        """Write the indices as ``indices.csv`` (:meth:`to_dataframe`) into ``folder``; None
+        when none were computed."""
+        rows = self._rows()
+        if not rows:
+            return None
+        import pandas as pd
+
+        path = Path(folder) / "indices.csv"
+        atomic_write_text(path, pd.DataFrame(rows).to_csv(index=False))
+        return path
 
     def plot(self, axes=None):
         """Index bars per output (left) and histograms of the two speeds (right)."""
@@ -226,8 +255,10 @@ def global_sensitivity(bridge: str = "humber",
                                  "ST_conf": float(res["ST_conf"][i])}
                             for i, nm in enumerate(names)}
         indices[out]["status"] = "ok"
-    return GlobalSensitivityResult(method=method, ranges={k: tuple(v) for k, v in ranges.items()},
-                                   indices=indices, band=band, cases=batch.cases,
-                                   succeeded=batch.succeeded, failed=batch.failed,
-                                   out_dir=str(batch.table_path.parent), samples=X,
-                                   outputs=outputs)
+    res = GlobalSensitivityResult(method=method, ranges={k: tuple(v) for k, v in ranges.items()},
+                                  indices=indices, band=band, cases=batch.cases,
+                                  succeeded=batch.succeeded, failed=batch.failed,
+                                  out_dir=str(batch.table_path.parent), samples=X,
+                                  outputs=outputs)
+    res.write_indices(batch.table_path.parent)  # mu*, sigma (or S1, ST) next to table.csv
+    return res

@@ -56,6 +56,7 @@ from types import MappingProxyType
 
 from design.analyses import ANALYSES, Outcome, RunContext
 from design.io import (
+    atomic_save_netcdf,
     atomic_savez,
     atomic_write_json,
     atomic_write_text,
@@ -297,6 +298,8 @@ def _write_outcome(kind: str, outcome: Outcome, folder: Path) -> tuple[dict, lis
     atomic_write_json(folder / "results" / f"{kind}.json", summary)
     if outcome.arrays:
         atomic_savez(folder / "results" / f"{kind}.npz", **outcome.arrays)
+    if callable(getattr(outcome.result, "to_xarray", None)):  # sweeps as labelled arrays
+        atomic_save_netcdf(folder / "results" / f"{kind}.nc", outcome.result.to_xarray())
     return summary, _save_figures(outcome.figures, folder / "figures")
 
 

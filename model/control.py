@@ -445,10 +445,16 @@ def load_controller(path) -> Controller:
     return Controller(compensator=compensator, **layout)
 
 
-def _toml_float(value: float) -> str:
-    """Format a finite float as a TOML float that round-trips exactly."""
-    text = repr(float(value))
-    return text if ("." in text or "e" in text) else text + ".0"
+_CONTROLLER_HEADER = """\
+# bridgeflap controller definition (seed paper section 6)
+# K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1)
+# flap angle beta [rad] from local deck pitch alpha [rad]
+# The leading-edge flap is driven by -K, the trailing-edge flap by +K.
+# Units: b2, a2 [s^2]; b1, a1 [s]; b0 [rad/rad]; a2 >= 0, a1 > 0.
+# flap_strip_positions_m: strip centres along the main span from its mid-point [m];
+# flap_width_m: spanwise width per strip [m]; gain_limit: bound on sup_w |K(jw)| [rad/rad].
+
+"""
 
 
 def save_controller(controller: Controller, path) -> Path:
@@ -468,33 +474,19 @@ def save_controller(controller: Controller, path) -> Path:
 
     Notes
     -----
-    A small hand-written writer (flat keys, floats via ``repr`` so they round-trip exactly,
-    comments stating units) avoids a TOML-writing dependency.
+    Written by :mod:`tomli_w` (floats round-trip exactly) under a comment header stating the
+    transfer function, the drive signs and the units.
     """
+    import tomli_w
+
     k = controller.compensator
-    positions = ", ".join(_toml_float(x) for x in controller.flap_strip_positions_m)
-    lines = [
-        "# bridgeflap controller definition (seed paper section 6)",
-        "# K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1)",
-        "# flap angle beta [rad] from local deck pitch alpha [rad]",
-        "# The leading-edge flap is driven by -K, the trailing-edge flap by +K.",
-        "",
-        "# compensator coefficients",
-        f"b2 = {_toml_float(k.b2)}  # [s^2]",
-        f"b1 = {_toml_float(k.b1)}  # [s]",
-        f"b0 = {_toml_float(k.b0)}  # [rad/rad]",
-        f"a2 = {_toml_float(k.a2)}  # [s^2], >= 0",
-        f"a1 = {_toml_float(k.a1)}  # [s], > 0",
-        "",
-        "# flap layout",
-        "# strip centres along the main span from its mid-point [m]",
-        f"flap_strip_positions_m = [{positions}]",
-        f"flap_width_m = {_toml_float(controller.flap_width_m)}  # spanwise width per strip [m]",
-        f"leading_edge = {str(controller.leading_edge).lower()}  # leading-edge flaps fitted",
-        f"trailing_edge = {str(controller.trailing_edge).lower()}  # trailing-edge flaps fitted",
-        f"gain_limit = {_toml_float(controller.gain_limit)}  # bound on sup_w |K(jw)| [rad/rad]",
-        "",
-    ]
+    data = {"b2": float(k.b2), "b1": float(k.b1), "b0": float(k.b0), "a2": float(k.a2),
+            "a1": float(k.a1),
+            "flap_strip_positions_m": [float(x) for x in controller.flap_strip_positions_m],
+            "flap_width_m": float(controller.flap_width_m),
+            "leading_edge": bool(controller.leading_edge),
+            "trailing_edge": bool(controller.trailing_edge),
+            "gain_limit": float(controller.gain_limit)}
     path = Path(path)
-    path.write_text("\n".join(lines), encoding="utf-8")
+    path.write_text(_CONTROLLER_HEADER + tomli_w.dumps(data), encoding="utf-8")
     return path

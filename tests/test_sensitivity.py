@@ -131,6 +131,14 @@ def test_morris_through_the_batch_runner(tmp_path):
     b = res.band["divergence_speed_m_s"]
     assert b["min"] <= b["p05"] <= b["p50"] <= b["p95"] <= b["max"]
     assert json.loads((tmp_path / "gsa" / "batch.json").read_text())["succeeded"] == 6
+    # the Morris indices are written next to table.csv, with units in the column names
+    import pandas as pd
+
+    table = pd.read_csv(tmp_path / "gsa" / "indices.csv")
+    row = table[(table.output == "flutter_speed_m_s") & (table.parameter == "deck.gj_nm2")]
+    assert row.mu_star_m_s.iloc[0] == f["deck.gj_nm2"]["mu_star"]
+    assert {"sigma_m_s", "mu_star_m_s_conf"} <= set(table.columns)
+    json.loads(json.dumps(res.to_dict(), allow_nan=False))
 
 
 def test_cli_contract_and_bad_parameter(tmp_path, capsys):
@@ -143,6 +151,15 @@ def test_cli_contract_and_bad_parameter(tmp_path, capsys):
     assert d["d_flutter_speed"] == pytest.approx(d["d_flutter_speed_fd"], rel=1e-3)
     assert out["flutter_speed_m_s"] > 0
     assert (tmp_path / "t.png").stat().st_size > 0
+    # the result object: unit-named derivative keys, strict JSON, a table with units
+    from design.sensitivity import local_sensitivity
+    from model.spec import load_bridge
+
+    res = local_sensitivity(load_bridge("humber"), ["deck.half_chord_m"], "0:120:2", 6)
+    dd = json.loads(json.dumps(res.to_dict(), allow_nan=False))["derivatives"]
+    assert dd["deck.half_chord_m"]["d_flutter_speed_m_s_per_unit"] == d["d_flutter_speed"]
+    assert "d_flutter_speed_m_s_per_unit_fd" in res.to_dataframe().columns
+    assert "dUF/dp IFT" in res.table()
     rc = main(["sensitivity", "--parameters", "deck.nonsense", "--plot", str(tmp_path / "u.png")])
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1 and "deck.nonsense" in err

@@ -8,6 +8,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import design.study as study_mod
@@ -80,6 +81,14 @@ def test_study_writes_a_self_describing_folder(small, tmp_path, capsys):
         assert (out / name).is_file(), name
     for p in out.rglob("*.json"):
         json.loads(p.read_text())  # every result file is complete, strict JSON
+    # the sweep as labelled arrays (NetCDF-3) next to flutter.npz; modes.npz holds the shapes
+    import xarray as xr
+
+    with xr.open_dataset(out / "results" / "flutter.nc", engine="scipy") as ds:
+        assert ds.speed_m_s.attrs["units"] == "m/s"
+        assert ds.attrs["flutter_speed_m_s"] == r["flutter_speed_m_s"]
+    with np.load(out / "results" / "modes.npz") as z:
+        assert z["shape"].shape == (z["frequency_hz"].size, z["node_x_m"].size)
     cfg = json.loads((out / "config.json").read_text())
     assert cfg["quick"] is True and cfg["element_length_m"] == 50.0
     assert json.loads((out / "manifest.json").read_text())["config"]["name"] == "small"
