@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from model.results import strict_json
+
 NAN = float("nan")
 
 
@@ -60,6 +62,7 @@ class Verification:
     min_damping_speed_m_s: float = NAN
     damping_ratio: np.ndarray | None = None
 
+    @strict_json
     def to_dict(self) -> dict:
         """The scalar part (the ``verification`` JSON object)."""
         return {"max_violation": self.max_violation_1_s,
@@ -158,6 +161,7 @@ class CutRound:
     #: written to ``ipopt_history.json`` by :meth:`design.result.DesignResult.history`)
     history: dict | None = None
 
+    @strict_json
     def to_dict(self) -> dict:
         """One entry of ``rounds``."""
         out = {"round": self.round, "status": self.ipopt_status, "iterations": self.iterations,
@@ -275,6 +279,7 @@ class StartRecord:
         """Dense small-gain margin [-] (NaN without robustness check)."""
         return self.robust.margin if self.robust is not None else NAN
 
+    @strict_json
     def to_dict(self) -> dict:
         """One entry of ``starts`` (the design speeds excluded)."""
         out = {"start": self.start, "theta0": list(self.theta0)}
@@ -332,6 +337,7 @@ class FlapCountCheck:
     stable_to_m_s: float
     max_violation_1_s: float
 
+    @strict_json
     def to_dict(self) -> dict:
         """One entry of ``minimum_flaps.counts``."""
         return {"flap_count": self.flap_count, "meets_margin": self.meets_margin,
@@ -354,6 +360,7 @@ class FlapCountSearch:
     criterion: str = ("damping ratio >= zeta_min of the movable branches on the dense grid, "
                       "same K(s)")
 
+    @strict_json
     def to_dict(self) -> dict:
         """The ``minimum_flaps`` JSON object."""
         return {"minimum": self.minimum, "counts": [c.to_dict() for c in self.counts],
@@ -376,6 +383,7 @@ class BuffetingComparison:
     open_loop_rms_torsion_rad: tuple = ()
     closed_loop_rms_torsion_rad: tuple = ()
 
+    @strict_json
     def to_dict(self) -> dict:
         """The ``buffeting`` JSON object (only ``status`` for a failure)."""
         if self.status != "ok":
@@ -409,6 +417,7 @@ class ParetoPoint:
     time_s: float
     theta: tuple
 
+    @strict_json
     def to_dict(self) -> dict:
         """One entry of ``pareto.points``."""
         return {"flap_count": self.flap_count, "status": self.ipopt_status,

@@ -127,6 +127,36 @@ class DesignResult(ResultData):
                                for k, v in (r.history or {}).items()}})
         return {"rounds": out}
 
+    def compensator_response(self, frequency_hz=None):
+        """Frequency response of the (candidate) compensator by :func:`scipy.signal.freqs`.
+
+        Parameters
+        ----------
+        frequency_hz : array_like, optional
+            [Hz]; default 600 points log-spaced over 1e-4 .. 20 Hz.
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``frequency_hz``, ``omega_rad_s``, ``gain_rad_per_rad`` (``|K(j omega)|``),
+            ``phase_deg`` and ``gain_limit_rad_per_rad``; empty without a candidate.
+        """
+        import pandas as pd
+        import scipy.signal
+
+        cols = ["frequency_hz", "omega_rad_s", "gain_rad_per_rad", "phase_deg",
+                "gain_limit_rad_per_rad"]
+        if self.candidate is None:
+            return pd.DataFrame(columns=cols)
+        f = (np.logspace(-4, np.log10(20.0), 600) if frequency_hz is None
+             else np.asarray(frequency_hz, float))
+        k = self.candidate.compensator
+        # K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1) (model.control)
+        w, h = scipy.signal.freqs([k.b2, k.b1, k.b0], [k.a2, k.a1, 1.0], worN=2 * np.pi * f)
+        return pd.DataFrame({"frequency_hz": f, "omega_rad_s": w, "gain_rad_per_rad": np.abs(h),
+                             "phase_deg": np.degrees(np.angle(h)),
+                             "gain_limit_rad_per_rad": self.settings.gain_limit})
+
     def plot_bode(self, ax=None):
         """|K(jw)| and phase of the designed compensator with the gain limit."""
         import matplotlib.pyplot as plt

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 __all__ = ["ResultData", "UNITLESS_COLUMNS", "jsonable", "sweep_dataset",
-           "sweep_frame", "table_text"]
+           "strict_json", "sweep_frame", "table_text"]
 
 #: Column names that carry no unit because they are labels, statuses or counts.
 UNITLESS_COLUMNS = frozenset({
@@ -90,6 +90,17 @@ def jsonable(obj: Any) -> Any:
     if isinstance(obj, (_dt.datetime, _dt.date, _dt.time)):
         return obj.isoformat()
     raise TypeError(f"cannot convert an object of type {type(obj).__name__} to JSON")
+
+
+def strict_json(method):
+    """Decorator: the method's return value through :func:`jsonable` (strict JSON)."""
+    import functools
+
+    @functools.wraps(method)
+    def wrapper(*args, **kwargs):
+        return jsonable(method(*args, **kwargs))
+
+    return wrapper
 
 
 def table_text(frame, fmt: str = "github", floatfmt: str = ".6g") -> str:

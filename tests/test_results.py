@@ -124,3 +124,22 @@ def test_batch_rows_are_flat():
     assert df.critical_speed_m_s[0] == 60.0
     assert_units(df)
     strict_round_trip(res.to_dict())
+
+
+def test_design_result_is_strict_json():
+    from design.result import DesignResult
+    from design.settings import DesignSettings
+    from model.control import Compensator, Controller
+
+    ctrl = Controller(Compensator(0.0, 0.1, -0.5, 0.01, 0.2), (-56.4, 0.0, 56.4), 56.4)
+    res = DesignResult("failed", DesignSettings(), None, ctrl, (), None, np.array([0.0, 1.0]),
+                       np.array([np.nan, -1.0]), None, 1.0)
+    s = res.summary()  # no NaN even before json.dumps (issue 15)
+    assert strict_round_trip(s)["max_gain"] is None
+    assert strict_round_trip(res.to_dict()) == strict_round_trip(s)
+    bode = res.compensator_response([0.1, 1.0])
+    assert_units(bode)
+    # scipy.signal.freqs against the compensator's own K(j omega), to rounding
+    np.testing.assert_allclose(bode.gain_rad_per_rad,
+                               np.abs(ctrl.compensator.frequency_response(bode.omega_rad_s)),
+                               rtol=1e-13)
