@@ -187,8 +187,10 @@ def plant_data(spec, wind_speed: float, inputs: str = "gust", n_modes: int = 16,
     system : AeroelasticSystem, optional
         A prebuilt open-loop system of ``spec`` (else built from ``n_modes`` modes).
     """
-    from model.analysis import bridge_system
+    from model import statespace
+    from model.fe import assemble
     from model.flaps import DEFAULT_FLAP_CHORD_M, flap_set
+    from model.modes import solve
 
     if inputs not in INPUTS:
         raise BridgeflapInputError("inputs", f"must be one of {INPUTS}, got {inputs!r}")
@@ -196,7 +198,10 @@ def plant_data(spec, wind_speed: float, inputs: str = "gust", n_modes: int = 16,
     if not (np.isfinite(U) and U >= 0):
         raise BridgeflapInputError("speed", f"must be a non-negative number, got {wind_speed}")
     if system is None:
-        system = bridge_system(spec, int(n_modes))[1]
+        if int(n_modes) < 1:
+            raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")
+        # the system of model.analysis.bridge_system (spec_system refuses derivative tables)
+        system = statespace.spec_system(spec, solve(assemble(spec)).structural_basis(int(n_modes)))
     basis = system.basis
     ns = basis.n_strip
     A = system.A(U)
