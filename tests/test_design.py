@@ -389,11 +389,11 @@ def test_failed_design_summary_keeps_the_optimise_contract():
                        best=None, abscissa_speeds_m_s=s.check_speeds(),
                        abscissa_1_s=np.full(s.check_speeds().shape, np.nan),
                        min_flaps=None, wall_time_s=1.0)
-    summ = json.loads(json.dumps(res.summary()))
+    summ = json.loads(json.dumps(res.summary(), allow_nan=False))  # strict JSON (issue 15)
     golden = Path(__file__).resolve().parent / "golden" / "optimise_quick.json"
     assert set(summ) == set(json.loads(golden.read_text())["stdout"]) | {"wall_time_s"}
     assert summ["status"] == "failed" and summ["chosen_start"] is None
-    assert np.isnan(summ["max_gain"]) and np.isnan(summ["robust_margin"])
+    assert summ["max_gain"] is None and summ["robust_margin"] is None  # not a number
     assert summ["verification"] == {} and summ["robust_T_inf_by_speed"] == {}
     assert summ["minimum_flaps"] == {"minimum": None, "counts": []}
     assert summ["starts"] == [{"start": 0, "theta0": [0.0] * 5, "status": "failed: x",
