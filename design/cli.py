@@ -59,10 +59,15 @@ def cmd_modes(args):
     if args.count < 1:
         raise BridgeflapInputError("count", "must be at least 1")
     modal = modal_model(spec)
-    if args.count > len(modal.modes):
+    imported = getattr(spec, "structure", None) is not None  # imported modal data: all modes
+    if args.count > len(modal.modes) and not imported:
         raise BridgeflapInputError("count", f"{args.count} requested, but this model has only "
                                             f"{len(modal.modes)} modes")
     modes = modal.table()[: args.count]
+    if imported:
+        from design.cmd_imported import imported_modes
+
+        return imported_modes(args, spec, modal, modes)
     payload = {"bridge": spec.name, "erected_fraction": spec.erected_fraction,
                "cable_horizontal_tension_n": modal.structure.statics.horizontal_tension_n,
                "cable_main_sag_m": modal.structure.statics.main_sag_m,

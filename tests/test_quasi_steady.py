@@ -137,3 +137,33 @@ def test_great_belt_fe_with_bb3_derivatives():
     assert sw.flutter.speed == pytest.approx(pk.flutter.speed, rel=0.01)
     r = buffeting(spec, [30.0], n_modes=10)
     assert r.status == ("ok",) and r.inputs["turbulence_components"] == ["w", "u"]
+
+
+def test_cli_modes_of_an_imported_bridge(capsys):
+    """``modes --bridge iabse-2a --json``: the file's 12 modes with their generalised masses
+    (the step-2a file's own numbers, exact)."""
+    import json
+
+    from design.cli import main
+    from model.analysis import modal_model
+
+    assert main(["modes", "--bridge", "iabse-2a", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["structure"] == "modal" and len(out["modes"]) == 12
+    modal = modal_model(load_bridge("iabse-2a"))
+    gm = modal.structure.spec.structure.data.generalised_mass
+    ts1 = next(m for m in out["modes"] if m["label"] == "TS1")
+    assert ts1["frequency_hz"] == pytest.approx(0.2784, abs=1e-4)
+    assert ts1["generalised_mass_unit"] == "kg m^2"
+    assert sorted(m["generalised_mass"] for m in out["modes"]) == sorted(gm.tolist())
+
+
+def test_cli_buffeting_derivative_bridge(capsys):
+    import json
+
+    from design.cli import main
+
+    assert main(["buffeting", "--bridge", "iabse-2a:bb3", "--speeds", "30", "--modes", "12",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["inputs"]["loads"] == "quasi-steady" and out["status"] == ["ok"]
