@@ -284,6 +284,9 @@ def cmd_state_space(args):
         A, B, C, D, names, inputs, outputs = closed_loop_state_space(spec, controller, args.speed,
                                                                      args.modes)
     else:
+        if getattr(spec, "derivatives", None) is not None and spec.static_coefficients is None:
+            raise BridgeflapInputError("static_coefficients", "the gust inputs B of a "
+                                       "flutter-derivative bridge are its quasi-steady loads")
         _, system = bridge_system(spec, args.modes)
         A, B = system.A(args.speed), system.B_gust(args.speed)
         C = system.C_out

@@ -13,7 +13,7 @@ import numpy as np
 
 from model.errors import BridgeflapInputError
 
-__all__ = ["LOADS", "resolve_system"]
+__all__ = ["LOADS", "quasi_steady_inputs", "resolve_system"]
 
 #: gust-load models: seed Eq. (8) (w only, C_L' and C_M' slopes) or model.quasi_steady (u and w)
 LOADS = ("thin-aerofoil", "quasi-steady")
@@ -63,7 +63,7 @@ def resolve_system(spec_or_system, n_modes, controller, spec, loads=None):
             basis = solve(assemble(spec)).structural_basis(int(n_modes))
             system = statespace.spec_system(spec, basis)
         if loads == "quasi-steady":
-            system = _quasi_steady(system, spec)
+            system = quasi_steady_inputs(system, spec)
         return spec, system, system.basis, loads
     system = spec_or_system
     if controller is not None:
@@ -76,7 +76,7 @@ def resolve_system(spec_or_system, n_modes, controller, spec, loads=None):
     return spec, system, basis, "thin-aerofoil"
 
 
-def _quasi_steady(system, spec):
+def quasi_steady_inputs(system, spec):
     """``system`` with the quasi-steady gust inputs (``Bw1`` = w, ``extras["Bw1_u"]`` = u)."""
     import dataclasses
 

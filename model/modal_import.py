@@ -407,6 +407,10 @@ def derivative_bridge_system(spec, modal, n_modes: int):
     system = derivative_system(basis, source, spec.aero.air_density_kg_m3, fit=fit, phi_p=phi_p)
     system.extras.update(rfa=f"{fit.name}:{source.name}", lateral_dof=phi_p is not None,
                          phi_p=phi_p)
+    if getattr(spec, "static_coefficients", None) is not None:  # B_gust: quasi-steady w loads
+        from model.buffeting_inputs import quasi_steady_inputs
+
+        system = quasi_steady_inputs(system, spec)
     return system
 
 
