@@ -51,10 +51,11 @@ def resolve_system(spec_or_system, n_modes, controller, spec, loads=None):
 
             system = closed_loop_system(spec, controller, n_modes)
         elif der:
-            from model.analysis import modal_model
+            from model.fe import assemble
             from model.modal_import import derivative_bridge_system
+            from model.modes import solve
 
-            system = derivative_bridge_system(spec, modal_model(spec), int(n_modes))
+            system = derivative_bridge_system(spec, solve(assemble(spec)), int(n_modes))
         else:
             from model import statespace
             from model.fe import assemble
