@@ -60,10 +60,15 @@ def cmd_modes(args):
     if args.count < 1:
         raise BridgeflapInputError("count", "must be at least 1")
     modal = modal_model(spec)
-    if args.count > len(modal.modes):
+    imported = getattr(spec, "structure", None) is not None  # imported modal data: all modes
+    if args.count > len(modal.modes) and not imported:
         raise BridgeflapInputError("count", f"{args.count} requested, but this model has only "
                                             f"{len(modal.modes)} modes")
     modes = modal.table()[: args.count]
+    if imported:
+        from design.cmd_imported import imported_modes
+
+        return imported_modes(args, spec, modal, modes)
     payload = {"bridge": spec.name, "erected_fraction": spec.erected_fraction,
                "cable_horizontal_tension_n": modal.structure.statics.horizontal_tension_n,
                "cable_main_sag_m": modal.structure.statics.main_sag_m,
@@ -259,6 +264,7 @@ def _speeds_for_section(args):
 
 
 def cmd_state_space(args):
+    from model.analysis import bridge_system
     from model.control_plant import closed_loop_plant, plant_data
 
     spec = spec_from_args(args)
@@ -272,8 +278,16 @@ def cmd_state_space(args):
     if controller is not None and args.inputs == "gust":  # the package's closed loop
         plant = closed_loop_plant(spec, controller, args.speed, args.modes)
     else:  # open loop; a controller gives only its flap layout
+        if getattr(spec, "derivatives", None) is not None:
+            if args.inputs != "gust":
+                raise BridgeflapInputError("inputs", "flap inputs need Theodorsen deck loads; a "
+                                           "flutter-derivative bridge has no flap aerodynamics")
+            if spec.static_coefficients is None:
+                raise BridgeflapInputError("static_coefficients", "the gust inputs B of a "
+                                           "flutter-derivative bridge are its quasi-steady loads")
+        _, system = bridge_system(spec, args.modes)
         plant = plant_data(spec, args.speed, args.inputs, args.modes, controller=controller,
-                           flaps=args.flaps)
+                           flaps=args.flaps, system=system)
     A, B, C = plant.A, plant.B, plant.C
     if out.suffix.lower() == ".npz":
         atomic_write(out, lambda fh: np.savez(fh, **plant.arrays()))

@@ -22,6 +22,7 @@ from design.cli_common import (
     spec_from_args,
 )
 from design.options import parse_range
+from model.buffeting_inputs import LOADS
 from model.errors import BridgeflapInputError
 from model.wind import ADMITTANCE_KINDS, SPECTRUM_KINDS
 
@@ -51,7 +52,7 @@ def cmd_buffeting(args):
                     coherence_decay=args.coherence_decay, n_modes=args.modes,
                     method=args.method, turbulence_intensity=args.turbulence_intensity,
                     controller=controller, allow_unstable=args.allow_unstable,
-                    mc_records=args.records, mc_seed=args.seed)
+                    mc_records=args.records, mc_seed=args.seed, loads=args.loads)
     s = res.summary()
     s.update({"bridge": spec.name, "erected_fraction": spec.erected_fraction,
               "modes_retained": args.modes, **controller_report(controller)})
@@ -78,7 +79,13 @@ def arguments(sp) -> None:
     add_common(sp)
     sp.add_argument("--speeds", default=defaults["speeds"], help="start:stop:step or list [m/s]")
     sp.add_argument("--spectrum", choices=SPECTRUM_KINDS, default="busch-panofsky")
-    sp.add_argument("--admittance", choices=ADMITTANCE_KINDS, default="liepmann")
+    sp.add_argument("--admittance", choices=ADMITTANCE_KINDS, default=None,
+                    help="aerodynamic admittance of every gust component (default: liepmann "
+                         "for thin-aerofoil loads, unit for quasi-steady loads)")
+    sp.add_argument("--loads", choices=LOADS, default=None,
+                    help="gust loads: thin-aerofoil (w only, seed Eq. 8; the default) or "
+                         "quasi-steady from the bridge's [static_coefficients] (u and w; the "
+                         "default and only choice on a flutter-derivative bridge)")
     sp.add_argument("--coherence-decay", type=float, default=None,
                     help="Davenport decay c [-] (default: the bridge file's, an estimate)")
     sp.add_argument("--turbulence-intensity", type=float, default=None,

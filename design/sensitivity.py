@@ -250,10 +250,13 @@ def check_parameters(parameters: Sequence[str]) -> tuple[str, ...]:
     parameters = tuple(parameters)
     if not parameters:
         raise BridgeflapInputError("parameters", "no parameter given")
+    from design.modal_sensitivity import MODAL_QUANTITIES, is_modal_parameter
+
     for p in parameters:
-        if p not in PARAMETER_PATHS:
+        if p not in PARAMETER_PATHS and not is_modal_parameter(p):
             raise BridgeflapInputError("parameters", f"unknown parameter {p!r} (known: "
-                                                     f"{', '.join(PARAMETER_PATHS)})")
+                                                     f"{', '.join(PARAMETER_PATHS)}, and "
+                                                     f"mode.<label>.{{{','.join(MODAL_QUANTITIES)}}})")
     return parameters
 
 
@@ -375,7 +378,8 @@ def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARA
     ----------
     spec : BridgeSpec
     parameters : sequence of str
-        Dotted paths from :data:`model.spec.PARAMETER_PATHS`.
+        Dotted paths from :data:`model.spec.PARAMETER_PATHS`, or modal data
+        ``mode.<label>.<quantity>`` only (:mod:`design.modal_sensitivity`).
     speeds : str or array_like
         Sweep grid [m/s] that locates the nominal crossings (refined to 1e-7 m/s).
     n_modes : int
@@ -392,6 +396,11 @@ def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARA
     """
     parameters = check_parameters(parameters)
     u = parse_range(speeds, "speeds", 0.0) if isinstance(speeds, str) else np.asarray(speeds)
+    if any(p.startswith("mode.") for p in parameters):  # imported modal data (issue 13)
+        from design.modal_sensitivity import modal_sensitivity
+
+        return modal_sensitivity(spec, parameters, u, n_modes, check, rel_step, fd_step,
+                                 progress)
     nominal = modal_model(spec)
     _, system0 = bridge_system(spec, n_modes, order, rfa, modal=nominal)
     omega_tol = oscillation_tolerance(system0)

@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from model.buffeting_inputs import LOADS, resolve_system
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.gust import GustField, coherence_projection, gust_field
 from model.results import ResultData
@@ -49,6 +50,7 @@ from model.spectral import (
 from model.spectrum import spectral_abscissa
 
 __all__ = [
+    "LOADS",
     "BuffetingResult",
     "buffeting",
     "reduced_response",
@@ -84,7 +86,7 @@ class _SpeedResponse:
 
 def reduced_response(A, B, C, positions, wind_speed, gust: GustField, *, omega_max=None,
                      omegas=None, n_base=120, peaks_per_mode=41, half_widths=30.0,
-                     convergence_tol=CONVERGENCE_TOL) -> _SpeedResponse:
+                     convergence_tol=CONVERGENCE_TOL, extra_inputs=()) -> _SpeedResponse:
     """Spectral RMS of ``y = C x`` for the buffeting CSD at one speed (rank-reduced).
 
     Parameters
@@ -95,6 +97,10 @@ def reduced_response(A, B, C, positions, wind_speed, gust: GustField, *, omega_m
         ``B_gust(U)``: strip gust velocities [m/s] to ``x'``.
     C : array_like, shape (p, n)
         Output map.
+    extra_inputs : sequence of (B, GustField), optional
+        Further gust components, uncorrelated with the first and with each other (the
+        along-wind ``u`` of the quasi-steady loads, :mod:`model.quasi_steady`): their response
+        spectra are added on the same grid.
     positions : array_like, shape (m,)
         Strip coordinates [m].
     wind_speed : float
@@ -133,7 +139,8 @@ def reduced_response(A, B, C, positions, wind_speed, gust: GustField, *, omega_m
         omega_max = OMEGA_MAX_FACTOR * float(np.abs(lam.imag).max())
         if omega_max <= 0:  # no oscillatory root: scale on the fastest real root
             omega_max = 10.0 * float(np.abs(lam).max())
-    Bl, Vt = row_factor(B)
+    comps = [(row_factor(B), gust)] + [(row_factor(np.asarray(Bx, float)), gx)
+                                       for Bx, gx in extra_inputs]
     # near flutter the peaks narrow: refine the adaptive grid (twice at most) until converged
     for attempt in range(3 if omegas is None else 1):
         if omegas is None:
@@ -141,10 +148,12 @@ def reduced_response(A, B, C, positions, wind_speed, gust: GustField, *, omega_m
                                            peaks_per_mode * 2 ** attempt, half_widths)
         else:
             grid = np.asarray(omegas, dtype=float)
-        scale = gust.psd(grid, U) * gust.admittance_sq(grid, U)  # s_w chi^2, one-sided
-        S = scale[:, None, None] * coherence_projection(positions, Vt.T, grid, U,
-                                                        gust.coherence_decay)
-        Gqq = response_psd(A, Bl, Cr, grid, S, full=True)  # (n_omega, rc, rc)
+        Gqq = 0.0
+        for (Bl, Vt), g in comps:  # uncorrelated components: their response PSDs add
+            scale = g.psd(grid, U) * g.admittance_sq(grid, U)  # s_w chi^2, one-sided
+            S = scale[:, None, None] * coherence_projection(positions, Vt.T, grid, U,
+                                                            g.coherence_decay)
+            Gqq = Gqq + response_psd(A, Bl, Cr, grid, S, full=True)  # (n_omega, rc, rc)
         rms = _strip_rms(grid, Gqq, Cl)
         idx = np.arange(0, grid.size, 2)
         if idx[-1] != grid.size - 1:
@@ -351,40 +360,13 @@ def _check_speeds(speeds) -> np.ndarray:
     return u
 
 
-def _resolve_system(spec_or_system, n_modes, controller, spec):
-    """``(spec, system, basis)`` from a bridge spec (open or closed loop) or a built system."""
-    from model.spec import BridgeSpec
-
-    if isinstance(spec_or_system, BridgeSpec):
-        spec = spec_or_system
-        if controller is not None:
-            from model.flaps import closed_loop_system
-
-            system = closed_loop_system(spec, controller, n_modes)
-        else:
-            from model import statespace
-            from model.fe import assemble
-            from model.modes import solve
-
-            basis = solve(assemble(spec)).structural_basis(int(n_modes))
-            system = statespace.spec_system(spec, basis)
-        return spec, system, system.basis
-    system = spec_or_system
-    if controller is not None:
-        raise BridgeflapInputError("controller", "give a bridge spec with a controller")
-    basis = getattr(system, "basis", None)
-    if basis is None:
-        raise BridgeflapInputError("system", "needs a .basis with strip_x (StructuralBasis)")
-    return spec, system, basis
-
-
-def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance="liepmann",
+def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance=None,
               coherence_decay=None, n_modes=16, method="spectral", *, spec=None,
               turbulence_intensity=None, deck_height_m=None, length_scale_m=None,
               half_chord_m=None, controller=None, allow_unstable=True, omega_max=None,
               n_base=120, peaks_per_mode=41, half_widths=30.0,
               convergence_tol=CONVERGENCE_TOL, mc_records=16, mc_seed=0,
-              mc_points=None) -> BuffetingResult:
+              mc_points=None, loads=None) -> BuffetingResult:
     """RMS deck response to vertical turbulence over a range of wind speeds (seed §5, Fig. 4).
 
     Parameters
@@ -397,8 +379,9 @@ def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance="lie
         Mean wind speeds at deck height [m/s], > 0.
     spectrum : {"busch-panofsky", "von-karman", "kaimal"} or callable
         Vertical turbulence spectrum (seed Eq. (15) is Busch-Panofsky).
-    admittance : {"liepmann", "sears", "unit"} or callable
-        ``|chi(k)|^2`` with ``k = omega b / U`` (seed: Liepmann).
+    admittance : {"liepmann", "sears", "unit"} or callable, optional
+        ``|chi(k)|^2`` with ``k = omega b / U``, for every gust component (default: Liepmann,
+        as the seed, for thin-aerofoil loads; ``"unit"``, i.e. quasi-steady, for quasi-steady).
     coherence_decay : float, optional
         Davenport ``c`` [-] (seed Eq. (16)); ``spec.aero.coherence_decay`` when omitted.
     n_modes : int, optional
@@ -423,6 +406,12 @@ def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance="lie
     mc_records, mc_seed, mc_points : optional
         Monte-Carlo records, seed and number of synthesis frequencies (default: spacing a
         quarter of the smallest half-power half-bandwidth, at most 8000 points).
+    loads : {"thin-aerofoil", "quasi-steady"}, optional
+        Gust loads: seed Eq. (8) from ``aero.lift_slope_buffeting`` and
+        ``aero.moment_slope_buffeting`` (default for thin-aerofoil bridges), or the
+        quasi-steady ``u`` and ``w`` loads of the bridge's ``[static_coefficients]``
+        (:mod:`model.quasi_steady`; default, and the only choice, for a bridge with
+        flutter-derivative self-excited loads, whose ``A(U)`` is the Roger state space).
 
     Returns
     -------
@@ -436,13 +425,32 @@ def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance="lie
     if not (isinstance(n_modes, int | np.integer) and n_modes >= 1):
         raise BridgeflapInputError("modes", f"must be an integer >= 1, got {n_modes!r}")
     u = _check_speeds(speeds)
-    spec, system, basis = _resolve_system(spec_or_system, int(n_modes), controller, spec)
+    spec, system, basis, loads = resolve_system(spec_or_system, int(n_modes), controller,
+                                                 spec, loads)
+    if admittance is None:
+        admittance = "unit" if loads == "quasi-steady" else "liepmann"
     gust = gust_field(spec, spectrum=spectrum, admittance=admittance,
                       coherence_decay=coherence_decay, turbulence_intensity=turbulence_intensity,
                       deck_height_m=deck_height_m, length_scale_m=length_scale_m,
                       half_chord_m=half_chord_m if half_chord_m is not None else (
                           None if spec is not None else getattr(getattr(system, "aero", None),
                                                                 "half_chord", None)))
+    extra, static = (), None
+    if loads == "quasi-steady":
+        from model.gust import GustField
+        from model.quasi_steady import von_karman_u
+
+        static = spec.static_coefficients
+        if system.extras.get("Bw1_u") is not None:
+            gust_u = GustField(
+                spectrum=von_karman_u(static.turbulence_intensity_u, static.length_scale_u_m),
+                admittance=gust.admittance, turbulence_intensity=static.turbulence_intensity_u,
+                deck_height_m=gust.deck_height_m, coherence_decay=gust.coherence_decay,
+                half_chord_m=gust.half_chord_m)
+            extra = ((system.extras["Bw1_u"], gust_u),)
+        if method != "spectral" and extra:
+            raise BridgeflapInputError("method", "monte-carlo simulates the vertical gust "
+                                       "only; the quasi-steady u loads need 'spectral'")
     strip_x = np.asarray(basis.strip_x, dtype=float)
     main = _main_span_mask(spec, strip_x)
     ns = strip_x.size
@@ -464,7 +472,8 @@ def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance="lie
         if method == "spectral":
             r = reduced_response(A, B, C, strip_x, U, gust, omega_max=omega_max, n_base=n_base,
                                  peaks_per_mode=peaks_per_mode, half_widths=half_widths,
-                                 convergence_tol=convergence_tol)
+                                 convergence_tol=convergence_tol,
+                                 extra_inputs=[(U * Bx, g) for Bx, g in extra])
             rms[i], conv[i], grid_pts[i] = r.rms, r.convergence, r.grid_points
             status.append(r.status)
             if r.status != "unstable":
@@ -500,6 +509,14 @@ def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance="lie
                    "convergence_tol": float(convergence_tol)})
     if spec is not None:
         inputs.update({"bridge": spec.name, "erected_fraction": spec.erected_fraction})
+    if static is not None:  # keys only on the quasi-steady path (the thin-aerofoil's unchanged)
+        c = static.on_width(2.0 * spec.deck.half_chord_m)
+        inputs.update({"loads": loads, "lift_slope_buffeting": float(c["dC_L"]),
+                       "moment_slope_buffeting": float(c["dC_M"]),
+                       "turbulence_components": ["w", "u"] if extra else ["w"],
+                       "self_excited_loads": "flutter derivatives" if getattr(
+                           spec, "derivatives", None) is not None else "thin aerofoil",
+                       **static.summary(2.0 * spec.deck.half_chord_m)})
     return BuffetingResult(
         speeds=u, strip_x=strip_x, main_span=main, rms_heave=heave, rms_pitch=pitch,
         rms_vertical=vmax, rms_torsion=tmax, deck_width_m=2.0 * gust.half_chord_m,

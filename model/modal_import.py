@@ -79,7 +79,8 @@ __all__ = [
 _STRUCTURE_KEYS = {"kind", "file", "modes_file", "units", "normalisation", "vertical_positive",
                    "deck_segments_m", "strip_length_m", "main_span_m", "mass_kg_per_m",
                    "mass_inertia_kgm2_per_m", "mass_check_tolerance", "source"}
-_TOP_KEYS = {"name", "description", "structure", "deck", "aero", "derivatives", "variants"}
+_TOP_KEYS = {"name", "description", "structure", "deck", "aero", "derivatives",
+             "static_coefficients", "variants"}
 _DERIVATIVE_KEYS = {"file", "form", "lateral", "n_lags", "fit_k_range", "weighting", "source"}
 #: parameters a study may vary on a modal bridge (the FE ones need the cable model)
 MODAL_PARAMETER_PATHS = ("deck.half_chord_m", "aero.air_density_kg_m3", "aero.deck_height_m",
@@ -361,6 +362,27 @@ def derivatives_from_dict(table, base: Path, where: str = "derivatives") -> Deri
                            source=src)
 
 
+def aero_sections(data: dict, origin: str = "<dict>", prefix: str = "") -> dict:
+    """``derivatives`` and ``static_coefficients`` of a bridge file (FE or modal), parsed.
+
+    Only the keys present in ``data`` are returned; files are relative to the bridge file's
+    folder (``origin``); ``prefix`` names a variant in the error messages.
+    """
+    from model.quasi_steady import static_from_dict
+
+    base = _builtin_dir(origin)
+    if base is None:
+        base = Path(origin).parent if origin not in ("<dict>", "") else Path(".")
+    out = {}
+    if "derivatives" in data:
+        out["derivatives"] = derivatives_from_dict(data["derivatives"], base,
+                                                   f"{prefix}derivatives")
+    if "static_coefficients" in data:
+        out["static_coefficients"] = static_from_dict(data["static_coefficients"],
+                                                      f"{prefix}static_coefficients")
+    return out
+
+
 def derivative_bridge_system(spec, modal, n_modes: int):
     """Aeroelastic state space of a modal bridge with ``[derivatives]`` loads.
 
@@ -373,14 +395,22 @@ def derivative_bridge_system(spec, modal, n_modes: int):
     from model.derivative_system import derivative_system
 
     loads = spec.derivatives
-    basis, phi_p = modal.derivative_basis(int(n_modes), loads.lateral)
+    if hasattr(modal, "derivative_basis"):
+        basis, phi_p = modal.derivative_basis(int(n_modes), loads.lateral)
+    else:  # the built-in FE model: vertical and torsional modes, no lateral DOF
+        basis, phi_p = modal.structural_basis(int(n_modes)), None
     chord = 2.0 * spec.deck.half_chord_m
     source = loads.table(chord)
     if not source.lateral:
         phi_p = None
     fit = loads.fit(chord, 2 if phi_p is None else 3)
     system = derivative_system(basis, source, spec.aero.air_density_kg_m3, fit=fit, phi_p=phi_p)
-    system.extras.update(rfa=f"{fit.name}:{source.name}", lateral_dof=phi_p is not None)
+    system.extras.update(rfa=f"{fit.name}:{source.name}", lateral_dof=phi_p is not None,
+                         phi_p=phi_p)
+    if getattr(spec, "static_coefficients", None) is not None:  # B_gust: quasi-steady w loads
+        from model.buffeting_inputs import quasi_steady_inputs
+
+        system = quasi_steady_inputs(system, spec)
     return system
 
 
@@ -438,7 +468,6 @@ class ModalBridgeSpec(sm.BridgeSpec):
 
     structure: ModalStructure | None = None
     description: str = ""
-    derivatives: DerivativeLoads | None = None
 
     def __post_init__(self):
         if self.structure is None:
@@ -534,13 +563,11 @@ def modal_spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None
         if hi - lo > 1e-9:
             spans.append(sm.Span(name=nm, length_m=hi - lo))
     main_index = [s.name for s in spans].index("main")
-    der = data.get("derivatives")
-    der = None if der is None else derivatives_from_dict(der, base)
     spec = ModalBridgeSpec(name=name, spans=tuple(spans), main_span_index=main_index,
                cable=_FEOnly(name, "the cable"), deck=deck, aero=aero,
                damping=_FEOnly(name, "Rayleigh damping (the modes carry their own ratios)"),
                mesh=_FEOnly(name, "the FE mesh"), sources=sources, structure=structure,
-               description=str(data.get("description", "")), derivatives=der)
+               description=str(data.get("description", "")), **aero_sections(data, origin))
     variants = data.get("variants", {})
     if variant is None:
         return spec
@@ -550,9 +577,9 @@ def modal_spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None
     for path, raw in variants[variant].items():
         if path == "description":
             continue
-        if path == "derivatives":  # a variant with flutter-derivative loads
-            spec = dataclasses.replace(spec, derivatives=derivatives_from_dict(
-                raw, base, f"variants.{variant}.derivatives"))
+        if path in ("derivatives", "static_coefficients"):  # whole tables
+            spec = dataclasses.replace(spec, **aero_sections({path: raw}, origin,
+                                                             f"variants.{variant}."))
             continue
         if isinstance(raw, dict):
             sources[path] = f"variant {variant}: {raw.get('source', 'not stated')}"

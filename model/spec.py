@@ -208,6 +208,9 @@ class BridgeSpec:
     side_span_decks: str = "in_place"
     sources: dict = field(default_factory=dict, compare=False, hash=False)
     deck_section: DeckSection | None = field(default=None, compare=False, hash=False)
+    #: flutter-derivative self-excited loads and static coefficients (model.modal_import)
+    derivatives: Any = None
+    static_coefficients: Any = None
 
     def __post_init__(self):
         if not self.spans:
@@ -410,7 +413,9 @@ _DECK_KEYS = ("mass_kg_per_m", "mass_inertia_kgm2_per_m", "ei_vertical_nm2", "ei
               "gj_nm2", "half_chord_m", "hanger_length_midspan_m")
 _SECTION_KEYS = ("mass_kg_per_m", "mass_inertia_kgm2_per_m")
 _TOP_KEYS = {"name", "description", "spans", "main_span", "cable", "deck", "deck_section",
-             "damping", "aero", "mesh", "variants", "erection"}
+             "damping", "aero", "mesh", "variants", "erection", "derivatives",
+             "static_coefficients"}
+_TABLE_PATHS = ("derivatives", "static_coefficients")  # whole tables, in variants too
 
 
 def _check_keys(table: dict, allowed, where: str) -> None:
@@ -545,16 +550,20 @@ def spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = Non
     spec = BridgeSpec(name=name, spans=tuple(spans), main_span_index=names.index(main_name),
                       cable=cable, deck=deck, damping=damping, aero=aero, mesh=mesh,
                       side_span_decks=side, sources=sources, deck_section=section)
-    return _apply_variant(spec, group("variants", required=False), variant)
+    from model.modal_import import aero_sections  # lazy: modal_import imports this module
+
+    spec = dataclasses.replace(spec, **aero_sections(data, origin))
+    return _apply_variant(spec, group("variants", required=False), variant, origin)
 
 
-def _apply_variant(spec: BridgeSpec, variants: dict, variant: str | None) -> BridgeSpec:
+def _apply_variant(spec: BridgeSpec, variants: dict, variant: str | None,
+                   origin: str = "<dict>") -> BridgeSpec:
     """Apply ``[variants.<variant>]``: dotted parameter paths with ``{ value, source }``."""
     for vname, table in variants.items():
         if not isinstance(table, dict):
             raise BridgeflapInputError(f"variants.{vname}", "must be a table")
         for path in table:
-            if path != "description" and path not in PARAMETER_PATHS:
+            if path not in ("description", *_TABLE_PATHS) and path not in PARAMETER_PATHS:
                 raise BridgeflapInputError(f"variants.{vname}.{path}", "unknown parameter")
     if variant is None:
         return spec
@@ -565,7 +574,12 @@ def _apply_variant(spec: BridgeSpec, variants: dict, variant: str | None) -> Bri
     sources = dict(spec.sources)
     changes = {}
     for path, raw in variants[variant].items():
-        if path == "description":
+        if path in _TABLE_PATHS:
+            from model.modal_import import aero_sections
+
+            spec = dataclasses.replace(spec, **aero_sections({path: raw}, origin,
+                                                              f"variants.{variant}."))
+        if path == "description" or path in _TABLE_PATHS:
             continue
         if isinstance(raw, dict):
             _check_keys(raw, ("value", "source"), f"variants.{variant}.{path}")

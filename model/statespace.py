@@ -166,9 +166,9 @@ def spec_system(spec, basis: StructuralBasis, order: str = "modal",
     """
     if getattr(spec, "derivatives", None) is not None:
         raise BridgeflapInputError(
-            "derivatives", "this bridge's loads are flutter-derivative tables, which only "
-            "`flutter` (and its --pk check) uses so far; use the flat-plate bridge for this "
-            "analysis")
+            "derivatives", "this bridge's loads are flutter-derivative tables, which "
+            "`flutter`, `buffeting` (quasi-steady gust loads) and modal-data `sensitivity` use; "
+            "this analysis needs thin-aerofoil loads: use the flat-plate bridge")
     a = spec.aero
     return build(basis, spec.deck.half_chord_m, a.air_density_kg_m3, rfa=rfa, order=order,
                  added_inertia=a.added_inertia, lift_slope_buffeting=a.lift_slope_buffeting,

@@ -245,7 +245,9 @@ CASES = [
     ("derivatives-extra-positional", ["derivatives", "extra"], "arguments"),
     ("flutter-section-case-controller", ["flutter", B, "iabse-1.1a", "--controller",
                                          "{d}/no.toml"], "controller"),
-    ("buffeting-derivative-loads", ["buffeting", B, "iabse-2a:bb3"], "derivatives"),
+    # a flutter-derivative bridge's buffeting is quasi-steady (issue 13): thin-aerofoil refused
+    ("buffeting-derivative-loads", ["buffeting", B, "iabse-2a:bb3", "--loads", "thin-aerofoil"],
+     "loads"),
     # ---- rfa
     ("rfa-name-bogus", ["rfa", "--name", "bogus"], "arguments"),
     ("rfa-extra-positional", ["rfa", "extra"], "arguments"),
