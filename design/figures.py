@@ -193,9 +193,11 @@ def morris_mu_sigma(ax, indices: dict, outputs=("flutter_speed_m_s", "divergence
     """Morris ``sigma`` against ``mu*`` [m/s] per input and output, the line ``sigma = mu*``
     (above it: nonlinear or interacting inputs), each point named."""
     cols = {"flutter_speed_m_s": "C3", "divergence_speed_m_s": "C0"}
-    top = 0.0
+    top, missing = 0.0, []
     for out in outputs:
         idx = indices.get(out, {})
+        if isinstance(idx.get("status"), str) and idx["status"] != "ok":
+            missing.append(f"{out}: {idx['status']}")
         pts = [(n, v["mu_star"], v["sigma"]) for n, v in idx.items() if isinstance(v, dict)]
         if not pts:
             continue
@@ -207,6 +209,9 @@ def morris_mu_sigma(ax, indices: dict, outputs=("flutter_speed_m_s", "divergence
                         textcoords="offset points")
         top = max(top, float(np.nanmax(np.concatenate([ms, sg]))))
     top = 1.1 * top or 1.0
+    if missing:  # say why a point is absent instead of showing an empty plane
+        ax.text(0.98, 0.02, "\n".join(missing), transform=ax.transAxes, ha="right",
+                va="bottom", fontsize=7, color="r", wrap=True)
     ax.plot([0, top], [0, top], "k:", lw=0.8, label="σ = μ*")
     ax.set_xlim(0, top)
     ax.set_ylim(0, top)
