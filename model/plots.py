@@ -16,7 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["buffeting_panels", "data_limits", "mark_spans", "mode_shapes_by_family",
+__all__ = ["buffeting_panels", "data_limits", "imported_mode_shapes", "mark_spans",
+           "mode_shapes_by_family",
            "root_locus", "stability_panels", "vg_vf"]
 
 #: constant damping ratios [-] drawn as rays on the root locus
@@ -214,6 +215,38 @@ def mode_shapes_by_family(modal, per_family: int = 3, axes=None, labels=None):
     axes[-1].set_xlabel("distance from north anchorage [km]")
     axes[0].set_title(f"{modal.spec.name}: mode shapes by family "
                       f"(erected {modal.spec.erected_fraction:.2f}; dotted: towers)", fontsize=10)
+    return axes
+
+
+def imported_mode_shapes(modal, per_family: int = 3, axes=None, labels=None):
+    """:func:`mode_shapes_by_family` for an imported modal model
+    (:class:`model.modal_model.ImportedModalModel`): file coordinates, the main-span ends
+    (``structure.main_span_m``) dotted."""
+    d = modal.spec.structure.data
+    fams = [f for f in _FAMILIES if any(m.family == f for m in modal.modes)]
+    if axes is None:
+        axes = _new_axes(len(fams), 1, figsize=(9, 2.6 * len(fams) + 0.6), sharex=True)
+    axes = np.atleast_1d(axes)
+    a, b = modal.spec.structure.main_span_m
+    for ax, fam in zip(axes, fams, strict=False):
+        idx = [i for i, m in enumerate(modal.modes) if m.family == fam
+               and (labels is None or m.label in labels)]
+        idx = idx if labels is not None else idx[:per_family]
+        for k, i in enumerate(idx):
+            y = d.shapes[fam][:, modal.order[i]]
+            ax.plot(np.asarray(d.station_x_m) / 1000.0, y / (np.max(np.abs(y)) or 1.0),
+                    color=f"C{k}", lw=1.6,
+                    label=f"{modal.modes[i].label} {modal.modes[i].frequency_hz:.3f} Hz")
+        for k, x in enumerate((a, b)):
+            ax.axvline(x / 1000.0, color="k", ls=":", lw=1.2,
+                       label="main-span ends" if k == 0 else None)
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_ylim(-1.15, 1.3)
+        ax.set_ylabel(f"{fam}\n({_FAMILY_UNIT[fam]}, peak 1) [-]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    axes[-1].set_xlabel("x along the deck (file coordinates) [km]")
+    axes[0].set_title(f"{modal.spec.name}: imported mode shapes by family", fontsize=10)
     return axes
 
 

@@ -200,3 +200,13 @@ def test_document_renders_the_same_cells_twice(tmp_path):
     assert row == ["x <1>", "1.25"] and "![a](a.png)" in md
     assert "<td>x &lt;1&gt;</td>" in html and "<td>1.25</td>" in html
     assert "data:image/png;base64," in html and "a.png\"" not in html
+
+
+def test_imported_mode_shapes_by_family_with_the_main_span_ends():
+    from model.spec import load_bridge
+
+    axes = modal_model(load_bridge("iabse-2a")).plot()
+    assert [ax.get_ylabel().split("\n")[0] for ax in axes] == ["vertical", "torsional",
+                                                                 "lateral"]
+    for ax in axes:
+        assert len([ln for ln in ax.get_lines() if ln.get_linestyle() == ":"]) == 2
