@@ -263,7 +263,7 @@ def _design_section(doc: Document, d: dict) -> None:
                      f"{act.get('coefficient_bounds')}; objective bound "
                      f"{act.get('objective_bound')}"))
     rows += [("optimisation wall time [s]", _fmt(d.get("wall_time_s"), ".1f")),
-             ("analysis time incl. verification figures [s]", _fmt(d.get("elapsed_s"), ".1f"))]
+             ("analysis time incl. the Fig. 5 sweeps [s]", _fmt(d.get("elapsed_s"), ".1f"))]
     doc.table(rows, ["quantity", "value"])
     t_inf = d.get("robust_T_inf_by_speed") or {}
     if t_inf:
