@@ -422,7 +422,9 @@ def _run_design(spec, opts, context) -> Outcome:
         dspec = load_bridge(settings.bridge).replace(
             **{"mesh.element_length_m": spec.mesh.element_length_m})
         figs["design"] = fig5(dspec, res.controller, n_modes=settings.n_modes,
-                              quick=context.quick)
+                              quick=context.quick, open_loop_flutter_m_s=(
+                                  s.get("closed_loop_limits") or {}).get(
+                                      "open_loop_flutter_speed_m_s"))
         figs["design_margins"] = figure_of(res.plot_margins())
         figs["design_bode"] = figure_of(res.plot_bode())
     return Outcome(aggregate_status(s.get("status", "unknown")), s, {}, figs, res)

@@ -158,58 +158,26 @@ class DesignResult(ResultData):
                              "gain_limit_rad_per_rad": self.settings.gain_limit})
 
     def plot_bode(self, ax=None):
-        """|K(jw)| and phase of the designed compensator with the gain limit."""
-        import matplotlib.pyplot as plt
+        """Gain and phase of the compensator against frequency [Hz] with the gain limit
+        (:func:`design.figures.bode`)."""
+        from design.figures import bode
 
-        if ax is None:
-            _, ax = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
-        k = self.candidate.compensator
-        w = np.logspace(-3, 2, 600)
-        K = k.frequency_response(w)
-        ax[0].loglog(w, np.abs(K), "b-")
-        ax[0].axhline(self.settings.gain_limit, color="r", ls="--", label="gain limit")
-        ax[0].set_ylabel("|K(jw)| [rad/rad]")
-        ax[0].legend()
-        ax[1].semilogx(w, np.degrees(np.angle(K)), "b-")
-        ax[1].set_ylabel("phase [deg]")
-        ax[1].set_xlabel("omega [rad/s]")
-        for a_ in ax:
-            a_.grid(alpha=0.3, which="both")
-        ax[0].set_title("designed compensator K(s)" if self.controller is not None else
-                        f"candidate K(s) of a design that is {self.status} (not usable)")
-        return ax
+        st = self.settings
+        return bode(self.candidate.compensator, st.gain_limit, ax,
+                    (st.omega_min_rad_s, st.omega_max_rad_s),
+                    title="designed compensator K(s)" if self.controller is not None else
+                    f"candidate K(s) of a design that is {self.status} (not usable)")
 
     def plot_margins(self, ax=None):
-        """Spectral abscissa and the smallest damping ratio of the movable branches against
-        speed with the required ``zeta_min``, and the layout."""
-        import matplotlib.pyplot as plt
+        """Spectral abscissa, smallest damping ratio of the movable branches with
+        ``zeta_min``, robust margin per speed and the flap layout on the deck
+        (:func:`design.figures.margins`)."""
+        from design.figures import margins
+        from model.errors import BridgeflapError
+        from model.spec import load_bridge
 
-        if ax is None:
-            _, ax = plt.subplots(1, 2, figsize=(11, 4))
-        ax[0].plot(self.abscissa_speeds_m_s, self.abscissa_1_s, "b-", label="closed loop")
-        ol = self.extras.get("open_loop_abscissa")
-        if ol is not None:
-            ax[0].plot(self.abscissa_speeds_m_s, ol, "k--", label="open loop")
-        U = self.abscissa_speeds_m_s
-        z = self.extras.get("damping_ratio")
-        if z is not None:
-            tw = ax[0].twinx()
-            tw.plot(U, 100 * np.clip(z, -0.2, None), "g-", lw=0.8, label="min damping ratio")
-            tw.axhline(100 * self.settings.zeta_min, color="r", ls=":", label="zeta_min")
-            tw.set_ylabel("min damping ratio of movable branches [%]")
-            tw.legend(loc="lower left")
-        ax[0].axhline(0, color="k", lw=0.7)
-        ax[0].set_xlabel("U [m/s]")
-        ax[0].set_ylabel("max Re lambda [1/s]")
-        ax[0].legend()
-        ax[0].grid(alpha=0.3)
-        pos = np.asarray(self.candidate.flap_strip_positions_m)
-        w = self.candidate.flap_width_m
-        for x in pos:
-            ax[1].add_patch(plt.Rectangle((x - w / 2, -0.5), w, 1.0, color="tab:blue", alpha=0.6))
-        ax[1].set_xlim(-705, 705)
-        ax[1].set_ylim(-1, 1)
-        ax[1].set_xlabel("x from main-span mid-point [m]")
-        ax[1].set_yticks([])
-        ax[1].set_title(f"flap layout: {len(pos)} LE+TE flap pairs")
-        return ax
+        try:
+            spec = load_bridge(self.settings.bridge)
+        except BridgeflapError:  # the layout is then drawn without towers
+            spec = None
+        return margins(self, ax, spec)

@@ -112,15 +112,18 @@ class GlobalSensitivityResult(ResultData):
         return path
 
     def plot(self, axes=None):
-        """Index bars per output (left) and histograms of the two speeds (right)."""
+        """Index bars per output, the Morris ``sigma``-``mu*`` plane (Morris only) and the
+        histograms of the two speeds, left to right."""
         import matplotlib.pyplot as plt
 
+        morris = self.method == "morris"
         if axes is None:
-            _, axes = plt.subplots(1, 2, figsize=(12, 4.2))
-        ax0, ax1 = axes
+            _, axes = plt.subplots(1, 3 if morris else 2, figsize=(17 if morris else 12, 4.6),
+                                   layout="constrained")
+        ax0, ax1 = axes[0], axes[-1]
         names = list(self.ranges)
         y = np.arange(len(names))
-        key = "mu_star" if self.method == "morris" else "ST"
+        key = "mu_star" if morris else "ST"
         for j, (out, col) in enumerate((("flutter_speed_m_s", "C3"),
                                         ("divergence_speed_m_s", "C0"))):
             idx = self.indices.get(out, {})
@@ -134,9 +137,13 @@ class GlobalSensitivityResult(ResultData):
                 ax1.hist(data, bins=20, alpha=0.6, color=col,
                          label=f"{out.replace('_speed_m_s', '')}: 5-95 % "
                                f"{self.band[out]['p05']:.1f}-{self.band[out]['p95']:.1f} m/s")
+        if morris:
+            from design.figures import morris_mu_sigma
+
+            morris_mu_sigma(axes[1], self.indices)
         ax0.set_yticks(y)
         ax0.set_yticklabels(names, fontsize=8)
-        ax0.set_xlabel("Morris mu* [m/s]" if self.method == "morris" else "Sobol total index ST")
+        ax0.set_xlabel("Morris μ* [m/s]" if morris else "Sobol total index ST [-]")
         ax0.legend(fontsize=8)
         ax0.grid(alpha=0.3, axis="x")
         ax1.set_xlabel("critical wind speed [m/s]")

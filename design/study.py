@@ -35,6 +35,7 @@ Output folder::
     results/<analysis>.json, results/<analysis>.npz (arrays)
     figures/<analysis>.png
     report.md        comparison with the paper: Table 1, 65/74 m/s, Figs. 2-5
+    report.html      the same, self-contained (figures inline)
     summary.json     the ``bridgeflap study --json`` payload
 
 The analyses and their defaults are those of the registry :data:`design.analyses.ANALYSES`;
@@ -71,7 +72,7 @@ from design.outputs import (
     temporary_sibling,
     write_marker,
 )
-from design.report import PAPER, study_report
+from design.report import PAPER, study_report, study_report_html
 from model.errors import BridgeflapError, BridgeflapInputError
 
 __all__ = [
@@ -351,6 +352,7 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
             result = StudyResult(config, target, MappingProxyType(statuses),
                                  MappingProxyType(results), elapsed, MappingProxyType(objects))
             atomic_write_text(tmp / "report.md", study_report(result, figures))
+            atomic_write_text(tmp / "report.html", study_report_html(result, figures, tmp))
             atomic_write_json(tmp / "summary.json", result.summary())
             swap_into_place(tmp, target)
         except BaseException:

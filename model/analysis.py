@@ -451,9 +451,11 @@ class ClosedLoopFlutterResult(ResultData):
         return self.base.to_xarray()
 
     def plot(self, axes=None):
-        """Closed-loop root locus and damping/frequency against speed."""
+        """Closed-loop root locus and damping/frequency against speed, the open loop in
+        grey underneath."""
         return self.base.sweep.plot(axes, title=f"{self.base.spec.name} with "
-                                                f"{self.controller.n_flaps} flap pairs:")
+                                                f"{self.controller.n_flaps} flap pairs:",
+                                    reference=self.open_loop.sweep)
 
 
 def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEFAULT_MODES,

@@ -286,29 +286,17 @@ class BuffetingResult(ResultData):
             return float("nan")
         return float(self.strip_x[int(np.nanargmax(vals))])
 
-    def plot(self, ax=None, label=None, **kw):
-        """``max sigma_z / (2b)`` on the main span against ``U`` (seed Fig. 4 style).
+    def plot(self, axes=None, label=None, log: bool = False):
+        """Vertical ``max sigma_z / (2b)`` and torsional ``max sigma_alpha`` [deg] on the main
+        span against ``U`` (seed Fig. 4 style, two panels; :func:`model.plots.buffeting_panels`).
 
         Unstable speeds are NaN and leave a gap; nothing is clipped.
         """
-        import matplotlib.pyplot as plt
+        from model.plots import buffeting_panels
 
-        if ax is None:
-            _, ax = plt.subplots(figsize=(6, 4))
-        ax.plot(self.speeds, self.rms_vertical_over_width, "o-",
-                label=label or f"{self.inputs.get('spectrum', '')}, "
-                               f"{self.inputs.get('admittance', '')}, "
-                               f"c = {self.inputs.get('coherence_decay', float('nan')):g}", **kw)
-        bad = np.array([s == "unstable" for s in self.status])
-        if np.any(bad):
-            for u in self.speeds[bad]:
-                ax.axvline(u, color="r", alpha=0.2)
-        ax.set_xlabel("mean wind speed U [m/s]")
-        ax.set_ylabel(r"max $\sigma_z$ / (2b) on the main span [-]")
-        ax.set_title(f"{self.inputs.get('bridge', '')} buffeting ({self.method})")
-        ax.grid(alpha=0.3)
-        ax.legend()
-        return ax
+        return buffeting_panels({label: self}, axes, log=log,
+                                title=f"{self.inputs.get('bridge', '')} buffeting "
+                                      f"({self.method})")
 
     def plot_psd(self, ax=None, speeds=None):
         """One-sided PSDs of heave and pitch at the main-span strip of largest RMS.

@@ -166,25 +166,12 @@ class ImportedModalModel:
             labels=tuple(self.modes[i].label for i in chosen))
         return basis, self.strip_shapes["lateral"][:, cols]
 
-    def plot(self, labels=None, ax=None):
-        """Deck shapes (own family) of the first modes along the deck, normalised."""
-        import matplotlib.pyplot as plt
+    def plot(self, labels=None, ax=None, per_family: int = 3):
+        """Imported deck shapes, one panel per family, the main-span ends marked
+        (:func:`model.plots.imported_mode_shapes`)."""
+        from model.plots import imported_mode_shapes
 
-        if ax is None:
-            _, ax = plt.subplots(figsize=(9, 4))
-        d = self.spec.structure.data
-        labels = labels or [m.label for m in self.modes[:6]]
-        for k, lab in enumerate(labels):
-            i = self.modes.index(self.find(lab))
-            y = d.shapes[self.modes[i].family][:, self.order[i]]
-            ax.plot(d.station_x_m, y / (np.max(np.abs(y)) or 1.0), color=f"C{k}",
-                    label=f"{lab} {self.modes[i].frequency_hz:.3f} Hz")
-        ax.set_xlabel("x along the deck (file coordinates) [m]")
-        ax.set_ylabel("normalised deck displacement [-]")
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-        ax.set_title(f"{self.spec.name}: imported mode shapes")
-        return ax
+        return imported_mode_shapes(self, per_family, ax, labels)
 
 
 def _symmetry(x, y, span) -> tuple[str, float]:

@@ -159,31 +159,13 @@ class ModalModel(ResultData):
         m = self.modes[i]
         return self.shapes[m.family][:, self.family_index[m.family].index(i)]
 
-    def plot(self, labels=("VS1", "VA1", "TS1", "TA1", "LS1"), ax=None):
-        """Mode shapes along the bridge (deck field at the nodes)."""
-        import matplotlib.pyplot as plt
+    def plot(self, labels=None, ax=None, per_family: int = 3):
+        """Mode shapes along the bridge, one panel per family (vertical, torsional, lateral),
+        towers marked: the lowest ``per_family`` of each family, or the modes named in
+        ``labels`` (:func:`model.plots.mode_shapes_by_family`; ``ax``: one axis per family)."""
+        from model.plots import mode_shapes_by_family
 
-        if ax is None:
-            _, ax = plt.subplots(figsize=(9, 4))
-        st = self.structure
-        xg = st.global_x(st.node_span, st.node_x)
-        for lab in labels:
-            try:
-                m = self.find(lab)
-            except BridgeflapError:
-                continue
-            y = st.families[m.family].node_map @ self.shape(self.modes.index(m))
-            y = y / (np.max(np.abs(y)) or 1.0)
-            for s in np.unique(st.node_span):
-                sel = st.node_span == s
-                ax.plot(xg[sel], y[sel], color=f"C{labels.index(lab)}",
-                        label=f"{lab} {m.frequency_hz:.3f} Hz" if s == 0 else None)
-        ax.set_xlabel("distance from north anchorage [m]")
-        ax.set_ylabel("normalised deck displacement [-]")
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-        ax.set_title(f"{self.spec.name}: mode shapes (erected {self.spec.erected_fraction:.2f})")
-        return ax
+        return mode_shapes_by_family(self, per_family, ax, labels)
 
 
 def _span_of(structure: StructuralModel, node_field: np.ndarray) -> str:

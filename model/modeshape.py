@@ -211,14 +211,15 @@ class FlutterModeShape:
             first = s == self.node_span[0]
             ax_h.plot(x[sel], h[sel], color="C0", label="|h|" if first else None)
             ax_a.plot(x[sel], a[sel], color="C3", label="|alpha|" if first else None)
-            ax_p.plot(x[sel], ph[sel], color="C0", label="phase of h" if first else None)
-            ax_p.plot(x[sel], pa[sel], color="C3", ls="--",
+            ax_p.plot(x[sel], _unwrap_deg(ph[sel]), color="C0",
+                      label="phase of h" if first else None)
+            ax_p.plot(x[sel], _unwrap_deg(pa[sel]), color="C3", ls="--",
                       label="phase of alpha" if first else None)
         ax_h.set_ylabel(f"heave amplitude [m]\nper {self.peak_pitch_rad:g} rad peak pitch")
         ax_a.set_ylabel("pitch amplitude [rad]")
         ax_p.set_ylabel("phase [deg]\n(0 = pitch at its peak)")
-        ax_p.set_ylim(-180, 180)
-        ax_p.set_yticks(np.arange(-180, 181, 90))
+        ax_p.set_ylim(-200, 290)
+        ax_p.set_yticks(np.arange(-180, 271, 90))
         ax_p.set_xlabel("distance from north (Hessle) anchorage [km]")
         for k, ax in enumerate(axes):
             _mark_spans(ax, self.spans, names=k == 0)
@@ -235,6 +236,53 @@ class FlutterModeShape:
                        f"{self.flutter_frequency_hz:.4f} Hz ({self.n_modes} modes{first})\n"
                        f"kinetic-energy shares: {part}; dotted lines: towers", fontsize=10)
         return axes
+
+
+    def animate(self, path, frames: int = 24, fps: int = 8):
+        """Write a GIF of one period of the flutter mode (heave and pitch, real part of
+        ``field * exp(i 2 pi t / T)``) to ``path``; returns the path."""
+        import matplotlib.pyplot as plt
+        from matplotlib.animation import FuncAnimation, PillowWriter
+
+        fig, (ax_h, ax_a) = plt.subplots(2, 1, figsize=(8, 5), sharex=True,
+                                         layout="constrained")
+        x = self.x_m / 1000.0
+        hm, am = np.abs(self.heave_m).max(), np.degrees(np.abs(self.pitch_rad)).max()
+        lh, = ax_h.plot(x, self.heave_m.real, "C0")
+        la, = ax_a.plot(x, np.degrees(self.pitch_rad.real), "C3")
+        ax_h.set_ylim(-1.1 * hm, 1.1 * hm)
+        ax_a.set_ylim(-1.1 * am, 1.1 * am)
+        ax_h.set_ylabel("heave [m]")
+        ax_a.set_ylabel("pitch [deg]")
+        ax_a.set_xlabel("distance from north anchorage [km]")
+        for ax in (ax_h, ax_a):
+            _mark_spans(ax, self.spans, names=ax is ax_h)
+            ax.grid(alpha=0.3)
+        ax_h.set_title(f"{self.bridge}: flutter mode at {self.flutter_speed_m_s:.2f} m/s, "
+                       f"{self.flutter_frequency_hz:.4f} Hz", fontsize=10)
+
+        def frame(k):
+            rot = np.exp(2j * np.pi * k / frames)
+            lh.set_ydata((self.heave_m * rot).real)
+            la.set_ydata(np.degrees((self.pitch_rad * rot).real))
+            return lh, la
+
+        FuncAnimation(fig, frame, frames=frames, blit=True).save(
+            path, writer=PillowWriter(fps=fps))
+        plt.close(fig)
+        return path
+
+
+def _unwrap_deg(phase_deg: np.ndarray) -> np.ndarray:
+    """Phase [deg] unwrapped along the span where finite, shifted by whole turns so that its
+    median lies in [-180, 180): no spurious +-180 jumps in the plot."""
+    out = np.array(phase_deg, dtype=float)
+    ok = np.isfinite(out)
+    if ok.sum() > 1:
+        u = np.degrees(np.unwrap(np.radians(out[ok])))
+        u -= 360.0 * np.floor((np.median(u) + 180.0) / 360.0)
+        out[ok] = u
+    return out
 
 
 def flutter_mode_shape(spec: BridgeSpec, speeds, n_modes: int,

@@ -189,56 +189,19 @@ class StabilitySweep(ResultData):
         """The branches on ``(branch, speed_m_s)`` (:func:`model.results.sweep_dataset`)."""
         return sweep_dataset(self, attrs)
 
-    def plot_root_locus(self, ax=None, title: str = "root locus (magenta: U = 0)"):
-        """Tracked branches in the complex plane, coloured by wind speed, with a colour bar."""
-        import matplotlib.pyplot as plt
+    def plot_root_locus(self, ax=None, title: str = "root locus", reference=None):
+        """Tracked branches in the complex plane (both axes 1/s, coloured by wind speed);
+        ``reference``: another sweep drawn in grey (:func:`model.plots.root_locus`)."""
+        from model.plots import root_locus
 
-        if ax is None:
-            _, ax = plt.subplots(figsize=(6, 4.5), layout="constrained")
-        sc = None
-        for k in range(self.branches.shape[0]):
-            lam = self.branches[k]
-            sc = ax.scatter(lam.real, lam.imag / (2 * np.pi), c=self.speeds, s=4, cmap="viridis")
-            ax.plot(lam.real[0], lam.imag[0] / (2 * np.pi), "m.", ms=8)
-        ax.axvline(0, color="k", lw=0.8)
-        ax.set_xlabel("Re(lambda) [1/s]")
-        ax.set_ylabel("Im(lambda)/2pi [Hz]")
-        ax.set_title(title)
-        if sc is not None:
-            ax.figure.colorbar(sc, ax=ax, label="U [m/s]")
-        return ax
+        return root_locus(self, ax, title=title, reference=reference)
 
-    def plot(self, axes=None, title: str = ""):
-        """Root locus (left) and damping ratio / frequency against speed (right)."""
-        import matplotlib.pyplot as plt
+    def plot(self, axes=None, title: str = "", reference=None):
+        """Root locus (left), V-g and V-f (right), unclipped
+        (:func:`model.plots.stability_panels`)."""
+        from model.plots import stability_panels
 
-        if axes is None:
-            fig, axes = plt.subplots(1, 3, figsize=(15, 4.5), layout="constrained")
-        ax0, ax1, ax2 = axes
-        self.plot_root_locus(ax0)
-        z = self.damping_ratios()
-        f = self.frequencies_hz()
-        for k, lab in enumerate(self.branch_labels):
-            style = "-" if lab.startswith("T") else "--"
-            ax1.plot(self.speeds, 100 * z[k], style, lw=1, label=lab)
-            ax2.plot(self.speeds, f[k], style, lw=1, label=lab)
-        for ax in (ax1, ax2):
-            for c, col in ((self.flutter, "r"), (self.divergence, "b")):
-                if c.status == CONVERGED:
-                    ax.axvline(c.speed, color=col, lw=0.8, ls=":")
-            ax.set_xlabel("U [m/s]")
-            ax.grid(alpha=0.3)
-        ax1.axhline(0, color="k", lw=0.8)
-        ax1.set_ylabel("damping ratio [%]")
-        ax1.set_ylim(-5, 15)
-        ax2.set_ylabel("frequency [Hz]")
-        ax1.legend(fontsize=6, ncol=2)
-        fl = (f"flutter {self.flutter.speed:.2f} m/s" if self.flutter.status == CONVERGED
-              else f"flutter: {self.flutter.status}")
-        dv = (f"divergence {self.divergence.speed:.2f} m/s"
-              if self.divergence.status == CONVERGED else f"divergence: {self.divergence.status}")
-        (ax0.figure).suptitle(f"{title}  {fl}, {dv}".strip())
-        return axes
+        return stability_panels(self, axes, title=title, reference=reference)
 
 
 # ------------------------------------------------------------------ the sweep
