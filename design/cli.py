@@ -8,11 +8,17 @@ is not a :class:`~model.errors.BridgeflapError`) gives one line saying so and ex
 ``--debug`` (before or after the command) adds its traceback. Warnings are one line each.
 Option defaults shared with studies and DOE files come from the registry
 :data:`design.analyses.ANALYSES`.
+
+Start-up stays lean: the command modules (``design.cmd_*``) load only when their command runs
+(:func:`_later`), and only the chosen command's options are built (:func:`build_parser`), so
+``bridgeflap modes`` or ``flutter`` never import CasADi, matplotlib, Dask, SALib, pandas or
+xarray (tests/test_startup.py checks ``sys.modules``).
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 import warnings
@@ -22,7 +28,6 @@ from pathlib import Path
 
 import numpy as np
 
-from design import cmd_buffeting, cmd_derivatives, cmd_optimise, cmd_study
 from design.analyses import ANALYSES, DEFAULT_MODES, RunContext
 from design.cli_common import (
     Parser,
@@ -129,6 +134,8 @@ def _section_case_flutter(args):
         raise BridgeflapInputError("controller", "a section case has no flaps")
     speeds = None if args.speeds == _default("flutter", "speeds") else \
         parse_range(args.speeds, "speeds", 0.0)
+    from design import cmd_derivatives
+
     res = cmd_derivatives.section_case_result(
         args.bridge, speeds, added_inertia=False if args.no_added_inertia else None)
     s = res.summary()
@@ -410,6 +417,17 @@ class Command:
     run: Callable[[argparse.Namespace], None]
 
 
+def _later(module: str, name: str) -> Callable:
+    """``module.name``, imported when first called: a command's module loads only if it runs."""
+
+    def call(*args, **kwargs):
+        return getattr(importlib.import_module(module), name)(*args, **kwargs)
+
+    call.__name__ = call.__qualname__ = name
+    call.__module__ = module
+    return call
+
+
 #: every subcommand, in the order of ``bridgeflap --help``
 COMMANDS: tuple[Command, ...] = (
     Command("modes", "structural modes", _modes_arguments, cmd_modes),
@@ -422,29 +440,43 @@ COMMANDS: tuple[Command, ...] = (
     Command("state-space", "write A, B, C, D at one speed (.npz or .mat)",
             _state_space_arguments, cmd_state_space),
     Command("rfa", "fit report of the rational approximation of C(k)", _rfa_arguments, cmd_rfa),
-    Command("derivatives", cmd_derivatives.HELP, cmd_derivatives.arguments, cmd_derivatives.run),
-    Command("buffeting", "RMS deck response to vertical turbulence", cmd_buffeting.arguments,
-            cmd_buffeting.cmd_buffeting),
-    Command("optimise", "design the flap compensator (seed section 6)", cmd_optimise.arguments,
-            cmd_optimise.cmd_optimise),
+    Command("derivatives", "flutter derivatives in use and their RFA fit (error per derivative)",
+            _later("design.cmd_derivatives", "arguments"), _later("design.cmd_derivatives", "run")),
+    Command("buffeting", "RMS deck response to vertical turbulence",
+            _later("design.cmd_buffeting", "arguments"),
+            _later("design.cmd_buffeting", "cmd_buffeting")),
+    Command("optimise", "design the flap compensator (seed section 6)",
+            _later("design.cmd_optimise", "arguments"),
+            _later("design.cmd_optimise", "cmd_optimise")),
     Command("study", "run a study (default: the paper's reproduction)",
-            cmd_study.study_arguments, cmd_study.cmd_study),
-    Command("doe", "design of experiments through the batch runner", cmd_study.doe_arguments,
-            cmd_study.cmd_doe),
+            _later("design.cmd_study", "study_arguments"),
+            _later("design.cmd_study", "cmd_study")),
+    Command("doe", "design of experiments through the batch runner",
+            _later("design.cmd_study", "doe_arguments"), _later("design.cmd_study", "cmd_doe")),
     Command("sensitivity", "derivatives of flutter/divergence speed",
-            cmd_study.sensitivity_arguments, cmd_study.cmd_sensitivity),
+            _later("design.cmd_study", "sensitivity_arguments"),
+            _later("design.cmd_study", "cmd_sensitivity")),
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of :data:`COMMANDS` (also used for the README's command list)."""
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The argument parser of :data:`COMMANDS` (also used for the README's command list).
+
+    With ``argv``, only the options of the command it names are built (its module alone is
+    imported); every other command is listed with its help line. Without, every command's.
+    """
+    chosen = None
+    if argv is not None:
+        names = {c.name for c in COMMANDS}
+        chosen = next((a for a in argv if a in names), "")
     p = Parser(prog="bridgeflap", description=__doc__.splitlines()[0])
     p.add_argument("--debug", action="store_true",
                    help="on an internal fault, print the traceback (also after the command)")
     sub = p.add_subparsers(dest="command", parser_class=Parser)
     for command in COMMANDS:
         sp = sub.add_parser(command.name, help=command.help)
-        command.arguments(sp)
+        if chosen is None or command.name == chosen:
+            command.arguments(sp)
         sp.set_defaults(func=command.run)
     return p
 
@@ -558,7 +590,7 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 def _main(argv: list[str], debug: bool) -> int:
     try:
-        parser = build_parser()
+        parser = build_parser(argv)
         args = parser.parse_args(argv)
         if not getattr(args, "command", None):
             parser.print_help(sys.stderr)
