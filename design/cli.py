@@ -36,6 +36,7 @@ from design.cli_common import (
     check_writable_parent,
     controller_from_args,
     controller_report,
+    default_workers,
     emit,
     limit_text,
     log,
@@ -88,15 +89,15 @@ def cmd_modes(args):
     emit(args, payload, "\n".join(lines))
 
 
-def _run(name: str, spec, **options):
+def _run(name: str, spec, workers: int = 1, **options):
     """The result of registered analysis ``name``: the runner that studies and DOE cases use."""
-    return _outcome(name, spec, **options).result
+    return _outcome(name, spec, workers, **options).result
 
 
-def _outcome(name: str, spec, **options):
+def _outcome(name: str, spec, workers: int = 1, **options):
     """The whole :class:`~design.analyses.Outcome` of registered analysis ``name``."""
     entry = ANALYSES[name]
-    context = RunContext(figures=False, progress=log)
+    context = RunContext(figures=False, progress=log, workers=workers)
     return entry.run(spec, {**entry.defaults, **options}, context)
 
 
@@ -208,7 +209,8 @@ def cmd_erection(args):
 
     check_plot_target(args)
     res = _run("erection", load_bridge(args.bridge), fractions=args.fractions,
-               speeds=args.speeds, modes=args.modes, side_spans=args.side_spans or "")
+               speeds=args.speeds, modes=args.modes, side_spans=args.side_spans or "",
+               workers=args.workers)
     lines = [f"side spans while erecting: {res.side_spans}",
              "erected  flutter [m/s]  status         divergence [m/s]  status     stage"]
     for s in (*res.stages, res.completed):
@@ -375,6 +377,8 @@ def _erection_arguments(sp):
     sp.add_argument("--side-spans", choices=SIDE_SPAN_SEQUENCES, default=None,
                     help=_SIDE_SPANS_HELP)
     sp.add_argument("--plot", default=None)
+    sp.add_argument("--workers", type=int, default=default_workers(),
+                    help="worker processes for the stages (default: min(2, CPU count))")
 
 
 def _section_arguments(sp):
