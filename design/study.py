@@ -415,7 +415,8 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
     jobs.sort(key=lambda job: rank.get(job[0], -1))  # unknown kinds first: no estimate
     say(f"study {config.name}: {len(jobs)} analyses on {min(workers, len(jobs))} worker "
         f"processes")
-    with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
+    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_die_with_parent,
+                             initargs=(os.getpid(),)) as pool:
         futures = {kind: pool.submit(_run_and_write, kind, spec, opts, config, folder,
                                      remote_say, False) for kind, opts in jobs}
         try:
@@ -424,6 +425,22 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
             for fut in futures.values():
                 fut.cancel()
             raise
+
+
+def _die_with_parent(parent: int) -> None:
+    """Pool initializer: the worker ends with the study's process, even one killed by SIGKILL
+    (Linux ``PR_SET_PDEATHSIG``), so that no orphan writes into a folder a later run has
+    claimed (elsewhere the pool's own broken-pipe handling ends it after its analysis)."""
+    import signal
+
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # 1 = PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux
+        pass
+    if os.getppid() != parent:  # the study ended before the line above
+        os._exit(1)
 
 
 def validate_study(config: StudyConfig) -> None:
