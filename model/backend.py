@@ -14,7 +14,6 @@ This is one of the two files of :mod:`model` allowed to import CasADi (the other
 
 from __future__ import annotations
 
-import importlib
 import sys
 
 import numpy as np
@@ -42,7 +41,9 @@ class _LazyCasadi:
     loads it, and no value can be a CasADi object before it is loaded (:func:`_types`)."""
 
     def __getattr__(self, name):
-        return getattr(importlib.import_module("casadi"), name)
+        import casadi
+
+        return getattr(casadi, name)
 
 
 ca = _LazyCasadi()
