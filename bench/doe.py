@@ -54,6 +54,8 @@ def _load() -> str:
 
 def blas_threads() -> str:
     """The BLAS libraries loaded and their thread counts (threadpoolctl)."""
+    import numpy  # noqa: F401 - loads the BLAS that threadpoolctl then reports
+
     try:
         from threadpoolctl import threadpool_info
 
