@@ -42,12 +42,14 @@ DEFAULT_SPEEDS = "0:85:0.5"
 
 @dataclass(frozen=True)
 class RunContext:
-    """How an analysis is run: the bridge it came from, quick mode, figures, progress."""
+    """How an analysis is run: the bridge it came from, quick mode, figures, progress, and
+    how many worker processes it may use for independent parts (erection stages)."""
 
     bridge: str = "humber"
     quick: bool = False
     figures: bool = True
     progress: Callable[[str], None] | None = None
+    workers: int = 1
 
     def say(self, msg: str) -> None:
         """Report one line of progress (if anyone listens)."""
@@ -352,7 +354,7 @@ def _run_erection(spec, opts, context) -> Outcome:
     res = erection(spec, grid(opts["fractions"], "fractions"),
                    grid(opts["speeds"], "speeds", 0.0), int(opts["modes"]),
                    progress=lambda f: context.say(f"erection stage {f:.3f} done"),
-                   side_spans=opts["side_spans"] or None)
+                   side_spans=opts["side_spans"] or None, workers=context.workers)
     bad = [st for st in res.stages if st["flutter_status"] != "converged"]
     status = "ok" if not bad else (f"{len(bad)} of {len(res.stages)} stages: flutter "
                                    + ", ".join(sorted({st['flutter_status'] for st in bad})))

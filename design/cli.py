@@ -8,11 +8,17 @@ is not a :class:`~model.errors.BridgeflapError`) gives one line saying so and ex
 ``--debug`` (before or after the command) adds its traceback. Warnings are one line each.
 Option defaults shared with studies and DOE files come from the registry
 :data:`design.analyses.ANALYSES`.
+
+Start-up stays lean: the command modules (``design.cmd_*``) load only when their command runs
+(:func:`_later`), and only the chosen command's options are built (:func:`build_parser`), so
+``bridgeflap modes`` or ``flutter`` never import CasADi, matplotlib, Dask, SALib, pandas or
+xarray (tests/test_startup.py checks ``sys.modules``).
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 import warnings
@@ -22,7 +28,6 @@ from pathlib import Path
 
 import numpy as np
 
-from design import cmd_buffeting, cmd_derivatives, cmd_optimise, cmd_study
 from design.analyses import ANALYSES, DEFAULT_MODES, RunContext
 from design.cli_common import (
     Parser,
@@ -31,6 +36,7 @@ from design.cli_common import (
     check_writable_parent,
     controller_from_args,
     controller_report,
+    default_workers,
     emit,
     limit_text,
     log,
@@ -86,15 +92,15 @@ def cmd_modes(args):
     emit(args, payload, "\n".join(lines))
 
 
-def _run(name: str, spec, **options):
+def _run(name: str, spec, workers: int = 1, **options):
     """The result of registered analysis ``name``: the runner that studies and DOE cases use."""
-    return _outcome(name, spec, **options).result
+    return _outcome(name, spec, workers, **options).result
 
 
-def _outcome(name: str, spec, **options):
+def _outcome(name: str, spec, workers: int = 1, **options):
     """The whole :class:`~design.analyses.Outcome` of registered analysis ``name``."""
     entry = ANALYSES[name]
-    context = RunContext(figures=False, progress=log)
+    context = RunContext(figures=False, progress=log, workers=workers)
     return entry.run(spec, {**entry.defaults, **options}, context)
 
 
@@ -132,6 +138,8 @@ def _section_case_flutter(args):
         raise BridgeflapInputError("controller", "a section case has no flaps")
     speeds = None if args.speeds == _default("flutter", "speeds") else \
         parse_range(args.speeds, "speeds", 0.0)
+    from design import cmd_derivatives
+
     res = cmd_derivatives.section_case_result(
         args.bridge, speeds, added_inertia=False if args.no_added_inertia else None)
     s = res.summary()
@@ -204,7 +212,8 @@ def cmd_erection(args):
 
     check_plot_target(args)
     res = _run("erection", load_bridge(args.bridge), fractions=args.fractions,
-               speeds=args.speeds, modes=args.modes, side_spans=args.side_spans or "")
+               speeds=args.speeds, modes=args.modes, side_spans=args.side_spans or "",
+               workers=args.workers)
     cols = ["erected_fraction", "flutter_speed_m_s", "flutter_status", "divergence_speed_m_s",
             "divergence_status", "stage"]
     lines = [f"side spans while erecting: {res.side_spans}",
@@ -212,55 +221,6 @@ def cmd_erection(args):
     if args.plot:
         save_plot(res, args.plot)
     emit(args, res.summary(), "\n".join(lines))
-
-
-def cmd_section(args):
-    from model import stability, statespace
-    from model.section import section_basis
-
-    basis = section_basis(args.mass, args.inertia, args.f_heave, args.f_torsion, args.half_chord,
-                          args.damping_ratio)
-    if not (np.isfinite(args.air_density) and args.air_density > 0):
-        raise BridgeflapInputError("air-density", "must be positive")
-    speeds = _speeds_for_section(args)
-    rfa = "rfa4" if args.aero == "exact" else args.aero
-    system = statespace.build(basis, args.half_chord, args.air_density, rfa=rfa,
-                              added_inertia=not args.no_added_inertia)
-    sw = stability.sweep(system, speeds)
-    out = sw.summary()
-    if args.aero == "exact":
-        pk = stability.pk_sweep(system, speeds)
-        out.update(pk.summary())  # flutter speed, status, slope, onset and label of the p-k
-        out["divergence_speed_m_s"] = out["divergence_static_speed_m_s"]  # null off the grid
-        out["divergence_status"] = out["divergence_static_status"]
-    out["aero"] = args.aero
-    out["selberg_flutter_speed_m_s"] = _selberg(args)
-    text = (f"section ({args.aero}): flutter {out['flutter_speed_m_s']:.3f} m/s "
-            f"[{out['flutter_status']}] at {out['flutter_frequency_hz']:.4f} Hz; divergence "
-            f"{out['divergence_speed_m_s']:.3f} m/s [{out['divergence_status']}]; "
-            f"Selberg estimate {out['selberg_flutter_speed_m_s']:.3f} m/s")
-    emit(args, out, text)
-
-
-def _selberg(args) -> float:
-    """Selberg's flutter formula (docs/humber_data.md#selberg-formula) as an
-    engineer's sanity check."""
-    b, m, inertia = args.half_chord, args.mass, args.inertia
-    gamma = args.f_heave / args.f_torsion
-    if gamma >= 1:
-        return float("nan")
-    nu = 2 * inertia / (m * b * b)
-    mu = 2 * np.pi * args.air_density * b * b / m
-    return float(0.44 * 2 * np.pi * args.f_torsion * 2 * b
-                 * np.sqrt((1 - gamma ** 2) * np.sqrt(nu) / mu))
-
-
-def _speeds_for_section(args):
-    if args.speeds:
-        return parse_range(args.speeds, "speeds", 0.0)
-    # default grid: up to 3x Selberg's estimate or 20 b omega_theta, 400 points
-    top = 20 * args.half_chord * 2 * np.pi * args.f_torsion
-    return np.linspace(0.0, top, 801)
 
 
 def cmd_state_space(args):
@@ -367,20 +327,8 @@ def _erection_arguments(sp):
     sp.add_argument("--side-spans", choices=SIDE_SPAN_SEQUENCES, default=None,
                     help=_SIDE_SPANS_HELP)
     sp.add_argument("--plot", default=None)
-
-
-def _section_arguments(sp):
-    add_common(sp, bridge=False, erection=False)
-    sp.add_argument("--mass", type=float, required=True, help="[kg/m]")
-    sp.add_argument("--inertia", type=float, required=True, help="about mid-chord [kg m2/m]")
-    sp.add_argument("--f-heave", type=float, required=True, help="[Hz]")
-    sp.add_argument("--f-torsion", type=float, required=True, help="[Hz]")
-    sp.add_argument("--half-chord", type=float, required=True, help="[m]")
-    sp.add_argument("--air-density", type=float, default=1.225, help="[kg/m3]")
-    sp.add_argument("--damping-ratio", type=float, default=0.0)
-    sp.add_argument("--no-added-inertia", action="store_true")
-    sp.add_argument("--aero", choices=("exact", "rfa4", "jones"), default="rfa4")
-    sp.add_argument("--speeds", default=None, help="start:stop:step [m/s]")
+    sp.add_argument("--workers", type=int, default=default_workers(),
+                    help="worker processes for the stages (default: min(2, CPU count))")
 
 
 def _state_space_arguments(sp):
@@ -414,6 +362,17 @@ class Command:
     run: Callable[[argparse.Namespace], None]
 
 
+def _later(module: str, name: str) -> Callable:
+    """``module.name``, imported when first called: a command's module loads only if it runs."""
+
+    def call(*args, **kwargs):
+        return getattr(importlib.import_module(module), name)(*args, **kwargs)
+
+    call.__name__ = call.__qualname__ = name
+    call.__module__ = module
+    return call
+
+
 #: every subcommand, in the order of ``bridgeflap --help``
 COMMANDS: tuple[Command, ...] = (
     Command("modes", "structural modes", _modes_arguments, cmd_modes),
@@ -422,33 +381,48 @@ COMMANDS: tuple[Command, ...] = (
     Command("flutter", "flutter and torsional divergence", _flutter_arguments, cmd_flutter),
     Command("erection", "flutter/divergence against erected fraction", _erection_arguments,
             cmd_erection),
-    Command("section", "rigid 2-DOF deck section", _section_arguments, cmd_section),
+    Command("section", "rigid 2-DOF deck section", _later("design.cmd_section", "arguments"),
+            _later("design.cmd_section", "cmd_section")),
     Command("state-space", "write A, B, C, D at one speed (.npz or .mat)",
             _state_space_arguments, cmd_state_space),
     Command("rfa", "fit report of the rational approximation of C(k)", _rfa_arguments, cmd_rfa),
-    Command("derivatives", cmd_derivatives.HELP, cmd_derivatives.arguments, cmd_derivatives.run),
-    Command("buffeting", "RMS deck response to vertical turbulence", cmd_buffeting.arguments,
-            cmd_buffeting.cmd_buffeting),
-    Command("optimise", "design the flap compensator (seed section 6)", cmd_optimise.arguments,
-            cmd_optimise.cmd_optimise),
+    Command("derivatives", "flutter derivatives in use and their RFA fit (error per derivative)",
+            _later("design.cmd_derivatives", "arguments"), _later("design.cmd_derivatives", "run")),
+    Command("buffeting", "RMS deck response to vertical turbulence",
+            _later("design.cmd_buffeting", "arguments"),
+            _later("design.cmd_buffeting", "cmd_buffeting")),
+    Command("optimise", "design the flap compensator (seed section 6)",
+            _later("design.cmd_optimise", "arguments"),
+            _later("design.cmd_optimise", "cmd_optimise")),
     Command("study", "run a study (default: the paper's reproduction)",
-            cmd_study.study_arguments, cmd_study.cmd_study),
-    Command("doe", "design of experiments through the batch runner", cmd_study.doe_arguments,
-            cmd_study.cmd_doe),
+            _later("design.cmd_study", "study_arguments"),
+            _later("design.cmd_study", "cmd_study")),
+    Command("doe", "design of experiments through the batch runner",
+            _later("design.cmd_study", "doe_arguments"), _later("design.cmd_study", "cmd_doe")),
     Command("sensitivity", "derivatives of flutter/divergence speed",
-            cmd_study.sensitivity_arguments, cmd_study.cmd_sensitivity),
+            _later("design.cmd_study", "sensitivity_arguments"),
+            _later("design.cmd_study", "cmd_sensitivity")),
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of :data:`COMMANDS` (also used for the README's command list)."""
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The argument parser of :data:`COMMANDS` (also used for the README's command list).
+
+    With ``argv``, only the options of the command it names are built (its module alone is
+    imported); every other command is listed with its help line. Without, every command's.
+    """
+    chosen = None
+    if argv is not None:
+        names = {c.name for c in COMMANDS}
+        chosen = next((a for a in argv if a in names), "")
     p = Parser(prog="bridgeflap", description=__doc__.splitlines()[0])
     p.add_argument("--debug", action="store_true",
                    help="on an internal fault, print the traceback (also after the command)")
     sub = p.add_subparsers(dest="command", parser_class=Parser)
     for command in COMMANDS:
         sp = sub.add_parser(command.name, help=command.help)
-        command.arguments(sp)
+        if chosen is None or command.name == chosen:
+            command.arguments(sp)
         sp.set_defaults(func=command.run)
     return p
 
@@ -562,7 +536,7 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 def _main(argv: list[str], debug: bool) -> int:
     try:
-        parser = build_parser()
+        parser = build_parser(argv)
         args = parser.parse_args(argv)
         if not getattr(args, "command", None):
             parser.print_help(sys.stderr)

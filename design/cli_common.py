@@ -20,7 +20,8 @@ from design.io import atomic_write, to_jsonable
 from model.errors import BridgeflapInputError
 
 __all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",
-           "controller_from_args", "controller_report", "emit", "limit_text", "log",
+           "controller_from_args", "controller_report", "default_workers", "emit", "limit_text",
+           "log",
            "save_figure", "save_plot", "spec_from_args", "speed_text"]
 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -45,6 +46,12 @@ def add_common(sp: argparse.ArgumentParser, bridge: bool = True, erection: bool 
     if erection:
         sp.add_argument("--erection", type=float, default=None,
                         help="erected fraction of the main span in (0, 1]")
+
+
+def default_workers() -> int:
+    """Worker processes a command uses by default: ``min(2, CPU count)`` (the project's
+    target machine has 2 cores; ``--workers`` says otherwise)."""
+    return max(1, min(2, os.cpu_count() or 1))
 
 
 def emit(args, payload: dict, text: str) -> None:

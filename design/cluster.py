@@ -99,7 +99,14 @@ def cluster_client(workers: int, scheduler: str | None):
 
 def run_dask(client, fn, pending, workers, scheduler, timeout_s, retries, finish) -> None:
     """Run the cases on a Dask cluster with at most one case in flight per worker thread;
-    ``finish(record)`` is called as each case ends (:func:`design.doe.run_batch`)."""
+    ``finish(record)`` is called as each case ends (:func:`design.doe.run_batch`).
+
+    One case per thread, not more: a second one submitted ahead would not wait on the
+    scheduler (single tasks are not "root-ish", so distributed's queueing does not hold them
+    back) but on the worker, and a dying worker would take it along. The round trip between a
+    case's end and the next one's start is kept short instead: ``finish`` only queues the
+    case's file for a writer thread (:func:`design.doe.run_batch`).
+    """
     from dask.distributed import wait
 
     from design.doe import (

@@ -15,7 +15,15 @@ exit status 2 with nothing written):
 from __future__ import annotations
 
 from design.analyses import ANALYSES
-from design.cli_common import add_common, check_plot_target, emit, log, save_plot, spec_from_args
+from design.cli_common import (
+    add_common,
+    check_plot_target,
+    default_workers,
+    emit,
+    log,
+    save_plot,
+    spec_from_args,
+)
 from design.options import parse_range
 from model.errors import BridgeflapInputError
 
@@ -27,7 +35,7 @@ def cmd_study(args):
     from design.study import load_study, run_study
 
     config = load_study(args.file, quick=args.quick)
-    res = run_study(config, out=args.out, progress=log)
+    res = run_study(config, out=args.out, progress=log, workers=args.workers)
     s = res.summary()
     r = s["results"]
 
@@ -110,6 +118,9 @@ def study_arguments(sp) -> None:
     sp.add_argument("file", nargs="?", default=None, help="study .toml (default: built-in humber)")
     sp.add_argument("--out", default=None, help="output folder (default runs/<name>/output)")
     sp.add_argument("--quick", action="store_true", help="coarse settings (CI)")
+    sp.add_argument("--workers", type=int, default=default_workers(),
+                    help="analyses run at once in worker processes (default: min(2, CPU "
+                         "count); 1: one after another)")
     add_common(sp, bridge=False, erection=False)
 
 

@@ -306,7 +306,7 @@ def _write_outcome(kind: str, outcome: Outcome, folder: Path) -> tuple[dict, lis
 
 def run_study(config: StudyConfig | str | os.PathLike | None = None,
               out: str | os.PathLike | None = None, quick: bool = False,
-              progress: Callable[[str], None] | None = None) -> StudyResult:
+              progress: Callable[[str], None] | None = None, workers: int = 1) -> StudyResult:
     """Run every analysis of a study and write the self-describing output folder.
 
     Parameters
@@ -319,7 +319,12 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
         Apply the quick settings (only when ``config`` is a path or ``None``).
     progress : callable, optional
         Called with one-line progress messages (the CLI prints them on stderr).
+    workers : int, optional
+        Analyses run at once, each in its own worker process (:func:`_run_analyses`); 1 runs
+        them one after another in this process. The numbers do not depend on it.
     """
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise BridgeflapInputError("workers", f"must be an integer >= 1, got {workers!r}")
     if not isinstance(config, StudyConfig):
         config = load_study(config, quick=quick)
     say = progress or (lambda msg: None)
@@ -339,14 +344,9 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
 
             atomic_write_json(tmp / "manifest.json", build_manifest(config.as_dict()))
             statuses, results, objects, figures = {}, {}, {}, {}
-            for kind, opts in config.analyses:
-                say(f"study {config.name}: {kind} ...")
-                outcome = _run_one(kind, spec, opts, config, say)
-                statuses[kind] = outcome.status
-                objects[kind] = outcome.result
-                results[kind], figures[kind] = _write_outcome(kind, outcome, tmp)
-                say(f"study {config.name}: {kind} {outcome.status} "
-                    f"({outcome.summary['elapsed_s']:.1f} s)")
+            done = _run_analyses(config, spec, tmp, say, progress, workers)
+            for kind, _ in config.analyses:  # in the study's order, however they ran
+                statuses[kind], results[kind], figures[kind], objects[kind] = done[kind]
             atomic_write_json(tmp / "statuses.json", statuses)
             elapsed = time.perf_counter() - start
             result = StudyResult(config, target, MappingProxyType(statuses),
@@ -360,6 +360,92 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
             raise
     say(f"study {config.name}: written {target} ({elapsed:.1f} s)")
     return result
+
+
+#: the order in which a parallel study starts its analyses: longest first (Humber, 2 cores:
+#: design ~60-200 s, sensitivity ~20 s, erection ~4 s, frequency ratio ~3 s, the rest ~1 s),
+#: so that the short ones fill the other worker while the longest runs
+_LONGEST_FIRST = ("design", "sensitivity", "erection", "frequency_ratio", "flutter",
+                  "buffeting", "modes")
+
+
+def _run_and_write(kind: str, spec, opts: Mapping, config: StudyConfig, folder: Path,
+                   say, in_process: bool) -> tuple:
+    """Run one analysis and write its files: ``(status, summary, figure names, result)``.
+
+    What a study's worker process runs (:func:`_run_analyses`); the result object comes back
+    only if it pickles (or ``in_process``), else ``None``.
+    """
+    say = say or (lambda msg: None)
+    say(f"study {config.name}: {kind} ...")
+    outcome = _run_one(kind, spec, opts, config, say)
+    summary, names = _write_outcome(kind, outcome, folder)
+    say(f"study {config.name}: {kind} {outcome.status} ({outcome.summary['elapsed_s']:.1f} s)")
+    result = outcome.result
+    if not in_process:
+        import pickle
+
+        try:
+            pickle.dumps(result)
+        except Exception:  # noqa: BLE001 - an unpicklable result stays in the worker
+            result = None
+    return outcome.status, summary, names, result
+
+
+def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
+                  workers: int) -> dict:
+    """Every analysis of ``config`` run and written: kind -> ``(status, summary, figures,
+    result)``.
+
+    ``workers == 1``: one after another in this process. Otherwise in a pool of that many
+    worker processes (processes, not threads: the sweeps hold the GIL between LAPACK calls),
+    longest first (:data:`_LONGEST_FIRST`); each analysis writes its own files, so the output
+    is the serial one. The design analysis starts its own process pool for its parallel
+    starts (pool workers are not daemonic, so they may). Progress lines of the workers reach
+    ``progress`` when it can be pickled (the CLI's ``log``), else they are dropped.
+    """
+    jobs = list(config.analyses)
+    if workers <= 1 or len(jobs) <= 1:
+        return {kind: _run_and_write(kind, spec, opts, config, folder, say, True)
+                for kind, opts in jobs}
+    import pickle
+    from concurrent.futures import ProcessPoolExecutor
+
+    try:
+        pickle.dumps(progress)
+        remote_say = progress
+    except Exception:  # noqa: BLE001 - e.g. a lambda: workers then report nothing
+        remote_say = None
+    rank = {k: i for i, k in enumerate(_LONGEST_FIRST)}
+    jobs.sort(key=lambda job: rank.get(job[0], -1))  # unknown kinds first: no estimate
+    say(f"study {config.name}: {len(jobs)} analyses on {min(workers, len(jobs))} worker "
+        f"processes")
+    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_die_with_parent,
+                             initargs=(os.getpid(),)) as pool:
+        futures = {kind: pool.submit(_run_and_write, kind, spec, opts, config, folder,
+                                     remote_say, False) for kind, opts in jobs}
+        try:
+            return {kind: fut.result() for kind, fut in futures.items()}
+        except BaseException:
+            for fut in futures.values():
+                fut.cancel()
+            raise
+
+
+def _die_with_parent(parent: int) -> None:
+    """Pool initializer: the worker ends with the study's process, even one killed by SIGKILL
+    (Linux ``PR_SET_PDEATHSIG``), so that no orphan writes into a folder a later run has
+    claimed (elsewhere the pool's own broken-pipe handling ends it after its analysis)."""
+    import signal
+
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # 1 = PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux
+        pass
+    if os.getppid() != parent:  # the study ended before the line above
+        os._exit(1)
 
 
 def validate_study(config: StudyConfig) -> None:

@@ -245,29 +245,55 @@ def _stage(spec: BridgeSpec, speeds, n_modes: int) -> dict:
 
 
 def erection(spec: BridgeSpec, fractions, speeds, n_modes: int = DEFAULT_MODES,
-             progress=None, side_spans: str | None = None) -> ErectionResult:
+             progress=None, side_spans: str | None = None, workers: int = 1) -> ErectionResult:
     """Flutter/divergence at each erected fraction [-] over a grid of wind speeds [m/s].
 
     Each stage is :meth:`~model.spec.BridgeSpec.erected`: the main-span deck from mid-span
     outwards, half GJ and zero EI (temporary joints), the side spans as ``side_spans`` (default:
     the bridge file's sequence); a fraction of 1 is the closed deck before its joints are made.
     The completed bridge (:meth:`~model.spec.BridgeSpec.completed`) is reported separately.
+
+    ``workers > 1`` runs the stages in that many worker processes (the same function on each
+    stage, so the same numbers; processes, not threads: the sweeps hold the GIL between LAPACK
+    calls); inside a daemonic process (a Dask worker), which may not start children, the stages
+    run one after another.
     """
     fr = _fractions(fractions)
     speeds = check_speeds(speeds)
+    specs = [spec.erected(float(f), side_spans=side_spans) for f in fr] + [spec.completed()]
+    results = _stages(specs, speeds, n_modes, workers,
+                      lambda i: progress(float(fr[i])) if progress and i < len(fr) else None)
     stages = []
-    for f in fr:
-        s = spec.erected(float(f), side_spans=side_spans)
-        stage = _stage(s, speeds, n_modes)
+    for f, stage in zip(fr, results[:-1], strict=True):
         stage["erected_fraction"] = float(f)
         stage["stage"] = "closed deck, temporary joints" if f >= 1.0 else "erecting"
         stages.append(stage)
-        if progress:
-            progress(f)
-    done = _stage(spec.completed(), speeds, n_modes)
+    done = results[-1]
     done.update({"erected_fraction": 1.0, "stage": "completed bridge"})
     side = spec.erected(1.0, side_spans=side_spans).side_span_decks
     return ErectionResult(spec.name, tuple(stages), done, side)
+
+
+def _stages(specs, speeds, n_modes: int, workers: int, done) -> list[dict]:
+    """:func:`_stage` of every spec, in order; ``done(i)`` as each (in order) is ready."""
+    import multiprocessing
+
+    workers = min(int(workers), len(specs))
+    if workers <= 1 or multiprocessing.current_process().daemon:
+        out = []
+        for i, s in enumerate(specs):
+            out.append(_stage(s, speeds, n_modes))
+            done(i)
+        return out
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=workers) as ex:
+        futures = [ex.submit(_stage, s, speeds, n_modes) for s in specs]
+        out = []
+        for i, fut in enumerate(futures):
+            out.append(fut.result())
+            done(i)
+        return out
 
 
 @dataclass(frozen=True)

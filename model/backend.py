@@ -14,11 +14,12 @@ This is one of the two files of :mod:`model` allowed to import CasADi (the other
 
 from __future__ import annotations
 
-import casadi as ca
+import sys
+
 import numpy as np
 
 __all__ = [
-    "Function",
+    "Function",  # noqa: F822 - resolved on first use by the module __getattr__
     "as_numpy",
     "diag",
     "eye",
@@ -34,22 +35,50 @@ __all__ = [
     "zeros",
 ]
 
-_CASADI = (ca.SX, ca.MX, ca.DM)
-_SYMBOLIC = (ca.SX, ca.MX)
 
-#: ``casadi.Function`` (for type hints and construction of named functions).
-Function = ca.Function
+class _LazyCasadi:
+    """``casadi``, imported on first use: a numeric-only run (``bridgeflap flutter``) never
+    loads it, and no value can be a CasADi object before it is loaded (:func:`_types`)."""
+
+    def __getattr__(self, name):
+        import casadi
+
+        return getattr(casadi, name)
+
+
+ca = _LazyCasadi()
+
+
+def _types(names: str) -> tuple:
+    """CasADi's matrix types named in ``names`` (``"SX MX DM"``); empty while casadi is not
+    loaded."""
+    found = _TYPES.get(names)
+    if found is None:
+        mod = sys.modules.get("casadi")
+        if mod is None:
+            return ()
+        found = _TYPES[names] = tuple(getattr(mod, n) for n in names.split())
+    return found
+
+
+_TYPES: dict[str, tuple] = {}
+
+
+def __getattr__(name):  # ``Function`` = ``casadi.Function``, resolved on first use (PEP 562)
+    if name == "Function":
+        return ca.Function
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def is_symbolic(*values) -> bool:
     """True if any argument is a CasADi ``SX``/``MX`` expression."""
-    return any(isinstance(v, _SYMBOLIC) for v in values)
+    return any(isinstance(v, _types("SX MX")) for v in values)
 
 
 def _kind(values):
     """The CasADi matrix type of the first symbolic argument, ``None`` if all are numeric."""
     for v in values:
-        if isinstance(v, _SYMBOLIC):
+        if isinstance(v, _types("SX MX")):
             return type(v)
     return None
 
@@ -66,7 +95,7 @@ def eye(n: int) -> np.ndarray:
 
 
 def _cas(x, kind):
-    if isinstance(x, _CASADI):
+    if isinstance(x, _types("SX MX DM")):
         return x
     return kind(ca.DM(np.atleast_2d(np.asarray(x, dtype=float)) if np.ndim(x) else x))
 
@@ -74,7 +103,7 @@ def _cas(x, kind):
 def mtimes(*factors):
     """Matrix product of the factors (left to right)."""
     kind = _kind(factors)
-    if kind is None and not any(isinstance(f, ca.DM) for f in factors):
+    if kind is None and not any(isinstance(f, _types("DM")) for f in factors):
         out = factors[0]
         for f in factors[1:]:
             out = out @ f
@@ -92,7 +121,7 @@ def solve(A, B):
     solve is round-off.
     """
     kind = _kind((A, B))
-    if kind is None and not isinstance(A, ca.DM) and not isinstance(B, ca.DM):
+    if kind is None and not isinstance(A, _types("DM")) and not isinstance(B, _types("DM")):
         return np.linalg.inv(A) @ B
     kind = kind or ca.DM
     return ca.solve(_cas(A, kind), _cas(B, kind))
@@ -124,7 +153,7 @@ def kron(a, b):
 
 def diag(v):
     """Diagonal matrix of a vector (numpy 1-D array or CasADi column)."""
-    if isinstance(v, _CASADI):
+    if isinstance(v, _types("SX MX DM")):
         return ca.diag(v)
     return np.diag(np.asarray(v).ravel())
 
@@ -150,6 +179,6 @@ def jacobian(expr, x):
 
 def as_numpy(x) -> np.ndarray:
     """Dense numpy array of a numeric value (numpy or CasADi ``DM``)."""
-    if isinstance(x, ca.DM):
+    if isinstance(x, _types("DM")):
         return np.asarray(x.full())
     return np.asarray(x)
