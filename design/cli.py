@@ -80,13 +80,13 @@ def cmd_modes(args):
                "cable_main_sag_m": modal.structure.statics.main_sag_m,
                "irvine_lambda_sq": modal.structure.statics.irvine_lambda_sq,
                "modes": modes}
-    lines = [f"{spec.name}: erected fraction {spec.erected_fraction:.3f}, "
-             f"H = {payload['cable_horizontal_tension_n'] / 1e6:.2f} MN per cable, "
-             f"sag {payload['cable_main_sag_m']:.2f} m, "
-             f"lambda^2 = {payload['irvine_lambda_sq']:.1f}",
-             table_text(modal.to_dataframe()[: args.count][
-                 ["label", "family", "symmetry", "frequency_hz", "damping_ratio",
-                  "main_span_share"]], "simple")]
+    lines = [] if args.json else [  # the text table needs pandas: only when printed
+        f"{spec.name}: erected fraction {spec.erected_fraction:.3f}, "
+        f"H = {payload['cable_horizontal_tension_n'] / 1e6:.2f} MN per cable, "
+        f"sag {payload['cable_main_sag_m']:.2f} m, lambda^2 = {payload['irvine_lambda_sq']:.1f}",
+        table_text(modal.to_dataframe()[: args.count][
+            ["label", "family", "symmetry", "frequency_hz", "damping_ratio",
+             "main_span_share"]], "simple")]
     if args.plot:
         save_plot(modal, args.plot)
     emit(args, payload, "\n".join(lines))
