@@ -8,8 +8,8 @@ exit status 2 with nothing written):
 * ``bridgeflap doe FILE [--out DIR] [--workers N] [--scheduler ADDRESS] [--resume]`` ->
   ``{"cases", "succeeded", "failed", "table", ...}``
 * ``bridgeflap sensitivity [--bridge B] [--parameters a,b] [--plot FILE]`` ->
-  ``{"flutter_speed_m_s", "derivatives": {"<parameter>": {"value", "d_flutter_speed",
-  "d_flutter_speed_fd", ...}}}``; with ``--global morris|sobol`` the SALib study instead.
+  ``{"flutter_speed_m_s", "derivatives": {"<parameter>": {"value_si",
+  "d_flutter_speed_m_s_per_unit", "d_flutter_speed_m_s_per_unit_fd", ...}}}``; with ``--global morris|sobol`` the SALib study instead.
 """
 
 from __future__ import annotations

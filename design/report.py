@@ -124,8 +124,9 @@ def study_document(res: StudyResult, figures: dict) -> Document:
             doc.figure(n, text if k == len(names) - 1 else "", alt=kind)
     if "sensitivity" in r and "derivatives" in r["sensitivity"]:
         doc.heading(2, "Sensitivities (implicit-function theorem)")
-        doc.table([(p, _fmt(d.get("value"), ".4g"), _fmt(d.get("d_flutter_speed"), ".4g"),
-                    _fmt(d.get("d_flutter_speed_fd"), ".4g"),
+        doc.table([(p, _fmt(d.get("value_si"), ".4g"),
+                    _fmt(d.get("d_flutter_speed_m_s_per_unit"), ".4g"),
+                    _fmt(d.get("d_flutter_speed_m_s_per_unit_fd"), ".4g"),
                     _fmt(d.get("relative_d_flutter_speed"), "+.3f"),
                     _fmt(d.get("relative_d_divergence_speed"), "+.3f"),
                     f"{d.get('flutter_status')}/{d.get('divergence_status')}")

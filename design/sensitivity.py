@@ -305,7 +305,7 @@ class SensitivityResult(ResultData):
                 "divergence_status": self.divergence_status, "modes_retained": self.n_modes,
                 "settings": dict(self.settings),
                 "derivatives": {r["parameter"]: {k: v for k, v in r.items() if k != "parameter"}
-                                for r in self.rows}}
+                                for r in self._rows()}}
 
     def _rows(self) -> list[dict]:
         """Per parameter, keys with units: ``value_si`` (the parameter in SI units),
@@ -314,11 +314,8 @@ class SensitivityResult(ResultData):
         return [{_unit_key(k): v for k, v in r.items()} for r in self.rows]
 
     def to_dict(self) -> dict:
-        """Strict JSON: :meth:`summary` with the derivative keys named with their units."""
-        s = self.summary()
-        s["derivatives"] = {r["parameter"]: {k: v for k, v in r.items() if k != "parameter"}
-                            for r in self._rows()}
-        return jsonable(s)
+        """Strict JSON: :meth:`summary` (its derivative keys carry their units)."""
+        return jsonable(self.summary())
 
     def table(self, fmt: str = "simple") -> str:
         """Text table of the IFT derivatives and both checks (:mod:`tabulate`)."""

@@ -112,7 +112,8 @@ def test_report_numbers_are_the_result_files(study):
     assert set(sens) == set(d)
     for p, row in sens.items():
         # four significant digits ('.4g')
-        assert float(row["dU_F/dp (IFT)"]) == pytest.approx(d[p]["d_flutter_speed"], rel=5e-4)
+        assert float(row["dU_F/dp (IFT)"]) == pytest.approx(d[p]["d_flutter_speed_m_s_per_unit"],
+                                                                   rel=5e-4)
         assert _close(row["(p/U_F) dU_F/dp"], d[p]["relative_d_flutter_speed"], 3)
 
 

@@ -121,7 +121,8 @@ def test_sensitivity_example(tmp_path):
     for p, d in local["derivatives"].items():
         # implicit-function derivative against finite differences of the re-solved pipeline:
         # the FD step error is ~1e-4 relative here (sensitivity tests: 1e-3)
-        assert d["d_flutter_speed"] == pytest.approx(d["d_flutter_speed_fd"], rel=1e-3), p
+        assert d["d_flutter_speed_m_s_per_unit"] == pytest.approx(
+            d["d_flutter_speed_m_s_per_unit_fd"], rel=1e-3), p
     glob = json.loads((out / "global.json").read_text())
     assert glob["cases"] > 0 and glob["failed"] == 0 and glob["succeeded"] == glob["cases"]
     band = glob["band"]["flutter_speed_m_s"]

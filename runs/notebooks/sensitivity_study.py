@@ -64,7 +64,7 @@ assert np.isclose(cli["flutter_speed_m_s"], res.flutter_speed_m_s, rtol=1e-9, at
 assert np.isclose(cli["divergence_speed_m_s"], res.divergence_speed_m_s, rtol=1e-9, atol=0)
 for row in res.rows:
     d = cli["derivatives"][row["parameter"]]
-    assert np.isclose(d["d_flutter_speed"], row["d_flutter_speed"], rtol=1e-9, atol=0)
+    assert np.isclose(d["d_flutter_speed_m_s_per_unit"], row["d_flutter_speed"], rtol=1e-9, atol=0)
 # a wider deck lowers the divergence speed (aerodynamic moment ~ b^2): the sign is physics
 half_chord = next(r for r in res.rows if r["parameter"] == "deck.half_chord_m")
 assert half_chord["relative_d_divergence_speed"] < 0
