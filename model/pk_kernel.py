@@ -23,6 +23,8 @@ steps as the fallback; it stops when the frequency implied by ``k`` equals ``|Im
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.linalg import lapack
 
@@ -109,52 +111,61 @@ class Kernel:
     def point(self, U: float, p_guess: complex, hint=None, tol: float = 1e-10, maxit: int = 50):
         """One p-k point near ``p_guess`` at ``U`` [m/s] (secant on the k consistency).
 
-        ``hint``: the branch's :class:`BranchMemory` (or None), read for the first step and
-        updated. Returns ``(p, converged, eigenvalues of the last matrix, index
-        of p among them)``, as :func:`model.pk._pk_point`.
+        ``hint``: the branch's :class:`BranchMemory` (or None): its extrapolated ``k`` and
+        slope start the iteration, and when that does not converge it is started again from
+        ``k = |Im p_guess| b / U`` without them (the start of the reference iteration).
+        Returns ``(p, converged, eigenvalues of the last matrix, index of p among them)``, as
+        :func:`model.pk._pk_point`.
         """
         if U != self.speed:
             self.set_speed(U)
         w = U / self.half_chord  # k -> frequency [rad/s]
-        p = complex(p_guess)
-        k = abs(p.imag) / w
-        slope = None
-        if hint is not None:
-            k, slope = hint.guess(U, k), hint.slope
-        k_old = g_old = None
+        p0 = complex(p_guess)
+        k0 = abs(p0.imag) / w
+        if hint is None:
+            return self._iterate(w, p0, k0, None, tol, maxit)[:4]
+        k1, slope = hint.guess(U, k0), hint.slope
         if slope is not None and not slope < 0:
             slope = None  # only a contracting map's slope (dg/dk = T' - 1 < 0) is carried over
+        out = self._iterate(w, p0, k1, slope, tol, maxit)
+        if not out[1] and (k1 != k0 or slope is not None) and out[6] < maxit:
+            out = self._iterate(w, p0, k0, None, tol, maxit - out[6])
+        if out[1]:
+            hint.record(U, out[4], out[5])
+        return out[:4]
+
+    def _iterate(self, w, p, k, slope, tol, maxit):
+        """The k iteration from ``(p, k)``: ``(p, converged, lam, index, k, slope, steps)``."""
+        k_old = g_old = None
         lam, idx = np.array([p]), 0
         best, since = np.inf, 0
-        for _ in range(maxit):
+        for it in range(maxit):
             lam = self.eigvals(k)
             idx = int(np.argmin(np.abs(lam - p)))
             p = complex(lam[idx])
             g = abs(p.imag) / w - k
             if abs(g) * w <= tol * max(1.0, abs(p)):
-                if hint is not None:
-                    hint.record(U, k, slope)
-                return p, True, lam, idx
+                return p, True, lam, idx, k, slope, it + 1
             if abs(g) < 0.5 * best:
                 best, since = abs(g), 0
             else:
                 since += 1
                 if since >= STAGNATION:
-                    break  # no root near: |g| has not halved in STAGNATION steps
+                    return p, False, lam, idx, k, slope, it + 1  # no root near
             if k_old is not None:
                 dk = k - k_old
                 # no slope from a step too small to resolve it
                 slope = ((g - g_old) / dk if g != g_old and abs(dk) > 1e-13 * max(k, 1e-300)
                          else None)
             k_old, g_old = k, g
-            if slope is not None and np.isfinite(slope) and slope != 0:
+            if slope is not None and math.isfinite(slope) and slope != 0:
                 # secant step, at most a step of half of k plus the fixed-point step
                 dk = -g / slope
                 lim = 0.5 * k + abs(g)
                 k = max(k + max(-lim, min(lim, dk)), 0.0)
             else:
                 k = max(k + g, 0.0)  # fixed-point substitution, k = |Im p| b / U
-        return p, False, lam, idx
+        return p, False, lam, idx, k, slope, maxit
 
 
 class TheodorsenKernel(Kernel):
@@ -245,7 +256,7 @@ class DerivativeKernel(Kernel):
 def _qn_function(source, d: int):
     """``K -> (Re Qn(K), Im Qn(K))`` flattened into one new real array of ``2 d^2`` values, for
     one reduced frequency ``K > 0`` (:meth:`~model.derivatives.FlutterDerivatives.matrix`)."""
-    from model.derivatives import FlatPlateDerivatives, TabulatedDerivatives
+    from model.derivatives import FlatPlateDerivatives, PolimiDerivatives, TabulatedDerivatives
 
     dd = d * d
     if isinstance(source, FlatPlateDerivatives) and source.c_function is None:
@@ -300,11 +311,80 @@ def _qn_function(source, d: int):
 
         return table
 
+    if isinstance(source, PolimiDerivatives):
+        return _polimi_function(source, d)
+
     def generic(K):
         q = source.matrix(np.array(K), d).ravel()
         return np.concatenate([q.real, q.imag])
 
     return generic
+
+
+class _Hold:
+    """Linear interpolation of table columns on one abscissa, end values held (``np.interp``)."""
+
+    def __init__(self, x, cols):
+        order = np.argsort(x)
+        self.x = np.asarray(x, float)[order]
+        self.tab = np.column_stack(cols)[order]
+        self.slope = np.diff(self.tab, axis=0) / np.diff(self.x)[:, None]
+
+    def __call__(self, v):
+        xs = self.x
+        if v <= xs[0]:
+            return self.tab[0]
+        if v >= xs[-1]:
+            return self.tab[-1]
+        i = int(np.searchsorted(xs, v, side="right")) - 1
+        return self.slope[i] * (v - xs[i]) + self.tab[i]
+
+
+def _polimi_function(source, d: int):
+    """:func:`_qn_function` of :class:`~model.derivatives.PolimiDerivatives`: its 18 columns
+    interpolated as its ``values`` does, then converted by a matrix ``T0 + v T1 + v^2 T2``.
+
+    :func:`~model.derivatives.polimi_to_scanlan` is linear in the coefficients with factors of
+    degree at most 2 in ``v`` (its docstring), so ``T0, T1, T2`` are read off it at three
+    reduced velocities with unit coefficient tables, and checked at a fourth (the direct call
+    per point, 100 us, is the fallback if that check fails).
+    """
+    from model.derivatives import _ENTRIES, polimi_to_scanlan
+
+    vt = np.asarray(source.v, float)
+    ax = [np.asarray(c, float) for c in source.column_v] or [vt] * 6
+    tabs = {f: np.asarray(source.polimi[f], float) for f in "hap"}
+    inputs = [(f, i) for f in "hap" for i in range(6)]
+    groups = {}  # the columns by abscissa
+    for n_in, (f, i) in enumerate(inputs):
+        x = vt if f == "p" else ax[i]
+        groups.setdefault(x.tobytes(), (x, []))[1].append(n_in)
+    interp = [(_Hold(x, [tabs[inputs[j][0]][:, inputs[j][1]] for j in cols]), np.array(cols))
+              for x, cols in groups.values()]
+    names = [_ENTRIES[(r, c)][part] for part in (0, 1) for r in range(d) for c in range(d)]
+
+    def convert(v, coef):
+        """``(len(v), 2 d^2)`` Scanlan entries of ``coef`` (``len(v), 18``) at ``v``."""
+        out = polimi_to_scanlan(v, coef[:, :6], coef[:, 6:12], coef[:, 12:])
+        return np.column_stack([out[name] for name in names])
+
+    probe = np.array([0.5, 1.0, 2.0, 3.7])
+    unit = np.eye(18)
+    T = np.stack([convert(np.full(18, v), unit).T for v in probe])  # (4, 2 d^2, 18)
+    V = np.vander(probe[:3], 3, increasing=True)  # T(v) = T0 + v T1 + v^2 T2 at three v
+    T0, T1, T2 = np.einsum("pq,qij->pij", np.linalg.inv(V), T[:3])
+    fits = np.allclose(T0 + probe[3] * T1 + probe[3] ** 2 * T2, T[3], rtol=1e-13, atol=1e-13)
+
+    def polimi(K):
+        v = 1.0 / K
+        c = np.empty(18)
+        for fn, cols in interp:
+            c[cols] = fn(v)
+        if not fits:
+            return (K * K) * convert(np.array([v]), c[None, :])[0]
+        return (K * K) * (T0 @ c + v * (T1 @ c) + (v * v) * (T2 @ c))
+
+    return polimi
 
 
 def kernel_for(frozen) -> Kernel:
