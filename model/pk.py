@@ -1,7 +1,11 @@
 """Exact-Theodorsen p-k cross-check on the generalised coordinates of an aeroelastic system.
 
 Branches continued from U = 0 with adaptive sub-steps, flutter refined by Brent's method on the
-crossing branch and verified (docs/methods.md#p-k-check). Re-exported by :mod:`model.stability`.
+crossing branch and verified (docs/methods.md#p-k-check). By default the branches are marched
+together and stopped at the first crossing, on the lean kernel of :mod:`model.pk_kernel`
+(secant k iteration); ``pk_sweep(..., full_grid=True)`` is the reference (whole grid,
+fixed-point k iteration on the frozen system's own matrices). Re-exported by
+:mod:`model.stability`.
 """
 
 from __future__ import annotations

@@ -38,6 +38,9 @@ __all__ = ["BranchMemory", "Kernel", "kernel_for"]
 #: p-k branch ending where a heavily damped pair turns real); the fixed-point reference
 #: iterates to its 100 steps in that case
 STAGNATION = 3
+#: relative distance between the extrapolated and the predicted starting k above which a k
+#: iteration that failed from the first is restarted from the second (nearer starts fail alike)
+RESTART = 1e-3
 #: nodes of the extrapolated starting k (a cubic: about 1e-9 relative on a 0.4 m/s grid)
 NODES = 4
 
@@ -112,8 +115,9 @@ class Kernel:
         """One p-k point near ``p_guess`` at ``U`` [m/s] (secant on the k consistency).
 
         ``hint``: the branch's :class:`BranchMemory` (or None): its extrapolated ``k`` and
-        slope start the iteration, and when that does not converge it is started again from
-        ``k = |Im p_guess| b / U`` without them (the start of the reference iteration).
+        slope start the iteration, and when that does not converge from a start more than
+        :data:`RESTART` away it is started again from ``k = |Im p_guess| b / U`` without them
+        (the start of the reference iteration).
         Returns ``(p, converged, eigenvalues of the last matrix, index of p among them)``, as
         :func:`model.pk._pk_point`.
         """
@@ -128,7 +132,7 @@ class Kernel:
         if slope is not None and not slope < 0:
             slope = None  # only a contracting map's slope (dg/dk = T' - 1 < 0) is carried over
         out = self._iterate(w, p0, k1, slope, tol, maxit)
-        if not out[1] and (k1 != k0 or slope is not None) and out[6] < maxit:
+        if not out[1] and abs(k1 - k0) > RESTART * k0 and out[6] < maxit:
             out = self._iterate(w, p0, k0, None, tol, maxit - out[6])
         if out[1]:
             hint.record(U, out[4], out[5])
