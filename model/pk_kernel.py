@@ -46,7 +46,8 @@ NODES = 4
 
 
 def _eigvals_real(a):
-    wr, wi, _, _, info = lapack.dgeev(a, compute_vl=0, compute_vr=0, overwrite_a=1)
+    # overwrite_a=0: LAPACK works on a copy, the caller's buffer keeps its constant blocks
+    wr, wi, _, _, info = lapack.dgeev(a, compute_vl=0, compute_vr=0, overwrite_a=0)
     if info != 0:
         raise np.linalg.LinAlgError("eigenvalues did not converge (dgeev)")
     return wr + 1j * wi
@@ -76,7 +77,7 @@ class BranchMemory:
 
     def guess(self, U: float, k_pred: float) -> float:
         """Starting ``k`` at ``U``: the polynomial through the last :data:`NODES` points when
-        they are distinct and near (``U`` within 2 of their spreads), and it agrees with
+        they are distinct and near (``U`` within their spread of the last) and it agrees with
         ``k_pred`` (from the branch's predicted eigenvalue) to 1 %; else ``k_pred``."""
         us, ks = self.us, self.ks
         if len(us) < NODES:
@@ -145,7 +146,7 @@ class Kernel:
         best, since = np.inf, 0
         for it in range(maxit):
             lam = self.eigvals(k)
-            idx = int(np.argmin(np.abs(lam - p)))
+            idx = int(np.abs(lam - p).argmin())
             p = complex(lam[idx])
             g = abs(p.imag) / w - k
             if abs(g) * w <= tol * max(1.0, abs(p)):
@@ -209,7 +210,8 @@ class DerivativeKernel(Kernel):
 
     The lower block row of ``A`` (flattened) is ``-[M^-1 K, M^-1 C] + r @ H`` with ``r`` the
     real and imaginary parts of ``Qn``, scaled by ``rho U^2 / 2`` and ``rho U B / (2 K)``, and
-    ``H`` their projections ``M^-1 L Qn R`` placed in the stiffness and damping halves.
+    ``H`` their projections ``M^-1 L Qn R`` placed in the stiffness and damping halves (one
+    product: ``r`` ends with a 1 and ``H`` with the constant row).
     """
 
     def __init__(self, frozen):
@@ -224,8 +226,8 @@ class DerivativeKernel(Kernel):
         H = np.zeros((2, d * d, n, 2 * n))
         H[0, :, :, :n] = G  # Re Qn -> stiffness half
         H[1, :, :, n:] = G  # Im Qn -> damping half
-        self._H = H.reshape(2 * d * d, 2 * n * n)
-        self._base = -np.hstack([Minv @ frozen.K, Minv @ frozen.C]).ravel()
+        base = -np.hstack([Minv @ frozen.K, Minv @ frozen.C]).ravel()
+        self._H = np.vstack([H.reshape(2 * d * d, 2 * n * n), base])
         self._n, self._dd = n, d * d
         self._qd = 0.5 * float(frozen.air_density)
         self._B = float(frozen.chord_m)
@@ -242,47 +244,44 @@ class DerivativeKernel(Kernel):
         return self._fill(kr).copy()
 
     def _fill(self, kr: float) -> np.ndarray:
-        U, dd = self.speed, self._dd
+        U = self.speed
         Kr = max(2.0 * float(kr), 1e-9)
-        r = self._qn(Kr)
-        r[:dd] *= self._qd * U * U
-        r[dd:] *= self._qd * U * self._B / Kr
-        np.dot(r, self._H, out=self._low)
-        self._low += self._base
+        r = self._qn(Kr, self._qd * U * U, self._qd * U * self._B / Kr)
+        np.dot(r, self._H, out=self._low)  # the last entry of r is 1: the constant row
         return self._buf
 
     def eigvals(self, kr: float) -> np.ndarray:
-        # dgeev overwrites its input: the transpose (Fortran order, same eigenvalues) is copied
-        # so that the constant blocks of the buffer survive
-        return _eigvals_real(self._fill(kr).T.copy(order="F"))
+        # the transpose (Fortran order, the same eigenvalues) goes to LAPACK without a reorder
+        return _eigvals_real(self._fill(kr).T)
 
 
 def _qn_function(source, d: int):
-    """``K -> (Re Qn(K), Im Qn(K))`` flattened into one new real array of ``2 d^2`` values, for
-    one reduced frequency ``K > 0`` (:meth:`~model.derivatives.FlutterDerivatives.matrix`)."""
+    """``(K, a, b) -> (a Re Qn(K), b Im Qn(K), 1)`` flattened into one new real array of
+    ``2 d^2 + 1`` values, for one reduced frequency ``K > 0``
+    (:meth:`~model.derivatives.FlutterDerivatives.matrix`)."""
     from model.derivatives import FlatPlateDerivatives, PolimiDerivatives, TabulatedDerivatives
 
     dd = d * d
     if isinstance(source, FlatPlateDerivatives) and source.c_function is None:
         kap = 1.0 if source.added_inertia else 0.0
         pi = np.pi
-        pad = [0.0] * (dd - 4)
+        pad = [0.0] * (dd - 4) if d == 2 else []
 
-        def flat(K):
+        def flat(K, a, b):
             C = theodorsen_scalar(0.5 * K)
             F, G = C.real, C.imag
-            K2 = K * K
+            a, b = a * K * K, b * K * K
             # FlatPlateDerivatives.values in closed form, times K^2: (H4, H3, A4, A3) + i (H1,
             # H2, A1, A2); the lateral entries of a 3-DOF section are zero
             re = [pi / 2 * (1 + 4 * G / K), 2 * pi / K * (F / K - G / 4), pi * G / (2 * K),
                   pi / (2 * K) * (F / K - G / 4) + kap * pi / 64]
             im = [-2 * pi * F / K, pi / (2 * K) * (1 + F + 4 * G / K), -pi * F / (2 * K),
                   -pi / (8 * K) * (1 - F - 4 * G / K)]
+            re, im = [a * x for x in re], [b * x for x in im]
             if d == 3:
-                re = [re[0], re[1], 0.0, re[2], re[3], 0.0, 0.0, 0.0, 0.0]
-                im = [im[0], im[1], 0.0, im[2], im[3], 0.0, 0.0, 0.0, 0.0]
-                return K2 * np.array(re + im)
-            return K2 * np.array(re + pad + im + pad)
+                return np.array([re[0], re[1], 0.0, re[2], re[3], 0.0, 0.0, 0.0, 0.0,
+                                 im[0], im[1], 0.0, im[2], im[3], 0.0, 0.0, 0.0, 0.0, 1.0])
+            return np.array(re + pad + im + pad + [1.0])
 
         return flat
     if isinstance(source, TabulatedDerivatives) and source.extrapolation == "hold":
@@ -313,16 +312,31 @@ def _qn_function(source, d: int):
                 row = slope[i] * (v - xs[i]) + tab[i]
             return (K * K) * row
 
-        return table
+        return _scaled(table, dd)
 
     if isinstance(source, PolimiDerivatives):
-        return _polimi_function(source, d)
+        return _scaled(_polimi_function(source, d), dd)
 
     def generic(K):
         q = source.matrix(np.array(K), d).ravel()
         return np.concatenate([q.real, q.imag])
 
-    return generic
+    return _scaled(generic, dd)
+
+
+def _scaled(fn, dd: int):
+    """``(K, a, b) -> (a Re Qn, b Im Qn, 1)`` from ``fn: K -> (Re Qn, Im Qn)``."""
+
+    def scaled(K, a, b):
+        r = fn(K)
+        out = np.empty(2 * dd + 1)
+        np.multiply(r[:dd], a, out=out[:dd])
+        np.multiply(r[dd:], b, out=out[dd:2 * dd])
+        out[-1] = 1.0
+        return out
+
+    scaled.__name__ = fn.__name__
+    return scaled
 
 
 class _Hold:

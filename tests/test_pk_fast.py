@@ -184,3 +184,11 @@ def test_branch_memory_extrapolates_a_cubic_frequency():
         (1.0 + 0.01 * 12.0 ** 3) / 12.0, rel=1e-12)
     assert mem.guess(12.0, 1.0) == 1.0  # disagrees with the prediction by more than 1 %
     assert mem.guess(20.0, 1.45) == 1.45  # too far from the nodes
+
+
+def test_derivative_kernel_flat_plate_with_a_lateral_dof():
+    case = load_section_case("iabse-1.1c")  # heave, pitch and lateral
+    fr = derivative_system(case.basis, flat_plate(case.derivatives.chord_m), case.air_density,
+                           phi_p=case.phi_p).frozen()
+    assert fr.n_dof == 3 and pk_kernel.kernel_for(fr)._qn.__name__ == "flat"
+    assert _kernel_error(fr, fr.matrix_at_k) < 1e-13
