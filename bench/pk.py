@@ -14,8 +14,10 @@ Run ``python -m bench.pk`` (a table) or ``python -m bench.pk --json`` (one JSON 
 Cases (``--cases``): the IABSE TG3.1 sections ``iabse-1.1a`` (flat plate) and ``iabse-1.1c``
 (PoliMi tables) on their CLI grid (:func:`model.section_cases.default_speeds`, 0 to twice the
 reference speed in 401 points), the 12-mode step-2a bridges ``iabse-2a`` (flat plate) and
-``iabse-2a:bb3`` (BB3 tables) on 0:100:0.5 [m/s], and ``humber`` (no wawi input) with the
-``flutter --pk`` defaults (:func:`model.analysis.pk_flutter`: 30 modes, 0:85:0.5). The system
+``iabse-2a:bb3`` (BB3 tables) on 0:100:0.5 [m/s], and on request ``humber`` (no wawi input,
+slow: its reference p-k takes about a minute) with the ``flutter --pk`` defaults
+(:func:`model.analysis.pk_flutter`: 30 modes, 0:85:0.5). ``--speed-tol`` (default 1e-3 m/s,
+the CLI's and wawi's tolerance) is bridgeflap's refinement tolerance. The system
 build (fit, modes) is outside the timings, as wawi's is. The header gives the CPU count, the
 BLAS threads and the load average (the machine is shared: the best of several runs is the
 figure to quote).
@@ -239,15 +241,16 @@ def _wawi(python: str, wawi_input: dict, repeat: int):
     return _row("wawi", w["speed_m_s"], w["frequency_hz"], "", w["time_s"]), ""
 
 
-def run_case(name: str, repeat: int, reference_repeat: int, wawi_python: str | None) -> dict:
+def run_case(name: str, repeat: int, reference_repeat: int, wawi_python: str | None,
+             speed_tol: float = 1e-3) -> dict:
     """Rows and ratios of one case (module docstring)."""
     from model import stability
 
     system, speeds, wawi_input, ref = _case_system(name)
-    fast, t_fast = _best(lambda: stability.pk_sweep(system, speeds), repeat)
-    full, t_full = _best(lambda: stability.pk_sweep(system, speeds, full_grid=True),
+    fast, t_fast = _best(lambda: stability.pk_sweep(system, speeds, speed_tol), repeat)
+    full, t_full = _best(lambda: stability.pk_sweep(system, speeds, speed_tol, full_grid=True),
                          reference_repeat)
-    rfa, t_rfa = _best(lambda: stability.sweep(system, speeds), repeat)
+    rfa, t_rfa = _best(lambda: stability.sweep(system, speeds, speed_tol=speed_tol), repeat)
     rows = [_row("fast p-k", fast.flutter.speed, fast.flutter.frequency_hz, fast.flutter.status,
                  t_fast),
             _row("reference p-k", full.flutter.speed, full.flutter.frequency_hz,
@@ -285,9 +288,13 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--wawi-python", default="/tmp/wawi-venv/bin/python",
                    help="interpreter of wawi's venv; 'none' to skip wawi")
-    p.add_argument("--cases", default="iabse-1.1a,iabse-1.1c,iabse-2a,iabse-2a:bb3,humber")
+    p.add_argument("--cases", default="iabse-1.1a,iabse-1.1c,iabse-2a,iabse-2a:bb3",
+                   help="comma-separated; 'humber' (30 modes) is slow: about a minute")
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument("--reference-repeat", type=int, default=1)
+    p.add_argument("--speed-tol", type=float, default=1e-3,
+                   help="refinement tolerance [m/s] of bridgeflap's crossings (1e-3: the CLI's "
+                        "and wawi's)")
     p.add_argument("--json", action="store_true")
     args = p.parse_args(argv)
     wawi = args.wawi_python if args.wawi_python != "none" and Path(args.wawi_python).exists() \
@@ -295,7 +302,8 @@ def main(argv=None) -> int:
     header = {"cpu_count": os.cpu_count(), "blas_threads": _blas_threads(),
               "openblas_num_threads": os.environ.get("OPENBLAS_NUM_THREADS", "unset"),
               "load_average_1_5_15": list(os.getloadavg()), "repeat": args.repeat,
-              "reference_repeat": args.reference_repeat, "wawi": bool(wawi)}
+              "reference_repeat": args.reference_repeat, "wawi": bool(wawi),
+              "speed_tol_m_s": args.speed_tol}
     if not args.json:
         print(f"CPUs: {header['cpu_count']}; BLAS threads: {header['blas_threads']}; "
               f"OPENBLAS_NUM_THREADS={header['openblas_num_threads']}; load average "
@@ -304,7 +312,7 @@ def main(argv=None) -> int:
               + ("" if wawi else f"; wawi not found ({args.wawi_python})"))
     cases = []
     for name in args.cases.split(","):
-        c = run_case(name, args.repeat, args.reference_repeat, wawi)
+        c = run_case(name, args.repeat, args.reference_repeat, wawi, args.speed_tol)
         cases.append(c)
         if args.json:
             continue

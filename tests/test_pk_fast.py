@@ -46,8 +46,15 @@ def _assert_same(fast, ref):
         assert f.frequency_hz == pytest.approx(r.frequency_hz, abs=FREQ_HZ)
     m = fast.speeds.size
     np.testing.assert_array_equal(fast.speeds, ref.speeds[:m])
+    # each branch up to its first unconverged point in either path: past a forced step (a
+    # branch that ends, e.g. the 1.1a heave pair turning real at 75 m/s) the continuation
+    # lands on whichever root the last iterate was nearest (the reference picked the conjugate
+    # of the pitch branch there, the fast path the pitch branch), which is not reproducible
     both = fast.converged & ref.converged[:, :m]
-    np.testing.assert_allclose(fast.branches[both], ref.branches[:, :m][both], rtol=BRANCH_REL)
+    upto = np.cumprod(both, axis=1).astype(bool)
+    assert upto[fast.flutter.branch if fast.flutter.branch >= 0 else 0].all() or \
+        fast.flutter.status != stability.CONVERGED
+    np.testing.assert_allclose(fast.branches[upto], ref.branches[:, :m][upto], rtol=BRANCH_REL)
 
 
 def test_scalar_theodorsen_equals_theodorsen():
