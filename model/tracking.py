@@ -3,7 +3,8 @@
 Statuses, the :class:`Crossing` record and the speed-grid check shared by the RFA sweep
 (:mod:`model.stability`) and the exact p-k (:mod:`model.pk`); eigenvalue-only continuation of
 branches with adaptive sub-steps (:func:`_track_interval` for all structural branches at once,
-:func:`_follow` for one eigenvalue near a crossing). Method: docs/methods.md#stability.
+:func:`_follow` for one eigenvalue near a crossing), both on the step-halving loop
+:func:`continue_adaptive` that the p-k continuation shares. Method: docs/methods.md#stability.
 """
 
 from __future__ import annotations
