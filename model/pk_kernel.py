@@ -118,7 +118,8 @@ class Kernel:
         ``hint``: the branch's :class:`BranchMemory` (or None): its extrapolated ``k`` and
         slope start the iteration, and when that does not converge from a start more than
         :data:`RESTART` away it is started again from ``k = |Im p_guess| b / U`` without them
-        (the start of the reference iteration).
+        (the start of the reference iteration); failing that, ``k = 0`` is tried for a real root
+        (:meth:`_real_root`).
         Returns ``(p, converged, eigenvalues of the last matrix, index of p among them)``, as
         :func:`model.pk._pk_point`.
         """
@@ -135,9 +136,23 @@ class Kernel:
         out = self._iterate(w, p0, k1, slope, tol, maxit)
         if not out[1] and abs(k1 - k0) > RESTART * k0 and out[6] < maxit:
             out = self._iterate(w, p0, k0, None, tol, maxit - out[6])
+        if not out[1]:
+            out = self._real_root(out)
         if out[1]:
             hint.record(U, out[4], out[5])
         return out[:4]
+
+    def _real_root(self, out):
+        """A failed k iteration ``out`` tried at ``k = 0``: where a damped pair has turned real
+        (the p-k branch ends), the eigenvalue nearest the last iterate is real there and
+        consistent (``k = |Im p| b / U = 0``), the root the fixed-point iteration falls onto
+        after its tens of steps."""
+        lam = self.eigvals(0.0)
+        idx = int(np.abs(lam - out[0]).argmin())
+        p = complex(lam[idx])
+        if p.imag != 0.0:
+            return out
+        return p, True, lam, idx, 0.0, out[5], out[6] + 1
 
     def _iterate(self, w, p, k, slope, tol, maxit):
         """The k iteration from ``(p, k)``: ``(p, converged, lam, index, k, slope, steps)``."""
