@@ -133,8 +133,27 @@ def _pk_continue(point, u0, p0, s0, u1, halvings=12, hint=None):
         d[k] = np.inf
         return complex(q), bool(conv and d1 <= UNAMBIGUOUS * d.min())
 
-    p, s, forced = continue_adaptive(step, u0, complex(p0), complex(s0), u1, halvings)
+    p, s, forced = continue_adaptive(step, float(u0), complex(p0), complex(s0), float(u1),
+                                     halvings)
     return p, s, forced == 0
+
+
+def _crossing_into(branches, i, omega_tol, from_zero):
+    """:func:`_first_crossing` of the grid so far when it had none before column ``i``: a sign
+    change into column ``i`` (``(branch, i - 1)``), or for ``i = 0`` on a grid from U = 0 an
+    oscillatory branch already unstable (``(branch, -1)``); the lowest branch first."""
+    for j in range(branches.shape[0]):
+        cur = complex(branches[j, i])
+        if abs(cur.imag) <= omega_tol or cur.real < 0:
+            continue
+        if i == 0:
+            if from_zero:
+                return j, -1
+            continue
+        prev = complex(branches[j, i - 1])
+        if prev.real < 0 and abs(prev.imag) > omega_tol:
+            return j, i - 1
+    return None
 
 
 def _first_crossing(branches, omega_tol, from_zero):
@@ -230,10 +249,8 @@ def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
                 p[j], s[j], ok = _pk_continue(point, u, p[j], s[j], U, hint=hints[j])
                 branches[j, i], slopes[j, i], conv[j, i] = p[j], s[j], ok
             u = U
-            best = _first_crossing(branches[:, max(i - 1, 0):i + 1], omega_tol,
-                                   from_zero and i == 0)
+            best = _crossing_into(branches, i, omega_tol, from_zero)
             if best is not None:
-                best = (best[0], best[1] + max(i - 1, 0))
                 speeds, branches, slopes, conv = (x[..., :i + 1] for x in
                                                   (speeds, branches, slopes, conv))
                 break

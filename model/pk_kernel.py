@@ -123,6 +123,7 @@ class Kernel:
         Returns ``(p, converged, eigenvalues of the last matrix, index of p among them)``, as
         :func:`model.pk._pk_point`.
         """
+        U = float(U)  # Python floats throughout: numpy scalars cost ~20x per operation here
         if U != self.speed:
             self.set_speed(U)
         w = U / self.half_chord  # k -> frequency [rad/s]

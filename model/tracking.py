@@ -9,6 +9,7 @@ branches with adaptive sub-steps (:func:`_track_interval` for all structural bra
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -201,7 +202,7 @@ def continue_adaptive(step, u0, y0, s0, u1, halvings, may_halve=None):
     h_min = abs(h) / 2 ** halvings
     forced = 0
     while u != u1:
-        st = np.copysign(min(abs(h), abs(u1 - u)), h)
+        st = math.copysign(min(abs(h), abs(u1 - u)), h)
         t = u1 if abs(u1 - (u + st)) <= 1e-12 * max(abs(u1), 1.0) else u + st
         val, good = step(t, y + (t - u) * s)
         if not good and abs(st) > 1.5 * h_min and (may_halve is None or may_halve()):
