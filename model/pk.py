@@ -1,7 +1,11 @@
 """Exact-Theodorsen p-k cross-check on the generalised coordinates of an aeroelastic system.
 
 Branches continued from U = 0 with adaptive sub-steps, flutter refined by Brent's method on the
-crossing branch and verified (docs/methods.md#p-k-check). Re-exported by :mod:`model.stability`.
+crossing branch and verified (docs/methods.md#p-k-check). By default the branches are marched
+together and stopped at the first crossing, on the lean kernel of :mod:`model.pk_kernel`
+(secant k iteration); ``pk_sweep(..., full_grid=True)`` is the reference (whole grid,
+fixed-point k iteration on the frozen system's own matrices). Re-exported by
+:mod:`model.stability`.
 """
 
 from __future__ import annotations
@@ -11,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq
 
+from model.pk_kernel import BranchMemory, kernel_for
 from model.statespace import AeroelasticSystem, exact_dynamic_matrix
 from model.theodorsen import theodorsen
 from model.tracking import (
@@ -25,6 +30,7 @@ from model.tracking import (
     _eig,
     _stable_start,
     check_speeds,
+    continue_adaptive,
     oscillation_tolerance,
 )
 
@@ -99,36 +105,73 @@ def _pk_solve(frozen, U, p_guess, tol=1e-10, maxit=100):
     return p, ok
 
 
-def _pk_continue(frozen, u0, p0, s0, u1, halvings=12):
+def _reference_point(frozen):
+    """Point solver of the reference path: :func:`_pk_point` (fixed-point k iteration)."""
+
+    def point(U, p_guess, hint=None):
+        return _pk_point(frozen, U, p_guess)
+
+    return point
+
+
+def _pk_continue(point, u0, p0, s0, u1, halvings=12, hint=None):
     """Continue one p-k root from ``(u0, p0)`` (slope ``s0`` [1/s per m/s]) to ``u1`` [m/s].
 
-    Each sub-step solves the k iteration from the linear prediction and is accepted when it
-    converged and the root is nearer the prediction than :data:`UNAMBIGUOUS` times the next
-    eigenvalue of the same matrix; otherwise the step is halved (down to ``2**-halvings`` of
-    ``|u1 - u0|``). A coarse grid therefore cannot let two branches collapse onto one root.
+    ``point(U, p_guess, hint)`` is the point solver (:func:`_reference_point`, or
+    :meth:`model.pk_kernel.Kernel.point`). Each sub-step solves the k iteration from the linear
+    prediction and is accepted when it converged and the root is nearer the prediction than
+    :data:`UNAMBIGUOUS` times the next eigenvalue of the same matrix; otherwise the step is
+    halved (down to ``2**-halvings`` of ``|u1 - u0|``; :func:`model.tracking.continue_adaptive`).
+    A coarse grid therefore cannot let two branches collapse onto one root.
     Returns ``(p, slope, ok)``; ``ok`` is False if a step was accepted at the smallest size.
     """
-    u, p, s = float(u0), complex(p0), complex(s0)
-    h = u1 - u0
-    h_min = abs(h) / 2 ** halvings
-    ok = True
-    while u != u1:
-        step = np.copysign(min(abs(h), abs(u1 - u)), h)
-        t = u1 if abs(u1 - (u + step)) <= 1e-12 * max(abs(u1), 1.0) else u + step
-        pred = p + (t - u) * s
-        q, conv, lam, k = _pk_point(frozen, t, pred)
+
+    def step(t, pred):
+        q, conv, lam, k = point(t, pred, hint)
         d = np.abs(lam - pred)
         d1 = d[k]
         d[k] = np.inf
-        good = conv and d1 <= UNAMBIGUOUS * d.min()
-        if not good and abs(step) > 1.5 * h_min:
-            h = step / 2
+        return complex(q), bool(conv and d1 <= UNAMBIGUOUS * d.min())
+
+    p, s, forced = continue_adaptive(step, float(u0), complex(p0), complex(s0), float(u1),
+                                     halvings)
+    return p, s, forced == 0
+
+
+def _crossing_into(branches, i, omega_tol, from_zero):
+    """:func:`_first_crossing` of the grid so far when it had none before column ``i``: a sign
+    change into column ``i`` (``(branch, i - 1)``), or for ``i = 0`` on a grid from U = 0 an
+    oscillatory branch already unstable (``(branch, -1)``); the lowest branch first."""
+    for j in range(branches.shape[0]):
+        cur = complex(branches[j, i])
+        if abs(cur.imag) <= omega_tol or cur.real < 0:
             continue
-        ok &= bool(good)
-        if abs(t - u) > 1e-9 * max(abs(u1), 1.0):  # no slope from a denormal-sized step
-            s = (q - p) / (t - u)
-        p, u, h = complex(q), t, 2 * step
-    return p, s, ok
+        if i == 0:
+            if from_zero:
+                return j, -1
+            continue
+        prev = complex(branches[j, i - 1])
+        if prev.real < 0 and abs(prev.imag) > omega_tol:
+            return j, i - 1
+    return None
+
+
+def _first_crossing(branches, omega_tol, from_zero):
+    """``(branch, grid index i)`` of the first sign change of an oscillatory branch between
+    grid speeds ``i`` and ``i + 1`` (``i = -1``: unstable at the first speed of a grid from
+    U = 0), lowest branch first among equals; None without one."""
+    best = None
+    for j in range(branches.shape[0]):
+        re = branches[j].real
+        osc = np.abs(branches[j].imag) > omega_tol
+        idx = np.where((re[:-1] < 0) & (re[1:] >= 0) & osc[:-1] & osc[1:])[0]
+        if from_zero and osc[0] and re[0] >= 0:
+            # a grid from U = 0: the structure is stable (or neutral) in still air, so a
+            # branch unstable at the first positive speed crossed below it
+            idx = np.array([-1])
+        if idx.size and (best is None or idx[0] < best[1]):
+            best = (j, int(idx[0]))
+    return best
 
 
 def _structural_labels(system: AeroelasticSystem, lam0) -> tuple:
@@ -153,7 +196,8 @@ def pk_residual(frozen, p: complex, U: float) -> float:
     return float(s[-1] / max(np.linalg.norm(A, 2), abs(p), 1e-300))
 
 
-def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> PKResult:
+def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
+             full_grid: bool = False) -> PKResult:
     """p-k solution with the exact Theodorsen function on the same coordinates.
 
     Open or closed loop: the first-order matrix with ``C(k)`` frozen
@@ -167,38 +211,54 @@ def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> PKRe
     branch's own value there (no jump), the k iteration converged and the residuals
     (:func:`pk_residual`, :func:`exact_residual` for the open loop) below
     :data:`PK_RESIDUAL_TOL`. Otherwise ``unverified_crossing`` with the grid bracket.
+
+    Two paths give the same crossing and status (docs/methods.md#p-k-check):
+
+    * default: the lean kernel (:mod:`model.pk_kernel`: constant matrices per speed, secant k
+      iteration), all branches marched together speed by speed and stopped at the grid speed
+      above the first crossing; ``speeds``, ``branches`` and ``converged`` of the result then
+      end there (the whole grid without a crossing);
+    * ``full_grid=True``, the reference: every branch continued over the whole grid with the
+      fixed-point k iteration on the frozen system's own matrices.
     """
     speeds_in = check_speeds(speeds)
     speeds = speeds_in[speeds_in > 0]
     frozen = system.frozen()
     lam0 = system.structural_eigenvalues()
     n = len(lam0)
+    omega_tol = oscillation_tolerance(system)
+    from_zero = bool(speeds_in[0] == 0.0)
     branches = np.zeros((n, len(speeds)), dtype=complex)
     slopes = np.zeros((n, len(speeds)), dtype=complex)
     conv = np.zeros((n, len(speeds)), dtype=bool)
-    for j in range(n):
-        p, s, u = lam0[j], 0.0j, 0.0
+    if full_grid:
+        point = _reference_point(frozen)
+        hints = [None] * n
+        for j in range(n):
+            p, s, u = lam0[j], 0.0j, 0.0
+            for i, U in enumerate(speeds):
+                p, s, ok = _pk_continue(point, u, p, s, U)
+                branches[j, i], slopes[j, i], conv[j, i], u = p, s, ok, U
+        best = _first_crossing(branches, omega_tol, from_zero)
+    else:
+        point = kernel_for(frozen).point
+        hints = [BranchMemory() for _ in range(n)]
+        p, s, u, best = np.array(lam0, complex), np.zeros(n, complex), 0.0, None
         for i, U in enumerate(speeds):
-            p, s, ok = _pk_continue(frozen, u, p, s, U)
-            branches[j, i], slopes[j, i], conv[j, i], u = p, s, ok, U
+            for j in range(n):
+                p[j], s[j], ok = _pk_continue(point, u, p[j], s[j], U, hint=hints[j])
+                branches[j, i], slopes[j, i], conv[j, i] = p[j], s[j], ok
+            u = U
+            best = _crossing_into(branches, i, omega_tol, from_zero)
+            if best is not None:
+                speeds, branches, slopes, conv = (x[..., :i + 1] for x in
+                                                  (speeds, branches, slopes, conv))
+                break
     labels = _structural_labels(system, lam0)
-    omega_tol = oscillation_tolerance(system)
 
     def result(crossing, res=float("nan"), ex=float("nan")):
         return PKResult(speeds, branches, labels, crossing, conv, res, ex)
 
-    from_zero = bool(speeds_in[0] == 0.0)
-    best = None
-    for j in range(n):
-        re = branches[j].real
-        osc = np.abs(branches[j].imag) > omega_tol
-        idx = np.where((re[:-1] < 0) & (re[1:] >= 0) & osc[:-1] & osc[1:])[0]
-        if from_zero and osc[0] and re[0] >= 0:
-            # a grid from U = 0: the structure is stable (or neutral) in still air, so a
-            # branch unstable at the first positive speed crossed below it
-            idx = np.array([-1])
-        if idx.size and (best is None or idx[0] < best[1]):
-            best = (j, int(idx[0]))
     if best is None:
         if np.any((branches[:, 0].real > 1e-6 * omega_tol)
                   & (np.abs(branches[:, 0].imag) > omega_tol)):
@@ -206,6 +266,7 @@ def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> PKRe
             return result(Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (u0, u0)))
         return result(Crossing(float("nan"), float("nan"), NO_CROSSING))
     j, i = best
+    hint = hints[j]
     if i < 0:
         a, b, pa, sa = 0.0, float(speeds[0]), complex(lam0[j]), 0.0j
     else:
@@ -213,7 +274,7 @@ def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> PKRe
         pa, sa = complex(branches[j, i]), complex(slopes[j, i])
 
     def cont(U):
-        return _pk_continue(frozen, a, pa, sa, U)
+        return _pk_continue(point, a, pa, sa, U, hint=hint)
 
     def f(U):
         return cont(U)[0].real
@@ -229,10 +290,10 @@ def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> PKRe
     p, s, ok = cont(u)
     d = _bracket_half_width(u, speed_tol)
     lo, hi = max(u - d, 0.5 * u), u + d
-    p_lo, _, ok_lo = _pk_continue(frozen, u, p, s, lo)
-    p_hi, _, ok_hi = _pk_continue(frozen, u, p, s, hi)
-    p_b, _, ok_b = _pk_continue(frozen, u, p, s, b)
-    _, conv_u, _, _ = _pk_point(frozen, u, p)
+    p_lo, _, ok_lo = _pk_continue(point, u, p, s, lo, hint=hint)
+    p_hi, _, ok_hi = _pk_continue(point, u, p, s, hi, hint=hint)
+    p_b, _, ok_b = _pk_continue(point, u, p, s, b, hint=hint)
+    _, conv_u, _, _ = point(u, p, hint)
     res = pk_residual(frozen, p, u)
     ex = float("nan")
     if system.compensator is None and system.pieces is not None:

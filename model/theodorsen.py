@@ -24,7 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import hankel2, j0, j1
+from scipy.special import hankel2, j0, j1, y0, y1
 
 from model.errors import BridgeflapInputError
 
@@ -36,12 +36,16 @@ __all__ = [
     "sears_admittance_sq",
     "t_functions",
     "theodorsen",
+    "theodorsen_scalar",
     "unit_admittance_sq",
 ]
 
 # Below this reduced frequency C(k) is returned as exactly 1: the true value differs from 1 by
 # O(k log k) < 1e-197, and the Hankel functions would overflow near the float64 limit.
 _K_TINY = 1.0e-200
+# Up to this k the scalar C(k) takes the real Bessel functions (agreeing with the Hankel form to
+# 2e-15 relative); above it they lose relative accuracy (4e-13 at k = 1e4) and hankel2 is used.
+_K_BESSEL = 10.0
 
 
 def _reduced_frequency(k: ArrayLike) -> NDArray[np.float64]:
@@ -100,6 +104,25 @@ def theodorsen(k: ArrayLike) -> np.complex128 | NDArray[np.complex128]:
         out[mid] = 1.0 / (1.0 + 1j * ratio)
     out = np.where(karr < 0, np.conj(out), out)
     return out[()] if out.ndim == 0 else out
+
+
+def theodorsen_scalar(k: float) -> complex:
+    """:func:`theodorsen` for one real ``k >= 0`` [-], without the array handling.
+
+    The inner loop of the p-k iteration (:mod:`model.pk_kernel`): the same ratio
+    ``1 / (1 + i H0/H1)`` with the Hankel functions written as ``H_n = J_n - i Y_n`` (the four
+    real Bessel functions take a fraction of the time of two complex ``hankel2`` calls on a
+    scalar; above ``k = 10``, where those lose relative accuracy near their zeros, ``hankel2``
+    as in :func:`theodorsen`), and the same limits (``C = 1`` below ``1e-200``, ``1/2`` at
+    ``inf``); equal to :func:`theodorsen` to round-off (``tests/test_pk_fast.py``). No input
+    checks: the caller's ``k = |Im p| b / U`` is real and non-negative by construction.
+    """
+    if k < _K_TINY:
+        return 1.0 + 0.0j
+    if k > _K_BESSEL:
+        return 0.5 + 0.0j if k == np.inf else complex(1.0 / (1.0 + 1j * (hankel2(0, k)
+                                                                         / hankel2(1, k))))
+    return 1.0 / (1.0 + 1j * (complex(j0(k), -y0(k)) / complex(j1(k), -y1(k))))
 
 
 def sears(k: ArrayLike) -> np.complex128 | NDArray[np.complex128]:

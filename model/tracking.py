@@ -3,11 +3,13 @@
 Statuses, the :class:`Crossing` record and the speed-grid check shared by the RFA sweep
 (:mod:`model.stability`) and the exact p-k (:mod:`model.pk`); eigenvalue-only continuation of
 branches with adaptive sub-steps (:func:`_track_interval` for all structural branches at once,
-:func:`_follow` for one eigenvalue near a crossing). Method: docs/methods.md#stability.
+:func:`_follow` for one eigenvalue near a crossing), both on the step-halving loop
+:func:`continue_adaptive` that the p-k continuation shares. Method: docs/methods.md#stability.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -184,6 +186,35 @@ def _assign(pred, lam, omega_tol):
     return lam[cols], bool(np.any(osc & (d1 > UNAMBIGUOUS * d2)))
 
 
+def continue_adaptive(step, u0, y0, s0, u1, halvings, may_halve=None):
+    """Continue a value ``y0`` at ``u0`` [m/s] (slope ``s0`` per m/s) to ``u1`` by sub-steps.
+
+    The one step-halving loop of the branch continuations (:func:`_track_interval`,
+    :func:`_follow`, the p-k's :func:`model.pk._pk_continue`). ``step(t, prediction)`` returns
+    ``(value at t, good)``; a step that is not good is halved (``may_halve()``, when given, must
+    also agree: a budget of extra evaluations) down to ``2**-halvings`` of ``|u1 - u0|``, and
+    accepted as it is below that. The linear predictor's slope is the last accepted secant
+    (none from a denormal-sized step: a grid starting at 5e-324 m/s would overflow it).
+    Returns ``(value at u1, slope, number of steps accepted although not good)``.
+    """
+    u, y, s = float(u0), y0, s0
+    h = u1 - u0
+    h_min = abs(h) / 2 ** halvings
+    forced = 0
+    while u != u1:
+        st = math.copysign(min(abs(h), abs(u1 - u)), h)
+        t = u1 if abs(u1 - (u + st)) <= 1e-12 * max(abs(u1), 1.0) else u + st
+        val, good = step(t, y + (t - u) * s)
+        if not good and abs(st) > 1.5 * h_min and (may_halve is None or may_halve()):
+            h = st / 2
+            continue
+        forced += int(not good)
+        if abs(t - u) > 1e-9 * max(abs(u1), 1.0):
+            s = (val - y) / (t - u)
+        y, u, h = val, t, 2 * st
+    return y, s, forced
+
+
 def _track_interval(system, u0, l0, s0, u1, lam1, omega_tol, budget, halvings=6):
     """Continue the branch values ``l0`` at ``u0`` [m/s] (slopes ``s0`` [1/s per m/s]) to ``u1``.
 
@@ -192,23 +223,15 @@ def _track_interval(system, u0, l0, s0, u1, lam1, omega_tol, budget, halvings=6)
     ``2**-halvings`` of the interval or until the sweep's budget of extra evaluations is spent;
     a step taken at that limit is counted in ``budget.forced``.
     """
-    u, l, s = float(u0), np.asarray(l0), np.asarray(s0)
-    h = u1 - u0
-    h_min = h / 2 ** halvings
-    while u < u1:
-        step = min(h, u1 - u)
-        t = u1 if u1 - (u + step) <= 1e-12 * max(u1, 1.0) else u + step
+
+    def step(t, pred):
         lam = lam1 if t == u1 else np.linalg.eigvals(system.A(t))
-        cur, ambiguous = _assign(l + (t - u) * s, lam, omega_tol)
-        if ambiguous and step > 1.5 * h_min and budget.take():
-            h = step / 2
-            continue
-        budget.forced += int(ambiguous)
-        if t - u > 1e-9 * max(abs(u1), 1.0):
-            # slope of the linear predictor; a sub-nanometre-per-second step (a grid starting
-            # at a denormal speed such as 5e-324 m/s) would overflow it and carries no slope
-            s = (cur - l) / (t - u)
-        l, u, h = cur, t, 2 * step
+        cur, ambiguous = _assign(pred, lam, omega_tol)
+        return cur, not ambiguous
+
+    l, s, forced = continue_adaptive(step, u0, np.asarray(l0), np.asarray(s0), u1, halvings,
+                                     budget.take)
+    budget.forced += forced
     return l, s
 
 
@@ -219,26 +242,16 @@ def _follow(system, u0, lam0, u1, omega_tol, halvings=10):
     :data:`UNAMBIGUOUS` times the next-nearest one. Returns ``(lambda, ok)``; ``ok`` is False
     when the smallest step was still ambiguous (the continuation may have jumped).
     """
-    u, lam_c, s = float(u0), complex(lam0), 0.0j
-    h = u1 - u0
-    h_min = abs(h) / 2 ** halvings
-    ok = True
-    while u != u1:
-        step = np.copysign(min(abs(h), abs(u1 - u)), h)
-        t = u1 if abs(u1 - (u + step)) <= 1e-12 * max(abs(u1), 1.0) else u + step
+
+    def step(t, pred):
         lam = np.linalg.eigvals(system.A(t))
-        pred = lam_c + (t - u) * s
         d = np.abs(lam - pred)
         k = int(np.argmin(d))
         d2 = np.partition(d, 1)[1] if d.size > 1 else np.inf
-        if d[k] > UNAMBIGUOUS * d2 and abs(step) > 1.5 * h_min:
-            h = step / 2
-            continue
-        ok &= bool(d[k] <= UNAMBIGUOUS * d2)
-        if abs(t - u) > 1e-9 * max(abs(u1), 1.0):  # no slope from a denormal-sized step
-            s = (lam[k] - lam_c) / (t - u)
-        lam_c, u, h = complex(lam[k]), t, 2 * step
-    return lam_c, ok
+        return complex(lam[k]), bool(d[k] <= UNAMBIGUOUS * d2)
+
+    lam, _, forced = continue_adaptive(step, u0, complex(lam0), 0.0j, u1, halvings)
+    return lam, forced == 0
 
 
 def _branch_of(value, column):
