@@ -56,10 +56,10 @@ COARSE_INTERVALS = 10
 OVERSHOOT = 1.3
 #: the smallest adaptive step is the range over this many intervals
 MIN_STEP_DIVISOR = 400
-#: an eigenvalue with ``|y^H v| / (|y| |v|)`` below this is treated as nearly defective: its
-#: condition number 1e6 times round-off (1e-16) moves it by 1e-10 relative, but its derivative
-#: and Newton's convergence are no longer to be trusted
-NEAR_DEFECTIVE = 1e-6
+#: an eigenvalue with ``|y^H v| / (|y| |v|)`` below this is treated as nearly defective (the
+#: threshold of :data:`model.spectrum.DEFECT_TOL`; the measure depends on the states' scaling,
+#: and simple flutter eigenvalues of the IABSE 2a bridge measure 3e-8)
+NEAR_DEFECTIVE = 1e-8
 #: Newton converged: relative residual ``|r| / (|A| |v|)`` [-] (round-off: 1e-16)
 NEWTON_RTOL = 1e-11
 NEWTON_MAXITER = 30
