@@ -135,11 +135,12 @@ def critical_speed(summary) -> dict:
 
 
 def flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
-            order: str = "modal", rfa: str = "rfa4") -> FlutterResult:
-    """Flutter and torsional divergence of ``spec`` over a grid of wind speeds [m/s]."""
+            order: str = "modal", rfa: str = "rfa4", sweep_method: str = "dense") -> FlutterResult:
+    """Flutter and torsional divergence of ``spec`` over a grid of wind speeds [m/s]
+    (``sweep_method``: :func:`model.stability.sweep`'s ``method``)."""
     u = check_speeds(speeds)
     modal, system = bridge_system(spec, n_modes, order, rfa)
-    return FlutterResult(spec, sweep(system, u), system.basis.n, order,
+    return FlutterResult(spec, sweep(system, u, method=sweep_method), system.basis.n, order,
                          system.extras.get("rfa", rfa), system.n_states, modal.modes)
 
 
