@@ -1,8 +1,10 @@
 """Fast stability sweep (model/hopf.py) against the dense reference, Newton residuals, fallback.
 
-The stated set (seconds): the IABSE 1.1a section, the IABSE 2a:bb3 bridge and Humber on 16
-modes (open loop); IABSE 2a is a real case where the fast path falls back (its coarse sweep
-sees a second-critical sign change the continuation cannot confirm).
+The stated set (seconds): the IABSE 1.1a section, the IABSE 2a and 2a:bb3 bridges and Humber on
+16 modes (open loop). The fallback is checked on constructed hard cases: no tracking sub-steps
+allowed (every ambiguous coarse step forced) and a Newton that fails. (A real one, Great Belt,
+whose dense sweep itself forces 202 tracking steps, takes too long for a unit test: the fast
+path falls back there, bench/stability.py --sweeps.)
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ def _both(case):
             stability.sweep(system, speeds, method="fast").summary())
 
 
-@pytest.mark.parametrize("name", ["iabse-1.1a", "iabse-2a:bb3", "humber"])
+@pytest.mark.parametrize("name", ["iabse-1.1a", "iabse-2a", "iabse-2a:bb3", "humber"])
 def test_fast_matches_dense(cases, name):
     dense, fast = _both(cases[name])
     assert fast["sweep_method"] == "fast" and fast["sweep_fallback_reason"] == ""
@@ -81,16 +83,6 @@ def test_divergence_newton_residual(cases):
     u, v, res, _ = hopf.divergence_newton(system, u0, hopf._inverse_vector(system, u0, 0.0, True))
     assert res <= hopf.NEWTON_RTOL
     assert u == pytest.approx(fast.divergence.speed, rel=1e-10)
-
-
-def test_fallback_on_a_real_hard_case(cases):
-    """IABSE 2a: the fast path is unsure of the second-critical branch and returns the dense
-    sweep itself (same numbers exactly), counting both sweeps' eigen-solutions."""
-    dense, fast = _both(cases["iabse-2a"])
-    assert fast["sweep_method"] == "dense" and fast["sweep_fallback_reason"]
-    assert fast["eigen_solutions"] > dense["eigen_solutions"]
-    for k in (*SAME, *SPEEDS):
-        assert fast[k] == dense[k] or not np.isfinite(dense[k]), k
 
 
 def test_fallback_when_tracking_is_unsure(cases, monkeypatch):
