@@ -399,7 +399,9 @@ def _hopf(system, march, i, lam_a, lam_b, tol, omega_tol, kind="flutter"):
     if lam_g.imag < 0:
         lam_g = lam_g.conjugate()
     v0 = _inverse_vector(system, u_g, lam_g)
-    u, w, v, res, _ = hopf_newton(system, u_g, lam_g, v0, bounds=(a - (b - a), b + (b - a)))
+    # intermediate iterates may leave the bracket; the root must lie in it
+    u, w, v, res, _ = hopf_newton(system, u_g, lam_g, v0,
+                                  bounds=(max(a - 4 * (b - a), 0.0), b + 4 * (b - a)))
     if w < 0:
         w, v = -w, v.conj()
     if not a - 1e-12 * b <= u <= b + 1e-12 * b:
@@ -485,7 +487,8 @@ def _divergence(system, march, tol, omega_tol):
     a, b = float(sp[i]), float(sp[i + 1])
     u_g = _interp_zero(a, b, vals[i], vals[i + 1])
     v0 = _inverse_vector(system, u_g, 0.0, real=True)
-    u, v, _, _ = divergence_newton(system, u_g, v0, bounds=(max(a - (b - a), 0.0), b + (b - a)))
+    u, v, _, _ = divergence_newton(system, u_g, v0,
+                                   bounds=(max(a - 4 * (b - a), 0.0), b + 4 * (b - a)))
     if not a - 1e-12 * b <= u <= b + 1e-12 * b:
         raise FastPathError(f"divergence: Newton converged outside the bracket ({u:.6g} m/s)")
     vc = v.astype(complex)
