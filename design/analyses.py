@@ -314,7 +314,7 @@ def _truncation(spec, opts, res) -> dict:
     s = res.summary()
     # the modes actually retained (an imported modal model may hold fewer than asked)
     t = truncation_error(spec, int(s["modes_retained"]), grid(opts["speeds"], "speeds", 0.0),
-                         rfa=opts["rfa"], at_n=res.sweep.summary())
+                         rfa=opts["rfa"], at_n=res.sweep.summary(), sweep_method=opts["sweep"])
     if t["reference_modes"] == t["n_modes"]:  # the model holds no further mode to add
         return {"truncation_reference_modes": t["reference_modes"],
                 "flutter_truncation_error_pct": None, "divergence_truncation_error_pct": None,
