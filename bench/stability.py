@@ -210,6 +210,8 @@ def run_sweeps(n_modes: int = 30, repeat: int = 5, sampled: int = 0) -> dict:
             "sampled": {"n": len(samples), "agree": sum(r["agree"] for r in samples),
                         "disagree": [r for r in samples if not r["agree"]],
                         "fallbacks": sum(r["fast_method"] == "dense" for r in samples),
+                        "fallback_reasons": sorted(r["fallback_reason"] for r in samples
+                                                   if r["fallback_reason"]),
                         "dense_eigen_solutions": tot["dense"],
                         "fast_eigen_solutions": tot["fast"],
                         "dense_s": sum(r["dense_s"] for r in samples),
@@ -243,6 +245,8 @@ def format_sweeps(result: dict) -> str:
             f"dense / {s['fast_eigen_solutions']} fast "
             f"({s['dense_eigen_solutions'] / max(s['fast_eigen_solutions'], 1):.1f}x), "
             f"time {s['dense_s']:.1f} / {s['fast_s']:.1f} s")
+        for why in sorted(set(s["fallback_reasons"])):
+            lines.append(f"  fallback x{s['fallback_reasons'].count(why)}: {why}")
         for r in s["disagree"]:
             lines.append(f"  {r['case']}: {', '.join(r['differences'])}; {r['params']}")
     return "\n".join(lines)

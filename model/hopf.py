@@ -398,14 +398,17 @@ def _hopf(system, march, i, lam_a, lam_b, tol, omega_tol, kind="flutter"):
     lam_g = lam_a + (lam_b - lam_a) * (u_g - a) / (b - a)
     if lam_g.imag < 0:
         lam_g = lam_g.conjugate()
-    v0 = _inverse_vector(system, u_g, lam_g)
-    # intermediate iterates may leave the bracket; the root must lie in it
-    u, w, v, res, _ = hopf_newton(system, u_g, lam_g, v0,
-                                  bounds=(max(a - 4 * (b - a), 0.0), b + 4 * (b - a)))
+    def newton(v0):
+        # intermediate iterates may leave the bracket; the root must lie in it
+        u, w, v, res, _ = hopf_newton(system, u_g, lam_g, v0,
+                                      bounds=(max(a - 4 * (b - a), 0.0), b + 4 * (b - a)))
+        if not a - 1e-12 * b <= u <= b + 1e-12 * b:
+            raise FastPathError(f"{kind}: Newton converged outside the bracket ({u:.6g} m/s)")
+        return u, w, v, res
+
+    u, w, v, res = _with_retry(newton, system, u_g, lam_g, omega_tol, "flutter")
     if w < 0:
         w, v = -w, v.conj()
-    if not a - 1e-12 * b <= u <= b + 1e-12 * b:
-        raise FastPathError(f"{kind}: Newton converged outside the bracket ({u:.6g} m/s)")
     lam = 1j * w
     dlam, _, cond = eigen_sensitivity(system, u, lam, v)
     if cond < NEAR_DEFECTIVE:
@@ -419,6 +422,24 @@ def _hopf(system, march, i, lam_a, lam_b, tol, omega_tol, kind="flutter"):
     if not (ok_a and ok_b and stable_a and l_b.real >= 0):
         raise FastPathError(f"{kind}: the branch jumps between the coarse speeds")
     return u, lam, v, float(dlam.real), l_a, res
+
+
+def _with_retry(newton, system, u_g, lam_g, omega_tol, kind):
+    """``newton(v0)`` from the inverse-iteration vector; if it fails (a cluster of eigenvalues
+    near ``lam_g`` slows inverse iteration, e.g. aerodynamic lag and compensator poles near 0),
+    once more from the eigenvector of the nearest eigenvalue of its kind at ``u_g`` (one more
+    dense eigen-solution)."""
+    try:
+        return newton(_inverse_vector(system, u_g, lam_g, real=kind == "divergence"))
+    except FastPathError:
+        lam, V = sla.eig(system.A(u_g))
+        osc = np.abs(lam.imag) > omega_tol
+        ok = (osc & (lam.imag > 0)) if kind == "flutter" else ~osc
+        if not np.any(ok):
+            raise
+        k = np.where(ok)[0][np.argmin(np.abs(lam[ok] - lam_g))]
+        d = getattr(system, "d", None)
+        return newton(V[:, k] / d if d is not None else V[:, k])
 
 
 def _candidates(march, i, omega_tol, exclude=()):
@@ -486,11 +507,14 @@ def _divergence(system, march, tol, omega_tol):
         return Crossing(float("nan"), float("nan"), NO_CROSSING), None
     a, b = float(sp[i]), float(sp[i + 1])
     u_g = _interp_zero(a, b, vals[i], vals[i + 1])
-    v0 = _inverse_vector(system, u_g, 0.0, real=True)
-    u, v, _, _ = divergence_newton(system, u_g, v0,
-                                   bounds=(max(a - 4 * (b - a), 0.0), b + 4 * (b - a)))
-    if not a - 1e-12 * b <= u <= b + 1e-12 * b:
-        raise FastPathError(f"divergence: Newton converged outside the bracket ({u:.6g} m/s)")
+    def newton(v0):
+        u, v, _, _ = divergence_newton(system, u_g, v0.real,
+                                       bounds=(max(a - 4 * (b - a), 0.0), b + 4 * (b - a)))
+        if not a - 1e-12 * b <= u <= b + 1e-12 * b:
+            raise FastPathError(f"divergence: Newton converged outside the bracket ({u:.6g} m/s)")
+        return u, v
+
+    u, v = _with_retry(newton, system, u_g, 0.0, omega_tol, "divergence")
     vc = v.astype(complex)
     dlam, _, cond = eigen_sensitivity(system, u, 0.0, vc)
     if cond < NEAR_DEFECTIVE:
