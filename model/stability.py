@@ -23,6 +23,11 @@ Method (docs/methods.md#stability):
 * the **second-critical branch** (the next tracked oscillatory branch to cross) and the damping
   slope at the crossing (soft or hard onset, :data:`HARD_ONSET_DAMPING_SLOPE_S_PER_M`).
 
+``sweep(..., method="fast")`` gives the same result with a fraction of the eigen-solutions: a
+coarse tracked sweep, Newton on the Hopf point and the real-eigenvalue crossing, and this dense
+sweep as the fallback when unsure (:mod:`model.hopf`); every result counts its eigen-solutions
+(``eigen_solutions``) and names its method (``sweep_method``, ``sweep_fallback_reason``).
+
 The building blocks (statuses, :class:`~model.tracking.Crossing`, branch continuation) are in
 :mod:`model.tracking`; :func:`pk_sweep`, the exact-Theodorsen p-k cross-check on the same
 generalised coordinates, is in :mod:`model.pk` (its branches are continued with adaptive
