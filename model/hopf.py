@@ -23,9 +23,9 @@ continuations. This module (``method="fast"``) gives the same result with a frac
    the eigenvalue is nearly defective (:data:`NEAR_DEFECTIVE`) or a verification fails, the
    whole dense sweep is run and its result returned, with the reason in ``fallback_reason``.
 
-Eigen-solutions are counted as calls of ``A(U)`` through :class:`CountedSystem` (every one is
-followed by one dense eigenvalue problem); the structural eigen-solution at ``U = 0`` and the
-static divergence condition (``n x n``) are common to both methods and not counted.
+Eigen-solutions are counted as calls of ``A(U)`` through :class:`CountedSystem` (each is one
+dense eigenvalue problem); the structural one at ``U = 0`` and the static divergence condition
+(``n x n``), common to both methods, are not counted.
 """
 
 from __future__ import annotations
@@ -91,8 +91,7 @@ class BalancedSystem:
     """
 
     def __init__(self, system, speed):
-        _, (d, _) = sla.matrix_balance(_A(system, speed),
-                                       permute=False, separate=True)
+        _, (d, _) = sla.matrix_balance(_A(system, speed), permute=False, separate=True)
         self._system, self.d = system, d
         self.A0, self.A1, self.A2 = ((a * d[None, :]) / d[:, None]
                                      for a in (system.A0, system.A1, system.A2))
@@ -100,8 +99,7 @@ class BalancedSystem:
     def A(self, wind_speed):
         return self._system.A(wind_speed)
 
-    def states(self, v):
-        """Eigenvector in the original states."""
+    def states(self, v):  # an eigenvector in the original states
         return None if v is None else self.d * v
 
     def __getattr__(self, name):
@@ -113,7 +111,6 @@ class FastPathError(Exception):
 
 
 # ------------------------------------------------------------------ Newton
-
 
 def _dA(system, U):
     return system.A1 + 2.0 * U * system.A2
@@ -229,9 +226,9 @@ def continue_eigenpair(system, u0, lam0, v0, u1, halvings=8):
     """Eigenpair ``(lam0, v0)`` of ``A(u0)`` continued to ``A(u1)`` by predictor (exact
     derivative) and Newton corrector on ``(A(U) - lam I) v = 0, c^H v = 1``; linear solves only.
 
-    A step is accepted when Newton converges and its correction is below a fifth of the step's
-    change of ``lambda`` (so it cannot have jumped to a neighbour); otherwise it is halved, at
-    most ``halvings`` times. Returns ``(lam, v, ok)``.
+    A step is accepted when Newton converges with a correction below a fifth of the step's
+    change of ``lambda`` (no jump to a neighbour); else halved, ``halvings`` times at most.
+    Returns ``(lam, v, ok)``.
     """
     u, lam, v = float(u0), complex(lam0), np.asarray(v0, complex)
     h = u1 - u0
@@ -292,7 +289,6 @@ def _inverse_vector(system, U, shift, real=False):
 
 
 # ------------------------------------------------------------------ the coarse sweep
-
 
 class _March:
     """Coarse adaptive sweep: speeds, all eigenvalues, tracked branches, indicators."""
@@ -360,8 +356,7 @@ class _March:
 
 
 def _first_bracket(vals, speeds, omega_tol):
-    """Index of the first grid sign change of ``vals`` (as :func:`model.stability._locate`),
-    ``"unstable"``, or None."""
+    """First sign change of ``vals`` (as :func:`model.stability._locate`), "unstable", None."""
     if np.isfinite(vals[0]) and vals[0] > 1e-6 * omega_tol:
         return "unstable"
     stable = vals < 0
@@ -381,10 +376,8 @@ def _check_bracket_sides(system, u, lam, v, tol, omega_tol, kind):
     lo, hi = max(u - d, 0.5 * u), u + d
     l_lo, _, ok_lo = continue_eigenpair(system, u, lam, v, lo)
     l_hi, _, ok_hi = continue_eigenpair(system, u, lam, v, hi)
-    if kind == "flutter":
-        typed = abs(l_lo.imag) > omega_tol and abs(l_hi.imag) > omega_tol
-    else:
-        typed = abs(l_lo.imag) <= omega_tol and abs(l_hi.imag) <= omega_tol
+    osc = [abs(x.imag) > omega_tol for x in (l_lo, l_hi)]
+    typed = all(osc) if kind == "flutter" else not any(osc)
     if not (ok_lo and ok_hi and typed and l_lo.real < 0 < l_hi.real):
         raise FastPathError(f"{kind}: no sign change of the eigenvalue across the bracket")
 
@@ -442,14 +435,14 @@ def _with_retry(newton, system, u_g, lam_g, omega_tol, kind):
         return newton(V[:, k] / d if d is not None else V[:, k])
 
 
-def _candidates(march, i, omega_tol, exclude=()):
+def _candidates(march, i, omega_tol):
     """Tracked oscillatory branches (upper halves) whose real part changes sign on ``(i, i+1)``,
     earliest interpolated zero first: ``[(u_zero, j)]``."""
     tr = march.tracked
     out = []
     for j in range(tr.shape[0]):
         la, lb = tr[j, i], tr[j, i + 1]
-        if j in exclude or not (la.real < 0 <= lb.real or (i == 0 and la.real <= 0 <= lb.real)):
+        if not (la.real < 0 <= lb.real or (i == 0 and la.real <= 0 <= lb.real)):
             continue
         if la.imag > omega_tol and lb.imag > omega_tol:
             out.append((_interp_zero(march.speeds[i], march.speeds[i + 1], la.real, lb.real), j))
@@ -491,8 +484,7 @@ def _only_unstable(system, u, lam, omega_tol, kind):
         raise FastPathError(f"{kind}: the Newton eigenvalue is not in the spectrum")
     same = dist <= max(1e-8 * scale, 2 * dist.min())
     osc = np.abs(ev.imag) > omega_tol
-    kind_mask = osc if kind == "flutter" else ~osc
-    others = ev[kind_mask & ~same]
+    others = ev[(osc if kind == "flutter" else ~osc) & ~same]
     if others.size and others.real.max() > 1e-6 * omega_tol:
         raise FastPathError(f"{kind}: another eigenvalue is unstable at the crossing")
 
@@ -567,7 +559,6 @@ def _second(system, march, labels, flutter, tol, omega_tol):
 
 # ------------------------------------------------------------------ the fast sweep
 
-
 def fast_sweep(system: CountedSystem, speeds, speed_tol, dense):
     """:func:`model.stability.sweep` with ``method="fast"`` (module docstring).
 
@@ -608,7 +599,3 @@ def fast_sweep(system: CountedSystem, speeds, speed_tol, dense):
         tracking_substeps=march.budget.used, tracking_forced_steps=march.budget.forced,
         method="fast", eigen_solutions=system.count)
 
-
-__all__ = ["COARSE_INTERVALS", "NEAR_DEFECTIVE", "CountedSystem", "FastPathError",
-           "continue_eigenpair", "divergence_newton", "eigen_sensitivity", "fast_sweep",
-           "hopf_newton"]
