@@ -25,8 +25,7 @@ continuations. This module (``method="fast"``) gives the same result with a frac
 
 Eigen-solutions are counted as calls of ``A(U)`` through :class:`CountedSystem` (each is one
 dense eigenvalue problem); the structural one at ``U = 0`` and the static divergence condition
-(``n x n``), common to both methods, are not counted.
-"""
+(``n x n``), common to both methods, are not counted."""
 
 from __future__ import annotations
 
@@ -227,8 +226,7 @@ def continue_eigenpair(system, u0, lam0, v0, u1, halvings=8):
     derivative) and Newton corrector on ``(A(U) - lam I) v = 0, c^H v = 1``; linear solves only.
 
     A step is accepted when Newton converges with a correction below a fifth of the step's
-    change of ``lambda`` (no jump to a neighbour); else halved, ``halvings`` times at most.
-    Returns ``(lam, v, ok)``.
+    change of ``lambda`` (no jump); else halved, ``halvings`` times at most. ``(lam, v, ok)``.
     """
     u, lam, v = float(u0), complex(lam0), np.asarray(v0, complex)
     h = u1 - u0
