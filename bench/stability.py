@@ -20,6 +20,12 @@ memory of the sweep (a separate run under :mod:`tracemalloc`: numpy array data a
 LAPACK workspaces allocated in C inside ``numpy.linalg`` are not), flutter speed, time ratio
 and flutter-speed difference against ``modal``.
 
+``--sweeps`` prints instead the dense against the fast sweep (:mod:`model.hopf`) on the stated
+set of :func:`bench.sweep_cases.cases` (Humber open and closed loop, IABSE 1.1a, 1.1c, 2a,
+2a:bb3, Great Belt): eigen-solution counts, times (best of ``--repeat``), their ratios and the
+agreement; ``--sampled N`` adds ``N`` bridges sampled from Humber's estimated-input ranges and
+erection stages, counted as agreements and disagreements (each disagreement listed).
+
 The modal truncation study repeats the modal sweep with 8 ... 30 retained modes (one
 eigen-solution of the structure is shared; its cost is reported once in the header).
 """
@@ -186,6 +192,66 @@ def format_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+def run_sweeps(n_modes: int = 30, repeat: int = 5, sampled: int = 0) -> dict:
+    """Dense against fast sweep on the stated set and ``sampled`` sampled bridges."""
+    from bench import sweep_cases as sc
+
+    rows = [sc.compare(*case, repeat=repeat) for case in sc.cases(n_modes)]
+    samples = []
+    for k, params in enumerate(sc.sampled_params(sampled)):
+        r = sc.compare(*sc.sampled_case(params, n_modes), repeat=1)
+        r.update(case=f"sample {k}", params=params)
+        samples.append(r)
+    env = {"cpu_count": os.cpu_count(),
+           "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS"),
+           "git_commit": _git_commit(), "numpy": np.__version__, "scipy": scipy.__version__}
+    tot = {m: sum(r[f"{m}_eigen_solutions"] for r in samples) for m in ("dense", "fast")}
+    return {"environment": env, "modes": n_modes, "repeat": repeat, "cases": rows,
+            "sampled": {"n": len(samples), "agree": sum(r["agree"] for r in samples),
+                        "disagree": [r for r in samples if not r["agree"]],
+                        "fallbacks": sum(r["fast_method"] == "dense" for r in samples),
+                        "fallback_reasons": sorted(r["fallback_reason"] for r in samples
+                                                   if r["fallback_reason"]),
+                        "dense_eigen_solutions": tot["dense"],
+                        "fast_eigen_solutions": tot["fast"],
+                        "dense_s": sum(r["dense_s"] for r in samples),
+                        "fast_s": sum(r["fast_s"] for r in samples)}}
+
+
+def format_sweeps(result: dict) -> str:
+    """Plain-text table of :func:`run_sweeps`."""
+    env = result["environment"]
+    lines = [f"dense vs fast stability sweep ({result['modes']} modes; times best of "
+             f"{result['repeat']}); cpus={env['cpu_count']}, OPENBLAS_NUM_THREADS="
+             f"{env['OPENBLAS_NUM_THREADS']}",
+             f"{'case':<20} {'states':>6} {'speeds':>6} {'eig dense':>9} {'eig fast':>8} "
+             f"{'ratio':>6} {'dense [s]':>9} {'fast [s]':>8} {'ratio':>6} {'max rel dU':>10}"
+             f"  agree  fast path"]
+    for r in result["cases"]:
+        path = r["fast_method"] + (f" ({r['fallback_reason']})" if r["fallback_reason"] else "")
+        lines.append(
+            f"{r['case']:<20} {r['states']:6d} {r['n_speeds']:6d} "
+            f"{r['dense_eigen_solutions']:9d} {r['fast_eigen_solutions']:8d} "
+            f"{r['eigen_solution_ratio']:6.1f} {r['dense_s']:9.3f} {r['fast_s']:8.3f} "
+            f"{r['time_ratio']:6.1f} {r['max_rel_speed_diff']:10.2e}  "
+            f"{'yes' if r['agree'] else 'NO '}    {path}")
+        if r["differences"]:
+            lines.append(f"{'':<20} differences: {', '.join(r['differences'])}")
+    s = result["sampled"]
+    if s["n"]:
+        lines.append(
+            f"sampled bridges: {s['agree']} of {s['n']} agree, {len(s['disagree'])} disagree; "
+            f"{s['fallbacks']} fell back to dense; eigen-solutions {s['dense_eigen_solutions']} "
+            f"dense / {s['fast_eigen_solutions']} fast "
+            f"({s['dense_eigen_solutions'] / max(s['fast_eigen_solutions'], 1):.1f}x), "
+            f"time {s['dense_s']:.1f} / {s['fast_s']:.1f} s")
+        for why in sorted(set(s["fallback_reasons"])):
+            lines.append(f"  fallback x{s['fallback_reasons'].count(why)}: {why}")
+        for r in s["disagree"]:
+            lines.append(f"  {r['case']}: {', '.join(r['differences'])}; {r['params']}")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     """Command-line entry point."""
     p = argparse.ArgumentParser(prog="python -m bench.stability",
@@ -198,7 +264,18 @@ def main(argv=None) -> int:
     p.add_argument("--repeat", type=int, default=1, help="timing repeats (best is kept)")
     p.add_argument("--no-memory", action="store_true", help="skip the tracemalloc runs")
     p.add_argument("--json", action="store_true", help="print one JSON object instead")
+    p.add_argument("--sweeps", action="store_true",
+                   help="dense vs fast sweep on the stated cases instead (modes: --modes, "
+                        "default 30 here)")
+    p.add_argument("--sampled", type=int, default=0,
+                   help="with --sweeps: also N sampled bridges and erection stages")
     a = p.parse_args(argv)
+    if a.sweeps:
+        modes = 30 if a.modes == 16 and "--modes" not in (argv or sys.argv) else a.modes
+        result = run_sweeps(modes, a.repeat, a.sampled)
+        print(json.dumps(to_jsonable(result), allow_nan=False) if a.json
+              else format_sweeps(result))
+        return 0
     result = run(a.bridge, a.speeds, a.modes, a.truncation, a.repeat, not a.no_memory)
     if a.json:
         print(json.dumps(to_jsonable(result), allow_nan=False))

@@ -180,6 +180,7 @@ def _option_checks() -> dict:
         "speeds": _speeds, "fractions": _fractions, "modes": _modes,
         "count": _integer(1, 100000), "rfa": _choice(*RFA_NAMES),
         "order": _choice("modal", "full"), "side_spans": _side_spans,
+        "sweep": _choice("dense", "fast"),
         "parameters": _parameters, "check": check_bool, "truncation_check": check_bool,
         # model.buffeting.buffeting
         "spectrum": _choice(*SPECTRUM_KINDS), "admittance": _choice(*ADMITTANCE_KINDS),
@@ -291,7 +292,7 @@ def _run_flutter(spec, opts, context) -> Outcome:
     from model.analysis import flutter
 
     res = flutter(spec, grid(opts["speeds"], "speeds", 0.0), n_modes=int(opts["modes"]),
-                  order=opts["order"], rfa=opts["rfa"])
+                  order=opts["order"], rfa=opts["rfa"], sweep_method=opts["sweep"])
     s = res.summary()
     if opts["truncation_check"] and opts["order"] == "modal":
         s = {**s, **_truncation(spec, opts, res)}
@@ -321,7 +322,7 @@ def _truncation(spec, opts, res) -> dict:
     s = res.summary()
     # the modes actually retained (an imported modal model may hold fewer than asked)
     t = truncation_error(spec, int(s["modes_retained"]), grid(opts["speeds"], "speeds", 0.0),
-                         rfa=opts["rfa"], at_n=res.sweep.summary())
+                         rfa=opts["rfa"], at_n=res.sweep.summary(), sweep_method=opts["sweep"])
     if t["reference_modes"] == t["n_modes"]:  # the model holds no further mode to add
         return {"truncation_reference_modes": t["reference_modes"],
                 "flutter_truncation_error_pct": None, "divergence_truncation_error_pct": None,
@@ -444,8 +445,9 @@ ANALYSES: Mapping[str, Analysis] = _table(
                              ("fractions", "side_spans")),
     flutter=Analysis("flutter", _run_flutter,
                      _table(speeds=DEFAULT_SPEEDS, modes=DEFAULT_MODES, rfa="rfa4",
-                            order="modal", truncation_check=True),
-                     ("speeds", "modes", "rfa", "order", "truncation_check"), _flutter_case),
+                            order="modal", truncation_check=True, sweep="fast"),
+                     ("speeds", "modes", "rfa", "order", "truncation_check", "sweep"),
+                     _flutter_case),
     erection=Analysis("erection", _run_erection,
                       _table(fractions="0.1:1.0:0.1", speeds=DEFAULT_SPEEDS,
                              modes=DEFAULT_MODES, side_spans=""),

@@ -9,7 +9,8 @@ exit status 2 with nothing written):
   ``{"cases", "succeeded", "failed", "table", ...}``
 * ``bridgeflap sensitivity [--bridge B] [--parameters a,b] [--plot FILE]`` ->
   ``{"flutter_speed_m_s", "derivatives": {"<parameter>": {"value_si",
-  "d_flutter_speed_m_s_per_unit", "d_flutter_speed_m_s_per_unit_fd", ...}}}``; with ``--global morris|sobol`` the SALib study instead.
+  "d_flutter_speed_m_s_per_unit", "d_flutter_speed_m_s_per_unit_fd", ...}}}``;
+  with ``--global morris|sobol`` the SALib study instead.
 """
 
 from __future__ import annotations

@@ -146,11 +146,13 @@ def critical_speed(summary) -> dict:
 
 
 def flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
-            order: str = "modal", rfa: str = "rfa4", speed_tol: float = 1e-3) -> FlutterResult:
+            order: str = "modal", rfa: str = "rfa4", speed_tol: float = 1e-3,
+            sweep_method: str = "dense") -> FlutterResult:
     """Flutter and torsional divergence of ``spec`` over a grid of wind speeds [m/s].
 
-    ``speed_tol`` [m/s] is the width to which each crossing is refined
-    (:func:`model.stability.sweep`).
+    ``speed_tol`` [m/s] is the width to which each crossing is refined and ``sweep_method``
+    (``"dense"``, the reference, or ``"fast"``, the CLI's default) the method of
+    :func:`model.stability.sweep`.
     """
     u = check_speeds(speeds)
     tol = float(speed_tol)
@@ -158,7 +160,8 @@ def flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
         raise BridgeflapInputError("speed_tol",
                                    f"must be a positive number of m/s, got {speed_tol!r}")
     modal, system = bridge_system(spec, n_modes, order, rfa)
-    return FlutterResult(spec, sweep(system, u, speed_tol=tol), system.basis.n, order,
+    return FlutterResult(spec, sweep(system, u, speed_tol=tol, method=sweep_method),
+                         system.basis.n, order,
                          system.extras.get("rfa", rfa), system.n_states, modal.modes)
 
 

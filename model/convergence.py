@@ -79,15 +79,16 @@ def _modal(spec: BridgeSpec) -> ModalModel:
     return solve(assemble(spec))
 
 
-def _solve(spec, modal, n, u, order, rfa) -> dict:
-    """One stability sweep with ``n`` modes: the numbers the ladder needs."""
+def _solve(spec, modal, n, u, order, rfa, method="dense") -> dict:
+    """One stability sweep with ``n`` modes (``method`` of :func:`model.stability.sweep`): the
+    numbers the ladder needs."""
     if getattr(spec, "derivatives", None) is not None:  # flutter-derivative loads
         from model.modal_import import derivative_bridge_system
 
         system = derivative_bridge_system(spec, modal, int(n))
     else:
         system = statespace.spec_system(spec, modal.structural_basis(int(n)), order, rfa)
-    sw = sweep(system, u)
+    sw = sweep(system, u, method=method)
     s = sw.summary()
     return {"n_modes": int(n), "states": int(system.n_states),
             "flutter_speed_m_s": s["flutter_speed_m_s"], "flutter_status": s["flutter_status"],
@@ -266,7 +267,7 @@ def mode_convergence(spec: BridgeSpec, speeds, counts=DEFAULT_MODE_COUNTS,
 
 def truncation_error(spec: BridgeSpec, n_modes: int, speeds, reference_modes: int | None = None,
                      order: str = "modal", rfa: str = "rfa4", modal=None,
-                     at_n: dict | None = None) -> dict:
+                     at_n: dict | None = None, sweep_method: str = "dense") -> dict:
     """Truncation-error estimate of the flutter and divergence speeds at ``n_modes`` modes.
 
     ``|U(n) - U(n_ref)| / U(n_ref)`` [%] with ``n_ref = n_modes + 8`` (:data:`TRUNCATION_STEP`)
@@ -274,6 +275,7 @@ def truncation_error(spec: BridgeSpec, n_modes: int, speeds, reference_modes: in
     only as good as the modes added: if no mode that matters (a symmetric torsional mode on
     Humber) enters between ``n`` and ``n_ref`` it is too small (module docstring), which is why
     the default step spans 8 modes and why :func:`mode_convergence` checks a whole ladder.
+    ``sweep_method`` is :func:`model.stability.sweep`'s ``method`` of both sweeps.
 
     Returns
     -------
@@ -298,13 +300,13 @@ def truncation_error(spec: BridgeSpec, n_modes: int, speeds, reference_modes: in
     ref = min(ref, avail)
     out = {"n_modes": n, "reference_modes": ref}
     if ref == n:  # every mode is retained already: nothing left to truncate
-        a = at_n if at_n is not None else _solve(spec, modal, n, u, order, rfa)
+        a = at_n if at_n is not None else _solve(spec, modal, n, u, order, rfa, sweep_method)
         b = a
     else:
         # ``at_n``: the summary of an n-mode sweep on the same grid already computed by the
         # caller (its flutter/divergence speeds and statuses), so it is not repeated
-        a = at_n if at_n is not None else _solve(spec, modal, n, u, order, rfa)
-        b = _solve(spec, modal, ref, u, order, rfa)
+        a = at_n if at_n is not None else _solve(spec, modal, n, u, order, rfa, sweep_method)
+        b = _solve(spec, modal, ref, u, order, rfa, sweep_method)
     bad = []
     for mech in _MECHANISMS:
         ua, ub = a[f"{mech}_speed_m_s"], b[f"{mech}_speed_m_s"]

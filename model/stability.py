@@ -23,6 +23,11 @@ Method (docs/methods.md#stability):
 * the **second-critical branch** (the next tracked oscillatory branch to cross) and the damping
   slope at the crossing (soft or hard onset, :data:`HARD_ONSET_DAMPING_SLOPE_S_PER_M`).
 
+``sweep(..., method="fast")`` gives the same result with a fraction of the eigen-solutions: a
+coarse tracked sweep, Newton on the Hopf point and the real-eigenvalue crossing, and this dense
+sweep as the fallback when unsure (:mod:`model.hopf`); every result counts its eigen-solutions
+(``eigen_solutions``) and names its method (``sweep_method``, ``sweep_fallback_reason``).
+
 The building blocks (statuses, :class:`~model.tracking.Crossing`, branch continuation) are in
 :mod:`model.tracking`; :func:`pk_sweep`, the exact-Theodorsen p-k cross-check on the same
 generalised coordinates, is in :mod:`model.pk` (its branches are continued with adaptive
@@ -36,6 +41,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.optimize import brentq
 
+from model.errors import BridgeflapInputError
 from model.pk import (  # noqa: F401 - the p-k check is part of this module's public face
     PK_RESIDUAL_TOL,
     PKResult,
@@ -99,6 +105,13 @@ class StabilitySweep(ResultData):
     tracking_substeps, tracking_forced_steps : int
         Extra eigenvalue evaluations spent on tracking sub-steps, and steps still ambiguous
         at the smallest sub-step or with the budget spent.
+    method : str
+        The sweep that produced the numbers, ``"dense"`` or ``"fast"`` (:func:`sweep`).
+    eigen_solutions : int
+        Dense eigenvalue problems of ``A(U)`` solved (a fast sweep that fell back to dense
+        counts both).
+    fallback_reason : str
+        Why a fast sweep fell back to the dense one ("" otherwise).
     """
 
     speeds: np.ndarray
@@ -114,6 +127,9 @@ class StabilitySweep(ResultData):
         default_factory=lambda: Crossing(float("nan"), float("nan"), NOT_EVALUATED))
     tracking_substeps: int = 0
     tracking_forced_steps: int = 0
+    method: str = "dense"
+    eigen_solutions: int = 0
+    fallback_reason: str = ""
 
     @property
     def divergence_static_status(self) -> str:
@@ -179,6 +195,9 @@ class StabilitySweep(ResultData):
             "second_flutter_status": sec.status,
             "speed_min_m_s": float(self.speeds[0]),
             "speed_max_m_s": float(self.speeds[-1]),
+            "sweep_method": self.method,
+            "sweep_fallback_reason": self.fallback_reason,
+            "eigen_solutions": int(self.eigen_solutions),
         }
 
     def to_dataframe(self):
@@ -207,7 +226,12 @@ class StabilitySweep(ResultData):
 # ------------------------------------------------------------------ the sweep
 
 
-def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> StabilitySweep:
+#: ``method`` of :func:`sweep`: ``"dense"`` (every grid speed) or ``"fast"`` (:mod:`model.hopf`)
+SWEEP_METHODS = ("dense", "fast")
+
+
+def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
+          method: str = "dense") -> StabilitySweep:
     """Eigenvalue sweep with branch tracking and refined, verified flutter/divergence speeds.
 
     Parameters
@@ -216,27 +240,107 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> Stabili
     speeds : array_like
         Wind-speed grid [m/s], non-negative and increasing.
     speed_tol : float
-        Absolute tolerance [m/s] of the refined crossing speeds.
+        Absolute tolerance [m/s] of the refined crossing speeds (Brent's method; the fast
+        path's Newton converges to round-off).
+    method : {"dense", "fast"}
+        ``dense``: all eigenvalues at every grid speed; ``fast``: a coarse tracked sweep over
+        the grid's range and Newton on the critical eigenpairs (:mod:`model.hopf`), falling
+        back to ``dense`` when unsure (``fallback_reason``). Both give the same fields and
+        statuses; the fast path's ``speeds``, ``eigenvalues`` and ``branches`` are on its
+        coarse speeds.
     """
+    if method not in SWEEP_METHODS:
+        raise BridgeflapInputError("sweep", f"must be one of {SWEEP_METHODS}, got {method!r}")
     speeds = check_speeds(speeds)
+    from model.hopf import CountedSystem, fast_sweep
+
+    counted = CountedSystem(system)
+    if method == "fast":
+        def dense(reason):
+            return replace(_dense_sweep(counted, speeds, speed_tol), fallback_reason=reason)
+
+        return fast_sweep(counted, speeds, speed_tol, dense)
+    return _dense_sweep(counted, speeds, speed_tol)
+
+
+def _structural_start(system):
+    """Branch labels and the structural eigenvalues at ``U = 0`` (upper half plane)."""
     n = system.basis.n
-    iq = system.index.q
-    omega_tol = oscillation_tolerance(system)
-    # structural eigenpairs at U = 0 (upper half plane)
     lam0, V0 = _eig(system.structural_matrix())
     up = np.argsort(np.where(lam0.imag >= 0, np.abs(lam0), np.inf))[:n]
     dominant = np.argmax(np.abs(V0[:n, up]) ** 2, axis=0)
-    labels = tuple(system.basis.labels[d] for d in dominant)
+    return tuple(system.basis.labels[d] for d in dominant), lam0[up]
+
+
+def _shares(system, vec, energy="kinetic"):
+    """Energy shares of the structural coordinates in the state vector ``vec``: kinetic
+    ``M_jj |q_j|^2`` or strain ``K_jj |q_j|^2`` (a static mode has no kinetic energy)."""
+    m = system.basis.M if energy == "kinetic" else system.basis.K
+    vq = np.real(np.diag(m)) * np.abs(vec[system.index.q]) ** 2
+    return vq / vq.sum()
+
+
+def _name_flutter(system, flutter, labels, vector):
+    """Flutter crossing named (and its participation), ``vector()`` its eigenvector."""
+    if flutter.status != CONVERGED:
+        return flutter, {}
+    n = system.basis.n
+    # kinetic-energy shares of the structural coordinates, M_jj |q_j|^2 (mass-normalised
+    # modes: |q_j|^2; a 2-DOF section: m |h|^2 against I |alpha|^2, never m + rad)
+    vq = _shares(system, vector())
+    participation = {system.basis.labels[j]: float(vq[j]) for j in range(n)}
+    # label: the branch tracked from U = 0 that the critical eigenvalue continues; a
+    # critical eigenvalue that is no tracked branch (a compensator or lag mode) is named
+    # by its largest participation
+    if flutter.branch >= 0:
+        return replace(flutter, branch=flutter.branch % n, label=labels[flutter.branch % n],
+                       label_source="tracking"), participation
+    return replace(flutter, label=max(participation, key=participation.get),
+                   label_source="participation"), participation
+
+
+def _name_divergence(system, divergence, labels, vector):
+    """Divergence crossing named, ``vector()`` its (real) eigenvector."""
+    if divergence.status != CONVERGED:
+        return divergence
+    n = system.basis.n
+    if divergence.branch >= 0:
+        return replace(divergence, branch=divergence.branch % n,
+                       label=labels[divergence.branch % n], label_source="tracking")
+    # the real eigenvalue continued to the grid speeds passes the point where its
+    # complex pair split, and the tracking may have kept its partner: name it by its
+    # strain-energy participation (a static mode has no kinetic energy), K_jj |q_j|^2
+    vq = _shares(system, vector(), "strain")
+    return replace(divergence, label=system.basis.labels[int(np.argmax(vq))],
+                   label_source="participation")
+
+
+def _critical_vector(system, u, omega_tol, kind):
+    """Eigenvector of the flutter (largest real part, oscillatory) or divergence (real,
+    nearest zero) eigenvalue of ``A(u)``: one dense eigen-solution with vectors."""
+    lam, V = _eig(system.A(u))
+    if kind == "flutter":
+        sel = np.where(np.abs(lam.imag) > omega_tol)[0]
+        return V[:, sel[np.argmax(lam[sel].real)]]
+    sel = np.where(np.abs(lam.imag) <= omega_tol)[0]
+    return V[:, sel[np.argmin(np.abs(lam[sel].real))]]
+
+
+def _dense_sweep(system, speeds, speed_tol) -> StabilitySweep:
+    """The dense sweep on a validated grid (``system`` counts its eigen-solutions)."""
+    n = system.basis.n
+    omega_tol = oscillation_tolerance(system)
+    # structural eigenpairs at U = 0 (upper half plane)
+    labels, start = _structural_start(system)
     n_u, nx = len(speeds), system.n_states
     all_lam = np.zeros((n_u, nx), dtype=complex)
-    branches = np.zeros((n, n_u), dtype=complex)
     flutter_vals = np.zeros(n_u)
     div_vals = np.zeros(n_u)
     budget = _Budget(TRACKING_BUDGET_FACTOR * n_u + TRACKING_BUDGET_MIN)
     # branches start at the structure's own eigenvalues at U = 0, also for a grid that starts
     # above 0: the first interval is then (0, speeds[0]) with more halvings, so the labels come
     # from U = 0, never from the first grid point
-    u_prev, cur = 0.0, np.concatenate([lam0[up], lam0[up].conj()])
+    u_prev, cur = 0.0, np.concatenate([start, start.conj()])
     slope = np.zeros(2 * n, dtype=complex)
     tracked = np.zeros((2 * n, n_u), dtype=complex)  # rows n.. : the lower halves
     for i, U in enumerate(speeds):
@@ -260,46 +364,19 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3) -> Stabili
         # the aerodynamic lag states are exactly zero at U = 0 and stay below the threshold
         divergence = Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (0.0, 0.0))
     u_static = divergence_speed_static(system)
-    critical, participation = "", {}
-    if flutter.status == CONVERGED:
-        lam, V = _eig(system.A(flutter.speed))
-        osc = np.where(np.abs(lam.imag) > omega_tol)[0]
-        k = osc[np.argmax(lam[osc].real)]
-        # kinetic-energy shares of the structural coordinates, M_jj |q_j|^2 (mass-normalised
-        # modes: |q_j|^2; a 2-DOF section: m |h|^2 against I |alpha|^2, never m + rad)
-        vq = np.real(np.diag(system.basis.M)) * np.abs(V[iq, k]) ** 2
-        vq = vq / vq.sum()
-        participation = {system.basis.labels[j]: float(vq[j]) for j in range(n)}
-        # label: the branch tracked from U = 0 that the critical eigenvalue continues; a
-        # critical eigenvalue that is no tracked branch (a compensator or lag mode) is named
-        # by its largest participation
-        if flutter.branch >= 0:
-            flutter = replace(flutter, branch=flutter.branch % n,
-                              label=labels[flutter.branch % n], label_source="tracking")
-        else:
-            flutter = replace(flutter, label=max(participation, key=participation.get),
-                              label_source="participation")
-        critical = flutter.label
-    if divergence.status == CONVERGED:
-        if divergence.branch >= 0:
-            divergence = replace(divergence, branch=divergence.branch % n,
-                                 label=labels[divergence.branch % n], label_source="tracking")
-        else:
-            # the real eigenvalue continued to the grid speeds passes the point where its
-            # complex pair split, and the tracking may have kept its partner: name it by its
-            # strain-energy participation (a static mode has no kinetic energy), K_jj |q_j|^2
-            lam, V = _eig(system.A(divergence.speed))
-            real = np.where(np.abs(lam.imag) <= omega_tol)[0]
-            k = real[np.argmin(np.abs(lam[real].real))]
-            vq = np.real(np.diag(system.basis.K)) * np.abs(V[iq, k]) ** 2
-            divergence = replace(divergence, label=system.basis.labels[int(np.argmax(vq))],
-                                 label_source="participation")
+    flutter, participation = _name_flutter(
+        system, flutter, labels,
+        lambda: _critical_vector(system, flutter.speed, omega_tol, "flutter"))
+    divergence = _name_divergence(
+        system, divergence, labels,
+        lambda: _critical_vector(system, divergence.speed, omega_tol, "divergence"))
     second = _second_crossing(system, speeds, branches, labels, flutter, speed_tol, omega_tol)
     return StabilitySweep(speeds=speeds, eigenvalues=all_lam, branches=branches,
                           branch_labels=labels, flutter=flutter, divergence=divergence,
-                          divergence_static_speed=u_static, critical_branch=critical,
+                          divergence_static_speed=u_static, critical_branch=flutter.label,
                           critical_participation=participation, second_flutter=second,
-                          tracking_substeps=budget.used, tracking_forced_steps=budget.forced)
+                          tracking_substeps=budget.used, tracking_forced_steps=budget.forced,
+                          method="dense", eigen_solutions=system.count)
 
 
 def _verify(system, u, lam_u, a, b, i, tol, omega_tol, kind, tracked):

@@ -94,7 +94,8 @@ def test_flutter_json_matches_library(capsys):
     assert r["critical_branch"]["family"] == "torsional"
     # the CLI is a thin layer over model.analysis.flutter with the same defaults: the same
     # deterministic computation, so the same number to roundoff (JSON keeps 17 digits)
-    lib = flutter(load_bridge("humber"), parse_range(DEFAULT_SPEEDS, "speeds")).summary()
+    lib = flutter(load_bridge("humber"), parse_range(DEFAULT_SPEEDS, "speeds"),
+                  sweep_method="fast").summary()  # the CLI's default sweep (issue 16)
     assert r["flutter_speed_m_s"] == pytest.approx(lib["flutter_speed_m_s"], rel=1e-12)
     assert r["divergence_speed_m_s"] == pytest.approx(lib["divergence_speed_m_s"], rel=1e-12)
 

@@ -158,7 +158,8 @@ def test_cli_contract_and_bad_parameter(tmp_path, capsys):
 
     res = local_sensitivity(load_bridge("humber"), ["deck.half_chord_m"], "0:120:2", 6)
     dd = json.loads(json.dumps(res.to_dict(), allow_nan=False))["derivatives"]
-    assert dd["deck.half_chord_m"]["d_flutter_speed_m_s_per_unit"] == d["d_flutter_speed_m_s_per_unit"]
+    key = "d_flutter_speed_m_s_per_unit"
+    assert dd["deck.half_chord_m"][key] == d[key]
     assert "d_flutter_speed_m_s_per_unit_fd" in res.to_dataframe().columns
     assert "dUF/dp IFT" in res.table()
     rc = main(["sensitivity", "--parameters", "deck.nonsense", "--plot", str(tmp_path / "u.png")])

@@ -1,0 +1,599 @@
+"""Flutter and divergence with few eigen-solutions: a coarse tracked sweep, then Newton.
+
+The dense sweep (:func:`model.stability.sweep`, ``method="dense"``) solves one eigenvalue
+problem per grid speed (171 on the default 0:85:0.5 m/s grid) plus Brent's and the verification's
+continuations. This module (``method="fast"``) gives the same result with a fraction of them:
+
+1. **coarse sweep** over the same speed range with the sweep's branch tracking
+   (:func:`model.tracking._track_interval`, from ``U = 0``), at an adaptive step: at most
+   ``span / COARSE_INTERVALS``, shortened to ``OVERSHOOT`` times the distance at which any
+   stable branch (or the flutter / divergence indicator) is predicted, from its value, slope and
+   curvature, to reach ``Re lambda = 0``, never below ``span / MIN_STEP_DIVISOR``;
+2. **Newton on the critical eigenpair** in the first bracket of a sign change: the Hopf point
+   ``(A(U) - i w I) v = 0, c^H v = 1`` (unknowns ``U, w`` real, ``v`` complex) for flutter,
+   ``A(U) v = 0, c^T v = 1`` (``U``, ``v`` real) for divergence, with the exact derivative
+   ``dA/dU = A1 + 2 U A2`` (``A(U) = A0 + U A1 + U^2 A2``, :mod:`model.statespace`);
+3. **verification** with the meaning of :func:`model.stability._verify`: the point is a root
+   (Newton residual), ``d Re lambda / dU > 0`` (exact, bordered solve) and the eigenvalue stays
+   oscillatory (flutter) or real (divergence) a bracket either side; the eigenpair continued by
+   Newton (linear solves only) to the grid speeds of the bracket is stable at the lower and
+   not stable at the upper one, and names the tracked branch; one dense ``eigvals`` at the
+   crossing confirms the eigenvalue and that no other eigenvalue of its kind is unstable there;
+4. **dense fallback**: when the tracking is unsure (a forced step), Newton does not converge,
+   the eigenvalue is nearly defective (:data:`NEAR_DEFECTIVE`) or a verification fails, the
+   whole dense sweep is run and its result returned, with the reason in ``fallback_reason``.
+
+Eigen-solutions are counted as calls of ``A(U)`` through :class:`CountedSystem` (each is one
+dense eigenvalue problem); the structural one at ``U = 0`` and the static divergence condition
+(``n x n``), common to both methods, are not counted."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+
+from model.tracking import (
+    CONVERGED,
+    NO_CROSSING,
+    NOT_EVALUATED,
+    TRACKING_BUDGET_MIN,
+    UNSTABLE_AT_FIRST,
+    Crossing,
+    _assign,
+    _bracket_half_width,
+    _branch_of,
+    _Budget,
+    _max_real_real,
+    _track_interval,
+)
+
+#: the coarse step is at most the speed range over this many intervals (10: 8.5 m/s on
+#: Humber's 0-85 m/s, a step its 30-mode branches track with few sub-steps)
+COARSE_INTERVALS = 10
+#: a step ends at this multiple of the predicted distance to the nearest ``Re lambda = 0`` (a
+#: little past it, so that one more point brackets the crossing)
+OVERSHOOT = 1.3
+#: the smallest adaptive step is the range over this many intervals
+MIN_STEP_DIVISOR = 400
+#: an eigenvalue with ``|y^H v| / (|y| |v|)`` below this is treated as nearly defective (the
+#: threshold of :data:`model.spectrum.DEFECT_TOL`; the measure depends on the states' scaling,
+#: and simple flutter eigenvalues of the IABSE 2a bridge measure 3e-8)
+NEAR_DEFECTIVE = 1e-8
+#: Newton converged: relative residual ``|r| / (|A| |v|)`` [-] (round-off: 1e-16)
+NEWTON_RTOL = 1e-11
+NEWTON_MAXITER = 30
+
+
+class CountedSystem:
+    """An :class:`~model.statespace.AeroelasticSystem` whose ``A(U)`` calls are counted."""
+
+    def __init__(self, system):
+        self._system, self.count = system, 0
+
+    def A(self, wind_speed):
+        self.count += 1
+        return self._system.A(wind_speed)
+
+    def __getattr__(self, name):
+        return getattr(self._system, name)
+
+
+class BalancedSystem:
+    """``A(U)`` parts in balanced coordinates ``D^-1 A D`` for Newton's linear solves.
+
+    ``D`` (:func:`scipy.linalg.matrix_balance` of ``A(speed)``, powers of 2, no permutation)
+    equalises row and column norms as LAPACK's ``geev`` does: without it a residual test on a
+    matrix whose entries span many decades (stiffness and lag states) stops far from the
+    eigenvalue that ``eigvals`` finds. Eigenvalues are unchanged; an eigenvector ``v`` of the
+    balanced matrix is ``D v`` in the states. ``A(U)`` (the full, counted matrix for dense
+    eigen-solutions) and every other attribute are the original system's.
+    """
+
+    def __init__(self, system, speed):
+        _, (d, _) = sla.matrix_balance(_A(system, speed), permute=False, separate=True)
+        self._system, self.d = system, d
+        self.A0, self.A1, self.A2 = ((a * d[None, :]) / d[:, None]
+                                     for a in (system.A0, system.A1, system.A2))
+
+    def A(self, wind_speed):
+        return self._system.A(wind_speed)
+
+    def states(self, v):  # an eigenvector in the original states
+        return None if v is None else self.d * v
+
+    def __getattr__(self, name):
+        return getattr(self._system, name)
+
+
+class FastPathError(Exception):
+    """The fast path is unsure; the message is the fallback reason."""
+
+
+# ------------------------------------------------------------------ Newton
+
+def _dA(system, U):
+    return system.A1 + 2.0 * U * system.A2
+
+
+def _A(system, U):
+    """``A(U)`` from its parts (not counted: no eigen-solution follows)."""
+    return system.A0 + U * system.A1 + (U * U) * system.A2
+
+
+def _scale(A):
+    return max(float(np.abs(A).sum(axis=1).max()), 1e-300)
+
+
+def hopf_newton(system, u0, lam0, v0, c=None, maxiter=NEWTON_MAXITER, bounds=(0.0, np.inf)):
+    """Newton on the Hopf point ``(A(U) - i w I) v = 0``, ``c^H v = 1``.
+
+    Starts from ``U = u0`` [m/s], ``w = Im lam0`` [rad/s], ``v = v0``. Returns
+    ``(U, w, v, relative residual, iterations)``; raises :class:`FastPathError` when Newton does
+    not converge or leaves ``bounds``.
+    """
+    v = np.asarray(v0, complex)
+    c = v / np.vdot(v, v).real if c is None else c
+    v = v / np.vdot(c, v)
+    U, w = float(u0), float(lam0.imag)
+    nx = v.size
+    cr, ci = c.real, c.imag
+    res = np.inf
+    for it in range(1, maxiter + 1):
+        A = _A(system, U)
+        r = A @ v - 1j * w * v
+        s = np.vdot(c, v) - 1.0
+        res = float(np.linalg.norm(r)) / (_scale(A) * float(np.linalg.norm(v)))
+        M = A - 1j * w * np.eye(nx)
+        J = np.zeros((2 * nx + 2, 2 * nx + 2))
+        J[:nx, :nx], J[:nx, nx:2 * nx] = M.real, -M.imag
+        J[nx:2 * nx, :nx], J[nx:2 * nx, nx:2 * nx] = M.imag, M.real
+        J[:nx, 2 * nx], J[nx:2 * nx, 2 * nx] = v.imag, -v.real
+        dv = _dA(system, U) @ v
+        J[:nx, 2 * nx + 1], J[nx:2 * nx, 2 * nx + 1] = dv.real, dv.imag
+        J[2 * nx, :nx], J[2 * nx, nx:2 * nx] = cr, ci
+        J[2 * nx + 1, :nx], J[2 * nx + 1, nx:2 * nx] = -ci, cr
+        rhs = -np.concatenate([r.real, r.imag, [s.real, s.imag]])
+        try:
+            x = np.linalg.solve(J, rhs)
+        except np.linalg.LinAlgError:
+            raise FastPathError("Newton (Hopf): singular Jacobian") from None
+        v = v + x[:nx] + 1j * x[nx:2 * nx]
+        w, U = w + x[2 * nx], U + x[2 * nx + 1]
+        if not (bounds[0] <= U <= bounds[1]) or not np.isfinite(U):
+            raise FastPathError(f"Newton (Hopf) left the bracket (U = {U:.6g} m/s)")
+        if abs(x[2 * nx + 1]) <= 1e-13 * max(abs(U), 1.0) and res <= NEWTON_RTOL:
+            A = _A(system, U)
+            res = float(np.linalg.norm(A @ v - 1j * w * v)) / (_scale(A) * np.linalg.norm(v))
+            return U, w, v, res, it
+    raise FastPathError(f"Newton (Hopf) did not converge in {maxiter} iterations "
+                        f"(residual {res:.2g})")
+
+
+def divergence_newton(system, u0, v0, maxiter=NEWTON_MAXITER, bounds=(0.0, np.inf)):
+    """Newton on the real-eigenvalue crossing ``A(U) v = 0``, ``c^T v = 1`` (``U``, ``v`` real).
+
+    Returns ``(U, v, relative residual, iterations)``; raises :class:`FastPathError`.
+    """
+    v = np.asarray(v0, float)
+    c = v / float(v @ v)
+    U, nx = float(u0), v.size
+    res = np.inf
+    for it in range(1, maxiter + 1):
+        A = _A(system, U)
+        r = A @ v
+        res = float(np.linalg.norm(r)) / (_scale(A) * float(np.linalg.norm(v)))
+        J = np.zeros((nx + 1, nx + 1))
+        J[:nx, :nx], J[:nx, nx], J[nx, :nx] = A, _dA(system, U) @ v, c
+        try:
+            x = np.linalg.solve(J, -np.concatenate([r, [c @ v - 1.0]]))
+        except np.linalg.LinAlgError:
+            raise FastPathError("Newton (divergence): singular Jacobian") from None
+        v, U = v + x[:nx], U + x[nx]
+        if not (bounds[0] <= U <= bounds[1]) or not np.isfinite(U):
+            raise FastPathError(f"Newton (divergence) left the bracket (U = {U:.6g} m/s)")
+        if abs(x[nx]) <= 1e-13 * max(abs(U), 1.0) and res <= NEWTON_RTOL:
+            A = _A(system, U)
+            res = float(np.linalg.norm(A @ v)) / (_scale(A) * float(np.linalg.norm(v)))
+            return U, v, res, it
+    raise FastPathError(f"Newton (divergence) did not converge in {maxiter} iterations "
+                        f"(residual {res:.2g})")
+
+
+def eigen_sensitivity(system, U, lam, v):
+    """``(d lambda / dU [1/m], dv/dU, conditioning |y^H v| / (|y| |v|))`` of a simple eigenpair.
+
+    One LU of the bordered matrix ``[[A - lam I, -v], [c^H, 0]]`` (``c = v / |v|^2``): its
+    solution with ``[-dA v; 0]`` is the exact derivative; its conjugate-transposed solve with
+    ``[0; 1]`` the left eigenvector ``y`` (``y^H v = -1``).
+    """
+    A = _A(system, U).astype(complex)
+    nx = v.size
+    c = v / np.vdot(v, v).real
+    B = np.zeros((nx + 1, nx + 1), complex)
+    B[:nx, :nx] = A - lam * np.eye(nx)
+    B[:nx, nx], B[nx, :nx] = -v, c.conj()
+    lu = sla.lu_factor(B, check_finite=False)
+    x = sla.lu_solve(lu, np.concatenate([-(_dA(system, U) @ v), [0.0]]), check_finite=False)
+    e = np.zeros(nx + 1, complex)
+    e[nx] = 1.0
+    y = sla.lu_solve(lu, e, trans=2, check_finite=False)[:nx]
+    cond = 1.0 / (float(np.linalg.norm(y)) * float(np.linalg.norm(v)))
+    return complex(x[nx]), x[:nx], cond
+
+
+def continue_eigenpair(system, u0, lam0, v0, u1, halvings=8):
+    """Eigenpair ``(lam0, v0)`` of ``A(u0)`` continued to ``A(u1)`` by predictor (exact
+    derivative) and Newton corrector on ``(A(U) - lam I) v = 0, c^H v = 1``; linear solves only.
+
+    A step is accepted when Newton converges with a correction below a fifth of the step's
+    change of ``lambda`` (no jump); else halved, ``halvings`` times at most. ``(lam, v, ok)``.
+    """
+    u, lam, v = float(u0), complex(lam0), np.asarray(v0, complex)
+    h = u1 - u0
+    h_min = abs(h) / 2 ** halvings
+    while u != u1:
+        step = np.copysign(min(abs(h), abs(u1 - u)), h)
+        t = u1 if abs(u1 - (u + step)) <= 1e-12 * max(abs(u1), 1.0) else u + step
+        dlam, dv, _ = eigen_sensitivity(system, u, lam, v)
+        lp, vp = lam + (t - u) * dlam, v + (t - u) * dv
+        got = _correct(system, t, lp, vp)
+        if got is not None and (abs(got[0] - lp) <= 0.2 * abs(got[0] - lam)
+                                + 1e-10 * max(abs(got[0]), 1.0)):
+            lam, v, u, h = got[0], got[1], t, 2 * step
+            continue
+        if abs(step) <= 1.5 * h_min:
+            return lam, v, False
+        h = step / 2
+    return lam, v, True
+
+
+def _correct(system, U, lam, v, maxiter=8):
+    """Newton on ``(A(U) - lam I) v = 0, c^H v = 1`` at fixed ``U``; None if not converged."""
+    A = _A(system, U).astype(complex)
+    nx = v.size
+    c = v / np.vdot(v, v).real
+    scale = _scale(A)
+    done = False
+    for _ in range(maxiter):
+        r = A @ v - lam * v
+        if done:
+            return lam, v
+        # one more step once converged: the eigenvalue's error is the residual times its
+        # condition number (up to 1e8 here, NEAR_DEFECTIVE), so the residual goes to round-off
+        done = bool(np.linalg.norm(r) <= NEWTON_RTOL * scale * np.linalg.norm(v))
+        B = np.zeros((nx + 1, nx + 1), complex)
+        B[:nx, :nx] = A - lam * np.eye(nx)
+        B[:nx, nx], B[nx, :nx] = -v, c.conj()
+        try:
+            x = np.linalg.solve(B, -np.concatenate([r, [np.vdot(c, v) - 1.0]]))
+        except np.linalg.LinAlgError:
+            return None
+        v, lam = v + x[:nx], lam + x[nx]
+    r = A @ v - lam * v
+    return (lam, v) if np.linalg.norm(r) <= NEWTON_RTOL * scale * np.linalg.norm(v) else None
+
+
+def _inverse_vector(system, U, shift, real=False):
+    """Eigenvector of ``A(U)`` for the eigenvalue nearest ``shift``: two inverse iterations."""
+    A = _A(system, U)
+    nx = A.shape[0]
+    M = A - shift * np.eye(nx) if not real else A - float(np.real(shift)) * np.eye(nx)
+    lu = sla.lu_factor(M, check_finite=False)
+    x = np.linspace(1.0, 2.0, nx) + (0 if real else 0.1j)
+    for _ in range(3):
+        x = sla.lu_solve(lu, x, check_finite=False)
+        x = x / np.linalg.norm(x)
+    return x
+
+
+# ------------------------------------------------------------------ the coarse sweep
+
+class _March:
+    """Coarse adaptive sweep: speeds, all eigenvalues, tracked branches, indicators."""
+
+    def __init__(self, system, speeds, start, omega_tol):
+        self.system, self.omega_tol = system, omega_tol
+        u_lo, u_hi = float(speeds[0]), float(speeds[-1])
+        span = u_hi - u_lo
+        h_max, h_min = span / COARSE_INTERVALS, span / MIN_STEP_DIVISOR
+        self.budget = _Budget(TRACKING_BUDGET_MIN)
+        cur = np.concatenate([start, start.conj()])
+        slope = np.zeros(cur.size, complex)
+        pts, lams, tracked, fv, dv, slopes = [], [], [], [], [], []
+        u_prev, U = 0.0, u_lo
+        while True:
+            lam = np.linalg.eigvals(system.A(U))
+            if U == 0.0:
+                cur, _ = _assign(cur, lam, omega_tol)
+            else:
+                cur, slope = _track_interval(system, u_prev, cur, slope, U, lam, omega_tol,
+                                             self.budget, halvings=9 if pts else 12)
+            osc = np.abs(lam.imag) > omega_tol
+            pts.append(U)
+            lams.append(lam)
+            tracked.append(cur)
+            slopes.append(slope)
+            fv.append(lam[osc].real.max() if np.any(osc) else -np.inf)
+            dv.append(_max_real_real(lam, omega_tol) if U > 0 else -np.inf)
+            if U >= u_hi or self.budget.forced:
+                break  # a forced step: the fast path will not trust its branches
+            h = min(h_max, max(h_min, OVERSHOOT * self._distance(pts, tracked, slopes, fv, dv)))
+            u_prev, U = U, (u_hi if U + h >= u_hi - 1e-9 * h_max else U + h)
+        self.speeds = np.array(pts)
+        self.eigenvalues = np.array(lams)
+        self.tracked = np.array(tracked).T
+        self.flutter_vals, self.div_vals = np.array(fv), np.array(dv)
+
+    def _distance(self, pts, tracked, slopes, fv, dv) -> float:
+        """Smallest predicted speed increment [m/s] at which a stable branch or indicator
+        reaches zero: ``q + s h + max(k, 0) h^2 / 2 = 0`` (value, slope, curvature)."""
+        neutral = 1e-6 * self.omega_tol
+        q, s = tracked[-1].real, slopes[-1].real
+        k = np.zeros_like(s)
+        if len(pts) >= 2 and pts[-1] > pts[-2]:
+            k = (s - slopes[-2].real) / (pts[-1] - pts[-2])
+            for vals in (fv, dv):
+                if np.isfinite(vals[-1]) and np.isfinite(vals[-2]):
+                    q = np.append(q, vals[-1])
+                    s = np.append(s, (vals[-1] - vals[-2]) / (pts[-1] - pts[-2]))
+                    k = np.append(k, 0.0)
+        k = np.maximum(k, 0.0)
+        best = np.inf
+        for qi, si, ki in zip(q, s, k, strict=True):
+            if not qi < -neutral:
+                continue
+            if ki > 0:
+                disc = si * si - 2 * ki * qi
+                d = (-si + np.sqrt(disc)) / ki
+            elif si > 0:
+                d = -qi / si
+            else:
+                continue
+            best = min(best, d)
+        return best
+
+
+def _first_bracket(vals, speeds, omega_tol):
+    """First sign change of ``vals`` (as :func:`model.stability._locate`), "unstable", None."""
+    if np.isfinite(vals[0]) and vals[0] > 1e-6 * omega_tol:
+        return "unstable"
+    stable = vals < 0
+    stable[0] |= bool(speeds[0] == 0.0 and vals[0] <= 1e-6 * omega_tol)
+    idx = np.where(stable[:-1] & (vals[1:] >= 0))[0]
+    return int(idx[0]) if idx.size else None
+
+
+def _interp_zero(a, b, fa, fb):
+    return a + (b - a) * (-fa) / (fb - fa) if fb > fa and np.isfinite(fa) else b
+
+
+def _check_bracket_sides(system, u, lam, v, tol, omega_tol, kind):
+    """The crossing eigenvalue continued ``u -+ d`` (:func:`_bracket_half_width`) changes the
+    sign of its real part and keeps its kind (oscillatory or real)."""
+    d = _bracket_half_width(u, tol)
+    lo, hi = max(u - d, 0.5 * u), u + d
+    l_lo, _, ok_lo = continue_eigenpair(system, u, lam, v, lo)
+    l_hi, _, ok_hi = continue_eigenpair(system, u, lam, v, hi)
+    osc = [abs(x.imag) > omega_tol for x in (l_lo, l_hi)]
+    typed = all(osc) if kind == "flutter" else not any(osc)
+    if not (ok_lo and ok_hi and typed and l_lo.real < 0 < l_hi.real):
+        raise FastPathError(f"{kind}: no sign change of the eigenvalue across the bracket")
+
+
+def _hopf(system, march, i, lam_a, lam_b, tol, omega_tol, kind="flutter"):
+    """Newton on the Hopf point of the branch going from ``lam_a`` (speed index ``i``) to
+    ``lam_b`` (``i + 1``), verified. Returns ``(U, lam, v, slope, branch index at a)``."""
+    sp = march.speeds
+    a, b = float(sp[i]), float(sp[i + 1])
+    u_g = _interp_zero(a, b, lam_a.real, lam_b.real)
+    lam_g = lam_a + (lam_b - lam_a) * (u_g - a) / (b - a)
+    if lam_g.imag < 0:
+        lam_g = lam_g.conjugate()
+    def newton(v0):
+        # intermediate iterates may leave the bracket; the root must lie in it
+        u, w, v, res, _ = hopf_newton(system, u_g, lam_g, v0,
+                                      bounds=(max(a - 4 * (b - a), 0.0), b + 4 * (b - a)))
+        if not a - 1e-12 * b <= u <= b + 1e-12 * b:
+            raise FastPathError(f"{kind}: Newton converged outside the bracket ({u:.6g} m/s)")
+        return u, w, v, res
+
+    u, w, v, res = _with_retry(newton, system, u_g, lam_g, omega_tol, "flutter")
+    if w < 0:
+        w, v = -w, v.conj()
+    lam = 1j * w
+    dlam, _, cond = eigen_sensitivity(system, u, lam, v)
+    if cond < NEAR_DEFECTIVE:
+        raise FastPathError(f"{kind}: nearly defective eigenvalue (conditioning {cond:.2g})")
+    if not (w > omega_tol and dlam.real > 0):
+        raise FastPathError(f"{kind}: no transversal crossing (d Re/dU = {dlam.real:.3g} 1/m)")
+    _check_bracket_sides(system, u, lam, v, tol, omega_tol, "flutter")
+    l_a, _, ok_a = continue_eigenpair(system, u, lam, v, a) if a != u else (lam, v, True)
+    l_b, _, ok_b = continue_eigenpair(system, u, lam, v, b) if b != u else (lam, v, True)
+    stable_a = l_a.real < 0 or (a == 0.0 and l_a.real <= 1e-6 * omega_tol)
+    if not (ok_a and ok_b and stable_a and l_b.real >= 0):
+        raise FastPathError(f"{kind}: the branch jumps between the coarse speeds")
+    return u, lam, v, float(dlam.real), l_a, res
+
+
+def _with_retry(newton, system, u_g, lam_g, omega_tol, kind):
+    """``newton(v0)`` from the inverse-iteration vector; if it fails (a cluster of eigenvalues
+    near ``lam_g`` slows inverse iteration, e.g. aerodynamic lag and compensator poles near 0),
+    once more from the eigenvector of the nearest eigenvalue of its kind at ``u_g`` (one more
+    dense eigen-solution)."""
+    try:
+        return newton(_inverse_vector(system, u_g, lam_g, real=kind == "divergence"))
+    except FastPathError:
+        lam, V = sla.eig(system.A(u_g))
+        osc = np.abs(lam.imag) > omega_tol
+        ok = (osc & (lam.imag > 0)) if kind == "flutter" else ~osc
+        if not np.any(ok):
+            raise
+        k = np.where(ok)[0][np.argmin(np.abs(lam[ok] - lam_g))]
+        d = getattr(system, "d", None)
+        return newton(V[:, k] / d if d is not None else V[:, k])
+
+
+def _candidates(march, i, omega_tol):
+    """Tracked oscillatory branches (upper halves) whose real part changes sign on ``(i, i+1)``,
+    earliest interpolated zero first: ``[(u_zero, j)]``."""
+    tr = march.tracked
+    out = []
+    for j in range(tr.shape[0]):
+        la, lb = tr[j, i], tr[j, i + 1]
+        if not (la.real < 0 <= lb.real or (i == 0 and la.real <= 0 <= lb.real)):
+            continue
+        if la.imag > omega_tol and lb.imag > omega_tol:
+            out.append((_interp_zero(march.speeds[i], march.speeds[i + 1], la.real, lb.real), j))
+    return sorted(out)
+
+
+def _flutter(system, march, tol, omega_tol):
+    """Verified flutter crossing of the coarse sweep: ``(Crossing, eigenvector or None)``."""
+    sp = march.speeds
+    i = _first_bracket(march.flutter_vals, sp, omega_tol)
+    if i == "unstable":
+        return Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (sp[0], sp[0])), None
+    if i is None:
+        return Crossing(float("nan"), float("nan"), NO_CROSSING), None
+    a, b = float(sp[i]), float(sp[i + 1])
+    cand = _candidates(march, i, omega_tol)
+    if cand:
+        j = cand[0][1]
+        lam_a, lam_b = march.tracked[j, i], march.tracked[j, i + 1]
+    else:  # the crossing eigenvalue is no tracked branch (a compensator mode): start at b
+        lb = march.eigenvalues[i + 1]
+        osc = np.where(lb.imag > omega_tol)[0]
+        lam_b = complex(lb[osc[np.argmax(lb[osc].real)]])
+        lam_a = lam_b
+    u, lam, v, slope, l_a, _ = _hopf(system, march, i, lam_a, lam_b, tol, omega_tol)
+    branch = _branch_of(l_a, march.tracked[:, i])
+    _only_unstable(system, u, lam, omega_tol, "flutter")
+    return Crossing(float(u), float(lam.imag / (2 * np.pi)), CONVERGED, (a, b),
+                    re_slope_per_m=slope, branch=branch), v
+
+
+def _only_unstable(system, u, lam, omega_tol, kind):
+    """One dense eigen-solution at the crossing: ``lam`` is an eigenvalue of ``A(u)`` and no
+    other eigenvalue of its kind has a positive real part (it is the indicator's zero)."""
+    ev = np.linalg.eigvals(system.A(u))
+    dist = np.minimum(np.abs(ev - lam), np.abs(ev - np.conj(lam)))
+    scale = _scale(_A(system, u))
+    if dist.min() > 1e-8 * scale:
+        raise FastPathError(f"{kind}: the Newton eigenvalue is not in the spectrum")
+    same = dist <= max(1e-8 * scale, 2 * dist.min())
+    osc = np.abs(ev.imag) > omega_tol
+    others = ev[(osc if kind == "flutter" else ~osc) & ~same]
+    if others.size and others.real.max() > 1e-6 * omega_tol:
+        raise FastPathError(f"{kind}: another eigenvalue is unstable at the crossing")
+
+
+def _divergence(system, march, tol, omega_tol):
+    """Verified divergence crossing: ``(Crossing, eigenvector or None)``."""
+    sp, vals = march.speeds, march.div_vals
+    i = _first_bracket(vals, sp, omega_tol)
+    if i == "unstable":
+        return Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (sp[0], sp[0])), None
+    if i is None:
+        return Crossing(float("nan"), float("nan"), NO_CROSSING), None
+    a, b = float(sp[i]), float(sp[i + 1])
+    u_g = _interp_zero(a, b, vals[i], vals[i + 1])
+    def newton(v0):
+        u, v, _, _ = divergence_newton(system, u_g, v0.real,
+                                       bounds=(max(a - 4 * (b - a), 0.0), b + 4 * (b - a)))
+        if not a - 1e-12 * b <= u <= b + 1e-12 * b:
+            raise FastPathError(f"divergence: Newton converged outside the bracket ({u:.6g} m/s)")
+        return u, v
+
+    u, v = _with_retry(newton, system, u_g, 0.0, omega_tol, "divergence")
+    vc = v.astype(complex)
+    dlam, _, cond = eigen_sensitivity(system, u, 0.0, vc)
+    if cond < NEAR_DEFECTIVE:
+        raise FastPathError(f"divergence: nearly defective eigenvalue (conditioning {cond:.2g})")
+    if not dlam.real > 0:
+        raise FastPathError("divergence: no transversal crossing")
+    _check_bracket_sides(system, u, 0.0j, vc, tol, omega_tol, "divergence")
+    _only_unstable(system, u, 0.0j, omega_tol, "divergence")
+    l_a, _, ok_a = continue_eigenpair(system, u, 0.0, vc, a)
+    branch = _branch_of(l_a, march.tracked[:, i]) if ok_a else -1
+    if branch < 0:
+        l_b, _, ok_b = continue_eigenpair(system, u, 0.0, vc, b)
+        branch = _branch_of(l_b, march.tracked[:, i + 1]) if ok_b else -1
+    return Crossing(float(u), 0.0, CONVERGED, (a, b), re_slope_per_m=float(dlam.real),
+                    branch=branch), v
+
+
+def _second(system, march, labels, flutter, tol, omega_tol):
+    """The next tracked oscillatory branch to cross after the critical one (as
+    :func:`model.stability._second_crossing`), by Newton from its coarse bracket."""
+    if flutter.status != CONVERGED:
+        return Crossing(float("nan"), float("nan"), NOT_EVALUATED)
+    n = len(labels)
+    br = march.tracked[:n]
+    re, osc = br.real, np.abs(br.imag) > omega_tol
+    best = None
+    for j in range(n):
+        if j == flutter.branch:
+            continue
+        idx = np.where((re[j, :-1] < 0) & (re[j, 1:] >= 0) & osc[j, :-1] & osc[j, 1:])[0]
+        if idx.size:
+            i = int(idx[0])
+            uz = _interp_zero(march.speeds[i], march.speeds[i + 1], re[j, i], re[j, i + 1])
+            if best is None or uz < best[0]:
+                best = (uz, j, i)
+    if best is None:
+        return Crossing(float("nan"), float("nan"), NO_CROSSING)
+    _, j, i = best
+    la, lb = complex(br[j, i]), complex(br[j, i + 1])
+    if la.imag < 0:
+        la, lb = la.conjugate(), lb.conjugate()
+    u, lam, _, slope, l_a, _ = _hopf(system, march, i, la, lb, tol, omega_tol,
+                                     "second flutter")
+    if _branch_of(l_a, br[:, i]) != j:
+        raise FastPathError("second flutter: the continuation left the branch")
+    return Crossing(float(u), float(lam.imag / (2 * np.pi)), CONVERGED,
+                    (float(march.speeds[i]), float(march.speeds[i + 1])), re_slope_per_m=slope,
+                    label=labels[j], branch=j, label_source="tracking")
+
+
+# ------------------------------------------------------------------ the fast sweep
+
+def fast_sweep(system: CountedSystem, speeds, speed_tol, dense):
+    """:func:`model.stability.sweep` with ``method="fast"`` (module docstring).
+
+    ``system`` counts its eigen-solutions; ``dense(reason)`` runs the dense sweep on the same
+    counted system (the fallback).
+    """
+    from model.stability import (
+        StabilitySweep,
+        _name_divergence,
+        _name_flutter,
+        _structural_start,
+        divergence_speed_static,
+        oscillation_tolerance,
+    )
+
+    omega_tol = oscillation_tolerance(system)
+    labels, start = _structural_start(system)
+    march = _March(system, speeds, start, omega_tol)
+    if march.budget.forced:
+        return dense(f"tracking unsure: a forced step at {march.speeds[-1]:.6g} m/s")
+    bal = BalancedSystem(system, float(speeds[-1]))
+    try:
+        flutter, v_f = _flutter(bal, march, speed_tol, omega_tol)
+        divergence, v_d = _divergence(bal, march, speed_tol, omega_tol)
+        v_f, v_d = bal.states(v_f), bal.states(v_d)
+        if speeds[0] == 0.0 and _max_real_real(march.eigenvalues[0], omega_tol) > 1e-6 * omega_tol:
+            divergence = Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (0.0, 0.0))
+        flutter, participation = _name_flutter(system, flutter, labels, lambda: v_f)
+        divergence = _name_divergence(system, divergence, labels, lambda: v_d)
+        second = _second(bal, march, labels, flutter, speed_tol, omega_tol)
+    except FastPathError as exc:
+        return dense(str(exc))
+    return StabilitySweep(
+        speeds=march.speeds, eigenvalues=march.eigenvalues, branches=march.tracked[:len(labels)],
+        branch_labels=labels, flutter=flutter, divergence=divergence,
+        divergence_static_speed=divergence_speed_static(system), critical_branch=flutter.label,
+        critical_participation=participation, second_flutter=second,
+        tracking_substeps=march.budget.used, tracking_forced_steps=march.budget.forced,
+        method="fast", eigen_solutions=system.count)
+
