@@ -98,13 +98,20 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
             theta=tuple(float(v) for v in theta), time_s=res.time_s, n_speeds=len(speeds),
             max_violation_1_s=ver.max_violation_1_s, max_gain=ver.max_gain,
             gamma_T_frobenius=res.gamma_T, dense_t_peak=peak,
-            n_robust_points=len(prob.robust_function()[1]) if use_rob else 0,
+            n_robust_points=len(prob.robust_function(
+                analytic=not s.optimise_placement)[1]) if use_rob else 0,
             n_gain_points=len(prob.omega_grid()), new_speeds=len(new_speeds),
             new_gain_cuts=len(new_gain), new_robust_cuts=len(new_rob),
             eig_time_per_speed_s=res.eig_time_per_speed_s, history=res.history))
         kept.append((res, ver, rob, dict(speeds=sorted(speeds), robust_cuts=list(
             prob.robust_cuts), gain_cuts=list(prob.gain_cuts)), eig_ok and gain_ok, peak))
         if (eig_ok and gain_ok and rob_ok) or not _a2_ok(theta):
+            break
+        # a re-solve that ran out of iterations with a dense peak worse than an earlier
+        # feasible round's: stop cutting, that round is kept (best round below; issue 16
+        # goal 3: two such discarded rounds cost ~10 s on the default design)
+        prev = [k[5] for k in kept[:-1] if k[4] and np.isfinite(k[5])]
+        if rnd > 0 and not res.success and prev and not peak < min(prev):
             break
         # no new cut: stop, unless the solve ran out of iterations short of the checks --
         # then the next round continues it (re-solve to convergence)

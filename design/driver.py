@@ -102,7 +102,7 @@ def screened_starts(settings: DesignSettings, count: int, model=None,
     speeds = np.unique(np.append(np.arange(0.0, settings.speed_max_m_s, 10.0),
                                  settings.speed_max_m_s))
     use_rob = settings.weight_robust > 0 and bool(settings.robust_design_speeds_m_s)
-    rob = prob.robust_function()[0] if use_rob else None
+    rob = prob.robust_function(analytic=True)[0] if use_rob else None
     w = np.ones(model.n_flaps)
     scores = []
     for th in cand:
