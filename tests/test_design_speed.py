@@ -20,6 +20,13 @@ def small():
     return s, build_model(s)[1]
 
 
+@pytest.fixture(scope="module")
+def small_box_fresh():
+    # humber:box, 6 modes, 5 flap pairs; fresh variants checked on 6 modes, 1 m/s grid
+    return load_settings(bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
+                         fresh_variant_modes=6, check_step_m_s=1.0)
+
+
 def test_analytic_robust_constraint_equals_the_exact_solve(small):
     # ||T||_F^2 as a closed-form expression of K(jw) (eigendecomposition of N = X W Pa per
     # point, once) against the real 2n solve, values and theta-Jacobian, cuts included.
@@ -75,3 +82,30 @@ def test_fd_fallback_only_at_flagged_speeds(small):
     assert cb.fd_speed_evaluations == 2
     np.testing.assert_allclose(Jfd, J, rtol=0, atol=2e-8)
     assert np.abs(J).max() > 1e-6       # the entries compared are not all round-off
+
+
+def test_fresh_variants_reported_stable_are_stable(small_box_fresh):
+    # issue 14 "how it is checked": every fresh variant that fresh_variant_check counts as
+    # stable 0..speed_max is stable in an independent sweep (model.stability.sweep on the
+    # closed-loop system of that variant, same grid and modes), and every one it counts as
+    # unstable is not -- so the reported fraction is the sweep's
+    from design.driver import fresh_variant_check, sample_variants
+    from model.control import Compensator, Controller
+    from model.spec import load_bridge
+    from model.stability import sweep
+
+    s = small_box_fresh
+    base = load_bridge(s.bridge)
+    fresh = sample_variants(s, base, 3, s.variant_seed + 1000)
+    theta = (0.0, 0.5, -1.0, 0.05, 0.5)
+    ctrl = Controller(Compensator(*theta), tuple(s.positions()), s.flap_width_m,
+                      s.leading_edge, s.trailing_edge, s.gain_limit)
+    out = fresh_variant_check(s, ctrl, fresh)
+    assert out["count"] == 3
+    for row, spec in zip(out["variants"], fresh, strict=True):
+        _, model = build_model(s, n_modes=s.fresh_variant_modes, spec=spec)
+        sw = sweep(model.system(Compensator(*theta)), s.check_speeds())
+        stable = bool(np.all(sw.eigenvalues.real.max(axis=1) < 0))
+        assert row["stable_everywhere"] == stable
+    assert out["fraction_stable"] == pytest.approx(
+        sum(r["stable_everywhere"] for r in out["variants"]) / 3)
