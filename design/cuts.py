@@ -108,9 +108,9 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
         if (eig_ok and gain_ok and rob_ok) or not _a2_ok(theta):
             break
         # No early stop for a re-solve that ran out of iterations with a worse dense peak
-        # (issue 16 goal 3 lever, measured harmful): on the default design start 1's round 2
-        # does exactly that and rounds 3-5 then converge to the best design (margin 0.357);
-        # stopping there left 0.077 for that start and 0.284 for the design.
+        # (issue 16 goal 3 lever, tried): on the default design it never fired (548 Ipopt
+        # iterations with and without it), and a capped round can be followed by converging
+        # ones (the earlier code's start 1: rounds 3-5 after a capped round 2, margin 0.357).
         # no new cut: stop, unless the solve ran out of iterations short of the checks --
         # then the next round continues it (re-solve to convergence)
         if rnd == s.cutting_plane_rounds or not (new_speeds or new_gain or new_rob
