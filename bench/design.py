@@ -4,8 +4,9 @@ Default: the full default ``optimise`` (the packaged design definition, every st
 verification, closed-loop limits, flap-count check, buffeting comparison) through
 :func:`design.driver.design`: wall time, Ipopt iterations per start and round, and the share
 of the wall time per phase (``DesignResult.extras["phase_times_s"]``; inside the starts, the
-Ipopt share of each start). The machine is shared: quote the best of
-several runs taken at a quiet moment, with the load average printed here.
+Ipopt share of each start), the CPU count, the BLAS threads and the load (``uptime``) before and
+after. The machine is shared by several agents: a best of several runs of a ~1-3 min design is
+not affordable there, so one run is reported with its load; compare runs only at similar load.
 
 ``--solves``: for each (retained modes, design step) pair, one Ipopt solve (robust epigraph on, no
 cutting planes) from the same start: build time, wall time, Ipopt iterations, time per eigenvalue
@@ -78,6 +79,28 @@ def run(modes=(8, 12, 16), steps=(10.0, 5.0)) -> list[dict]:
     return rows
 
 
+def _uptime() -> str:
+    """``uptime`` output (load averages), or the 1/5/15-min load when it is missing."""
+    import subprocess
+
+    try:
+        return subprocess.run(["uptime"], capture_output=True, text=True, timeout=5,
+                              check=False).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "load average: " + ", ".join(f"{v:.2f}" for v in os.getloadavg())
+
+
+def _blas_threads():
+    """BLAS thread counts (threadpoolctl when installed, else OPENBLAS_NUM_THREADS)."""
+    try:
+        from threadpoolctl import threadpool_info
+
+        return {d.get("internal_api", "?"): d.get("num_threads") for d in threadpool_info()
+                if d.get("user_api") == "blas"}
+    except ImportError:
+        return {"OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS")}
+
+
 def run_full(definition=None, quick=False) -> dict:
     """One full default design: wall time, Ipopt iterations, share of time per phase."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -89,6 +112,7 @@ def run_full(definition=None, quick=False) -> dict:
     if quick:
         s = quick_settings(s)
     load0 = os.getloadavg()[0]
+    up0 = _uptime()
     t0 = time.perf_counter()
     res = design(s, progress_bar=False)
     wall = time.perf_counter() - t0
@@ -106,6 +130,9 @@ def run_full(definition=None, quick=False) -> dict:
                        if st.time_s else None,
                        "verified": st.verified, "robust_margin": st.robust_margin})
     return {"status": res.status, "wall_time_s": round(wall, 2),
+            "cpu_count": os.cpu_count(), "blas_threads": _blas_threads(),
+            "uptime_before": up0, "uptime_after": _uptime(),
+            "target_wall_time_s": 60.0,
             "load_average_1min_before": round(load0, 2),
             "load_average_1min_after": round(os.getloadavg()[0], 2),
             "parallel_starts": bool(s.parallel and s.starts > 1),
@@ -122,15 +149,19 @@ def main(argv=None) -> int:
     p.add_argument("--solves", action="store_true",
                    help="time single solves per (modes, design step) instead")
     p.add_argument("--quick", action="store_true", help="quick settings (full design only)")
+    p.add_argument("--definition", default=None,
+                   help="design definition .toml (full design; default: the packaged one)")
     args = p.parse_args(argv)
     if not args.solves:
-        out = run_full(quick=args.quick)
+        out = run_full(args.definition, quick=args.quick)
         if args.json:
             print(json.dumps({"design_full": out}))
         else:
-            print(f"status {out['status']}, wall {out['wall_time_s']} s (load average "
-                  f"{out['load_average_1min_before']} -> {out['load_average_1min_after']}), "
-                  f"Ipopt iterations {out['ipopt_iterations_total']}")
+            print(f"status {out['status']}, wall {out['wall_time_s']} s (target "
+                  f"{out['target_wall_time_s']} s), Ipopt iterations "
+                  f"{out['ipopt_iterations_total']}; {out['cpu_count']} CPUs, BLAS threads "
+                  f"{out['blas_threads']}")
+            print(f"  before: {out['uptime_before']}\n  after:  {out['uptime_after']}")
             for k, v in out["phase_time_s"].items():
                 print(f"  {k}: {v} s ({100 * out['phase_share'][k]:.1f} %)")
             for st in out["starts"]:

@@ -98,7 +98,8 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
             theta=tuple(float(v) for v in theta), time_s=res.time_s, n_speeds=len(speeds),
             max_violation_1_s=ver.max_violation_1_s, max_gain=ver.max_gain,
             gamma_T_frobenius=res.gamma_T, dense_t_peak=peak,
-            n_robust_points=len(prob.robust_function()[1]) if use_rob else 0,
+            n_robust_points=len(prob.robust_function(
+                analytic=not s.optimise_placement)[1]) if use_rob else 0,
             n_gain_points=len(prob.omega_grid()), new_speeds=len(new_speeds),
             new_gain_cuts=len(new_gain), new_robust_cuts=len(new_rob),
             eig_time_per_speed_s=res.eig_time_per_speed_s, history=res.history))
@@ -106,6 +107,10 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
             prob.robust_cuts), gain_cuts=list(prob.gain_cuts)), eig_ok and gain_ok, peak))
         if (eig_ok and gain_ok and rob_ok) or not _a2_ok(theta):
             break
+        # No early stop for a re-solve that ran out of iterations with a worse dense peak
+        # (issue 16 goal 3 lever, tried): on the default design it never fired (548 Ipopt
+        # iterations with and without it), and a capped round can be followed by converging
+        # ones (the earlier code's start 1: rounds 3-5 after a capped round 2, margin 0.357).
         # no new cut: stop, unless the solve ran out of iterations short of the checks --
         # then the next round continues it (re-solve to convergence)
         if rnd == s.cutting_plane_rounds or not (new_speeds or new_gain or new_rob

@@ -73,6 +73,8 @@ from design.plant import (
 )
 from design.records import CutsOutcome, RobustMargin, Solve, Verification
 from design.robust import (
+    analytic_robust_data,
+    analytic_robust_function,
     k_complex,
     robust_dense_omega,
     robust_margin,
@@ -285,40 +287,57 @@ class DesignProblem:
         return np.unique(np.asarray(tuple(s.robust_design_speeds_m_s)
                                     + tuple(s.robust_speeds_m_s), float))
 
-    def robust_function(self) -> tuple[ca.Function, list]:
+    def robust_function(self, analytic=False) -> tuple[ca.Function, list]:
         """``(theta, w) -> ||T||_F^2`` at every (robust design speed, frequency) and at every
-        robust cut (:attr:`robust_cuts`), and the ``(speed, omega)`` points."""
-        key = tuple(self.robust_cuts)
+        robust cut (:attr:`robust_cuts`), and the ``(speed, omega)`` points.
+
+        ``analytic``: the layout ``w`` is fixed at :attr:`weights` (the ``w`` argument is
+        ignored) and ``T`` is a closed-form expression of the scalar ``K(j omega)`` per point
+        (:func:`design.robust.analytic_robust_data`; same values to round-off, ~10x cheaper
+        Jacobian); the points are then ordered diagonalised first."""
+        key = (tuple(self.robust_cuts), bool(analytic))
         if self._robust is None or self._robust[2] != key:
             s = self.settings
             if self._robust_base is None:
                 om = self.robust_omega_grid()
-                Xr, Xi, oms, pts = [], [], [], []
+                Xs, oms, pts = [], [], []
                 Pa = None
                 for U in s.robust_design_speeds_m_s:
                     Pa, X = plant_factors(self.model, float(U), 1j * om)
-                    for k in range(len(om)):
-                        Xr.append(X[k].real)
-                        Xi.append(X[k].imag)
-                        oms.append(om[k])
-                        pts.append((float(U), float(om[k])))
-                self._robust_base = (Pa, Xr, Xi, oms, pts)
-            Pa, Xr, Xi, oms, pts = self._robust_base
-            Xr, Xi, oms, pts = list(Xr), list(Xi), list(oms), list(pts)
-            for U, omc in key:
+                    Xs += list(X)
+                    oms += list(om)
+                    pts += [(float(U), float(w)) for w in om]
+                self._robust_base = (Pa, Xs, oms, pts)
+            Pa, Xs, oms, pts = self._robust_base
+            Xs, oms, pts = list(Xs), list(oms), list(pts)
+            for U, omc in key[0]:
                 Pa, X = plant_factors(self.model, float(U), [1j * omc])
-                Xr.append(X[0].real)
-                Xi.append(X[0].imag)
+                Xs.append(X[0])
                 oms.append(omc)
                 pts.append((float(U), float(omc)))
-            f1 = robust_point_function(Pa)
-            N = len(pts)
-            fm = f1.map(N, "serial")
             th = ca.MX.sym("theta", 5)
             w = ca.MX.sym("w", self.model.n_flaps)
-            val = fm(th, w, ca.DM(np.array(oms)[None, :]), ca.DM(np.hstack(Xr)),
-                     ca.DM(np.hstack(Xi)))
-            fun = ca.Function("T_fro2_grid", [th, w], [val.T], ["theta", "w"], ["T_fro2"])
+            oms = np.asarray(oms, float)
+            exact = np.ones(len(pts), bool)
+            vals = []
+            if analytic:
+                mu, H, ok = analytic_robust_data(Pa, np.asarray(Xs), self.weights)
+                exact = ~ok
+                i = np.flatnonzero(ok)
+                if i.size:
+                    fa = analytic_robust_function(oms[i], mu[i], H[i])
+                    vals.append(fa(th).T)
+            j = np.flatnonzero(exact)
+            if j.size:
+                fm = robust_point_function(Pa).map(j.size, "serial")
+                wj = ca.DM(self.weights) if analytic else w
+                vals.append(fm(th, wj, ca.DM(oms[j][None, :]),
+                               ca.DM(np.hstack([Xs[k].real for k in j])),
+                               ca.DM(np.hstack([Xs[k].imag for k in j]))))
+            order = np.concatenate([np.flatnonzero(~exact), j]).astype(int)
+            pts = [pts[k] for k in order]
+            fun = ca.Function("T_fro2_grid", [th, w], [ca.horzcat(*vals).T], ["theta", "w"],
+                              ["T_fro2"])
             self._robust = (fun, pts, key)
         return self._robust[:2]
 
@@ -407,7 +426,7 @@ class DesignProblem:
         n_rob = 0
         if (s.weight_robust > 0 and (s.robust_design_speeds_m_s or self.robust_cuts)
                 and not feasibility):
-            rob, pts = self.robust_function()
+            rob, pts = self.robust_function(analytic=not s.optimise_placement)
             g.append(rob(th, w) - gT * gT)
             n_rob = len(pts)
             lbg.append(np.full(n_rob, -np.inf))
@@ -435,7 +454,7 @@ class DesignProblem:
         w0 = self.weights if weights0 is None else np.asarray(weights0, float)
         gT0 = 1.0
         if n_rob:
-            vals = np.asarray(self.robust_function()[0](theta0, w0).full()).ravel()
+            vals = np.asarray(rob(theta0, w0).full()).ravel()
             gT0 = float(np.sqrt(np.max(vals))) if np.all(np.isfinite(vals)) else 10.0
             gT0 = min(max(gT0, 1e-3, 0.0 if gamma0 is None else float(gamma0)), 1e3)
         x0 = np.append(theta0, gT0)

@@ -263,6 +263,8 @@ class StartRecord:
     weights_continuous: tuple | None = None
     nlp_active_speeds_m_s: tuple = ()
     variant_checks: tuple = ()
+    #: dense check on the design model (reused by the driver, not serialised)
+    design_verification: Verification | None = None
 
     @property
     def failed(self) -> bool:

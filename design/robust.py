@@ -55,6 +55,76 @@ def robust_point_function(Pa: np.ndarray) -> ca.Function:
                        ["T_fro2"])
 
 
+#: Condition number of the eigenvector matrix of ``N = X diag(w) Phi_a`` above which a point
+#: of :func:`analytic_robust_data` is not diagonalised (a nearly defective ``N`` would make
+#: ``H`` large with cancelling terms); such points keep the exact solve of
+#: :func:`robust_point_function` (none on the Humber design: cond(V) < 1e4 there).
+ANALYTIC_COND_MAX = 1e8
+
+
+def analytic_robust_data(Pa, X, weights):
+    """Per point, ``(mu, H)`` with ``||T||_F^2 = |K|^2 d^H H d``, ``d_i = 1 / (1 - K mu_i)``.
+
+    The compensator enters ``T = K Phi_a (I - K N)^{-1} X W`` (``N = X W Phi_a``, ``W =
+    diag(w)`` fixed) only through the scalar ``K(j omega)``: with ``N = V diag(mu) V^{-1}``,
+    ``T = K C diag(d) D`` (``C = Phi_a V``, ``D = V^{-1} X W``) and ``||T||_F^2 = |K|^2 d^H H
+    d`` with ``H = (C^H C) o conj(D D^H)`` (Hadamard product, Hermitian). One eigen-
+    decomposition per point, once; the NLP evaluates an ``O(n_modes^2)`` expression of
+    ``(Re K, Im K)`` instead of a ``2 n_modes`` real solve (issue 16 goal 3).
+
+    Parameters
+    ----------
+    Pa : ndarray (n_flaps, n)
+    X : ndarray (n_points, n, n_flaps)
+    weights : array_like (n_flaps,)
+
+    Returns
+    -------
+    mu : ndarray (n_points, n) complex
+    H : ndarray (n_points, n, n) complex
+    ok : ndarray (n_points,) bool
+        False where ``cond(V) > ANALYTIC_COND_MAX`` (use the exact solve there).
+    """
+    w = np.asarray(weights, float)
+    X = np.asarray(X, complex)
+    XW = X * w[None, None, :]
+    N = XW @ Pa[None, :, :]
+    mu, V = np.linalg.eig(N)
+    ok = np.linalg.cond(V) <= ANALYTIC_COND_MAX
+    Vs = np.where(ok[:, None, None], V, np.eye(V.shape[1])[None])
+    C = Pa[None, :, :] @ Vs
+    D = np.linalg.solve(Vs, XW)
+    H = (np.conj(np.swapaxes(C, 1, 2)) @ C) * np.conj(D @ np.conj(np.swapaxes(D, 1, 2)))
+    return mu, H, ok
+
+
+def analytic_robust_function(omega, mu, H) -> ca.Function:
+    """``theta -> ||T(j omega_k)||_F^2`` (n_points,) from the data of
+    :func:`analytic_robust_data`, one SX expression in real arithmetic (exact derivatives in
+    theta; the data are constants): ``d^H H d = a^T H_r a + b^T H_r b - 2 a^T H_i b`` for
+    ``d = a + i b``."""
+    mu, H = np.asarray(mu), np.asarray(H)
+    N, n = mu.shape
+    th = ca.SX.sym("theta", 5)
+    om = ca.SX.sym("omega")
+    mr, mi = ca.SX.sym("mu_r", n), ca.SX.sym("mu_i", n)
+    Hr, Hi = ca.SX.sym("H_r", n, n), ca.SX.sym("H_i", n, n)
+    Kr, Ki = k_complex(th, om)
+    qr = 1.0 - (Kr * mr - Ki * mi)
+    qi = -(Kr * mi + Ki * mr)
+    q2 = qr * qr + qi * qi
+    a, b = qr / q2, -qi / q2
+    f = (Kr * Kr + Ki * Ki) * (ca.dot(a, ca.mtimes(Hr, a)) + ca.dot(b, ca.mtimes(Hr, b))
+                               - 2.0 * ca.dot(a, ca.mtimes(Hi, b)))
+    f1 = ca.Function("T_fro2_point", [th, om, mr, mi, Hr, Hi], [f])
+    x = ca.SX.sym("theta", 5)
+    # called on SX the mapped function is inlined: one flat SX graph, data as constants
+    val = f1.map(N)(x, ca.DM(np.asarray(omega, float)[None, :]), ca.DM(mu.real.T),
+                    ca.DM(mu.imag.T), ca.DM(np.hstack(list(H.real))),
+                    ca.DM(np.hstack(list(H.imag))))
+    return ca.Function("T_fro2_analytic", [x], [val.T])
+
+
 def true_t_peak(theta, Pa, X, omega, weights) -> np.ndarray:
     """``sigma_max(T(j omega_k))`` per frequency [-] (numpy, for the a posteriori margin)."""
     K = Compensator(*(float(v) for v in theta)).frequency_response(omega)
