@@ -196,21 +196,27 @@ class PolynomialTopRealParts(_VectorIO, ca.Callback):
         return out
 
     def _decompose(self, p):
+        """Per speed ``(lambda, left, right)`` of the selected eigenvalues (None where ``A`` is
+        not finite), cached for the last ``p``."""
         key = p.tobytes()
         if key != self._key:
             t0 = time.perf_counter()
-            rows = []
-            for A in self.matrices(p):
-                if not np.all(np.isfinite(A)):
-                    rows.append(None)
-                    continue
-                lam, vl, vr = scipy.linalg.eig(A, left=True, right=True)
-                idx = np.argsort(-lam.real, kind="stable")[: self.m]
-                rows.append((lam[idx], vl[:, idx], vr[:, idx]))
-            self._key, self._store = key, rows
+            ctx = self._selection_context(p)
+            self._store = [None if not np.all(np.isfinite(A)) else self._eigenpairs(u, A, ctx)
+                           for u, A in zip(self.speeds, self.matrices(p), strict=True)]
+            self._key = key
             self.evaluations += 1
             self.eval_time_s += time.perf_counter() - t0
         return self._store
+
+    def _selection_context(self, p):
+        return None
+
+    def _eigenpairs(self, u, A, ctx):
+        """The ``m`` rightmost eigenvalues with their left and right eigenvectors."""
+        lam, vl, vr = scipy.linalg.eig(A, left=True, right=True)
+        idx = np.argsort(-lam.real, kind="stable")[: self.m]
+        return lam[idx], vl[:, idx], vr[:, idx]
 
     def values(self, p) -> np.ndarray:
         """The stacked top-``m`` real parts [(m * n_speeds,)]; NaN where ``A`` is not finite."""
@@ -236,12 +242,17 @@ class PolynomialTopRealParts(_VectorIO, ca.Callback):
             if ix is not None:   # rows of vec(A[ix, ix]) in column-major order
                 flat = (ix[:, None] + n * ix[None, :]).ravel(order="F")
                 dA = dA[flat]
-            Js, bad = eigenvalue_derivatives(r[1], r[2], dA, self.defect_tol, real_only=True)
+            Js, bad = self._row_block(r, dA)
             J[s * self.m:(s + 1) * self.m] = Js
             bad_rows.extend(s * self.m + int(i) for i in np.flatnonzero(bad))
         if bad_rows:
             self._fd_rows(J, p, bad_rows)
         return J
+
+    def _row_block(self, r, dA):
+        """One speed's Jacobian rows from its decomposition ``r`` and ``d vec(A)/dp``, and the
+        flags of nearly defective rows: here d(Re lambda)/dp."""
+        return eigenvalue_derivatives(r[1], r[2], dA, self.defect_tol, real_only=True)
 
     def _plain_values(self, p, which=None):
         return np.concatenate([np.sort(scipy.linalg.eigvals(A).real)[::-1][: self.m]
@@ -409,24 +420,15 @@ class PolynomialStructuralDamping(PolynomialTopRealParts):
         self._theta_of_p = theta_of_p or (lambda p: np.asarray(p, float)[:5])
         super().__init__(parts_fun, speeds, m, subsets=subsets, name=name, **kw)
 
-    def _decompose(self, p):
-        key = p.tobytes()
-        if key != self._key:
-            t0 = time.perf_counter()
-            th = self._theta_of_p(p)
-            rows = []
-            for u, A in zip(self.speeds, self.matrices(p), strict=True):
-                if not np.all(np.isfinite(A)):
-                    rows.append(None)
-                    continue
-                lam = scipy.linalg.eigvals(A)
-                idx = structural_selection(lam, self.lag_rates, u, th, self.zeta_min, self.m)
-                vl, vr = inverse_iteration(A, lam[idx])
-                rows.append((lam[idx], vl, vr))
-            self._key, self._store = key, rows
-            self.evaluations += 1
-            self.eval_time_s += time.perf_counter() - t0
-        return self._store
+    def _selection_context(self, p):
+        return self._theta_of_p(p)
+
+    def _eigenpairs(self, u, A, th):
+        """The structural eigenvalues the flaps can move (eigvals + inverse iteration)."""
+        lam = scipy.linalg.eigvals(A)
+        idx = structural_selection(lam, self.lag_rates, u, th, self.zeta_min, self.m)
+        vl, vr = inverse_iteration(A, lam[idx])
+        return lam[idx], vl, vr
 
     def values(self, p) -> np.ndarray:
         """Stacked damping measures [1/s] (m per speed, largest first); NaN if not finite."""
@@ -440,33 +442,14 @@ class PolynomialStructuralDamping(PolynomialTopRealParts):
         return [None if r is None else r[0]
                 for r in self._decompose(np.asarray(p, float).ravel())]
 
-    def jacobian(self, p) -> np.ndarray:
-        """Analytic Jacobian [(m * n_speeds, n_p)], central differences for defective rows."""
-        p = np.asarray(p, float).ravel()
-        rows = self._decompose(p)
-        outs = self._dparts(ca.DM(p))
-        outs = outs if isinstance(outs, (list, tuple)) else [outs]
-        dparts = [ca.DM(d).sparse() for d in outs]
-        J = np.full((self.m * self.speeds.size, self._n_p), np.nan)
-        n = self._n
-        bad_rows = []
-        for s, (u, ix, r) in enumerate(zip(self.speeds, self._idx, rows, strict=True)):
-            if r is None:
-                continue
-            dA = sum(u**j * d for j, d in enumerate(dparts))
-            if ix is not None:
-                flat = (ix[:, None] + n * ix[None, :]).ravel(order="F")
-                dA = dA[flat]
-            dlam, bad = eigenvalue_derivatives(r[1], r[2], dA, self.defect_tol)
-            lam = r[0][:, None]
-            mag = np.abs(lam)
-            dmag = np.where(mag > 0, (lam.conj() * dlam).real / np.where(mag > 0, mag, 1.0),
-                            np.abs(dlam))
-            J[s * self.m:(s + 1) * self.m] = dlam.real + self.zeta_min * dmag
-            bad_rows.extend(s * self.m + int(i) for i in np.flatnonzero(bad))
-        if bad_rows:
-            self._fd_rows(J, p, bad_rows)
-        return J
+    def _row_block(self, r, dA):
+        """d(Re lambda + zeta_min |lambda|)/dp of the selected eigenvalues."""
+        dlam, bad = eigenvalue_derivatives(r[1], r[2], dA, self.defect_tol)
+        lam = r[0][:, None]
+        mag = np.abs(lam)
+        dmag = np.where(mag > 0, (lam.conj() * dlam).real / np.where(mag > 0, mag, 1.0),
+                        np.abs(dlam))
+        return dlam.real + self.zeta_min * dmag, bad
 
     def _plain_values(self, p, which=None):
         th = self._theta_of_p(p)

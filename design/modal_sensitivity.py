@@ -101,7 +101,12 @@ def modal_sensitivity(spec, parameters: Sequence[str], speeds, n_modes: int, che
                       progress: Callable[[str], None] | None = None):
     """IFT derivatives of ``U_F``, ``U_D`` to modal data, as a
     :class:`design.sensitivity.SensitivityResult` (same row keys)."""
-    from design.sensitivity import SensitivityResult, critical_speeds, speed_derivative_ift
+    from design.sensitivity import (
+        critical_speeds,
+        empty_entries,
+        sensitivity_result,
+        speed_derivative_ift,
+    )
     from model.stability import oscillation_tolerance
 
     bad = [p for p in parameters if not is_modal_parameter(p)]
@@ -122,11 +127,7 @@ def modal_sensitivity(spec, parameters: Sequence[str], speeds, n_modes: int, che
         row: dict = {"parameter": path, "value": p0}
         for q in ("flutter", "divergence"):
             U, key = crit[f"{q}_speed_m_s"], f"d_{q}_speed"
-            row.update({key: np.nan, f"{key}_fixed_basis": np.nan, f"{key}_ritz_fd": np.nan,
-                        f"{key}_fd": np.nan, f"relative_{key}": np.nan,
-                        f"relative_{key}_fixed_basis": np.nan, f"relative_{key}_fd": np.nan,
-                        f"{q}_status": "ok",
-                        f"{q}_valid_within_branch": crit[f"{q}_branch_label"]})
+            row.update(empty_entries(q, crit))
             if not np.isfinite(U):
                 row[f"{q}_status"] = f"nominal {q}: {crit[f'{q}_status']}"
                 continue
@@ -157,15 +158,10 @@ def modal_sensitivity(spec, parameters: Sequence[str], speeds, n_modes: int, che
         rows.append(row)
         if progress:
             progress(path)
-    return SensitivityResult(
-        bridge=spec.name, flutter_speed_m_s=crit["flutter_speed_m_s"],
-        divergence_speed_m_s=crit["divergence_speed_m_s"],
-        flutter_status=crit["flutter_status"], divergence_status=crit["divergence_status"],
-        n_modes=int(n_modes), rows=tuple(rows),
-        critical_branch_label=crit["flutter_branch_label"],
-        divergence_branch_label=crit["divergence_branch_label"],
-        settings={"speeds_m_s": [float(u[0]), float(u[-1])], "rel_step_A": rel_step,
-                  "rel_step_fd": fd_step, "erected_fraction": spec.erected_fraction,
-                  "method": "IFT on the critical eigenvalue; dA/dp by central difference of A "
-                            "rebuilt on the basis with the modal quantity changed (shapes "
-                            "held); checked by the central difference of the speed"})
+    return sensitivity_result(
+        spec, crit, rows, n_modes,
+        {"speeds_m_s": [float(u[0]), float(u[-1])], "rel_step_A": rel_step,
+         "rel_step_fd": fd_step, "erected_fraction": spec.erected_fraction,
+         "method": "IFT on the critical eigenvalue; dA/dp by central difference of A "
+                   "rebuilt on the basis with the modal quantity changed (shapes "
+                   "held); checked by the central difference of the speed"})

@@ -413,11 +413,7 @@ def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARA
             key = f"d_{q}_speed"
             # an implicit-function derivative follows the critical eigenvalue: it holds within
             # the branch that is critical at the nominal point, not across a branch switch
-            row.update({key: np.nan, f"{key}_fixed_basis": np.nan, f"{key}_ritz_fd": np.nan,
-                        f"{key}_fd": np.nan, f"relative_{key}": np.nan,
-                        f"relative_{key}_fixed_basis": np.nan, f"relative_{key}_fd": np.nan,
-                        f"{q}_status": "ok",
-                        f"{q}_valid_within_branch": crit[f"{q}_branch_label"]})
+            row.update(empty_entries(q, crit))
             if not np.isfinite(U):
                 row[f"{q}_status"] = f"nominal {q}: {crit[f'{q}_status']}"
                 continue
@@ -467,17 +463,33 @@ def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARA
         rows.append(row)
         if progress:
             progress(path)
+    return sensitivity_result(
+        spec, crit, rows, n_modes,
+        {"speeds_m_s": [float(u[0]), float(u[-1])], "rfa": rfa, "order": order,
+         "rel_step_A": rel_step, "rel_step_fd": fd_step, "erected_fraction": spec.erected_fraction,
+         "method": "IFT on the critical eigenvalue; dA/dp by central difference of "
+                   "the projected A: on the nominal modes moved along their "
+                   "out-of-subspace derivative (d_*), and on the fixed nominal modes "
+                   "(d_*_fixed_basis, checked by *_ritz_fd)"})
+
+
+def empty_entries(q: str, crit: dict) -> dict:
+    """A row's entries for quantity ``q`` before they are computed: every derivative NaN, the
+    status ``ok`` and the branch the derivative is valid within."""
+    key = f"d_{q}_speed"
+    return {key: np.nan, f"{key}_fixed_basis": np.nan, f"{key}_ritz_fd": np.nan,
+            f"{key}_fd": np.nan, f"relative_{key}": np.nan,
+            f"relative_{key}_fixed_basis": np.nan, f"relative_{key}_fd": np.nan,
+            f"{q}_status": "ok", f"{q}_valid_within_branch": crit[f"{q}_branch_label"]}
+
+
+def sensitivity_result(spec, crit: dict, rows, n_modes: int, settings: dict) -> SensitivityResult:
+    """The result of a local sensitivity run from the nominal summary ``crit``, the
+    per-parameter ``rows`` and the run's ``settings`` (also :mod:`design.modal_sensitivity`)."""
     return SensitivityResult(
         bridge=spec.name, flutter_speed_m_s=crit["flutter_speed_m_s"],
         divergence_speed_m_s=crit["divergence_speed_m_s"],
         flutter_status=crit["flutter_status"], divergence_status=crit["divergence_status"],
         n_modes=int(n_modes), rows=tuple(rows),
         critical_branch_label=crit["flutter_branch_label"],
-        divergence_branch_label=crit["divergence_branch_label"],
-        settings={"speeds_m_s": [float(u[0]), float(u[-1])], "rfa": rfa, "order": order,
-                  "rel_step_A": rel_step, "rel_step_fd": fd_step,
-                  "erected_fraction": spec.erected_fraction,
-                  "method": "IFT on the critical eigenvalue; dA/dp by central difference of "
-                            "the projected A: on the nominal modes moved along their "
-                            "out-of-subspace derivative (d_*), and on the fixed nominal modes "
-                            "(d_*_fixed_basis, checked by *_ritz_fd)"})
+        divergence_branch_label=crit["divergence_branch_label"], settings=settings)

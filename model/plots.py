@@ -207,15 +207,20 @@ def mode_shapes_by_family(modal, per_family: int = 3, axes=None, labels=None):
                         label=f"{m.label} {m.frequency_hz:.3f} Hz" if s == st.node_span[0]
                         else None)
         mark_spans(ax, span_extents_m(modal.spec), names=ax is axes[0])
-        ax.axhline(0, color="k", lw=0.5)
-        ax.set_ylim(-1.15, 1.3)
-        ax.set_ylabel(f"{fam}\n({_FAMILY_UNIT[fam]}, peak 1) [-]")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+        _finish_family_axis(ax, fam)
     axes[-1].set_xlabel("distance from north anchorage [km]")
     axes[0].set_title(f"{modal.spec.name}: mode shapes by family "
                       f"(erected {modal.spec.erected_fraction:.2f}; dotted: towers)", fontsize=10)
     return axes
+
+
+def _finish_family_axis(ax, fam: str) -> None:
+    """Zero line, limits, label with the family's unit, grid and legend of one shape panel."""
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_ylim(-1.15, 1.3)
+    ax.set_ylabel(f"{fam}\n({_FAMILY_UNIT[fam]}, peak 1) [-]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
 
 
 def imported_mode_shapes(modal, per_family: int = 3, axes=None, labels=None):
@@ -240,11 +245,7 @@ def imported_mode_shapes(modal, per_family: int = 3, axes=None, labels=None):
         for k, x in enumerate((a, b)):
             ax.axvline(x / 1000.0, color="k", ls=":", lw=1.2,
                        label="main-span ends" if k == 0 else None)
-        ax.axhline(0, color="k", lw=0.5)
-        ax.set_ylim(-1.15, 1.3)
-        ax.set_ylabel(f"{fam}\n({_FAMILY_UNIT[fam]}, peak 1) [-]")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+        _finish_family_axis(ax, fam)
     axes[-1].set_xlabel("x along the deck (file coordinates) [km]")
     axes[0].set_title(f"{modal.spec.name}: imported mode shapes by family", fontsize=10)
     return axes
