@@ -291,8 +291,10 @@ def _run_frequency_ratio(spec, opts, context) -> Outcome:
 def _run_flutter(spec, opts, context) -> Outcome:
     from model.analysis import flutter
 
+    # a run that draws the V-g/V-f figures needs eigenvalues at every grid speed: dense sweep
+    method = "dense" if context.figures else opts["sweep"]
     res = flutter(spec, grid(opts["speeds"], "speeds", 0.0), n_modes=int(opts["modes"]),
-                  order=opts["order"], rfa=opts["rfa"], sweep_method=opts["sweep"])
+                  order=opts["order"], rfa=opts["rfa"], sweep_method=method)
     s = res.summary()
     if opts["truncation_check"] and opts["order"] == "modal":
         s = {**s, **_truncation(spec, opts, res)}
@@ -322,7 +324,8 @@ def _truncation(spec, opts, res) -> dict:
     s = res.summary()
     # the modes actually retained (an imported modal model may hold fewer than asked)
     t = truncation_error(spec, int(s["modes_retained"]), grid(opts["speeds"], "speeds", 0.0),
-                         rfa=opts["rfa"], at_n=res.sweep.summary(), sweep_method=opts["sweep"])
+                         rfa=opts["rfa"], at_n=res.sweep.summary(),
+                         sweep_method=s.get("sweep_method", opts["sweep"]))  # as the n-mode one
     if t["reference_modes"] == t["n_modes"]:  # the model holds no further mode to add
         return {"truncation_reference_modes": t["reference_modes"],
                 "flutter_truncation_error_pct": None, "divergence_truncation_error_pct": None,

@@ -174,7 +174,9 @@ def cmd_flutter(args):
     else:
         outcome = _outcome("flutter", spec, speeds=args.speeds, modes=args.modes,
                            order=args.order, rfa=args.rfa,
-                           truncation_check=not args.no_truncation_check, sweep=args.sweep)
+                           truncation_check=not args.no_truncation_check,
+                           sweep=args.sweep or ("dense" if args.plot else
+                                                _default("flutter", "sweep")))
         res = outcome.result
     s = {**(res.summary() if controller is not None else outcome.summary),
          **controller_report(controller)}
@@ -310,9 +312,10 @@ def _flutter_arguments(sp):
     sp.add_argument("--order", choices=("modal", "full"), default=_default("flutter", "order"))
     sp.add_argument("--rfa", choices=("rfa4", "jones"), default=_default("flutter", "rfa"))
     sp.add_argument("--controller", default=None, help="controller .toml (closed loop)")
-    sp.add_argument("--sweep", choices=("dense", "fast"), default=_default("flutter", "sweep"),
-                    help="fast: coarse tracked sweep and Newton on the critical eigenpairs, "
-                         "dense fallback when unsure; dense: eigenvalues at every speed")
+    sp.add_argument("--sweep", choices=("dense", "fast"), default=None,
+                    help="fast (default): coarse tracked sweep and Newton on the critical "
+                         "eigenpairs, dense fallback when unsure; dense: eigenvalues at every "
+                         "speed (the default with --plot: the figure needs every speed)")
     sp.add_argument("--pk", action="store_true",
                     help="also run the exact-Theodorsen p-k check on the same coordinates")
     sp.add_argument("--no-truncation-check", action="store_true",
