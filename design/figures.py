@@ -44,7 +44,11 @@ def bode(compensator, gain_limit: float, axes=None, omega_range_rad_s=(1e-3, 1e2
     ax0.loglog(f, g, "b-", label="|K(j2πf)|")
     ax0.axhline(gain_limit, color="r", ls="--", label=f"gain limit {gain_limit:g}")
     i = int(np.argmax(g))
-    ax0.plot(f[i], g[i], "bo", ms=5, label=f"peak {g[i]:.2f} at {f[i]:.3g} Hz")
+    if i == g.size - 1:  # still rising at the plotted range's end: say where the sup is
+        ax0.plot(f[i], g[i], "bo", ms=5, label=f"{g[i]:.2f} at {f[i]:.3g} Hz; sup |K| = "
+                 f"|K(j inf)| = {compensator.high_frequency_gain():.2f}")
+    else:
+        ax0.plot(f[i], g[i], "bo", ms=5, label=f"peak {g[i]:.2f} at {f[i]:.3g} Hz")
     ax0.set_ylim(min(g.min(), gain_limit) / 1.5, max(g.max(), gain_limit) * 1.5)
     from matplotlib.ticker import NullFormatter, ScalarFormatter
 
