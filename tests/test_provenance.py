@@ -33,11 +33,23 @@ def test_manifest_takes_the_build_commit_outside_a_checkout(tmp_path):
 
 
 def test_manifest_names_version_and_commit():
+    import design.manifest
+
     m = build_manifest({})
     assert m["bridgeflap"]["version"] != UNKNOWN
-    if (ROOT / ".git").exists():  # a checkout (worktrees have a .git file)
+    # where the imported package lives decides: a checkout (worktrees have a .git file), or an
+    # installed wheel (CI: built from this clone, so its record names this clone's HEAD)
+    package_root = Path(design.manifest.__file__).resolve().parents[1]
+    if (package_root / ".git").exists():
         assert m["git"]["source"] == "checkout" and m["git"]["commit"] != UNKNOWN
         assert m["bridgeflap"]["commit"] == m["git"]["commit"]
+    else:
+        assert m["git"]["source"] == "build", m["git"]
+        assert m["bridgeflap"]["commit"] == m["git"]["commit"] != UNKNOWN
+        if (ROOT / ".git").exists() and shutil.which("git") is not None:
+            head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True,
+                                  text=True, check=True).stdout.strip()
+            assert m["git"]["commit"] == head
 
 
 @pytest.mark.slow
