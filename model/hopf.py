@@ -33,6 +33,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from model.tracking import (
+    COINCIDENT,
     CONVERGED,
     NO_CROSSING,
     NOT_EVALUATED,
@@ -304,10 +305,10 @@ class _March:
         while True:
             lam = np.linalg.eigvals(system.A(U))
             if U == 0.0:
-                cur, _ = _assign(cur, lam, omega_tol)
+                cur, _ = _assign(cur, lam, omega_tol, COINCIDENT)
             else:
                 cur, slope = _track_interval(system, u_prev, cur, slope, U, lam, omega_tol,
-                                             self.budget, halvings=9 if pts else 12)
+                                             self.budget, 9 if pts else 12, COINCIDENT)
             osc = np.abs(lam.imag) > omega_tol
             pts.append(U)
             lams.append(lam)

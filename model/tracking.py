@@ -38,6 +38,14 @@ UNAMBIGUOUS = 0.5
 #: speed plus :data:`TRACKING_BUDGET_MIN` (a grid starting above 0, a coarse grid)
 TRACKING_BUDGET_FACTOR = 1
 TRACKING_BUDGET_MIN = 100
+#: eigenvalues nearer each other than this fraction of their modulus are one value to the
+#: assignment when it is given ``coincident=COINCIDENT`` (the fast sweep, :mod:`model.hopf`):
+#: Great Belt's identical side spans give a pair of modes (V-sprogoe4, V-halsskov3) 3.6e-7
+#: rad/s apart (6e-8 of |lambda|) at every speed, below the 2.7e-7 rad/s scatter of ``eigvals``
+#: on that near-double pair, so no step halving can ever separate them; distinct branches
+#: passing this close to each other at one speed keep their identity through the predictor's
+#: slope (the secant from the previous, distinct speed)
+COINCIDENT = 1e-6
 #: flutter onset is "hard" when the damping ratio falls faster than this past the crossing,
 #: -d zeta/dU [s/m]: 1e-3 per m/s loses 1 % of critical damping within 10 m/s (about 15 % of
 #: the speed of a long-span bridge); slower is "soft" (a gradual, often torsional, onset)
@@ -162,7 +170,7 @@ class _Budget:
         return True
 
 
-def _assign(pred, lam, omega_tol):
+def _assign(pred, lam, omega_tol, coincident=0.0):
     """Assign each predicted branch value to one eigenvalue of ``lam``.
 
     The branches are both halves of every structural pair (a pair that turns real gives two
@@ -170,6 +178,8 @@ def _assign(pred, lam, omega_tol):
     is ambiguous: an oscillatory branch whose assigned eigenvalue is not nearer its prediction
     than :data:`UNAMBIGUOUS` times the next-nearest oscillatory eigenvalue on its side of the
     real axis (so the step may have swapped two branches; a pair's own halves cannot swap).
+    With ``coincident > 0`` eigenvalues within ``coincident`` times the assigned one's modulus
+    of it are no other candidate (:data:`COINCIDENT`): a swap among them changes no value.
     """
     dist = np.abs(pred[:, None] - lam[None, :])
     scale = np.maximum(np.abs(pred), omega_tol)[:, None]
@@ -181,9 +191,42 @@ def _assign(pred, lam, omega_tol):
     other[rng, cols] = np.inf
     side = np.sign(pred.imag)[:, None] * lam.imag[None, :] <= omega_tol
     other[side] = np.inf
+    if coincident > 0:
+        got = lam[cols][:, None]
+        other[np.abs(lam[None, :] - got) <= coincident * np.maximum(np.abs(got), omega_tol)] = \
+            np.inf
     d2 = other.min(axis=1)
     osc = np.abs(pred.imag) > omega_tol
-    return lam[cols], bool(np.any(osc & (d1 > UNAMBIGUOUS * d2)))
+    amb = osc & (d1 > UNAMBIGUOUS * d2)
+    if coincident > 0 and np.any(amb):
+        amb = _pairs_resolved(pred, lam, cols, other, d1, amb)
+    return lam[cols], bool(np.any(amb))
+
+
+def _pairs_resolved(pred, lam, cols, other, d1, amb):
+    """``amb`` less the branches of a near-double pair that moves as one (the fast sweep).
+
+    Branch ``j`` is ambiguous only through the eigenvalue assigned to one branch ``k``, and
+    ``k`` only through ``j``'s (no other eigenvalue is near either prediction): the pair is
+    the pair's, and within it the assignment is tested as one branch's is, on the difference
+    ``lam_j - lam_k`` against its prediction ``pred_j - pred_k``: the identity must be nearer
+    than :data:`UNAMBIGUOUS` times the swap (``lam_k - lam_j``). A predictor error common to
+    both (the curvature of the pair's joint motion; Great Belt's identical side spans give
+    pairs 9e-6 rad/s apart that move 1e-3 rad/s per m/s together) cancels in the difference.
+    """
+    near = other < (d1 / UNAMBIGUOUS)[:, None]  # the eigenvalues that make a branch ambiguous
+    owner = np.full(lam.size, -1)
+    owner[cols] = np.arange(cols.size)
+    out = amb.copy()
+    for j in np.where(amb)[0]:
+        m = np.where(near[j])[0]
+        k = owner[m[0]] if m.size == 1 else -1
+        if k < 0 or not set(np.where(near[k])[0]) <= {cols[j]}:
+            continue
+        dl, dp = lam[cols[j]] - lam[cols[k]], pred[j] - pred[k]
+        if abs(dl - dp) <= UNAMBIGUOUS * abs(dl + dp):
+            out[j] = False
+    return out
 
 
 def continue_adaptive(step, u0, y0, s0, u1, halvings, may_halve=None):
@@ -215,18 +258,20 @@ def continue_adaptive(step, u0, y0, s0, u1, halvings, may_halve=None):
     return y, s, forced
 
 
-def _track_interval(system, u0, l0, s0, u1, lam1, omega_tol, budget, halvings=6):
+def _track_interval(system, u0, l0, s0, u1, lam1, omega_tol, budget, halvings=6,
+                    coincident=0.0):
     """Continue the branch values ``l0`` at ``u0`` [m/s] (slopes ``s0`` [1/s per m/s]) to ``u1``.
 
     ``lam1`` are the eigenvalues at ``u1`` (already computed by the sweep). The step is halved
     (eigenvalues only, at the intermediate speed) while the assignment is ambiguous, down to
     ``2**-halvings`` of the interval or until the sweep's budget of extra evaluations is spent;
-    a step taken at that limit is counted in ``budget.forced``.
+    a step taken at that limit is counted in ``budget.forced``. ``coincident``: of
+    :func:`_assign`.
     """
 
     def step(t, pred):
         lam = lam1 if t == u1 else np.linalg.eigvals(system.A(t))
-        cur, ambiguous = _assign(pred, lam, omega_tol)
+        cur, ambiguous = _assign(pred, lam, omega_tol, coincident)
         return cur, not ambiguous
 
     l, s, forced = continue_adaptive(step, u0, np.asarray(l0), np.asarray(s0), u1, halvings,
