@@ -8,7 +8,10 @@ continuations. This module (``method="fast"``) gives the same result with a frac
    (:func:`model.tracking._track_interval`, from ``U = 0``), at an adaptive step: at most
    ``span / COARSE_INTERVALS``, shortened to ``OVERSHOOT`` times the distance at which any
    stable branch (or the flutter / divergence indicator) is predicted, from its value, slope and
-   curvature, to reach ``Re lambda = 0``, never below ``span / MIN_STEP_DIVISOR``;
+   curvature, to reach ``Re lambda = 0``, never below ``span / MIN_STEP_DIVISOR``; its
+   assignment treats coincident eigenvalues as one and tests a near-double pair on its
+   difference (:data:`model.tracking.COINCIDENT`, :func:`model.tracking._pairs_resolved`:
+   Great Belt's identical side spans), where no step halving could separate the two;
 2. **Newton on the critical eigenpair** in the first bracket of a sign change: the Hopf point
    ``(A(U) - i w I) v = 0, c^H v = 1`` (unknowns ``U, w`` real, ``v`` complex) for flutter,
    ``A(U) v = 0, c^T v = 1`` (``U``, ``v`` real) for divergence, with the exact derivative
@@ -21,7 +24,10 @@ continuations. This module (``method="fast"``) gives the same result with a frac
    crossing confirms the eigenvalue and that no other eigenvalue of its kind is unstable there;
 4. **dense fallback**: when the tracking is unsure (a forced step), Newton does not converge,
    the eigenvalue is nearly defective (:data:`NEAR_DEFECTIVE`) or a verification fails, the
-   whole dense sweep is run and its result returned, with the reason in ``fallback_reason``.
+   crossing is located as the dense sweep does on the grid speeds of its coarse bracket
+   (:func:`_grid_crossing`); a result there that is not converged (``unverified_crossing``,
+   ``bracket_failed``) is the dense sweep's own and kept, anything else runs the whole dense
+   sweep and returns its result, with the reason in ``fallback_reason``.
 
 Eigen-solutions are counted as calls of ``A(U)`` through :class:`CountedSystem` (each is one
 dense eigenvalue problem); the structural one at ``U = 0`` and the static divergence condition
@@ -33,8 +39,10 @@ import numpy as np
 import scipy.linalg as sla
 
 from model.tracking import (
+    _A,
     COINCIDENT,
     CONVERGED,
+    NEWTON_RTOL,
     NO_CROSSING,
     NOT_EVALUATED,
     TRACKING_BUDGET_MIN,
@@ -44,8 +52,12 @@ from model.tracking import (
     _bracket_half_width,
     _branch_of,
     _Budget,
+    _dA,
     _max_real_real,
+    _scale,
     _track_interval,
+    continue_eigenpair,
+    eigen_sensitivity,
 )
 
 #: the coarse step is at most the speed range over this many intervals (10: 8.5 m/s on
@@ -60,8 +72,7 @@ MIN_STEP_DIVISOR = 400
 #: threshold of :data:`model.spectrum.DEFECT_TOL`; the measure depends on the states' scaling,
 #: and simple flutter eigenvalues of the IABSE 2a bridge measure 3e-8)
 NEAR_DEFECTIVE = 1e-8
-#: Newton converged: relative residual ``|r| / (|A| |v|)`` [-] (round-off: 1e-16)
-NEWTON_RTOL = 1e-11
+#: Newton iterations at most (the residual test is :data:`model.tracking.NEWTON_RTOL`)
 NEWTON_MAXITER = 30
 
 
@@ -111,19 +122,6 @@ class FastPathError(Exception):
 
 
 # ------------------------------------------------------------------ Newton
-
-def _dA(system, U):
-    return system.A1 + 2.0 * U * system.A2
-
-
-def _A(system, U):
-    """``A(U)`` from its parts (not counted: no eigen-solution follows)."""
-    return system.A0 + U * system.A1 + (U * U) * system.A2
-
-
-def _scale(A):
-    return max(float(np.abs(A).sum(axis=1).max()), 1e-300)
-
 
 def hopf_newton(system, u0, lam0, v0, c=None, maxiter=NEWTON_MAXITER, bounds=(0.0, np.inf)):
     """Newton on the Hopf point ``(A(U) - i w I) v = 0``, ``c^H v = 1``.
@@ -198,80 +196,6 @@ def divergence_newton(system, u0, v0, maxiter=NEWTON_MAXITER, bounds=(0.0, np.in
             return U, v, res, it
     raise FastPathError(f"Newton (divergence) did not converge in {maxiter} iterations "
                         f"(residual {res:.2g})")
-
-
-def eigen_sensitivity(system, U, lam, v):
-    """``(d lambda / dU [1/m], dv/dU, conditioning |y^H v| / (|y| |v|))`` of a simple eigenpair.
-
-    One LU of the bordered matrix ``[[A - lam I, -v], [c^H, 0]]`` (``c = v / |v|^2``): its
-    solution with ``[-dA v; 0]`` is the exact derivative; its conjugate-transposed solve with
-    ``[0; 1]`` the left eigenvector ``y`` (``y^H v = -1``).
-    """
-    A = _A(system, U).astype(complex)
-    nx = v.size
-    c = v / np.vdot(v, v).real
-    B = np.zeros((nx + 1, nx + 1), complex)
-    B[:nx, :nx] = A - lam * np.eye(nx)
-    B[:nx, nx], B[nx, :nx] = -v, c.conj()
-    lu = sla.lu_factor(B, check_finite=False)
-    x = sla.lu_solve(lu, np.concatenate([-(_dA(system, U) @ v), [0.0]]), check_finite=False)
-    e = np.zeros(nx + 1, complex)
-    e[nx] = 1.0
-    y = sla.lu_solve(lu, e, trans=2, check_finite=False)[:nx]
-    cond = 1.0 / (float(np.linalg.norm(y)) * float(np.linalg.norm(v)))
-    return complex(x[nx]), x[:nx], cond
-
-
-def continue_eigenpair(system, u0, lam0, v0, u1, halvings=8):
-    """Eigenpair ``(lam0, v0)`` of ``A(u0)`` continued to ``A(u1)`` by predictor (exact
-    derivative) and Newton corrector on ``(A(U) - lam I) v = 0, c^H v = 1``; linear solves only.
-
-    A step is accepted when Newton converges with a correction below a fifth of the step's
-    change of ``lambda`` (no jump); else halved, ``halvings`` times at most. ``(lam, v, ok)``.
-    """
-    u, lam, v = float(u0), complex(lam0), np.asarray(v0, complex)
-    h = u1 - u0
-    h_min = abs(h) / 2 ** halvings
-    while u != u1:
-        step = np.copysign(min(abs(h), abs(u1 - u)), h)
-        t = u1 if abs(u1 - (u + step)) <= 1e-12 * max(abs(u1), 1.0) else u + step
-        dlam, dv, _ = eigen_sensitivity(system, u, lam, v)
-        lp, vp = lam + (t - u) * dlam, v + (t - u) * dv
-        got = _correct(system, t, lp, vp)
-        if got is not None and (abs(got[0] - lp) <= 0.2 * abs(got[0] - lam)
-                                + 1e-10 * max(abs(got[0]), 1.0)):
-            lam, v, u, h = got[0], got[1], t, 2 * step
-            continue
-        if abs(step) <= 1.5 * h_min:
-            return lam, v, False
-        h = step / 2
-    return lam, v, True
-
-
-def _correct(system, U, lam, v, maxiter=8):
-    """Newton on ``(A(U) - lam I) v = 0, c^H v = 1`` at fixed ``U``; None if not converged."""
-    A = _A(system, U).astype(complex)
-    nx = v.size
-    c = v / np.vdot(v, v).real
-    scale = _scale(A)
-    done = False
-    for _ in range(maxiter):
-        r = A @ v - lam * v
-        if done:
-            return lam, v
-        # one more step once converged: the eigenvalue's error is the residual times its
-        # condition number (up to 1e8 here, NEAR_DEFECTIVE), so the residual goes to round-off
-        done = bool(np.linalg.norm(r) <= NEWTON_RTOL * scale * np.linalg.norm(v))
-        B = np.zeros((nx + 1, nx + 1), complex)
-        B[:nx, :nx] = A - lam * np.eye(nx)
-        B[:nx, nx], B[nx, :nx] = -v, c.conj()
-        try:
-            x = np.linalg.solve(B, -np.concatenate([r, [np.vdot(c, v) - 1.0]]))
-        except np.linalg.LinAlgError:
-            return None
-        v, lam = v + x[:nx], lam + x[nx]
-    r = A @ v - lam * v
-    return (lam, v) if np.linalg.norm(r) <= NEWTON_RTOL * scale * np.linalg.norm(v) else None
 
 
 def _inverse_vector(system, U, shift, real=False):
@@ -355,13 +279,39 @@ class _March:
 
 
 def _first_bracket(vals, speeds, omega_tol):
-    """First sign change of ``vals`` (as :func:`model.stability._locate`), "unstable", None."""
+    """Index of the first sign change of ``vals`` (as :func:`model.stability._locate`), or the
+    :class:`Crossing` without one (unstable at the first speed, no crossing in range)."""
     if np.isfinite(vals[0]) and vals[0] > 1e-6 * omega_tol:
-        return "unstable"
+        return Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (speeds[0], speeds[0]))
     stable = vals < 0
     stable[0] |= bool(speeds[0] == 0.0 and vals[0] <= 1e-6 * omega_tol)
     idx = np.where(stable[:-1] & (vals[1:] >= 0))[0]
-    return int(idx[0]) if idx.size else None
+    return int(idx[0]) if idx.size else Crossing(float("nan"), float("nan"), NO_CROSSING)
+
+
+def _grid_crossing(system, speeds, march, tol, omega_tol, kind, why):
+    """A crossing the fast path could not verify (``why``), located as the dense sweep does
+    (:func:`model.stability._locate`) on the grid speeds around its coarse bracket.
+
+    Kept only when not converged there (``unverified_crossing``, ``bracket_failed``: e.g. an
+    unstable complex pair turning into two positive real eigenvalues, where no eigenvalue
+    passes zero): the dense sweep's first grid sign change is the coarse sweep's, as the fast
+    path assumes throughout, so the dense sweep would return the same. Anything else (the grid
+    point below the bracket not stable, no grid sign change in it, a converged crossing that
+    Newton missed) raises: the whole dense sweep decides.
+    """
+    from model.stability import _indicator, _locate
+
+    i = _first_bracket(march.flutter_vals if kind == "flutter" else march.div_vals,
+                       march.speeds, omega_tol)
+    lo = max(int(np.searchsorted(speeds, march.speeds[i], "right")) - 1, 0)
+    sub = speeds[lo:int(np.searchsorted(speeds, march.speeds[i + 1])) + 1]
+    vals = np.array([_indicator(system, u, omega_tol, kind) if u > 0 or kind == "flutter"
+                     else -np.inf for u in sub])
+    got = _locate(system, sub, vals, tol, omega_tol, kind, np.full((1, sub.size), np.nan))
+    if got.status in (CONVERGED, NO_CROSSING, UNSTABLE_AT_FIRST):
+        raise FastPathError(why)
+    return got
 
 
 def _interp_zero(a, b, fa, fb):
@@ -452,10 +402,8 @@ def _flutter(system, march, tol, omega_tol):
     """Verified flutter crossing of the coarse sweep: ``(Crossing, eigenvector or None)``."""
     sp = march.speeds
     i = _first_bracket(march.flutter_vals, sp, omega_tol)
-    if i == "unstable":
-        return Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (sp[0], sp[0])), None
-    if i is None:
-        return Crossing(float("nan"), float("nan"), NO_CROSSING), None
+    if isinstance(i, Crossing):
+        return i, None
     a, b = float(sp[i]), float(sp[i + 1])
     cand = _candidates(march, i, omega_tol)
     if cand:
@@ -492,10 +440,8 @@ def _divergence(system, march, tol, omega_tol):
     """Verified divergence crossing: ``(Crossing, eigenvector or None)``."""
     sp, vals = march.speeds, march.div_vals
     i = _first_bracket(vals, sp, omega_tol)
-    if i == "unstable":
-        return Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (sp[0], sp[0])), None
-    if i is None:
-        return Crossing(float("nan"), float("nan"), NO_CROSSING), None
+    if isinstance(i, Crossing):
+        return i, None
     a, b = float(sp[i]), float(sp[i + 1])
     u_g = _interp_zero(a, b, vals[i], vals[i + 1])
     def newton(v0):
@@ -558,6 +504,13 @@ def _second(system, march, labels, flutter, tol, omega_tol):
 
 # ------------------------------------------------------------------ the fast sweep
 
+def _crossing(find, system, speeds, march, tol, omega_tol, kind):
+    try:
+        return find(system, march, tol, omega_tol)
+    except FastPathError as exc:
+        return _grid_crossing(system, speeds, march, tol, omega_tol, kind, str(exc)), None
+
+
 def fast_sweep(system: CountedSystem, speeds, speed_tol, dense):
     """:func:`model.stability.sweep` with ``method="fast"`` (module docstring).
 
@@ -580,8 +533,9 @@ def fast_sweep(system: CountedSystem, speeds, speed_tol, dense):
         return dense(f"tracking unsure: a forced step at {march.speeds[-1]:.6g} m/s")
     bal = BalancedSystem(system, float(speeds[-1]))
     try:
-        flutter, v_f = _flutter(bal, march, speed_tol, omega_tol)
-        divergence, v_d = _divergence(bal, march, speed_tol, omega_tol)
+        (flutter, v_f), (divergence, v_d) = (
+            _crossing(find, bal, speeds, march, speed_tol, omega_tol, kind)
+            for find, kind in ((_flutter, "flutter"), (_divergence, "divergence")))
         v_f, v_d = bal.states(v_f), bal.states(v_d)
         if speeds[0] == 0.0 and _max_real_real(march.eigenvalues[0], omega_tol) > 1e-6 * omega_tol:
             divergence = Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (0.0, 0.0))

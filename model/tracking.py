@@ -4,7 +4,9 @@ Statuses, the :class:`Crossing` record and the speed-grid check shared by the RF
 (:mod:`model.stability`) and the exact p-k (:mod:`model.pk`); eigenvalue-only continuation of
 branches with adaptive sub-steps (:func:`_track_interval` for all structural branches at once,
 :func:`_follow` for one eigenvalue near a crossing), both on the step-halving loop
-:func:`continue_adaptive` that the p-k continuation shares. Method: docs/methods.md#stability.
+:func:`continue_adaptive` that the p-k continuation shares; one eigenpair continued by Newton,
+linear solves only (:func:`continue_eigenpair`, :func:`eigen_sensitivity`: the fast sweep's,
+:mod:`model.hopf`). Method: docs/methods.md#stability.
 """
 
 from __future__ import annotations
@@ -324,3 +326,96 @@ def _stable_start(fun, a: float, b: float) -> float:
             return t
     return a
 
+
+# ------------------------------------------------------------------ one eigenpair, by Newton
+# (the fast sweep's continuation, :mod:`model.hopf`: linear solves only, no eigen-solution)
+
+#: Newton converged: relative residual ``|r| / (|A| |v|)`` [-] (round-off: 1e-16)
+NEWTON_RTOL = 1e-11
+
+
+def _dA(system, U):
+    return system.A1 + 2.0 * U * system.A2
+
+
+def _A(system, U):
+    """``A(U)`` from its parts (not counted: no eigen-solution follows)."""
+    return system.A0 + U * system.A1 + (U * U) * system.A2
+
+
+def _scale(A):
+    return max(float(np.abs(A).sum(axis=1).max()), 1e-300)
+
+
+def eigen_sensitivity(system, U, lam, v):
+    """``(d lambda / dU [1/m], dv/dU, conditioning |y^H v| / (|y| |v|))`` of a simple eigenpair.
+
+    One LU of the bordered matrix ``[[A - lam I, -v], [c^H, 0]]`` (``c = v / |v|^2``): its
+    solution with ``[-dA v; 0]`` is the exact derivative; its conjugate-transposed solve with
+    ``[0; 1]`` the left eigenvector ``y`` (``y^H v = -1``).
+    """
+    A = _A(system, U).astype(complex)
+    nx = v.size
+    c = v / np.vdot(v, v).real
+    B = np.zeros((nx + 1, nx + 1), complex)
+    B[:nx, :nx] = A - lam * np.eye(nx)
+    B[:nx, nx], B[nx, :nx] = -v, c.conj()
+    lu = sla.lu_factor(B, check_finite=False)
+    x = sla.lu_solve(lu, np.concatenate([-(_dA(system, U) @ v), [0.0]]), check_finite=False)
+    e = np.zeros(nx + 1, complex)
+    e[nx] = 1.0
+    y = sla.lu_solve(lu, e, trans=2, check_finite=False)[:nx]
+    cond = 1.0 / (float(np.linalg.norm(y)) * float(np.linalg.norm(v)))
+    return complex(x[nx]), x[:nx], cond
+
+
+def continue_eigenpair(system, u0, lam0, v0, u1, halvings=8):
+    """Eigenpair ``(lam0, v0)`` of ``A(u0)`` continued to ``A(u1)`` by predictor (exact
+    derivative) and Newton corrector on ``(A(U) - lam I) v = 0, c^H v = 1``; linear solves only.
+
+    A step is accepted when Newton converges with a correction below a fifth of the step's
+    change of ``lambda`` (no jump); else halved, ``halvings`` times at most. ``(lam, v, ok)``.
+    """
+    u, lam, v = float(u0), complex(lam0), np.asarray(v0, complex)
+    h = u1 - u0
+    h_min = abs(h) / 2 ** halvings
+    while u != u1:
+        step = np.copysign(min(abs(h), abs(u1 - u)), h)
+        t = u1 if abs(u1 - (u + step)) <= 1e-12 * max(abs(u1), 1.0) else u + step
+        dlam, dv, _ = eigen_sensitivity(system, u, lam, v)
+        lp, vp = lam + (t - u) * dlam, v + (t - u) * dv
+        got = _correct(system, t, lp, vp)
+        if got is not None and (abs(got[0] - lp) <= 0.2 * abs(got[0] - lam)
+                                + 1e-10 * max(abs(got[0]), 1.0)):
+            lam, v, u, h = got[0], got[1], t, 2 * step
+            continue
+        if abs(step) <= 1.5 * h_min:
+            return lam, v, False
+        h = step / 2
+    return lam, v, True
+
+
+def _correct(system, U, lam, v, maxiter=8):
+    """Newton on ``(A(U) - lam I) v = 0, c^H v = 1`` at fixed ``U``; None if not converged."""
+    A = _A(system, U).astype(complex)
+    nx = v.size
+    c = v / np.vdot(v, v).real
+    scale = _scale(A)
+    done = False
+    for _ in range(maxiter):
+        r = A @ v - lam * v
+        if done:
+            return lam, v
+        # one more step once converged: the eigenvalue's error is the residual times its
+        # condition number (up to 1e8 here, NEAR_DEFECTIVE), so the residual goes to round-off
+        done = bool(np.linalg.norm(r) <= NEWTON_RTOL * scale * np.linalg.norm(v))
+        B = np.zeros((nx + 1, nx + 1), complex)
+        B[:nx, :nx] = A - lam * np.eye(nx)
+        B[:nx, nx], B[nx, :nx] = -v, c.conj()
+        try:
+            x = np.linalg.solve(B, -np.concatenate([r, [np.vdot(c, v) - 1.0]]))
+        except np.linalg.LinAlgError:
+            return None
+        v, lam = v + x[:nx], lam + x[nx]
+    r = A @ v - lam * v
+    return (lam, v) if np.linalg.norm(r) <= NEWTON_RTOL * scale * np.linalg.norm(v) else None
