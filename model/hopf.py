@@ -333,7 +333,7 @@ def _check_bracket_sides(system, u, lam, v, tol, omega_tol, kind):
 
 def _hopf(system, march, i, lam_a, lam_b, tol, omega_tol, kind="flutter"):
     """Newton on the Hopf point of the branch going from ``lam_a`` (speed index ``i``) to
-    ``lam_b`` (``i + 1``), verified. Returns ``(U, lam, v, slope, branch index at a)``."""
+    ``lam_b`` (``i + 1``), verified. Returns ``(U, lam, v, slope, (lam, v) continued to a)``."""
     sp = march.speeds
     a, b = float(sp[i]), float(sp[i + 1])
     u_g = _interp_zero(a, b, lam_a.real, lam_b.real)
@@ -358,12 +358,29 @@ def _hopf(system, march, i, lam_a, lam_b, tol, omega_tol, kind="flutter"):
     if not (w > omega_tol and dlam.real > 0):
         raise FastPathError(f"{kind}: no transversal crossing (d Re/dU = {dlam.real:.3g} 1/m)")
     _check_bracket_sides(system, u, lam, v, tol, omega_tol, "flutter")
-    l_a, _, ok_a = continue_eigenpair(system, u, lam, v, a) if a != u else (lam, v, True)
+    l_a, v_a, ok_a = continue_eigenpair(system, u, lam, v, a) if a != u else (lam, v, True)
     l_b, _, ok_b = continue_eigenpair(system, u, lam, v, b) if b != u else (lam, v, True)
     stable_a = l_a.real < 0 or (a == 0.0 and l_a.real <= 1e-6 * omega_tol)
     if not (ok_a and ok_b and stable_a and l_b.real >= 0):
         raise FastPathError(f"{kind}: the branch jumps between the coarse speeds")
-    return u, lam, v, float(dlam.real), l_a, res
+    return u, lam, v, float(dlam.real), (l_a, v_a)
+
+
+def _confirmed(system, march, i, j, lam, v):
+    """``j``, when the eigenpair ``(lam, v)`` of tracked branch ``j`` at coarse speed ``i``,
+    continued by Newton back through the coarse speeds to the first, is branch ``j`` at each;
+    else -1 (the label is then the participation's, as where the dense sweep's tracking lost
+    the branch). A coarse step can jump onto another branch where the true continuation turns
+    real (no competitor of the assignment): IABSE 1.1c's RFA moves the still-air spectrum far
+    from the structure's, its pitch branch turns real within 6 m/s and the 14 m/s step gave its
+    label to the flutter branch, which the dense sweep tracks from no structural mode."""
+    n = march.tracked.shape[0] // 2
+    for k in range(i - 1, -1, -1):
+        lam, v, ok = continue_eigenpair(system, march.speeds[k + 1], lam, v, march.speeds[k])
+        b = _branch_of(lam, march.tracked[:, k])
+        if not ok or b < 0 or b % n != j % n:
+            return -1
+    return j
 
 
 def _with_retry(newton, system, u_g, lam_g, omega_tol, kind):
@@ -414,8 +431,9 @@ def _flutter(system, march, tol, omega_tol):
         osc = np.where(lb.imag > omega_tol)[0]
         lam_b = complex(lb[osc[np.argmax(lb[osc].real)]])
         lam_a = lam_b
-    u, lam, v, slope, l_a, _ = _hopf(system, march, i, lam_a, lam_b, tol, omega_tol)
+    u, lam, v, slope, (l_a, v_a) = _hopf(system, march, i, lam_a, lam_b, tol, omega_tol)
     branch = _branch_of(l_a, march.tracked[:, i])
+    branch = _confirmed(system, march, i, branch, l_a, v_a) if branch >= 0 else -1
     _only_unstable(system, u, lam, omega_tol, "flutter")
     return Crossing(float(u), float(lam.imag / (2 * np.pi)), CONVERGED, (a, b),
                     re_slope_per_m=slope, branch=branch), v
@@ -493,9 +511,9 @@ def _second(system, march, labels, flutter, tol, omega_tol):
     la, lb = complex(br[j, i]), complex(br[j, i + 1])
     if la.imag < 0:
         la, lb = la.conjugate(), lb.conjugate()
-    u, lam, _, slope, l_a, _ = _hopf(system, march, i, la, lb, tol, omega_tol,
-                                     "second flutter")
-    if _branch_of(l_a, br[:, i]) != j:
+    u, lam, _, slope, (l_a, v_a) = _hopf(system, march, i, la, lb, tol, omega_tol,
+                                         "second flutter")
+    if _branch_of(l_a, br[:, i]) != j or _confirmed(system, march, i, j, l_a, v_a) != j:
         raise FastPathError("second flutter: the continuation left the branch")
     return Crossing(float(u), float(lam.imag / (2 * np.pi)), CONVERGED,
                     (float(march.speeds[i]), float(march.speeds[i + 1])), re_slope_per_m=slope,
