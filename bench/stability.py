@@ -22,9 +22,10 @@ and flutter-speed difference against ``modal``.
 
 ``--sweeps`` prints instead the dense against the fast sweep (:mod:`model.hopf`) on the stated
 set of :func:`bench.sweep_cases.cases` (Humber open and closed loop, IABSE 1.1a, 1.1c, 2a,
-2a:bb3, Great Belt): eigen-solution counts, times (best of ``--repeat``), their ratios and the
-agreement; ``--sampled N`` adds ``N`` bridges sampled from Humber's estimated-input ranges and
-erection stages, counted as agreements and disagreements (each disagreement listed).
+2a:bb3, Great Belt with its default and its bb3 derivatives): eigen-solution counts, times
+(best of ``--repeat``), their ratios and the agreement; ``--sampled N`` adds ``N`` bridges
+sampled from Humber's estimated-input ranges and erection stages, counted as agreements and
+disagreements (each disagreement listed).
 
 The modal truncation study repeats the modal sweep with 8 ... 30 retained modes (one
 eigen-solution of the structure is shared; its cost is reported once in the header).

@@ -31,8 +31,8 @@ from model.derivatives import (
 )
 from model.errors import BridgeflapInputError
 
-__all__ = ["SECTION_CASES", "SectionCase", "case_fit", "default_speeds", "load_section_case",
-           "section_case_flutter"]
+__all__ = ["SECTION_CASES", "SectionCase", "case_fit", "case_system", "default_speeds",
+           "load_section_case", "section_case_flutter", "section_system"]
 
 SECTION_CASES: tuple[str, ...] = ("iabse-1.1a", "iabse-1.1c")
 """Names accepted by :func:`load_section_case`."""
@@ -236,6 +236,22 @@ def case_fit(case: SectionCase, n_lags: int | None = None, weighting: str | None
                      weighting=w)
 
 
+def case_system(case: SectionCase, n_lags: int | None = None, weighting: str | None = None):
+    """``(system, fit)``: the case's Roger-RFA state space on its fit (:func:`case_fit`)."""
+    fit = case_fit(case, n_lags, weighting)
+    return derivative_system(case.basis, case.derivatives, case.air_density, fit=fit,
+                             phi_p=case.phi_p), fit
+
+
+def section_system(name: str, added_inertia: bool | None = None):
+    """``(system, speeds [m/s])`` of a section case by name or ``.json`` path
+    (:func:`load_section_case`): its Roger-RFA state space on the default fit and
+    :func:`default_speeds`. The one builder of the named cases for the benchmarks
+    (``bench/``) and the tests, which run against the installed wheel without ``bench/``."""
+    case = load_section_case(name, added_inertia)
+    return case_system(case)[0], default_speeds(case)
+
+
 def section_case_flutter(case: SectionCase, speeds=None, n_lags: int | None = None,
                          speed_tol: float = 1e-6, weighting: str | None = None) -> dict:
     """Flutter of a case: Roger-RFA eigenvalue sweep and exact p-k (JSON-ready dict)."""
@@ -243,9 +259,7 @@ def section_case_flutter(case: SectionCase, speeds=None, n_lags: int | None = No
 
     if speeds is None:
         speeds = default_speeds(case)
-    fit = case_fit(case, n_lags, weighting)
-    system = derivative_system(case.basis, case.derivatives, case.air_density, fit=fit,
-                               phi_p=case.phi_p)
+    system, fit = case_system(case, n_lags, weighting)
     sw = stability.sweep(system, speeds, speed_tol=speed_tol)
     pk = stability.pk_sweep(system, speeds, speed_tol=speed_tol)
     ref = case.reference_speed_m_s

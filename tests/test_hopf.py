@@ -1,10 +1,14 @@
 """Fast stability sweep (model/hopf.py) against the dense reference, Newton residuals, fallback.
 
-The stated set (seconds): the IABSE 1.1a section, the IABSE 2a and 2a:bb3 bridges and Humber on
-16 modes (open loop). The fallback is checked on constructed hard cases: no tracking sub-steps
-allowed (every ambiguous coarse step forced) and a Newton that fails. (A real one, Great Belt,
-whose dense sweep itself forces 202 tracking steps, takes too long for a unit test: the fast
-path falls back there, bench/stability.py --sweeps.)
+The stated set (seconds): the IABSE 1.1a section, the IABSE 2a and 2a:bb3 bridges, Humber and
+Great Belt (default and bb3 derivatives) on 16 modes (open loop). Great Belt's identical side
+spans give near-double pairs of branches that no step halving separates (the coarse march's
+assignment treats them as one, model/tracking.py); with bb3 derivatives its divergence is an
+``unverified_crossing`` in the dense sweep, which the fast path reproduces on the grid speeds of
+its coarse bracket. The fallback is checked on a real case (IABSE 1.1c, whose coarse tracking
+jumps onto the flutter branch) and constructed hard ones: no tracking sub-steps allowed (every
+ambiguous coarse step forced), a Newton that fails, a crossing that Newton misses but the grid
+converges.
 """
 
 from __future__ import annotations
@@ -16,11 +20,11 @@ from design.analyses import DEFAULT_SPEEDS
 from design.options import parse_range
 from model import hopf, stability
 from model.errors import BridgeflapInputError
+from model.section_cases import section_system
 
-# the builders of bench/sweep_cases.py, repeated here because CI runs the tests against the
-# installed wheel, which does not ship bench/
-#: agreement of the fast and dense speeds, relative (issue 16); the dense Brent tolerance is
-#: 1e-3 m/s, 1.4e-5 of a 70 m/s flutter speed
+#: agreement of the fast and dense speeds, relative (issue 16, as bench/sweep_cases.py's, which
+#: the tests cannot import: CI runs them against the installed wheel, which does not ship
+#: bench/); the dense Brent tolerance is 1e-3 m/s, 1.4e-5 of a 70 m/s flutter speed
 REL_TOL = 1e-4
 
 
@@ -33,13 +37,7 @@ def _bridge(name, n_modes, speeds=DEFAULT_SPEEDS):
 
 
 def _section(name):
-    from model.derivatives import derivative_system
-    from model.section_cases import case_fit, default_speeds, load_section_case
-
-    case = load_section_case(name, None)
-    system = derivative_system(case.basis, case.derivatives, case.air_density,
-                               fit=case_fit(case, None), phi_p=case.phi_p)
-    return name, system, default_speeds(case)
+    return (name, *section_system(name))
 
 #: summary keys that must be identical (statuses, labels, onset)
 SAME = ("flutter_status", "divergence_status", "second_flutter_status", "critical_branch_label",
@@ -47,12 +45,20 @@ SAME = ("flutter_status", "divergence_status", "second_flutter_status", "critica
         "divergence_static_status", "speed_min_m_s", "speed_max_m_s")
 SPEEDS = ("flutter_speed_m_s", "divergence_speed_m_s", "second_flutter_speed_m_s",
           "flutter_frequency_hz")
+#: fewer eigen-solutions than dense by at least this factor (a count; issue 16's target is 5x).
+#: Measured on 16 modes: 1.1a 425/14, 2a 183/13, 2a:bb3 184/13, Humber 197/15, Great Belt
+#: 382/23 (16x: 10 stated), Great Belt bb3 494/91 (5.4x: its unverified divergence is located
+#: on the 0.5 m/s grid speeds of a coarse bracket, as the dense sweep does)
+FACTOR = {"great-belt": 10}
 
 
 @pytest.fixture(scope="module")
 def cases():
-    return {"iabse-1.1a": _section("iabse-1.1a"), "iabse-2a:bb3": _bridge("iabse-2a:bb3", 16),
-            "humber": _bridge("humber", 16), "iabse-2a": _bridge("iabse-2a", 16)}
+    return {"iabse-1.1a": _section("iabse-1.1a"), "iabse-1.1c": _section("iabse-1.1c"),
+            "iabse-2a:bb3": _bridge("iabse-2a:bb3", 16), "humber": _bridge("humber", 16),
+            "iabse-2a": _bridge("iabse-2a", 16),
+            "great-belt": _bridge("great-belt", 16, "0:150:0.5"),
+            "great-belt:bb3": _bridge("great-belt:bb3", 16, "0:150:0.5")}
 
 
 def _both(case):
@@ -61,12 +67,15 @@ def _both(case):
             stability.sweep(system, speeds, method="fast").summary())
 
 
-@pytest.mark.parametrize("name", ["iabse-1.1a", "iabse-2a", "iabse-2a:bb3", "humber"])
+@pytest.mark.parametrize("name", ["iabse-1.1a", "iabse-2a", "iabse-2a:bb3", "humber",
+                                  "great-belt", "great-belt:bb3"])
 def test_fast_matches_dense(cases, name):
     dense, fast = _both(cases[name])
     assert fast["sweep_method"] == "fast" and fast["sweep_fallback_reason"] == ""
     assert set(fast) == set(dense)
-    for k in SAME:
+    # the extra keys of a crossing seen but not converged (great-belt:bb3's divergence: grid
+    # bracket and reason) are the dense sweep's own
+    for k in SAME + tuple(k for k in dense if k.endswith(("_bracket_m_s", "_reason"))):
         assert fast[k] == dense[k], k
     for k in SPEEDS:
         # issue 16: 1e-4 relative; the dense Brent tolerance is 1e-3 m/s (2e-5 of these speeds)
@@ -79,8 +88,53 @@ def test_fast_matches_dense(cases, name):
         assert fast["flutter_re_lambda_slope_per_m"] == pytest.approx(
             dense["flutter_re_lambda_slope_per_m"], rel=1e-3)
         assert fast["critical_participation"].keys() == dense["critical_participation"].keys()
-    # issue 16 target: at least 5x fewer eigen-solutions
-    assert 5 * fast["eigen_solutions"] <= dense["eigen_solutions"]
+    # issue 16 target: at least 5x fewer eigen-solutions (FACTOR)
+    assert FACTOR.get(name, 5) * fast["eigen_solutions"] <= dense["eigen_solutions"]
+
+
+def test_great_belt_bb3_divergence_is_the_dense_unverified_one(cases):
+    """The dense sweep's divergence indicator on great-belt:bb3 jumps at 142 m/s, past flutter:
+    an unstable complex pair turns into two positive real eigenvalues, no eigenvalue passes
+    zero. Both paths say unverified_crossing with the same grid bracket and reason."""
+    dense, fast = _both(cases["great-belt:bb3"])
+    assert dense["divergence_status"] == fast["divergence_status"] == stability.UNVERIFIED
+    assert fast["divergence_bracket_m_s"] == dense["divergence_bracket_m_s"]
+
+
+def test_fallback_where_the_coarse_tracking_jumps(cases, monkeypatch):
+    """A real case where the fallback is needed: IABSE 1.1c's RFA moves the still-air spectrum
+    far from the structure's, its pitch branch turns real within 6 m/s and the first coarse
+    step gives its label to the flutter branch. The Newton continuation back to U = 0 sees the
+    jump: the critical branch is then named by participation (the dense sweep's 'heave', whose
+    fine tracking lost the branch), and the second flutter, on the jumped branch, falls back."""
+    _, system, speeds = cases["iabse-1.1c"]
+    confirmed, seen = hopf._confirmed, []
+
+    def spy(*args):
+        seen.append(confirmed(*args))
+        return seen[-1]
+
+    monkeypatch.setattr(hopf, "_confirmed", spy)
+    fast = stability.sweep(system, speeds, method="fast")
+    dense = stability.sweep(system, speeds, method="dense")
+    assert seen and seen[0] == -1  # the critical branch's coarse tracking is not confirmed
+    assert fast.method == "dense" and fast.fallback_reason.startswith("second flutter")
+    assert fast.summary()["critical_branch_label"] == dense.critical_branch == "heave"
+    assert dense.flutter.label_source == "participation"
+
+
+def test_fallback_when_the_grid_converges_what_newton_missed(cases, monkeypatch):
+    """A divergence the fast path cannot verify is kept only when the grid search says it is
+    not converged either; a converged one there means the fast path erred: the whole dense
+    sweep runs."""
+    def fail(*a, **k):
+        raise hopf.FastPathError("divergence: injected failure")
+
+    monkeypatch.setattr(hopf, "_divergence", fail)
+    _, system, speeds = cases["iabse-1.1a"]
+    sw = stability.sweep(system, speeds, method="fast")
+    assert sw.method == "dense" and sw.fallback_reason == "divergence: injected failure"
+    assert sw.divergence.status == stability.CONVERGED
 
 
 def test_hopf_newton_residual(cases):
