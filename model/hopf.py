@@ -305,10 +305,17 @@ def _grid_crossing(system, speeds, march, tol, omega_tol, kind, why):
     i = _first_bracket(march.flutter_vals if kind == "flutter" else march.div_vals,
                        march.speeds, omega_tol)
     lo = max(int(np.searchsorted(speeds, march.speeds[i], "right")) - 1, 0)
-    sub = speeds[lo:int(np.searchsorted(speeds, march.speeds[i + 1])) + 1]
-    vals = np.array([_indicator(system, u, omega_tol, kind) if u > 0 or kind == "flutter"
-                     else -np.inf for u in sub])
-    got = _locate(system, sub, vals, tol, omega_tol, kind, np.full((1, sub.size), np.nan))
+    vals = []
+    for u in speeds[lo:int(np.searchsorted(speeds, march.speeds[i + 1])) + 1]:
+        vals.append(_indicator(system, u, omega_tol, kind) if u > 0 or kind == "flutter"
+                    else -np.inf)
+        if len(vals) > 1 and vals[-1] >= 0:  # the first grid sign change: no more needed
+            break
+    sub = speeds[lo:lo + len(vals)]
+    if not (vals[0] < 0 or speeds[lo] == 0.0):  # the dense sweep's first sign change is below
+        raise FastPathError(why)
+    got = _locate(system, sub, np.array(vals), tol, omega_tol, kind,
+                  np.full((1, sub.size), np.nan))
     if got.status in (CONVERGED, NO_CROSSING, UNSTABLE_AT_FIRST):
         raise FastPathError(why)
     return got

@@ -47,8 +47,8 @@ SPEEDS = ("flutter_speed_m_s", "divergence_speed_m_s", "second_flutter_speed_m_s
           "flutter_frequency_hz")
 #: fewer eigen-solutions than dense by at least this factor (a count; issue 16's target is 5x).
 #: Measured on 16 modes: 1.1a 425/14, 2a 183/13, 2a:bb3 184/13, Humber 197/15, Great Belt
-#: 382/23 (16x: 10 stated), Great Belt bb3 494/91 (5.4x: its unverified divergence is located
-#: on the 0.5 m/s grid speeds of a coarse bracket, as the dense sweep does)
+#: 382/23 (16x: 10 stated), Great Belt bb3 494/79 (6.3x: its unverified divergence is located
+#: on the 0.5 m/s grid speeds of a coarse bracket, Brent and its checks as the dense sweep's)
 FACTOR = {"great-belt": 10}
 
 
