@@ -20,7 +20,9 @@ continuations. This module (``method="fast"``) gives the same result with a frac
    (Newton residual), ``d Re lambda / dU > 0`` (exact, bordered solve) and the eigenvalue stays
    oscillatory (flutter) or real (divergence) a bracket either side; the eigenpair continued by
    Newton (linear solves only) to the grid speeds of the bracket is stable at the lower and
-   not stable at the upper one, and names the tracked branch; one dense ``eigvals`` at the
+   not stable at the upper one, and names the tracked branch if, continued on back through
+   the coarse speeds, it stays on that branch (:func:`_confirmed`; else the participation
+   names it, as the dense sweep names a crossing its tracking lost); one dense ``eigvals`` at the
    crossing confirms the eigenvalue and that no other eigenvalue of its kind is unstable there;
 4. **dense fallback**: when the tracking is unsure (a forced step), Newton does not converge,
    the eigenvalue is nearly defective (:data:`NEAR_DEFECTIVE`) or a verification fails, the
