@@ -432,7 +432,7 @@ class DesignProblem:
             lbg.append(np.full(n_rob, -np.inf))
             ubg.append(np.zeros(n_rob))
             f = f + s.weight_robust * gT
-        if s.weight_buffeting > 0:
+        if s.weight_buffeting > 0 and not feasibility:   # phase 1: feasibility only
             f = f + s.weight_buffeting * buffeting_objective(self, theta0, weights0, th, w, p)
         if s.optimise_placement and s.weight_flaps > 0:
             f = f + s.weight_flaps * ca.sum1(w) / nF
