@@ -1,14 +1,27 @@
-"""The buffeting term of the design objective as a CasADi callback (forward differences).
+"""The buffeting term of the design objective, three ways.
 
-``J_buf(p)`` is :meth:`design.nlp.DesignProblem.buffeting_cost` (mean squared RMS ratios to the
-open loop, :func:`model.buffeting.buffeting`), evaluated numerically; its Jacobian is a forward
-difference with step ``step * max(1, |p_k|)``. Used only when ``weight_buffeting > 0``.
+``J_buf = 0.5 mean_U ((sigma_z / sigma_z0)^2 + (sigma_a / sigma_a0)^2)``: vertical and torsional
+RMS at two main-span strips relative to the same loop with ``K = 0`` (flaps fitted, locked).
+
+* :class:`ModalBuffeting` (``buffeting_term = "modal"``, the default): the spectral integral as
+  a CasADi expression of the compensator coefficients (and the flap weights), written in modal
+  coordinates. The compensator enters the closed-loop gust response only through the scalar
+  ``K(j omega)`` (the structure of the analytic robust constraint, :mod:`design.robust`), so the
+  frequency data are computed once and each evaluation costs O(n_modes^2) per frequency.
+* :class:`SymbolicBuffeting` (``"casadi"``): the same integral on the closed-loop state matrix
+  (one dense 2 n_x solve per frequency in the graph): the cross-check, ~1000x slower to build.
+* :class:`BuffetingCost` (``"callback"``): numpy :func:`model.buffeting.buffeting` with a
+  forward-difference gradient.
+
+Used only when ``weight_buffeting > 0``.
 """
 
 from __future__ import annotations
 
 import casadi as ca
 import numpy as np
+
+from design.robust import k_complex
 
 
 class BuffetingCost(ca.Callback):
@@ -145,3 +158,234 @@ class SymbolicBuffeting:
 
     def __call__(self, theta, w):
         return self.function(theta, w)
+
+
+class ModalBuffeting:
+    """``J_buf(theta, w)``: the CasADi spectral buffeting integral in modal coordinates.
+
+    Closed loop (``beta = K alpha`` at every flap, :meth:`model.flaps.ClosedLoopModel.gust_plant`)::
+
+        q = (I - K N)^{-1} X_g w_tilde,   N = X diag(w) Pa,   X_g = D(j omega)^{-1} U P_gust
+
+    with ``D`` the frozen-RFA dynamic matrix: ``D^{-1}`` is the exact transfer function of the
+    RFA state space, so this is the integrand of :func:`model.buffeting.reduced_response` for the
+    closed loop. For an output row ``c`` (strip heave or pitch per modal coordinate) the one-sided
+    PSD is ``G = y^T M conj(y)``, ``y = (I - K N)^{-T} c``, ``M = E S E^H`` (``E = X_g V^T``,
+    ``S`` the projected load CSD ``s_w chi^2 V R V^T``, :func:`model.gust.coherence_projection``):
+    ``M`` does not depend on the design and is computed once per frequency.
+
+    With the layout fixed (``fixed_layout``; the default design), ``N = V diag(mu) V^{-1}`` once
+    per frequency gives ``G = d^T H conj(d)``, ``d_i = 1 / (1 - K mu_i)``, ``H = diag(a) B
+    diag(conj a)``, ``a = V^T c``, ``B = V^{-1} M V^{-H}``: a closed form in ``(Re K, Im K)``.
+    Otherwise (flap placement, ``w`` a variable) one ``2 n`` real solve per frequency.
+
+    The quadrature grid is frozen: per speed the union of the adaptive grids
+    (:func:`model.spectral.adaptive_frequency_grid`) of the open loop and of the reference
+    design ``theta_ref`` closed loop. The strips are the main-span strips of largest open-loop
+    RMS (vertical and torsional). :meth:`check` compares the frozen integral with the converged
+    numpy path at any design (a posteriori).
+
+    Parameters
+    ----------
+    problem : design.nlp.DesignProblem
+    theta_ref : array_like, optional
+        Reference design for the grid (default: only the open-loop grid).
+    fixed_layout : bool
+        ``w`` fixed at ``problem.weights`` (closed form) or a variable (solve form).
+    n_base, peaks_per_mode : int
+        Grid settings (per reference system).
+    """
+
+    def __init__(self, problem, theta_ref=None, fixed_layout=True, n_base=80, peaks_per_mode=25,
+                 half_widths=30.0):
+        from model.buffeting import OMEGA_MAX_FACTOR, _main_span_mask, buffeting
+        from model.control import Compensator
+        from model.gust import coherence_projection, gust_field
+        from model.spec import load_bridge
+        from model.spectral import adaptive_frequency_grid, trapezoid_weights
+
+        s = problem.settings
+        spec = problem.spec if problem.spec is not None else load_bridge(s.bridge)
+        model = problem.model
+        ol = model.open_loop
+        basis = ol.basis
+        self.weights = np.asarray(problem.weights, float)
+        self.fixed_layout = bool(fixed_layout)
+        self.speeds_m_s = np.asarray(s.buffeting_speeds_m_s, float)
+        strip_x = np.asarray(basis.strip_x, float)
+        ns = strip_x.size
+        main = _main_span_mask(spec, strip_x)
+        gust = gust_field(spec)
+        ref0 = buffeting(ol, self.speeds_m_s, spec=spec, n_modes=int(basis.n))
+        self.open_loop_rms = (ref0.rms_vertical, ref0.rms_torsion)
+        Pa = np.asarray(model.flaps.phi_a, float)
+        self.points, self.rows, self.omegas = [], [], []
+        data = []        # per speed: (omega, X, M, C)
+        for i, U in enumerate(self.speeds_m_s):
+            jv = int(np.argmax(np.where(main, ref0.rms_heave[i], -np.inf)))
+            jt = int(np.argmax(np.where(main, ref0.rms_pitch[i], -np.inf)))
+            self.rows.append((jv, ns + jt))
+            C = np.vstack([basis.phi_h[jv], basis.phi_a[jt]])       # (2, n)
+            systems = [ol.A(U)]
+            if theta_ref is not None:
+                systems.append(model.system(Compensator(*(float(v) for v in theta_ref)),
+                                            weights=self.weights).A(U))
+            om_max = OMEGA_MAX_FACTOR * max(float(np.abs(np.linalg.eigvals(A).imag).max())
+                                            for A in systems)
+            om = np.unique(np.concatenate([adaptive_frequency_grid(A, om_max, n_base,
+                                                                   peaks_per_mode, half_widths)
+                                           for A in systems]))
+            _, X, Xg = model.gust_plant(float(U), 1j * om)
+            _, Vt = _row_space(np.asarray(ol.aero.P_gust, float))
+            S = (gust.psd(om, U) * gust.admittance_sq(om, U))[:, None, None] * \
+                coherence_projection(strip_x, Vt.T, om, U, gust.coherence_decay)
+            E = Xg @ Vt.T
+            M = E @ S.astype(complex) @ np.conj(np.swapaxes(E, 1, 2))
+            M = 0.5 * (M + np.conj(np.swapaxes(M, 1, 2)))
+            M *= trapezoid_weights(om)[:, None, None]
+            data.append((om, X, M, C))
+            self.omegas.append(om)
+        self.open_loop_var = np.array([[np.einsum("i,kij,j->", c, M, c).real for c in C]
+                                       for (_, _, M, C) in data])       # (n_speeds, 2)
+        self._build(Pa, data)
+
+    def _build(self, Pa, data):
+        th = ca.MX.sym("theta", 5)
+        w = ca.MX.sym("w", Pa.shape[0])
+        var = []
+        if self.fixed_layout:
+            f1 = _eig_point_function(Pa.shape[1])
+            for om, X, M, C in data:
+                mu, Hs = _eig_point_data(Pa, X, M, C, self.weights)
+                fm = f1.map(om.size, "serial")
+                v = fm(th, ca.DM(om[None, :]), ca.DM(mu.real.T), ca.DM(mu.imag.T),
+                       *[ca.DM(np.hstack(list(h))) for H in Hs for h in (H.real, H.imag)])
+                var.append(ca.sum2(v).T)
+        else:
+            for om, X, M, C in data:
+                f1 = _solve_point_function(Pa, C)
+                fm = f1.map(om.size, "serial")
+                v = fm(th, w, ca.DM(om[None, :]), ca.DM(np.hstack(list(X.real))),
+                       ca.DM(np.hstack(list(X.imag))), ca.DM(np.hstack(list(M.real))),
+                       ca.DM(np.hstack(list(M.imag))))
+                var.append(ca.sum2(v).T)
+        V = ca.vertcat(*var)                                   # (n_speeds, 2) variances
+        ratio = V / ca.DM(self.open_loop_var)
+        self.variance_function = ca.Function("buffeting_variance", [th, w], [V],
+                                             ["theta", "w"], ["variance"])
+        self.function = ca.Function("J_buf", [th, w], [0.5 * ca.sum1(ca.sum2(ratio))
+                                                       / len(data)], ["theta", "w"], ["J_buf"])
+
+    def __call__(self, theta, w):
+        return self.function(theta, w)
+
+    def rms(self, theta, w=None) -> tuple[np.ndarray, np.ndarray]:
+        """Vertical [m] and torsional [rad] RMS at the term's strips per speed (frozen grid)."""
+        w = self.weights if w is None else np.asarray(w, float)
+        v = np.sqrt(np.clip(np.asarray(self.variance_function(theta, w).full()), 0.0, None))
+        return v[:, 0], v[:, 1]
+
+    def check(self, problem, theta, w=None) -> dict:
+        """The frozen integral against the numpy path (adaptive grid, converged to 5e-3) at
+        ``theta``: the RMS at the same strips and the largest relative difference."""
+        from model.buffeting import buffeting
+        from model.control import Compensator
+        from model.spec import load_bridge
+
+        w = self.weights if w is None else np.asarray(w, float)
+        s = problem.settings
+        spec = problem.spec if problem.spec is not None else load_bridge(s.bridge)
+        sys_cl = problem.model.system(Compensator(*(float(v) for v in theta)), weights=w)
+        r = buffeting(sys_cl, self.speeds_m_s, spec=spec,
+                      n_modes=int(problem.model.open_loop.basis.n))
+        ns = r.strip_x.size
+        ref_v = np.array([r.rms_heave[i, jv] for i, (jv, _) in enumerate(self.rows)])
+        ref_t = np.array([r.rms_pitch[i, jt - ns] for i, (_, jt) in enumerate(self.rows)])
+        z, a = self.rms(theta, w)
+        rel = max(float(np.max(np.abs(z - ref_v) / ref_v)),
+                  float(np.max(np.abs(a - ref_t) / ref_t)))
+        return {"rms_vertical_m": z.tolist(), "rms_torsion_rad": a.tolist(),
+                "numpy_rms_vertical_m": ref_v.tolist(), "numpy_rms_torsion_rad": ref_t.tolist(),
+                "max_relative_difference": rel, "grid_points": [int(o.size) for o in self.omegas]}
+
+
+def _row_space(P):
+    from model.buffeting import row_factor
+
+    return row_factor(P)
+
+
+def _quad(zr, zi, Hr, Hi):
+    """``z^H H z`` for Hermitian ``H = Hr + i Hi`` and ``z = zr + i zi`` (real arithmetic)."""
+    return (ca.dot(zr, ca.mtimes(Hr, zr)) + ca.dot(zi, ca.mtimes(Hr, zi))
+            + 2.0 * ca.dot(zi, ca.mtimes(Hi, zr)))
+
+
+def _eig_point_data(Pa, X, M, C, weights):
+    """Per frequency ``mu`` (n_omega, n) and ``H_p`` (n_omega, n, n) for both output rows."""
+    XW = X * np.asarray(weights, float)[None, None, :]
+    mu, V = np.linalg.eig(XW @ Pa[None, :, :])
+    cond = np.linalg.cond(V)
+    if np.any(cond > 1e8):
+        raise np.linalg.LinAlgError(f"loop matrix nearly defective (cond(V) {cond.max():.2e})")
+    Vi = np.linalg.inv(V)
+    B = Vi @ M @ np.conj(np.swapaxes(Vi, 1, 2))
+    Hs = []
+    for c in C:
+        a = np.einsum("i,kij->kj", c, V)                    # a = V^T c
+        Hs.append(a[:, :, None] * B * np.conj(a)[:, None, :])
+    return mu, Hs
+
+
+def _eig_point_function(n) -> ca.Function:
+    th = ca.SX.sym("theta", 5)
+    om = ca.SX.sym("omega")
+    mr, mi = ca.SX.sym("mu_r", n), ca.SX.sym("mu_i", n)
+    H = [ca.SX.sym(f"H{k}", n, n) for k in range(4)]
+    Kr, Ki = k_complex(th, om)
+    dr = 1.0 - (Kr * mr - Ki * mi)
+    di = -(Kr * mi + Ki * mr)
+    q2 = dr * dr + di * di
+    zr, zi = dr / q2, di / q2                               # conj(1 / (1 - K mu))
+    out = ca.vertcat(_quad(zr, zi, H[0], H[1]), _quad(zr, zi, H[2], H[3]))
+    return ca.Function("buffeting_point", [th, om, mr, mi, *H], [out])
+
+
+def _solve_point_function(Pa, C) -> ca.Function:
+    nF, n = Pa.shape
+    th = ca.MX.sym("theta", 5)
+    w = ca.MX.sym("w", nF)
+    om = ca.MX.sym("omega")
+    Xr, Xi = ca.MX.sym("Xr", n, nF), ca.MX.sym("Xi", n, nF)
+    Mr, Mi = ca.MX.sym("Mr", n, n), ca.MX.sym("Mi", n, n)
+    Kr, Ki = k_complex(th, om)
+    Wd = ca.repmat(w.T, n, 1)
+    P = ca.DM(Pa)
+    Nr, Ni = ca.mtimes(Xr * Wd, P), ca.mtimes(Xi * Wd, P)
+    Ar = ca.DM.eye(n) - (Kr * Nr - Ki * Ni)
+    Ai = -(Kr * Ni + Ki * Nr)
+    big = ca.vertcat(ca.horzcat(Ar.T, -Ai.T), ca.horzcat(Ai.T, Ar.T))
+    Y = ca.solve(big, ca.vertcat(ca.DM(C.T), ca.DM.zeros(n, C.shape[0])), "lapacklu", {})
+    out = ca.vertcat(*[_quad(Y[:n, p], -Y[n:, p], Mr, Mi) for p in range(C.shape[0])])
+    return ca.Function("buffeting_point_solve", [th, w, om, Xr, Xi, Mr, Mi], [out])
+
+
+def buffeting_objective(problem, theta0, weights0, th, w, p):
+    """``J_buf`` as an expression of the NLP's ``th`` and ``w`` (or ``p = [th; z]``) for
+    ``problem.settings.buffeting_term``; the term is built once per problem and layout kind
+    (the grid frozen at the first solve's start) and reused by every re-solve."""
+    s = problem.settings
+    kind = s.buffeting_term
+    if kind == "callback":
+        cb = BuffetingCost(problem, problem.n_p)
+        problem.callbacks["buffeting"] = cb
+        return cb(p)
+    key = ("buffeting", kind, bool(s.optimise_placement))
+    if key not in problem.callbacks:
+        w_ref = problem.weights if weights0 is None else np.asarray(weights0, float)
+        if kind == "casadi":
+            problem.callbacks[key] = SymbolicBuffeting(problem, theta0, w_ref)
+        else:
+            problem.callbacks[key] = ModalBuffeting(problem, theta0,
+                                                    fixed_layout=not s.optimise_placement)
+    return problem.callbacks[key](th, w)

@@ -29,9 +29,9 @@ constraints use :class:`design.eigen.PolynomialStructuralDamping` (analytic eige
 Jacobians through the one assembly, limited-memory Hessian).
 
 Buffeting. ``J_buf`` is the mean over ``buffeting_speeds_m_s`` of the squared RMS vertical and
-torsional deck response (each normalised by its open-loop value) from
-:func:`model.buffeting.buffeting`, evaluated numerically in a :class:`casadi.Callback` with a
-forward-difference Jacobian (step 1e-4 relative); used only when ``weight_buffeting > 0``.
+torsional deck response (each normalised by its ``K = 0`` value): by default the CasADi spectral
+integral in modal coordinates (:class:`design.buffeting_term.ModalBuffeting`, exact AD
+derivatives); used only when ``weight_buffeting > 0``.
 
 Phase 1 and cutting planes (:meth:`DesignProblem.solve_with_cuts`). From a start that violates
 the damping constraints a phase-1 solve without the robust epigraph finds a strictly feasible
@@ -63,7 +63,7 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from design.buffeting_term import BuffetingCost, SymbolicBuffeting
+from design.buffeting_term import buffeting_objective
 from design.eigen import PolynomialStructuralDamping
 from design.plant import (
     damping_check,
@@ -432,15 +432,8 @@ class DesignProblem:
             lbg.append(np.full(n_rob, -np.inf))
             ubg.append(np.zeros(n_rob))
             f = f + s.weight_robust * gT
-        if s.weight_buffeting > 0 and s.buffeting_term == "casadi":
-            if "buffeting_sym" not in self.callbacks:
-                self.callbacks["buffeting_sym"] = SymbolicBuffeting(
-                    self, theta0, self.weights if weights0 is None else weights0)
-            f = f + s.weight_buffeting * self.callbacks["buffeting_sym"](th, w)
-        elif s.weight_buffeting > 0:
-            bcb = BuffetingCost(self, self.n_p)
-            self.callbacks["buffeting"] = bcb
-            f = f + s.weight_buffeting * bcb(p)
+        if s.weight_buffeting > 0 and not feasibility:   # phase 1: feasibility only
+            f = f + s.weight_buffeting * buffeting_objective(self, theta0, weights0, th, w, p)
         if s.optimise_placement and s.weight_flaps > 0:
             f = f + s.weight_flaps * ca.sum1(w) / nF
         if s.optimise_placement and s.flap_budget > 0:

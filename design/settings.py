@@ -76,7 +76,7 @@ class DesignSettings:
     weight_regularisation: float = 1e-3
     weight_buffeting: float = 0.0
     buffeting_speeds_m_s: tuple = (10.0, 20.0, 25.0)
-    buffeting_term: str = "callback"
+    buffeting_term: str = "modal"
     optimise_placement: bool = False
     weight_flaps: float = 0.0
     symmetric_layout: bool = True
@@ -159,9 +159,11 @@ class DesignSettings:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 0:
                 raise BridgeflapInputError(name, f"must be an integer >= 0, got {v!r}")
-        if self.buffeting_term not in ("callback", "casadi"):
-            raise BridgeflapInputError("buffeting_term", "must be 'callback' (numpy, forward "
-                                       f"differences) or 'casadi', got {self.buffeting_term!r}")
+        if self.buffeting_term not in ("modal", "callback", "casadi"):
+            raise BridgeflapInputError("buffeting_term", "must be 'modal' (CasADi spectral "
+                                       "integral in modal coordinates), 'casadi' (on the state "
+                                       "matrix) or 'callback' (numpy, forward differences), "
+                                       f"got {self.buffeting_term!r}")
         if (isinstance(self.flap_budget, bool) or not isinstance(self.flap_budget, int)
                 or not 0 <= self.flap_budget <= self.flap_count):
             raise BridgeflapInputError("flap_budget", "must be an integer in 0..flap_count "

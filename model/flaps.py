@@ -249,16 +249,34 @@ class ClosedLoopModel:
             Pitch at the flap strips per unit modal coordinate [rad].
         X : ndarray (len(s), n_modes, n_flaps) complex
         """
+        Pa, X, _ = self._responses(wind_speed, s, weights, gust=False)
+        return Pa, X
+
+    def gust_plant(self, wind_speed: float, s, weights=None):
+        """``(Pa, X, X_gust)``: :meth:`plant` and the open-loop gust transfer ``X_gust = D(s)^{-1}
+        U P_gust`` (len(s), n_modes, n_strips) [modal coordinate per m/s of strip gust
+        velocity after the admittance], from the same ``D(s)``. With the loop ``beta = K
+        alpha``, ``q = (I - K X diag(w) Pa)^{-1} X_gust w_tilde`` (the closed-loop gust
+        response of the RFA state space ``AeroelasticSystem.B_gust``)."""
+        return self._responses(wind_speed, s, weights, gust=True)
+
+    def _responses(self, wind_speed, s, weights, gust):
         op = self.pieces(weights)
         ol = self.open_loop
         U, b = float(wind_speed), ol.aero.half_chord
         s = np.atleast_1d(np.asarray(s, complex))
         X = np.zeros((len(s), op.n, self.n_flaps), complex)
+        P = U * np.asarray(ol.aero.P_gust, float) if gust else None
+        Xg = np.zeros((len(s), op.n, P.shape[1]), complex) if gust else None
         for i, p in enumerate(s):
             c = complex(ol.rfa.evaluate_s(p * b / U)) if U > 0 else 1.0
             D, F = dynamic_matrices(op, U, p, c)
-            X[i] = np.linalg.solve(D, F)
-        return np.asarray(self.flaps.phi_a, float), X
+            if gust:
+                Y = np.linalg.solve(D, np.hstack([F, P]))
+                X[i], Xg[i] = Y[:, :self.n_flaps], Y[:, self.n_flaps:]
+            else:
+                X[i] = np.linalg.solve(D, F)
+        return np.asarray(self.flaps.phi_a, float), X, Xg
 
     def abscissa(self, compensator: Compensator, speeds, weights=None) -> np.ndarray:
         """Closed-loop spectral abscissa [1/s] per speed (lag states dropped at ``U = 0``)."""

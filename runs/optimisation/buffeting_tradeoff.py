@@ -1,7 +1,8 @@
 """Buffeting trade-off of the compensator design (issue 14 item 6): weight_buffeting swept.
 
 For each buffeting weight the default design (``runs/humber_flaps.toml``, one start from the
-nominal point, the CasADi spectral buffeting integral ``buffeting_term = "casadi"``, same-K
+nominal point, the CasADi spectral buffeting integral in modal coordinates
+``buffeting_term = "modal"``, :class:`design.buffeting_term.ModalBuffeting`, same-K
 flap-count search limited to the design count) is run through :func:`design.driver.design`;
 the table holds the closed-loop / open-loop RMS ratios (vertical and torsional, numpy
 :func:`model.buffeting.buffeting` on the verification model, max over the main span) at the
@@ -10,7 +11,7 @@ buffeting speeds, the robust margin, the closed-loop critical speed and the stat
 Writes ``tradeoff.csv``, ``tradeoff.md`` and ``tradeoff.png`` to ``--out`` (default
 ``runs/optimisation/buffeting_tradeoff``).
 
-    python runs/optimisation/buffeting_tradeoff.py [--weights 0 0.3 1 3] [--out DIR]
+    python runs/optimisation/buffeting_tradeoff.py [--weights 0 0.3 1 3 10] [--out DIR]
 """
 
 import argparse
@@ -25,12 +26,12 @@ from design.driver import design
 from design.settings import load_settings
 
 DEFINITION = Path(__file__).resolve().parents[1] / "humber_flaps.toml"
-WEIGHTS = (0.0, 0.3, 1.0, 3.0)
+WEIGHTS = (0.0, 0.3, 1.0, 3.0, 10.0)
 
 
 def one(settings, weight) -> dict:
     """One design at ``weight``: its row of the table."""
-    s = replace(settings, weight_buffeting=float(weight), buffeting_term="casadi", starts=1,
+    s = replace(settings, weight_buffeting=float(weight), buffeting_term="modal", starts=1,
                 parallel=False, min_flap_counts=(settings.flap_count,))
     t0 = time.perf_counter()
     r = design(s, progress_bar=False)
