@@ -167,7 +167,8 @@ def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,
     ``spec`` the bridge (default ``settings.bridge``)."""
     nm = settings.verification_modes if n_modes is None else int(n_modes)
     _, model = build_model(settings, n_modes=nm, positions=positions, spec=spec)
-    return DesignProblem(replace(settings, optimise_placement=False), model).verify(theta)
+    return DesignProblem(replace(settings, optimise_placement=False), model,
+                         numeric=True).verify(theta)
 
 
 def _progress_bar(index: int, show):
@@ -310,7 +311,7 @@ def _margin_at(rob, speeds):
 
 
 def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
-                       spec=None) -> FlapCountSearch:
+                       spec=None, known=None) -> FlapCountSearch:
     """Fewest evenly spaced flaps (around mid-span) still stable 0..U_max with the margin.
 
     The optimised ``theta`` is kept; each count is verified on the dense grid with the
@@ -319,8 +320,11 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
     ``settings.bridge``). Counts: ``counts``, else ``min_flap_counts``, else (default) every
     count from ``flap_count`` down to 1, stopping after ``MISSES_TO_STOP`` consecutive
     failing counts (the same-K check is cheap: one dense sweep each, one modal solution).
-    With ``settings.parallel`` two counts at a time run in two processes (same rows and
-    minimum as the serial search: the stopping rule is applied count by count).
+    ``known``: ``{count: Verification}`` of ``theta`` on that evenly spaced layout and the
+    verification model, already computed (the chosen start's check of its full layout): not
+    recomputed. With ``settings.parallel`` two counts at a time run in two processes, the
+    next count submitted as soon as one finishes (same rows and minimum as the serial
+    search: the stopping rule is applied count by count, in order).
     """
     counts = settings.min_flap_counts if counts is None else counts
     every = not counts
@@ -335,6 +339,7 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
         modal = solve(assemble(spec))
     counts = [int(c) for c in counts if c <= settings.flap_count]
     theta = tuple(float(v) for v in theta)
+    known = dict(known or {})
     workers = 2 if settings.parallel and len(counts) > 1 else 1
     rows = []
     best = None
@@ -344,38 +349,54 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
         from concurrent.futures import ProcessPoolExecutor
 
         pool = ProcessPoolExecutor(max_workers=workers)
+    pending = {}                # index -> future (at most `workers` in flight)
+
+    def result(i):
+        c = counts[i]
+        if c in known:
+            return _count_row(c, known[c])
+        if pool is None:
+            return _check_count(settings, c, modal, spec, theta)
+        j = i                   # keep the workers busy: count i and the next ones in flight
+        while len(pending) < workers and j < len(counts):
+            if j not in pending and counts[j] not in known:
+                pending[j] = pool.submit(_check_count, settings, counts[j], modal, spec,
+                                         theta)
+            j += 1
+        return pending.pop(i).result()
+
     try:
-        i = 0
-        while i < len(counts) and not (every and misses >= MISSES_TO_STOP):
-            batch = counts[i:i + workers]
-            args = [(settings, c, modal, spec, theta) for c in batch]
-            done = (list(pool.map(_check_count, *zip(*args, strict=True))) if pool
-                    else [_check_count(*a) for a in args])
-            for row in done:    # the serial search's stopping rule, count by count
-                if every and misses >= MISSES_TO_STOP:
-                    break       # fewer flaps, less authority: stop after a run of failures
-                rows.append(row)
-                if row.meets_margin:
-                    best = row.flap_count if best is None else min(best, row.flap_count)
-                misses = 0 if row.meets_margin else misses + 1
-            i += len(batch)
+        for i in range(len(counts)):
+            if every and misses >= MISSES_TO_STOP:
+                break           # fewer flaps, less authority: stop after a run of failures
+            row = result(i)
+            rows.append(row)
+            if row.meets_margin:
+                best = row.flap_count if best is None else min(best, row.flap_count)
+            misses = 0 if row.meets_margin else misses + 1
     finally:
         if pool is not None:
+            for f in pending.values():
+                f.cancel()
             pool.shutdown()
     return FlapCountSearch(minimum=best, counts=tuple(rows), modes=settings.verification_modes)
+
+
+def _count_row(count, ver) -> FlapCountCheck:
+    """The flap-count record of a dense check ``ver`` (Verification)."""
+    return FlapCountCheck(flap_count=int(count),
+                          meets_margin=bool(ver.max_violation_1_s <= VIOLATION_TOL),
+                          stable_everywhere=ver.stable_everywhere,
+                          stable_to_m_s=ver.stable_to_m_s,
+                          max_violation_1_s=ver.max_violation_1_s)
 
 
 def _check_count(settings, count, modal, spec, theta) -> FlapCountCheck:
     """Dense same-K check of ``count`` evenly spaced flaps on the verification model."""
     _, model = build_model(settings, count, modal, n_modes=settings.verification_modes,
                            spec=spec)
-    ver = DesignProblem(replace(settings, optimise_placement=False), model).verify(
-        np.asarray(theta))
-    return FlapCountCheck(flap_count=int(count),
-                          meets_margin=bool(ver.max_violation_1_s <= VIOLATION_TOL),
-                          stable_everywhere=ver.stable_everywhere,
-                          stable_to_m_s=ver.stable_to_m_s,
-                          max_violation_1_s=ver.max_violation_1_s)
+    return _count_row(count, DesignProblem(replace(settings, optimise_placement=False), model,
+                                           numeric=True).verify(np.asarray(theta)))
 
 
 def buffeting_comparison(settings: DesignSettings, controller: Controller, speeds=None,
@@ -512,7 +533,8 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
         absc = ver_best.abscissa_1_s
         extras["damping_ratio"] = ver_best.damping_ratio
         _, model_ol = build_model(settings, n_modes=settings.verification_modes, spec=spec)
-        ol_parts = DesignProblem(settings, model_ol).A_parts(np.array([0.0, 0.0, 0.0, 1.0, 1.0]))
+        ol_parts = DesignProblem(settings, model_ol, numeric=True).A_parts(
+            np.array([0.0, 0.0, 0.0, 1.0, 1.0]))
         extras["open_loop_abscissa"] = closed_loop_abscissa(ol_parts, absc_u)
         extras["closed_loop"] = model.system(Compensator(*(float(v) for v in theta)))
         controller = Controller(Compensator(*(float(v) for v in theta)),
@@ -523,7 +545,7 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
         if ver_d is None:
             _, model_d = build_model(settings, positions=positions, spec=spec)
             ver_d = DesignProblem(replace(settings, optimise_placement=False),
-                                  model_d).verify(theta)
+                                  model_d, numeric=True).verify(theta)
         extras["active_constraints"] = active_constraints(settings, best, ver_d)
         mark("chosen design checks")
         try:
@@ -538,7 +560,12 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
         extras["closed_loop_limits"] = lim
         mark("closed-loop limits")
         if status in ("converged", "unverified"):
-            min_flaps = minimum_flap_count(settings, theta, spec=spec)
+            # the chosen start's check of its full evenly spaced layout is count flap_count
+            full = (not settings.optimise_placement and len(positions) == settings.flap_count
+                    and np.allclose(positions, settings.positions()))
+            min_flaps = minimum_flap_count(
+                settings, theta, spec=spec,
+                known={settings.flap_count: ver_best} if full else None)
             log(f"minimum flap count (same K): {min_flaps.minimum}")
             mark("flap-count check (same K)")
             if settings.fresh_variants > 0:
