@@ -35,14 +35,17 @@ forward-difference Jacobian (step 1e-4 relative); used only when ``weight_buffet
 
 Phase 1 and cutting planes (:meth:`DesignProblem.solve_with_cuts`). From a start that violates
 the damping constraints a phase-1 solve without the robust epigraph finds a strictly feasible
-point first (``FEASIBILITY_BACKOFF_1_S``). Then at most ``cutting_plane_rounds`` warm-started
-re-solves of at most ``resolve_max_iter`` iterations: violating speeds of the dense damping
+point first (``FEASIBILITY_BACKOFF_1_S``; it stops at the first feasible iterate,
+:mod:`design.ipopt_hooks`). Then at most ``cutting_plane_rounds`` warm-started re-solves
+(monotone barrier from ``WARM_MU_INIT``) of at most ``resolve_max_iter`` iterations: violating
+speeds of the dense damping
 check join the design grid; if the true peak ``Compensator.max_gain()`` exceeds the limit, its
 frequency joins the gain grid; dense ``sigma_max(T)`` peaks above ``gamma_T`` join the robust
 epigraph, and while the bound fails the dense peak frequency of every check speed is tracked
 (joins as well), so the optimiser's margin ``1/gamma_T`` converges to the verified one
-(tests: within 1 %). The best round (feasible first, then smallest dense peak) is returned and
-every round is recorded. A design whose true peak gain exceeds ``gain_limit`` is never
+(tests: within 1 %). The best round (feasible first, then smallest dense peak, peaks within
+``ROBUST_CUT_TOL`` equal and then a round whose bound holds preferred) is returned and every
+round is recorded. A design whose true peak gain exceeds ``gain_limit`` is never
 ``converged``.
 
 Placement (``optimise_placement``): relaxed weights ``w = S z`` in [0, 1], one per mirror pair
