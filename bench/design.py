@@ -4,7 +4,8 @@ Default: the full default ``optimise`` (the packaged design definition, every st
 verification, closed-loop limits, flap-count check, buffeting comparison) through
 :func:`design.driver.design`: wall time, Ipopt iterations per start and round, and the share
 of the wall time per phase (``DesignResult.extras["phase_times_s"]``; inside the starts, the
-Ipopt share of each start), the CPU time of the process and its workers, the design's result
+Ipopt share of each start; ``(worker)`` phases ran in worker processes alongside the others, so
+the shares add up to more than 1), the CPU time of the process and its workers, the design's result
 (max gain, optimiser's and verified robust margins, closed-loop flutter, minimum flap count),
 the CPU count, the BLAS threads and the load (``uptime``) before and after. The machine is
 shared by several agents: a best of several runs of a ~1-3 min design is not affordable there,
