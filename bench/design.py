@@ -4,9 +4,12 @@ Default: the full default ``optimise`` (the packaged design definition, every st
 verification, closed-loop limits, flap-count check, buffeting comparison) through
 :func:`design.driver.design`: wall time, Ipopt iterations per start and round, and the share
 of the wall time per phase (``DesignResult.extras["phase_times_s"]``; inside the starts, the
-Ipopt share of each start), the CPU count, the BLAS threads and the load (``uptime``) before and
-after. The machine is shared by several agents: a best of several runs of a ~1-3 min design is
-not affordable there, so one run is reported with its load; compare runs only at similar load.
+Ipopt share of each start; ``(worker)`` phases ran in worker processes alongside the others, so
+the shares add up to more than 1), the CPU time of the process and its workers, the design's result
+(max gain, optimiser's and verified robust margins, closed-loop flutter, minimum flap count),
+the CPU count, the BLAS threads and the load (``uptime``) before and after. The machine is
+shared by several agents: a best of several runs of a ~1-3 min design is not affordable there,
+so one run is reported with its load; compare runs only at similar load (or by CPU time).
 
 ``--solves``: for each (retained modes, design step) pair, one Ipopt solve (robust epigraph on, no
 cutting planes) from the same start: build time, wall time, Ipopt iterations, time per eigenvalue
@@ -101,6 +104,15 @@ def _blas_threads():
         return {"OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS")}
 
 
+def _cpu_s() -> float:
+    """CPU time [s] of this process and its finished children (the start and flap-count
+    worker processes): on a shared machine a steadier measure than the wall time."""
+    import resource
+
+    return sum(r.ru_utime + r.ru_stime for r in (resource.getrusage(resource.RUSAGE_SELF),
+                                                 resource.getrusage(resource.RUSAGE_CHILDREN)))
+
+
 def run_full(definition=None, quick=False) -> dict:
     """One full default design: wall time, Ipopt iterations, share of time per phase."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -113,9 +125,11 @@ def run_full(definition=None, quick=False) -> dict:
         s = quick_settings(s)
     load0 = os.getloadavg()[0]
     up0 = _uptime()
+    cpu0 = _cpu_s()
     t0 = time.perf_counter()
     res = design(s, progress_bar=False)
     wall = time.perf_counter() - t0
+    cpu = _cpu_s() - cpu0
     phases = dict(res.extras.get("phase_times_s", {}))
     starts = []
     for st in res.starts:
@@ -129,7 +143,16 @@ def run_full(definition=None, quick=False) -> dict:
                        "ipopt_share_of_start": round(ipopt_s / st.time_s, 3)
                        if st.time_s else None,
                        "verified": st.verified, "robust_margin": st.robust_margin})
+    best = res.best
+    result = {} if best is None else {
+        "max_gain": best.max_gain, "robust_margin_optimiser": 1.0 / best.gamma_T_frobenius,
+        "robust_margin_verified": best.robust_margin,
+        "closed_loop_flutter_m_s": res.extras.get("closed_loop_limits", {}).get(
+            "flutter_speed_m_s"),
+        "minimum_flaps": res.min_flaps.minimum if res.min_flaps else None,
+        "flap_counts_checked": len(res.min_flaps.counts) if res.min_flaps else 0}
     return {"status": res.status, "wall_time_s": round(wall, 2),
+            "cpu_time_s": round(cpu, 2), "result": result,
             "cpu_count": os.cpu_count(), "blas_threads": _blas_threads(),
             "uptime_before": up0, "uptime_after": _uptime(),
             "target_wall_time_s": 60.0,
@@ -161,6 +184,8 @@ def main(argv=None) -> int:
                   f"{out['target_wall_time_s']} s), Ipopt iterations "
                   f"{out['ipopt_iterations_total']}; {out['cpu_count']} CPUs, BLAS threads "
                   f"{out['blas_threads']}")
+            print(f"  CPU {out['cpu_time_s']} s (this process and its workers); result "
+                  f"{out['result']}")
             print(f"  before: {out['uptime_before']}\n  after:  {out['uptime_after']}")
             for k, v in out["phase_time_s"].items():
                 print(f"  {k}: {v} s ({100 * out['phase_share'][k]:.1f} %)")

@@ -104,7 +104,8 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
             new_gain_cuts=len(new_gain), new_robust_cuts=len(new_rob),
             eig_time_per_speed_s=res.eig_time_per_speed_s, history=res.history))
         kept.append((res, ver, rob, dict(speeds=sorted(speeds), robust_cuts=list(
-            prob.robust_cuts), gain_cuts=list(prob.gain_cuts)), eig_ok and gain_ok, peak))
+            prob.robust_cuts), gain_cuts=list(prob.gain_cuts)), eig_ok and gain_ok, peak,
+                     rob is not None and rob_ok))
         if (eig_ok and gain_ok and rob_ok) or not _a2_ok(theta):
             break
         # No early stop for a re-solve that ran out of iterations with a worse dense peak
@@ -121,12 +122,17 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
         prob.robust_cuts.extend(new_rob)
     # a re-solve sees only the sample points and can land on a design whose dense peak
     # (or gain, damping) is worse than before the cuts: return the best round --
-    # feasible (damping and gain) first, then the smallest dense peak of sigma_max(T)
+    # feasible (damping and gain) first, then the smallest dense peak of sigma_max(T); peaks
+    # within ROBUST_CUT_TOL of the smallest feasible one count as equal, and among those a
+    # round whose bound gamma_T holds is preferred (its margin is certified by the NLP too)
+    feas = [pk for _, _, _, _, ok, pk, _ in kept if ok and np.isfinite(pk)]
+    tie = min(feas) * (1.0 + ROBUST_CUT_TOL) if feas else -np.inf
+
     def rank(i):
-        _, _, _, _, ok, pk = kept[i]
-        return (not ok, pk if np.isfinite(pk) else np.inf, -i)
+        _, _, _, _, ok, pk, holds = kept[i]
+        return (not ok, not (holds and pk <= tie), pk if np.isfinite(pk) else np.inf, -i)
     ibest = min(range(len(kept)), key=rank)
-    res, ver, rob, cuts, _, _ = kept[ibest]
+    res, ver, rob, cuts, _, _, _ = kept[ibest]
     return CutsOutcome(
         solve=res, verification=ver, robust=rob,
         rounds=tuple(replace(h, chosen=i - off == ibest) for i, h in enumerate(history)),

@@ -49,12 +49,11 @@ from design.checks import (  # noqa: F401 - re-exported (tests, API)
     nlp_active_speeds,
     sample_variants,
 )
-from design.nlp import EIG_SCALE, VIOLATION_TOL, DesignProblem
+from design.flap_count import MISSES_TO_STOP, minimum_flap_count  # noqa: F401 - re-exported
+from design.nlp import EIG_SCALE, DesignProblem
 from design.plant import closed_loop_abscissa
 from design.records import (
     BuffetingComparison,
-    FlapCountCheck,
-    FlapCountSearch,
     RobustMargin,
     StartRecord,
     Verification,
@@ -66,8 +65,6 @@ from model.control import Compensator, Controller
 NAN = float("nan")
 #: Nominal first start (b2, b1, b0, a2, a1): static gain -1 (flap against pitch), mild rate.
 NOMINAL_START = np.array([0.0, 0.5, -1.0, 0.05, 0.5])
-#: The same-K search over every count stops after this many consecutive failing counts.
-MISSES_TO_STOP = 3
 #: Candidates screened per Sobol start (:func:`screened_starts`).
 SCREEN_FACTOR = 8
 
@@ -167,7 +164,8 @@ def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,
     ``spec`` the bridge (default ``settings.bridge``)."""
     nm = settings.verification_modes if n_modes is None else int(n_modes)
     _, model = build_model(settings, n_modes=nm, positions=positions, spec=spec)
-    return DesignProblem(replace(settings, optimise_placement=False), model).verify(theta)
+    return DesignProblem(replace(settings, optimise_placement=False), model,
+                         numeric=True).verify(theta)
 
 
 def _progress_bar(index: int, show):
@@ -309,75 +307,6 @@ def _margin_at(rob, speeds):
                         margin=float(1.0 / t_inf.max()))
 
 
-def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
-                       spec=None) -> FlapCountSearch:
-    """Fewest evenly spaced flaps (around mid-span) still stable 0..U_max with the margin.
-
-    The optimised ``theta`` is kept; each count is verified on the dense grid with the
-    minimum damping ratio ``zeta_min`` on the verification model (``verification_modes``).
-    Returns the records per count and the minimum. ``spec``: the bridge (default
-    ``settings.bridge``). Counts: ``counts``, else ``min_flap_counts``, else (default) every
-    count from ``flap_count`` down to 1, stopping after ``MISSES_TO_STOP`` consecutive
-    failing counts (the same-K check is cheap: one dense sweep each, one modal solution).
-    With ``settings.parallel`` two counts at a time run in two processes (same rows and
-    minimum as the serial search: the stopping rule is applied count by count).
-    """
-    counts = settings.min_flap_counts if counts is None else counts
-    every = not counts
-    if every:
-        counts = tuple(range(settings.flap_count, 0, -1))
-    if modal is None:           # one modal solution for every count (the layout changes only)
-        from model.fe import assemble
-        from model.modes import solve
-        from model.spec import load_bridge
-
-        spec = load_bridge(settings.bridge) if spec is None else spec
-        modal = solve(assemble(spec))
-    counts = [int(c) for c in counts if c <= settings.flap_count]
-    theta = tuple(float(v) for v in theta)
-    workers = 2 if settings.parallel and len(counts) > 1 else 1
-    rows = []
-    best = None
-    misses = 0
-    pool = None
-    if workers > 1:             # issue 16 goal 3: the counts in two processes, in order
-        from concurrent.futures import ProcessPoolExecutor
-
-        pool = ProcessPoolExecutor(max_workers=workers)
-    try:
-        i = 0
-        while i < len(counts) and not (every and misses >= MISSES_TO_STOP):
-            batch = counts[i:i + workers]
-            args = [(settings, c, modal, spec, theta) for c in batch]
-            done = (list(pool.map(_check_count, *zip(*args, strict=True))) if pool
-                    else [_check_count(*a) for a in args])
-            for row in done:    # the serial search's stopping rule, count by count
-                if every and misses >= MISSES_TO_STOP:
-                    break       # fewer flaps, less authority: stop after a run of failures
-                rows.append(row)
-                if row.meets_margin:
-                    best = row.flap_count if best is None else min(best, row.flap_count)
-                misses = 0 if row.meets_margin else misses + 1
-            i += len(batch)
-    finally:
-        if pool is not None:
-            pool.shutdown()
-    return FlapCountSearch(minimum=best, counts=tuple(rows), modes=settings.verification_modes)
-
-
-def _check_count(settings, count, modal, spec, theta) -> FlapCountCheck:
-    """Dense same-K check of ``count`` evenly spaced flaps on the verification model."""
-    _, model = build_model(settings, count, modal, n_modes=settings.verification_modes,
-                           spec=spec)
-    ver = DesignProblem(replace(settings, optimise_placement=False), model).verify(
-        np.asarray(theta))
-    return FlapCountCheck(flap_count=int(count),
-                          meets_margin=bool(ver.max_violation_1_s <= VIOLATION_TOL),
-                          stable_everywhere=ver.stable_everywhere,
-                          stable_to_m_s=ver.stable_to_m_s,
-                          max_violation_1_s=ver.max_violation_1_s)
-
-
 def buffeting_comparison(settings: DesignSettings, controller: Controller, speeds=None,
                          spec=None) -> BuffetingComparison:
     """Open- vs closed-loop max RMS response (``model.buffeting``, verification model) at
@@ -397,6 +326,26 @@ def buffeting_comparison(settings: DesignSettings, controller: Controller, speed
         closed_loop_rms_vertical_m=tuple(cl.rms_vertical.tolist()),
         open_loop_rms_torsion_rad=tuple(ol.rms_torsion.tolist()),
         closed_loop_rms_torsion_rad=tuple(cl.rms_torsion.tolist()))
+
+
+def _timed(fun, *args, **kw):
+    """``(fun(*args, **kw), seconds)`` (a worker task of :func:`design`)."""
+    t0 = time.perf_counter()
+    return fun(*args, **kw), time.perf_counter() - t0
+
+
+def _job(pool, fun, *args, **kw):
+    """``fun(*args, **kw)`` submitted to ``pool`` (a future), or run later here (a tuple)."""
+    return pool.submit(_timed, fun, *args, **kw) if pool is not None else (fun, args, kw)
+
+
+def _done(job, phases, name):
+    """The result of a :func:`_job`; a worker's own time is recorded as ``name (worker)``."""
+    if isinstance(job, tuple):
+        return job[0](*job[1], **job[2])
+    value, sec = job.result()
+    phases[f"{name} (worker)"] = sec
+    return value
 
 
 def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
@@ -506,42 +455,62 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
     if best is not None:
         theta = np.asarray(best.theta)
         positions = np.asarray(best.flap_positions_m)
-        _, model = build_model(settings, n_modes=settings.verification_modes,
-                               positions=positions, spec=spec)
-        ver_best = best.verification      # run_start's check on this model: not recomputed
-        absc = ver_best.abscissa_1_s
-        extras["damping_ratio"] = ver_best.damping_ratio
-        _, model_ol = build_model(settings, n_modes=settings.verification_modes, spec=spec)
-        ol_parts = DesignProblem(settings, model_ol).A_parts(np.array([0.0, 0.0, 0.0, 1.0, 1.0]))
-        extras["open_loop_abscissa"] = closed_loop_abscissa(ol_parts, absc_u)
-        extras["closed_loop"] = model.system(Compensator(*(float(v) for v in theta)))
         controller = Controller(Compensator(*(float(v) for v in theta)),
                                 tuple(float(x) for x in positions),
                                 settings.flap_width_m, settings.leading_edge,
                                 settings.trailing_edge, settings.gain_limit)
-        ver_d = best.design_verification
-        if ver_d is None:
-            _, model_d = build_model(settings, positions=positions, spec=spec)
-            ver_d = DesignProblem(replace(settings, optimise_placement=False),
-                                  model_d).verify(theta)
-        extras["active_constraints"] = active_constraints(settings, best, ver_d)
-        mark("chosen design checks")
+        ok = status in ("converged", "unverified")
+        # issue 16 goal 3: the closed-loop limits and the buffeting comparison run in two
+        # worker processes while this one checks the chosen design; the flap counts follow
+        # them in the same workers (phase times: each task's own time, marked "worker")
+        pool = None
+        if settings.parallel:
+            from concurrent.futures import ProcessPoolExecutor
+
+            pool = ProcessPoolExecutor(max_workers=2)
         try:
-            lim = closed_loop_limits(settings, controller, spec=spec)
-            log(f"closed loop: flutter {lim['flutter_speed_m_s']:.2f} m/s "
-                f"({lim['flutter_status']}), divergence {lim['divergence_speed_m_s']:.2f} m/s "
-                f"({lim['divergence_status']}; static {lim['divergence_static_speed_m_s']:.2f}"
-                f"), governing {lim['governing_speed_m_s']:.2f} m/s "
-                f"{lim['governing_mechanism']}")
-        except Exception as exc:  # noqa: BLE001 - a report item, not the design
-            lim = {"status": f"failed: {exc}"}
-        extras["closed_loop_limits"] = lim
-        mark("closed-loop limits")
-        if status in ("converged", "unverified"):
-            min_flaps = minimum_flap_count(settings, theta, spec=spec)
-            log(f"minimum flap count (same K): {min_flaps.minimum}")
-            mark("flap-count check (same K)")
-            if settings.fresh_variants > 0:
+            lim_job = _job(pool, closed_loop_limits, settings, controller, spec=spec)
+            buf_job = _job(pool, buffeting_comparison, settings, controller, spec=spec) if ok \
+                else None
+            _, model = build_model(settings, n_modes=settings.verification_modes,
+                                   positions=positions, spec=spec)
+            ver_best = best.verification      # run_start's check on this model: not recomputed
+            absc = ver_best.abscissa_1_s
+            extras["damping_ratio"] = ver_best.damping_ratio
+            _, model_ol = build_model(settings, n_modes=settings.verification_modes, spec=spec)
+            ol_parts = DesignProblem(settings, model_ol, numeric=True).A_parts(
+                np.array([0.0, 0.0, 0.0, 1.0, 1.0]))
+            extras["open_loop_abscissa"] = closed_loop_abscissa(ol_parts, absc_u)
+            extras["closed_loop"] = model.system(Compensator(*(float(v) for v in theta)))
+            ver_d = best.design_verification
+            if ver_d is None:
+                _, model_d = build_model(settings, positions=positions, spec=spec)
+                ver_d = DesignProblem(replace(settings, optimise_placement=False),
+                                      model_d, numeric=True).verify(theta)
+            extras["active_constraints"] = active_constraints(settings, best, ver_d)
+            mark("chosen design checks")
+            if ok:
+                # the chosen start's check of its full evenly spaced layout is count flap_count
+                full = (not settings.optimise_placement
+                        and len(positions) == settings.flap_count
+                        and np.allclose(positions, settings.positions()))
+                min_flaps = minimum_flap_count(
+                    settings, theta, spec=spec, pool=pool,
+                    known={settings.flap_count: ver_best} if full else None)
+                log(f"minimum flap count (same K): {min_flaps.minimum}")
+                mark("flap-count check (same K)")
+            try:
+                lim = _done(lim_job, phases, "closed-loop limits")
+                log(f"closed loop: flutter {lim['flutter_speed_m_s']:.2f} m/s "
+                    f"({lim['flutter_status']}), divergence "
+                    f"{lim['divergence_speed_m_s']:.2f} m/s ({lim['divergence_status']}; "
+                    f"static {lim['divergence_static_speed_m_s']:.2f}), governing "
+                    f"{lim['governing_speed_m_s']:.2f} m/s {lim['governing_mechanism']}")
+            except Exception as exc:  # noqa: BLE001 - a report item, not the design
+                lim = {"status": f"failed: {exc}"}
+            extras["closed_loop_limits"] = lim
+            mark("closed-loop limits" + (" (wait)" if pool else ""))
+            if ok and settings.fresh_variants > 0:
                 fresh = sample_variants(settings, base, settings.fresh_variants,
                                         settings.variant_seed + 1000)
                 extras["fresh_variants"] = fresh_variant_check(settings, controller, fresh)
@@ -549,14 +518,18 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
                 log(f"fresh variants: {extras['fresh_variants']['fraction_stable']:.2f} "
                     f"stable 0..{settings.speed_max_m_s} m/s")
                 mark("fresh-variant check")
-            if settings.pareto:
+            if ok and settings.pareto:
                 extras["pareto"] = flap_count_pareto(settings, theta, spec=spec, log=log)
                 mark("flap-count Pareto (K re-optimised)")
-            try:
-                extras["buffeting"] = buffeting_comparison(settings, controller, spec=spec)
-            except Exception as exc:  # noqa: BLE001 - a report item, not the design
-                extras["buffeting"] = BuffetingComparison(status=f"failed: {exc}")
-            mark("buffeting comparison")
+            if ok:
+                try:
+                    extras["buffeting"] = _done(buf_job, phases, "buffeting comparison")
+                except Exception as exc:  # noqa: BLE001 - a report item, not the design
+                    extras["buffeting"] = BuffetingComparison(status=f"failed: {exc}")
+                mark("buffeting comparison" + (" (wait)" if pool else ""))
+        finally:
+            if pool is not None:
+                pool.shutdown(cancel_futures=True)
     extras["phase_times_s"] = phases
     usable = controller if status == "converged" else None
     return DesignResult(status=status, settings=settings, controller=usable,

@@ -195,17 +195,27 @@ class PolynomialTopRealParts(_VectorIO, ca.Callback):
             out.append(A if ix is None else A[np.ix_(ix, ix)])
         return out
 
-    def _decompose(self, p):
-        """Per speed ``(lambda, left, right)`` of the selected eigenvalues (None where ``A`` is
-        not finite), cached for the last ``p``."""
+    def _decompose(self, p, vectors=False):
+        """Per speed ``[lambda, left, right, A]`` of the selected eigenvalues (None where ``A``
+        is not finite), cached for the last ``p``. The eigenvectors may be computed lazily
+        (``left`` None until asked for with ``vectors``: only the Jacobian needs them, and
+        Ipopt evaluates the constraints at more points -- line-search trials -- than their
+        Jacobian)."""
         key = p.tobytes()
         if key != self._key:
             t0 = time.perf_counter()
             ctx = self._selection_context(p)
-            self._store = [None if not np.all(np.isfinite(A)) else self._eigenpairs(u, A, ctx)
+            self._store = [None if not np.all(np.isfinite(A))
+                           else list(self._eigenpairs(u, A, ctx)) + [A]
                            for u, A in zip(self.speeds, self.matrices(p), strict=True)]
             self._key = key
             self.evaluations += 1
+            self.eval_time_s += time.perf_counter() - t0
+        if vectors and any(r is not None and r[1] is None for r in self._store):
+            t0 = time.perf_counter()
+            for r in self._store:
+                if r is not None and r[1] is None:
+                    r[1], r[2] = inverse_iteration(r[3], r[0])
             self.eval_time_s += time.perf_counter() - t0
         return self._store
 
@@ -228,10 +238,12 @@ class PolynomialTopRealParts(_VectorIO, ca.Callback):
     def jacobian(self, p) -> np.ndarray:
         """Analytic Jacobian [(m * n_speeds, n_p)], central differences for defective rows."""
         p = np.asarray(p, float).ravel()
-        rows = self._decompose(p)
+        rows = self._decompose(p, vectors=True)
         outs = self._dparts(ca.DM(p))
         outs = outs if isinstance(outs, (list, tuple)) else [outs]
-        dparts = [ca.DM(d).sparse() for d in outs]
+        # dense (n^2, n_p): n_p is small, so the per-speed sum and the row contraction are
+        # cheap dense products (scipy.sparse sums and conversions cost more per speed)
+        dparts = [np.asarray(ca.DM(d).full()) for d in outs]
         J = np.full((self.m * self.speeds.size, self._n_p), np.nan)
         n = self._n
         bad_rows = []
@@ -356,13 +368,25 @@ def fixed_pole_copies(lam, lag_rates_1_m, U, theta) -> np.ndarray:
     targets = [-float(r) * U for r in np.atleast_1d(lag_rates_1_m)] if U > 0 else []
     a2, a1 = float(theta[3]), float(theta[4])
     if a2 > 0:
-        targets += list(np.roots([a2, a1, 1.0]))
+        targets += _quadratic_roots(a2, a1)
     elif a1 > 0:
         targets.append(-1.0 / a1)
     mask = np.zeros(lam.shape, bool)
     for t in targets:
         mask |= np.abs(lam - t) <= COPY_TOL * max(abs(t), COPY_FLOOR)
     return mask
+
+
+def _quadratic_roots(a2, a1) -> list:
+    """Roots of ``a2 s^2 + a1 s + 1`` (``a2 > 0``) in closed form, without cancellation (the
+    smaller root from the product ``1 / a2``); ``np.roots`` costs an eigenvalue problem per
+    call, and the copy test is called per speed and evaluation."""
+    disc = a1 * a1 - 4.0 * a2
+    if disc >= 0:
+        big = -0.5 * (a1 + np.sqrt(disc)) / a2
+        return [big, 1.0 / (a2 * big)]      # big != 0: a2 > 0
+    re, im = -0.5 * a1 / a2, 0.5 * np.sqrt(-disc) / a2
+    return [complex(re, im), complex(re, -im)]
 
 
 def damping_measure(lam, zeta_min) -> np.ndarray:
@@ -424,11 +448,11 @@ class PolynomialStructuralDamping(PolynomialTopRealParts):
         return self._theta_of_p(p)
 
     def _eigenpairs(self, u, A, th):
-        """The structural eigenvalues the flaps can move (eigvals + inverse iteration)."""
-        lam = scipy.linalg.eigvals(A)
+        """The structural eigenvalues the flaps can move (``eigvals``; their vectors by
+        inverse iteration later, when the Jacobian asks: :meth:`_decompose`)."""
+        lam = scipy.linalg.eigvals(A, check_finite=False)
         idx = structural_selection(lam, self.lag_rates, u, th, self.zeta_min, self.m)
-        vl, vr = inverse_iteration(A, lam[idx])
-        return lam[idx], vl, vr
+        return lam[idx], None, None
 
     def values(self, p) -> np.ndarray:
         """Stacked damping measures [1/s] (m per speed, largest first); NaN if not finite."""

@@ -35,14 +35,17 @@ derivatives); used only when ``weight_buffeting > 0``.
 
 Phase 1 and cutting planes (:meth:`DesignProblem.solve_with_cuts`). From a start that violates
 the damping constraints a phase-1 solve without the robust epigraph finds a strictly feasible
-point first (``FEASIBILITY_BACKOFF_1_S``). Then at most ``cutting_plane_rounds`` warm-started
-re-solves of at most ``resolve_max_iter`` iterations: violating speeds of the dense damping
+point first (``FEASIBILITY_BACKOFF_1_S``; it stops at the first feasible iterate,
+:mod:`design.ipopt_hooks`). Then at most ``cutting_plane_rounds`` warm-started re-solves
+(monotone barrier from ``WARM_MU_INIT``) of at most ``resolve_max_iter`` iterations: violating
+speeds of the dense damping
 check join the design grid; if the true peak ``Compensator.max_gain()`` exceeds the limit, its
 frequency joins the gain grid; dense ``sigma_max(T)`` peaks above ``gamma_T`` join the robust
 epigraph, and while the bound fails the dense peak frequency of every check speed is tracked
 (joins as well), so the optimiser's margin ``1/gamma_T`` converges to the verified one
-(tests: within 1 %). The best round (feasible first, then smallest dense peak) is returned and
-every round is recorded. A design whose true peak gain exceeds ``gain_limit`` is never
+(tests: within 1 %). The best round (feasible first, then smallest dense peak, peaks within
+``ROBUST_CUT_TOL`` equal and then a round whose bound holds preferred) is returned and every
+round is recorded. A design whose true peak gain exceeds ``gain_limit`` is never
 ``converged``.
 
 Placement (``optimise_placement``): relaxed weights ``w = S z`` in [0, 1], one per mirror pair
@@ -65,6 +68,7 @@ import scipy.linalg
 
 from design.buffeting_term import buffeting_objective
 from design.eigen import PolynomialStructuralDamping
+from design.ipopt_hooks import IterationCallback
 from design.plant import (
     damping_check,
     lag_free_indices,
@@ -118,46 +122,12 @@ ROBUST_CLUSTER_STEP = 0.01
 #: structural frequency, for zeta_min = 0.5 %), so phase 2 starts strictly inside.
 FEASIBILITY_BACKOFF_1_S = 5e-5
 #: Ipopt barrier parameter of a warm-started re-solve (default 0.1 re-centres the iterate
-#: far from the previous solution; 1e-3 keeps it near while staying interior).
+#: far from the previous solution; 1e-3 keeps it near while staying interior). Only with
+#: the monotone barrier update: with the limited-memory Hessian Ipopt's default is the
+#: adaptive one, which ignored it on the default card (round 3 of start 0: mu raised from
+#: 1e-3 to 12.6 in three iterations, the iterate thrown to gamma_T ~ 70, 150 iterations to
+#: the cap at gamma_T 12.0; monotone from the same point: 23 iterations, optimal, 2.80).
 WARM_MU_INIT = 1e-3
-
-
-class IterationCallback(ca.Callback):
-    """Ipopt ``iteration_callback``: calls ``fun(iteration, objective, x)`` once per Ipopt
-    iteration (drives the progress bar of :func:`design.driver.design`). CasADi passes the
-    nlpsol outputs (x, f, g, lam_x, lam_g, lam_p); keep the object alive during the solve."""
-
-    def __init__(self, name, nx, ng, fun):
-        ca.Callback.__init__(self)
-        self._nx, self._ng, self._fun, self.count = int(nx), int(ng), fun, 0
-        self.construct(name, {})
-
-    def get_n_in(self):
-        return ca.nlpsol_n_out()
-
-    def get_n_out(self):
-        return 1
-
-    def get_name_in(self, i):
-        return ca.nlpsol_out(i)
-
-    def get_name_out(self, i):
-        return "ret"
-
-    def get_sparsity_in(self, i):
-        n = ca.nlpsol_out(i)
-        if n == "f":
-            return ca.Sparsity.scalar()
-        if n in ("x", "lam_x"):
-            return ca.Sparsity.dense(self._nx)
-        if n in ("g", "lam_g"):
-            return ca.Sparsity.dense(self._ng)
-        return ca.Sparsity(0, 0)
-
-    def eval(self, arg):
-        self._fun(self.count, float(arg[1]), np.asarray(arg[0]).ravel())
-        self.count += 1
-        return [0]
 
 
 class DesignProblem:
@@ -171,16 +141,23 @@ class DesignProblem:
         Per-flap weights [0, 1] (1 = fitted); the start point when ``optimise_placement``.
     spec : model.spec.BridgeSpec, optional
         Needed only for the buffeting term (wind defaults).
+    numeric : bool
+        Checks only (:meth:`verify`, :meth:`A_parts`): the closed-loop parts come from the
+        numeric :meth:`model.flaps.ClosedLoopModel.system` (same assembly, equal to
+        round-off) and the symbolic closed loop is never built (1.2-1.7 s on 16-30 modes,
+        more than the dense check's eigenvalues on 16); solving needs ``numeric=False``.
     """
 
-    def __init__(self, settings: DesignSettings, model, weights=None, spec=None):
+    def __init__(self, settings: DesignSettings, model, weights=None, spec=None,
+                 numeric=False):
         self.settings = settings
         self.model = model
         self.spec = spec
+        self.numeric = bool(numeric)
         self.weights = (np.ones(model.n_flaps) if weights is None
                         else np.asarray(weights, float).ravel())
-        self.functions = model.casadi_functions()
-        self.keep0 = lag_free_indices(model)
+        self._functions = None
+        self._keep0 = None
         self.callbacks: dict = {}      # kept alive (design.eigen docstring)
         self._robust = None
         self._robust_base = None
@@ -194,6 +171,20 @@ class DesignProblem:
         #: Multi-model design: problems on bridge variants (same layout and settings) whose
         #: damping constraints join the NLP and whose dense checks join the verification.
         self.variants: list[DesignProblem] = []
+
+    @property
+    def functions(self) -> dict:
+        """The symbolic closed loop (:meth:`model.flaps.ClosedLoopModel.casadi_functions`)."""
+        if self._functions is None:
+            self._functions = self.model.casadi_functions()
+        return self._functions
+
+    @property
+    def keep0(self) -> np.ndarray:
+        """Closed-loop states kept at ``U = 0`` (no lag states)."""
+        if self._keep0 is None:
+            self._keep0 = lag_free_indices(self.model)
+        return self._keep0
 
     @property
     def symmetry(self) -> np.ndarray:
@@ -255,6 +246,11 @@ class DesignProblem:
     def A_parts(self, theta, weights=None) -> tuple:
         """Numeric ``(A0, A1, A2, keep0)`` of the closed loop at ``theta``."""
         w = self.weights if weights is None else np.asarray(weights, float)
+        if self.numeric:
+            sc = self.model.system(Compensator(*(float(v) for v in theta)), weights=w)
+            keep = np.ones(sc.n_states, bool)
+            keep[sc.index.aero_lag] = False
+            return sc.A0, sc.A1, sc.A2, np.flatnonzero(keep)
         A0, A1, A2 = self.functions["A_parts"](ca.DM(theta), ca.DM(w))
         return A0.full(), A1.full(), A2.full(), self.keep0
 
@@ -469,9 +465,12 @@ class DesignProblem:
                 "ipopt.acceptable_constr_viol_tol": 1e-6}
         if warm:
             opts["ipopt.mu_init"] = WARM_MU_INIT
-        if self.on_iteration is not None:
+            opts["ipopt.mu_strategy"] = "monotone"
+        if self.on_iteration is not None or feasibility:
+            # phase 1 stops at its first feasible iterate (design.ipopt_hooks)
             it_cb = IterationCallback("design_iterations", x.size1(), nlp["g"].size1(),
-                                      self.on_iteration)
+                                      self.on_iteration,
+                                      np.concatenate(ubg) if feasibility else None)
             self.callbacks["iterations"] = it_cb
             opts["iteration_callback"] = it_cb
         solver = ca.nlpsol("design", "ipopt", nlp, opts)
@@ -489,7 +488,10 @@ class DesignProblem:
         return Solve(theta=xs[:5], gamma_T=float(xs[5]),
                      weights=(self.symmetry @ xs[6:] if s.optimise_placement
                               else self.weights.copy()),
-                     ipopt_status=st["return_status"], success=bool(st["success"]),
+                     ipopt_status=st["return_status"] + (
+                         " (phase 1: first feasible iterate)" if feasibility
+                         and self.callbacks["iterations"].stopped_feasible else ""),
+                     success=bool(st["success"]),
                      iterations=int(st["iter_count"]), time_s=elapsed,
                      objective=float(sol["f"]),
                      constraints_eig_1_s=gs[:n_eig_cons] / EIG_SCALE, n_speeds=len(speeds),

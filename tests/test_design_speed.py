@@ -112,7 +112,7 @@ def test_fresh_variants_reported_stable_are_stable(small_box_fresh):
 
 
 def test_flap_count_search_in_two_processes_equals_the_serial_one(small_box_fresh):
-    # the parallel same-K search (two counts at a time) gives the serial search's rows and
+    # the parallel same-K search (two counts in flight) gives the serial search's rows and
     # minimum, the stopping rule applied count by count (exact: same computation per count)
     from dataclasses import replace
 
@@ -124,3 +124,68 @@ def test_flap_count_search_in_two_processes_equals_the_serial_one(small_box_fres
     par = minimum_flap_count(replace(s, parallel=True), theta)
     assert par == ser
     assert len(ser.counts) >= 1
+    # the full layout's check already made (a start's verification) is reused as its row:
+    # the same computation, so the same search to the last bit
+    from design.driver import verify_layout
+
+    ver = verify_layout(s, theta, s.positions())
+    assert minimum_flap_count(replace(s, parallel=True), theta,
+                              known={s.flap_count: ver}) == ser
+
+
+def test_damping_callback_lazy_vectors_values_and_jacobian(small):
+    # the eigenvectors are computed only when the Jacobian asks (inverse iteration on the
+    # cached matrices): values-only evaluations leave them unset, the values equal the
+    # numeric dense check (same matrices, eigvals: round-off, 1e-10 1/s on |lambda| ~ 1-10),
+    # and the analytic Jacobian matches central differences: step 1e-5 relative, truncation
+    # ~h^2 and round-off ~1e-14/h ~ 1e-9 relative to the largest entry (1.6e-6 seen on this
+    # weakly coupled 5-flap model), so 1e-4 of the largest entry
+    s, model = small
+    prob = DesignProblem(s, model)
+    speeds = np.array([0.0, 20.0, 50.0, 70.0])
+    cb = prob.grid_callback(speeds)
+    v = cb.values(THETA)
+    assert all(r[1] is None for r in cb._store)
+    ref = prob.constraint_values(THETA, speeds)
+    np.testing.assert_allclose(v.reshape(len(speeds), -1)[:, 0], ref, rtol=0, atol=1e-10)
+    J = cb.jacobian(THETA)
+    assert all(r[1] is not None for r in cb._store)
+    np.testing.assert_array_equal(cb.values(THETA), v)      # same cache entry, same values
+    Jfd = np.empty_like(J)
+    for k in range(5):
+        h = 1e-5 * max(1.0, abs(THETA[k]))
+        e = np.zeros(5)
+        e[k] = h
+        Jfd[:, k] = (cb.values(THETA + e) - cb.values(THETA - e)) / (2 * h)
+    scale = np.abs(J).max()
+    assert scale > 1e-5                 # not all round-off
+    np.testing.assert_allclose(J, Jfd, rtol=0, atol=1e-4 * scale)
+
+
+def test_closed_form_compensator_poles_equal_numpy_roots():
+    # the copy test's compensator poles in closed form: the roots np.roots gives (real pair,
+    # complex pair, double root), to round-off (1e-15 relative)
+    from design.eigen import _quadratic_roots
+
+    for a2, a1 in [(0.05, 0.5), (0.0268, 0.8375), (1.0, 0.1), (1e-3, 10.0), (0.25, 1.0)]:
+        got = np.sort_complex(np.array(_quadratic_roots(a2, a1), complex))
+        ref = np.sort_complex(np.roots([a2, a1, 1.0]).astype(complex))
+        np.testing.assert_allclose(got, ref, rtol=1e-15 * 10, atol=0)
+
+
+def test_numeric_verification_equals_the_symbolic_parts(small):
+    # the checks-only problem (numeric=True) takes the closed loop from ClosedLoopModel.system
+    # instead of the CasADi parts: same assembly, parts equal to round-off (~1e-15 relative),
+    # so the dense check's abscissa and damping measures agree to 1e-9 1/s (eigenvalues of
+    # magnitude <= ~50 1/s moved by round-off) and every flag is the same
+    s, model = small
+    sym = DesignProblem(s, model)
+    num = DesignProblem(s, model, numeric=True)
+    for a, b in zip(sym.A_parts(THETA), num.A_parts(THETA), strict=True):
+        np.testing.assert_allclose(b, a, rtol=0, atol=1e-12 * max(np.abs(a).max(), 1.0))
+    assert num._functions is None           # nothing symbolic built
+    vs, vn = sym.verify(THETA), num.verify(THETA)
+    np.testing.assert_allclose(vn.abscissa_1_s, vs.abscissa_1_s, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(vn.violation_1_s, vs.violation_1_s, rtol=0, atol=1e-9)
+    assert (vn.meets_damping, vn.stable_everywhere, vn.stable_to_m_s, vn.max_gain) == (
+        vs.meets_damping, vs.stable_everywhere, vs.stable_to_m_s, vs.max_gain)

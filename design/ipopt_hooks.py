@@ -1,0 +1,71 @@
+"""Ipopt iteration hooks of the compensator NLP (:meth:`design.nlp.DesignProblem.solve`).
+
+:class:`IterationCallback` is CasADi's ``iteration_callback``: once per Ipopt iteration it
+calls the progress function (the tqdm bars of :func:`design.driver.design`) and, for the
+phase-1 solve, stops Ipopt at the first iterate that satisfies every constraint (the
+damping constraints backed off by ``FEASIBILITY_BACKOFF_1_S``): phase 1 only has to find a
+strictly feasible point, and its objective (the regularisation alone) gives the free
+``gamma_T`` no direction, so the iterations after the first feasible one only polish a
+point phase 2 moves away from (default card, start 0: feasible at iteration 16 of 77).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+
+class IterationCallback(ca.Callback):
+    """Ipopt ``iteration_callback``: calls ``fun(iteration, objective, x)`` once per Ipopt
+    iteration (``fun`` may be None) and asks Ipopt to stop (status ``User_Requested_Stop``)
+    when ``ubg`` is given and the iterate's constraints satisfy ``g <= ubg``. CasADi passes
+    the nlpsol outputs (x, f, g, lam_x, lam_g, lam_p); keep the object alive during the
+    solve.
+
+    Attributes
+    ----------
+    count : int
+        Iterations seen.
+    stopped_feasible : bool
+        True once the callback stopped Ipopt at a feasible iterate.
+    """
+
+    def __init__(self, name, nx, ng, fun=None, ubg=None):
+        ca.Callback.__init__(self)
+        self._nx, self._ng, self._fun, self.count = int(nx), int(ng), fun, 0
+        self._ubg = None if ubg is None else np.asarray(ubg, float).ravel()
+        self.stopped_feasible = False
+        self.construct(name, {})
+
+    def get_n_in(self):
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i):
+        return "ret"
+
+    def get_sparsity_in(self, i):
+        n = ca.nlpsol_out(i)
+        if n == "f":
+            return ca.Sparsity.scalar()
+        if n in ("x", "lam_x"):
+            return ca.Sparsity.dense(self._nx)
+        if n in ("g", "lam_g"):
+            return ca.Sparsity.dense(self._ng)
+        return ca.Sparsity(0, 0)
+
+    def eval(self, arg):
+        if self._fun is not None:
+            self._fun(self.count, float(arg[1]), np.asarray(arg[0]).ravel())
+        self.count += 1
+        if self._ubg is not None and self.count > 1:    # iteration 0 is the start point
+            g = np.asarray(arg[2]).ravel()
+            if np.all(np.isfinite(g)) and np.all(g <= self._ubg):
+                self.stopped_feasible = True
+                return [1]
+        return [0]
