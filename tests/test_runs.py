@@ -262,8 +262,8 @@ def test_great_belt_updating_example(tmp_path):
 
 
 def test_buffeting_tradeoff_example(tmp_path, monkeypatch):
-    # the table and figure writers of the trade-off sweep (one weighted design takes hours on
-    # the 16-mode model, see the weight_buffeting comment of runs/humber_flaps.toml): each
+    # the table and figure writers of the trade-off sweep (five real designs on
+    # the 16-mode model, ~1-2 min each): each
     # design replaced by a synthetic row, the files checked
     import importlib.util
 
