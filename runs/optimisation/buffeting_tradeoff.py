@@ -66,7 +66,7 @@ def plot(rows, path):
     fig, ax = plt.subplots(1, 3, figsize=(13, 4))
     for key in sorted(k for k in rows[0] if k.startswith("rms_")):
         ax[0 if "vertical" in key else 1].plot(x, [r.get(key, np.nan) for r in rows], "o-",
-                                               label=key.split("ratio_")[1].replace("_", " "))
+                                               label=key.split("ratio_")[1].replace("_m_s", " m/s"))
     ax[0].set_title("vertical RMS closed/open")
     ax[1].set_title("torsional RMS closed/open")
     ax2 = ax[2].twinx()
