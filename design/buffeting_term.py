@@ -198,7 +198,7 @@ class ModalBuffeting:
 
     def __init__(self, problem, theta_ref=None, fixed_layout=True, n_base=80, peaks_per_mode=25,
                  half_widths=30.0):
-        from model.buffeting import OMEGA_MAX_FACTOR, _main_span_mask, buffeting
+        from model.buffeting import OMEGA_MAX_FACTOR, _main_span_mask, buffeting, row_factor
         from model.control import Compensator
         from model.gust import coherence_projection, gust_field
         from model.spec import load_bridge
@@ -219,7 +219,8 @@ class ModalBuffeting:
         ref0 = buffeting(ol, self.speeds_m_s, spec=spec, n_modes=int(basis.n))
         self.open_loop_rms = (ref0.rms_vertical, ref0.rms_torsion)
         Pa = np.asarray(model.flaps.phi_a, float)
-        self.points, self.rows, self.omegas = [], [], []
+        self.rows, self.omegas = [], []
+        _, Vt = row_factor(np.asarray(ol.aero.P_gust, float))   # speed-independent rows
         data = []        # per speed: (omega, X, M, C)
         for i, U in enumerate(self.speeds_m_s):
             jv = int(np.argmax(np.where(main, ref0.rms_heave[i], -np.inf)))
@@ -236,7 +237,6 @@ class ModalBuffeting:
                                                                    peaks_per_mode, half_widths)
                                            for A in systems]))
             _, X, Xg = model.gust_plant(float(U), 1j * om)
-            _, Vt = _row_space(np.asarray(ol.aero.P_gust, float))
             S = (gust.psd(om, U) * gust.admittance_sq(om, U))[:, None, None] * \
                 coherence_projection(strip_x, Vt.T, om, U, gust.coherence_decay)
             E = Xg @ Vt.T
@@ -307,12 +307,6 @@ class ModalBuffeting:
         return {"rms_vertical_m": z.tolist(), "rms_torsion_rad": a.tolist(),
                 "numpy_rms_vertical_m": ref_v.tolist(), "numpy_rms_torsion_rad": ref_t.tolist(),
                 "max_relative_difference": rel, "grid_points": [int(o.size) for o in self.omegas]}
-
-
-def _row_space(P):
-    from model.buffeting import row_factor
-
-    return row_factor(P)
 
 
 def _quad(zr, zi, Hr, Hi):

@@ -31,3 +31,17 @@ def humber() -> BridgeSpec:
 def coarse_humber() -> BridgeSpec:
     """Humber on the coarse 47 m mesh."""
     return coarse(load_bridge("humber"))
+
+
+@pytest.fixture(scope="module")
+def buffeting_problem():
+    """``(settings, spec, model)`` of a small design with the buffeting term's code path:
+    6 modes, 5 flaps, two buffeting speeds (the 16-mode design's path, seconds to build)."""
+    from design.driver import build_model
+    from design.settings import load_settings
+
+    s = load_settings(n_modes=6, verification_modes=6, flap_count=5,
+                      robust_design_speeds_m_s=(30.0, 60.0), n_robust_omega=8,
+                      buffeting_speeds_m_s=(10.0, 20.0))
+    spec, model = build_model(s)
+    return s, spec, model

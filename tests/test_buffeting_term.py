@@ -13,9 +13,7 @@ import numpy as np
 import pytest
 
 from design.buffeting_term import ModalBuffeting
-from design.driver import build_model
 from design.nlp import DesignProblem
-from design.settings import load_settings
 from model.buffeting import reduced_response
 from model.control import Compensator
 from model.gust import gust_field
@@ -24,12 +22,9 @@ THETA = np.array([0.0, 0.5, -1.0, 0.05, 0.5])
 
 
 @pytest.fixture(scope="module")
-def term():
-    # 6 modes, 5 flaps, two buffeting speeds: the code path of the 16-mode design
-    s = load_settings(n_modes=6, verification_modes=6, flap_count=5,
-                      robust_design_speeds_m_s=(30.0, 60.0), n_robust_omega=8,
-                      buffeting_speeds_m_s=(10.0, 20.0))
-    spec, model = build_model(s)
+def term(buffeting_problem):
+    # the small design of tests/conftest.py: the code path of the 16-mode design
+    s, spec, model = buffeting_problem
     prob = DesignProblem(s, model, spec=spec)
     return prob, spec, model, ModalBuffeting(prob, THETA)
 

@@ -252,16 +252,6 @@ def test_robust_cuts_report_dense_peak(small):
     assert res.robust_bound_holds == (peak <= res.solve.gamma_T * (1 + ROBUST_CUT_TOL))
 
 
-@pytest.fixture(scope="module")
-def buffeting_problem():
-    # 6 modes, 5 flaps, two buffeting speeds: same code path as the 16-mode design
-    s = load_settings(n_modes=6, verification_modes=6, flap_count=5,
-                      robust_design_speeds_m_s=(30.0, 60.0), n_robust_omega=8,
-                      buffeting_speeds_m_s=(10.0, 20.0))
-    spec, model = build_model(s)
-    return s, spec, model
-
-
 def test_buffeting_callback_value_and_gradient(buffeting_problem):
     from model.buffeting import buffeting
 
