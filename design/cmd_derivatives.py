@@ -227,14 +227,11 @@ def section_case_result(name: str, speeds=None, added_inertia: bool | None = Non
     ``speeds`` [m/s] default ``0 .. 2 x reference`` in 401 points.
     """
     from model import stability
-    from model.derivatives import derivative_system
-    from model.section_cases import case_fit, default_speeds, load_section_case
+    from model.section_cases import case_system, default_speeds, load_section_case
 
     case = load_section_case(name, added_inertia)
     if speeds is None:
         speeds = default_speeds(case)
-    fit = case_fit(case, n_lags)
-    system = derivative_system(case.basis, case.derivatives, case.air_density, fit=fit,
-                               phi_p=case.phi_p)
+    system, fit = case_system(case, n_lags)
     return SectionCaseResult(case, stability.sweep(system, speeds),
                              stability.pk_sweep(system, speeds), fit, system.n_states)

@@ -24,13 +24,12 @@ import numpy as np
 import pytest
 
 from model import stability
-from model.derivatives import derivative_system
 from model.errors import BridgeflapInputError
 from model.section_cases import (
     SECTION_CASES,
-    case_fit,
     load_section_case,
     section_case_flutter,
+    section_system,
 )
 
 
@@ -86,9 +85,7 @@ def test_iabse_11c(results):
     ("iabse-1.1c", 45.0, 0.2488), ("iabse-1.1c", 60.0, 0.2275), ("iabse-1.1c", 72.0, 0.2049),
 ])
 def test_in_wind_torsion_branch(name, speed, f_hz):
-    case = load_section_case(name)
-    system = derivative_system(case.basis, case.derivatives, case.air_density,
-                               fit=case_fit(case), phi_p=case.phi_p)
+    system, _ = section_system(name)
     pk = stability.pk_sweep(system, np.linspace(0.0, speed, 31))
     j = list(pk.branch_labels).index("pitch")
     f = abs(pk.branches[j, -1].imag) / (2 * np.pi)

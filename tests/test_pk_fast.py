@@ -19,7 +19,7 @@ import pytest
 from model import pk_kernel, stability
 from model.derivatives import derivative_system, flat_plate, tabulated
 from model.section import section_basis
-from model.section_cases import case_fit, default_speeds, load_section_case
+from model.section_cases import load_section_case, section_system
 from model.statespace import build
 from model.theodorsen import theodorsen, theodorsen_scalar
 from model.tracking import continue_adaptive
@@ -27,13 +27,6 @@ from model.tracking import continue_adaptive
 SPEED_M_S = 1e-4
 FREQ_HZ = 1e-6
 BRANCH_REL = 1e-8
-
-
-def _section_case_system(name):
-    case = load_section_case(name)
-    system = derivative_system(case.basis, case.derivatives, case.air_density,
-                               fit=case_fit(case), phi_p=case.phi_p)
-    return system, default_speeds(case)
 
 
 def _assert_same(fast, ref):
@@ -89,7 +82,7 @@ def test_theodorsen_kernel_reproduces_the_frozen_matrix():
 
 @pytest.mark.parametrize("name", ["iabse-1.1a", "iabse-1.1c"])
 def test_derivative_kernel_reproduces_matrix_at_k(name):
-    system, _ = _section_case_system(name)
+    system, _ = section_system(name)
     fr = system.frozen()
     assert _kernel_error(fr, fr.matrix_at_k) < 1e-13
 
@@ -111,7 +104,7 @@ def test_derivative_kernel_on_a_scanlan_table():
     ("iabse-1.1a", np.arange(0.0, 90.0 + 1e-9, 0.5)), ("iabse-1.1c", None),
     pytest.param("iabse-1.1a", None, marks=pytest.mark.slow)])
 def test_fast_pk_equals_the_reference_on_the_cli_grid(name, grid):
-    system, speeds = _section_case_system(name)
+    system, speeds = section_system(name)
     speeds = speeds if grid is None else grid
     fast = stability.pk_sweep(system, speeds)
     ref = stability.pk_sweep(system, speeds, full_grid=True)
@@ -123,7 +116,7 @@ def test_fast_pk_equals_the_reference_on_the_cli_grid(name, grid):
 
 
 def test_fast_pk_statuses_without_a_crossing_and_unstable_at_first():
-    system, _ = _section_case_system("iabse-1.1a")
+    system, _ = section_system("iabse-1.1a")
     below = np.linspace(0.0, 60.0, 31)  # flutter at 77.48 m/s
     fast, ref = stability.pk_sweep(system, below), stability.pk_sweep(system, below, True)
     assert fast.flutter.status == ref.flutter.status == stability.NO_CROSSING
@@ -137,7 +130,7 @@ def test_fast_pk_statuses_without_a_crossing_and_unstable_at_first():
 
 def test_fast_pk_on_a_coarse_grid_from_zero():
     # 0:400:50: the crossing lies in the second interval; sub-steps keep the branches apart
-    system, _ = _section_case_system("iabse-1.1a")
+    system, _ = section_system("iabse-1.1a")
     speeds = np.arange(0.0, 400.0 + 1e-9, 50.0)
     fast = stability.pk_sweep(system, speeds)
     ref = stability.pk_sweep(system, speeds, full_grid=True)
