@@ -381,11 +381,13 @@ def _confirmed(system, march, i, j, lam, v):
     else -1 (the label is then the participation's, as where the dense sweep's tracking lost
     the branch). A coarse step can jump onto another branch where the true continuation turns
     real (no competitor of the assignment): IABSE 1.1c's RFA moves the still-air spectrum far
-    from the structure's, its pitch branch turns real within 6 m/s and the 14 m/s step gave its
-    label to the flutter branch, which the dense sweep tracks from no structural mode."""
+    from the structure's, and a start matched by eigenvalue distance gave the pitch label to
+    the shifted heave mode. The last step, to the first speed, halves as often as the coarse
+    sweep's first interval (12 times; 1.1c's branches move fastest below 1 m/s)."""
     n = march.tracked.shape[0] // 2
     for k in range(i - 1, -1, -1):
-        lam, v, ok = continue_eigenpair(system, march.speeds[k + 1], lam, v, march.speeds[k])
+        lam, v, ok = continue_eigenpair(system, march.speeds[k + 1], lam, v, march.speeds[k],
+                                        halvings=12 if k == 0 else 8)
         b = _branch_of(lam, march.tracked[:, k])
         if not ok or b < 0 or b % n != j % n:
             return -1

@@ -271,9 +271,18 @@ def _track_interval(system, u0, l0, s0, u1, lam1, omega_tol, budget, halvings=6,
     :func:`_assign`.
     """
 
+    half = np.repeat([1.0, -1.0], len(l0) // 2)  # rows: upper halves, then lower halves
+    last = [np.asarray(l0)]
+
     def step(t, pred):
         lam = lam1 if t == u1 else np.linalg.eigvals(system.A(t))
-        cur, ambiguous = _assign(pred, lam, omega_tol, coincident)
+        # a pair that turned real stays on the axis: a linear prediction from its last complex
+        # value that overshoots into the other half plane is projected onto the axis (IABSE
+        # 1.1c's heave pair turns real at 0.8 m/s, where the overshoot made every step ambiguous)
+        over = (half * pred.imag < 0) & (half * last[0].imag >= 0)
+        cur, ambiguous = _assign(np.where(over, pred.real, pred), lam, omega_tol, coincident)
+        if not ambiguous:
+            last[0] = cur
         return cur, not ambiguous
 
     l, s, forced = continue_adaptive(step, u0, np.asarray(l0), np.asarray(s0), u1, halvings,
