@@ -43,6 +43,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from design.settings import DesignSettings
+from model.errors import BridgeflapInputError
 
 #: Outcomes of one inner design (:class:`Evaluation`).
 FEASIBLE, NOT_FEASIBLE, FAILED = "feasible", "not_feasible", "failed"
@@ -307,8 +308,14 @@ def critical_speed_design(settings: DesignSettings, progress=None, spec=None, wa
 
     def evaluate(u, warm):
         th = theta_init if warm is None or warm.theta is None else warm.theta
-        e = inner_design(settings, u, th, spec, progress_bar, variants,
-                         None if warm is None else warm.design_speed_m_s)
+        try:
+            e = inner_design(settings, u, th, spec, progress_bar, variants,
+                             None if warm is None else warm.design_speed_m_s)
+        except BridgeflapInputError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a failed inner solve is data (STYLE)
+            e = Evaluation(u, FAILED, f"failed: {exc}",
+                           warm_start_from_m_s=None if warm is None else warm.design_speed_m_s)
         d = e.details or {}
         crit = (f", closed-loop critical speed {d['critical_speed_m_s']:.2f} m/s "
                 f"({d['critical_mechanism']})" if d.get("critical_speed_m_s") is not None
