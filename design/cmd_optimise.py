@@ -23,7 +23,10 @@ def cmd_optimise(args):
 
     if args.definition is not None and not Path(args.definition).is_file():
         raise BridgeflapInputError("definition", f"not a file: {args.definition}")
-    settings = load_settings(args.definition or DEFAULT_DEFINITION)
+    over = {k: v for k, v in (("objective", getattr(args, "objective", None)),
+                              ("margin_min", getattr(args, "margin_min", None)))
+            if v is not None}
+    settings = load_settings(args.definition or DEFAULT_DEFINITION, **over)
     if args.quick:
         settings = quick_settings(settings)
     out = Path(args.out)
@@ -102,6 +105,14 @@ def _design_and_write(args, settings, out):
                  f"{g(payload['gamma_T_frobenius'], '.4g')} vs dense sigma_max peak "
                  f"{g(payload['dense_T_peak'], '.4g')} (bound holds at the "
                  f"check speeds: {payload['robust_bound_holds']})")
+    cs = payload.get("critical_speed")
+    if cs:
+        lines.append(f"critical-speed search {cs['status']} ({cs['reason']}): design speed "
+                     f"{g(cs['design_speed_m_s'], 'g')} m/s (not feasible at "
+                     f"{g(cs['not_feasible_speed_m_s'], 'g')} m/s), closed-loop critical speed "
+                     f"{g(cs['critical_speed_m_s'], '.2f')} m/s ({cs['critical_mechanism']}), "
+                     f"margin {g(cs['robust_margin'], '.4g')} (min {cs['margin_min']}), "
+                     f"{cs['inner_solves']} inner solves")
     lines.append(result.table("simple"))
     emit(args, payload, "\n".join(lines))
     if result.controller is None:
@@ -121,3 +132,10 @@ def arguments(sp) -> None:
                          "runs/humber_flaps.toml)")
     sp.add_argument("--out", default="optimise_out", help="output folder")
     sp.add_argument("--quick", action="store_true", help="reduced problem (CI)")
+    sp.add_argument("--objective", default=None,
+                    help="margin (default: max robust margin, stable to speed_max_m_s) or "
+                         "critical_speed (max closed-loop critical speed subject to robust "
+                         "margin >= margin_min); overrides the definition's")
+    sp.add_argument("--margin-min", dest="margin_min", type=float, default=None,
+                    help="robust margin required by the critical_speed objective [-]; "
+                         "overrides the definition's")

@@ -386,7 +386,7 @@ def warm_start_theta(warm_start) -> np.ndarray:
 
 
 def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
-           progress_bar=None) -> DesignResult:
+           progress_bar=None, records=None) -> DesignResult:
     """Multistart design with cutting planes, 16-mode verification and flap-count search.
 
     Status: ``converged`` (a start meets the damping on the design model's dense grid, the
@@ -407,7 +407,17 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
         neighbouring bridge); the other starts are Sobol points as usual.
     progress_bar : bool, optional
         tqdm bars of the Ipopt iterations on stderr (default: when stderr is a terminal).
+    records : sequence of StartRecord, optional
+        Starts already run on ``settings`` (:func:`run_start`): only the selection and the
+        checks follow. ``objective = "critical_speed"`` without them runs
+        :func:`design.critical_speed.critical_speed_design`, which calls this with its
+        chosen inner design.
     """
+    if records is None and settings.objective == "critical_speed":
+        from design.critical_speed import critical_speed_design
+
+        return critical_speed_design(settings, progress=progress, spec=spec,
+                                     warm_start=warm_start, progress_bar=progress_bar)
     t0 = time.perf_counter()
     log = progress or (lambda msg: None)
     # start 0 is a nominal phase-lead-free design (K ~ -1 static, light lag) or the warm
@@ -417,8 +427,9 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
 
     base = load_bridge(settings.bridge) if spec is None else spec
     variants = sample_variants(settings, base, settings.variants, settings.variant_seed)
-    starts0 = np.vstack([first, screened_starts(settings, settings.starts - 1, spec=spec)])[
-        :settings.starts]
+    given = records is not None
+    starts0 = [] if given else np.vstack(
+        [first, screened_starts(settings, settings.starts - 1, spec=spec)])[:settings.starts]
     n = len(starts0)
     phases, tp = {}, [time.perf_counter()]
 
@@ -428,7 +439,9 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
         tp[0] = now
 
     mark("screening starts")
-    if settings.parallel and settings.starts > 1:
+    if given:
+        records = list(records)
+    elif settings.parallel and settings.starts > 1:
         from concurrent.futures import ProcessPoolExecutor
 
         with ProcessPoolExecutor(max_workers=min(2, settings.starts)) as ex:

@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from design.records import FlapCountSearch, StartRecord
-from design.settings import THETA_NAMES, DesignSettings
+from design.settings import CRITICAL_SPEED_FIELDS, THETA_NAMES, DesignSettings
 from model.control import Controller
 from model.results import ResultData, jsonable
 
@@ -65,7 +65,8 @@ class DesignResult(ResultData):
                   {n: NAN for n in THETA_NAMES})
         b = self.best
         margin = b.robust_margin if b is not None else NAN
-        return jsonable({
+        crit = self.settings.objective == "critical_speed"
+        out = jsonable({
             "status": self.status,
             "controller_usable": self.controller is not None,
             "coefficients": coeffs,
@@ -105,8 +106,12 @@ class DesignResult(ResultData):
             "minimum_flaps": (self.min_flaps.to_dict() if self.min_flaps is not None
                               else {"minimum": None, "counts": []}),
             "wall_time_s": self.wall_time_s,
-            "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"},
+            "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"
+                         and (crit or k2 not in CRITICAL_SPEED_FIELDS)},
         })
+        if crit:    # the critical-speed search (design.critical_speed), only when it ran
+            out["critical_speed"] = jsonable(self.extras.get("critical_speed", {}))
+        return out
 
     def _rows(self) -> list[dict]:
         """The start table: one row per start (``time_s``, ``robust_margin`` [-], ...)."""

@@ -23,6 +23,13 @@ else:  # pragma: no cover
 #: Names of the compensator coefficients theta, ``K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s
 #: + 1)`` (:class:`model.control.Compensator`).
 THETA_NAMES = ("b2", "b1", "b0", "a2", "a1")
+#: Design objectives (``DesignSettings.objective``): the robust margin subject to stability up
+#: to the design speed, or the closed-loop critical speed subject to a robust margin.
+OBJECTIVES = ("margin", "critical_speed")
+#: Settings of the critical-speed search only (left out of a margin design's JSON summary).
+CRITICAL_SPEED_FIELDS = ("objective", "margin_min", "critical_speed_step_m_s",
+                         "critical_speed_tol_m_s", "critical_speed_max_m_s",
+                         "critical_speed_evaluations")
 
 
 def _num(field_name, v, positive=False, nonneg=False):
@@ -48,6 +55,14 @@ class DesignSettings:
     closed-loop branch the flaps can move (default 0.5 %, half the structural 1 %), at every
     design speed 0..``speed_max_m_s``; the copies of the aerodynamic lag poles ``-p_i U / b``
     and of the compensator poles are excluded (:mod:`design.eigen`).
+
+    ``objective``: ``"margin"`` (default) maximises the robust margin subject to the damping up
+    to ``speed_max_m_s``; ``"critical_speed"`` searches the largest design speed whose
+    max-margin design verifies with robust margin >= ``margin_min`` [-], from
+    ``speed_max_m_s`` in steps of ``critical_speed_step_m_s`` up to ``critical_speed_max_m_s``
+    (0: ``2 speed_max_m_s``, the closed-loop limits' range), bisected to
+    ``critical_speed_tol_m_s``, at most ``critical_speed_evaluations`` inner designs
+    (:mod:`design.critical_speed`).
     """
 
     bridge: str = "humber"
@@ -98,6 +113,12 @@ class DesignSettings:
     variant_seed: int = 7
     variant_fixed: tuple = ("deck.half_chord_m", "aero.coherence_decay")
     pareto_step: int = 2
+    objective: str = "margin"
+    margin_min: float = 0.25
+    critical_speed_step_m_s: float = 10.0
+    critical_speed_tol_m_s: float = 1.0
+    critical_speed_max_m_s: float = 0.0
+    critical_speed_evaluations: int = 10
     extras: dict = field(default_factory=dict, compare=False)
 
     def __post_init__(self):
@@ -169,14 +190,39 @@ class DesignSettings:
             raise BridgeflapInputError("flap_budget", "must be an integer in 0..flap_count "
                                                       f"(0: no budget), got {self.flap_budget!r}")
 
+        if self.objective not in OBJECTIVES:
+            raise BridgeflapInputError("objective", f"must be one of {', '.join(OBJECTIVES)}, "
+                                                    f"got {self.objective!r}")
+        _num("margin_min", self.margin_min, positive=True)
+        for name in ("critical_speed_step_m_s", "critical_speed_tol_m_s"):
+            _num(name, getattr(self, name), positive=True)
+        _num("critical_speed_max_m_s", self.critical_speed_max_m_s, nonneg=True)
+        v = self.critical_speed_evaluations
+        if isinstance(v, bool) or not isinstance(v, int) or v < 2:
+            raise BridgeflapInputError("critical_speed_evaluations",
+                                       f"must be an integer >= 2, got {v!r}")
+        if self.objective == "critical_speed":
+            if self.critical_speed_tol_m_s >= self.critical_speed_step_m_s:
+                raise BridgeflapInputError("critical_speed_tol_m_s",
+                                           "must be below critical_speed_step_m_s")
+            if 0 < self.critical_speed_max_m_s < self.speed_max_m_s:
+                raise BridgeflapInputError("critical_speed_max_m_s",
+                                           "must be >= speed_max_m_s, where the search "
+                                           "starts (0: 2 speed_max_m_s)")
+            if self.weight_robust <= 0 or not self.robust_speeds_m_s:
+                raise BridgeflapInputError("weight_robust", "the critical-speed objective "
+                                           "needs the robust margin (weight_robust > 0 and "
+                                           "robust_speeds_m_s)")
+
     def positions(self, count: int | None = None) -> np.ndarray:
         """Evenly spaced, touching flap centres from the main-span mid-point [m]."""
         count = self.flap_count if count is None else int(count)
         return (np.arange(count) - 0.5 * (count - 1)) * self.flap_width_m
 
     def design_speeds(self) -> np.ndarray:
-        """Design grid [m/s], 0 .. speed_max inclusive."""
-        n = int(round(self.speed_max_m_s / self.design_step_m_s))
+        """Design grid [m/s], 0 .. speed_max inclusive (never above it: the steps that fit,
+        then ``speed_max``)."""
+        n = int(np.floor(self.speed_max_m_s / self.design_step_m_s + 1e-9))
         return np.unique(np.append(np.linspace(0.0, n * self.design_step_m_s, n + 1),
                                    self.speed_max_m_s))
 
@@ -241,6 +287,11 @@ def quick_settings(settings: DesignSettings) -> DesignSettings:
     The design model keeps its modes (a design on 8 modes flutters at 79.75 m/s on the
     16-mode model); the dense verification on ``verification_modes`` is unchanged and the
     status says whether it holds.
+
+    The critical-speed search (``objective = "critical_speed"``) bisects to 2.5 m/s (at most
+    half its step) instead of ``critical_speed_tol_m_s``.
     """
+    tol = max(settings.critical_speed_tol_m_s, min(2.5, 0.5 * settings.critical_speed_step_m_s))
     return replace(settings, starts=1, design_step_m_s=max(settings.design_step_m_s, 10.0),
-                   cutting_plane_rounds=2, min_flap_counts=(25, 13, 5), pareto=False)
+                   cutting_plane_rounds=2, min_flap_counts=(25, 13, 5), pareto=False,
+                   critical_speed_tol_m_s=tol)
