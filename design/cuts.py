@@ -22,6 +22,18 @@ from design.records import CutRound, CutsOutcome
 from model.control import Compensator
 
 
+#: Round 0 warm-started (monotone barrier from ``design.nlp.WARM_MU_INIT``) when its start
+#: is feasible (a feasible start, or phase 1's first feasible iterate). Measured on the
+#: default card (``python -m bench.design``, 2 starts): Ipopt's adaptive barrier in round 0
+#: crawled to its 80-iteration cap from phase 1's point (start 0: gamma_T 40.7 against a
+#: dense peak of 4.5, then 77-103 more iterations in round 1). Warm: 424 + 554 -> 289 + 274
+#: iterations, both starts on the same design (margin 0.3228 / 0.3230). With the card's
+#: former 20 robust frequencies per band the effect was mixed (start 0 393 -> 276, start 1
+#: 315 -> 582 into another basin); with 60 it is not. Tried and dropped: re-solves started
+#: from the previous multipliers (warm_start_init_point): 313 iterations and another design.
+WARM_FIRST = True
+
+
 def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
     """Solve ``prob`` (a :class:`design.nlp.DesignProblem`) with phase 1 and cutting planes;
     see :meth:`design.nlp.DesignProblem.solve_with_cuts`."""
@@ -52,10 +64,15 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
         # phase 2 from the phase-1 point when it is less violating than the start
         if float(np.max(ph1.constraints_eig_1_s)) < viol0:
             theta, w = ph1.theta, ph1.weights
+        feasible0 = max(float(np.max(q.constraint_values(theta, sorted(speeds), w)))
+                        for q in [prob, *prob.variants]) <= 0
+    else:
+        feasible0 = True
     off = len(history)          # the phase-1 record, if any, precedes the rounds
     for rnd in range(s.cutting_plane_rounds + 1):
+        # round 0 from a feasible point is warm-started like the re-solves (WARM_FIRST)
         res = prob.solve(theta, np.array(sorted(speeds)), weights0=w, gamma0=gamma,
-                         warm=rnd > 0,
+                         warm=rnd > 0 or (WARM_FIRST and feasible0),
                          max_iter=s.resolve_max_iter if rnd > 0 else s.max_iter)
         theta, w = res.theta, res.weights
         gamma = res.gamma_T if use_rob else None

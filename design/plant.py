@@ -40,6 +40,48 @@ def lag_free_indices(model) -> np.ndarray:
     return np.flatnonzero(keep)
 
 
+#: Relative singular-value threshold of the flap pitch map ``Phi_a`` below which a direction
+#: counts as absent (:func:`compensator_reduction`).
+REDUCTION_RTOL = 1e-12
+
+
+def compensator_reduction(model, nx):
+    """``(T, T_left, keep0)`` reducing the closed loop's per-flap compensator copies, or None.
+
+    Every flap has its own compensator driven by ``alpha_f = Phi_a[f] q``: with more flaps than
+    independent pitch directions (``r = rank Phi_a < n_flaps``; 25 flaps on 16 modes) the
+    compensator states stay in ``range(kron(L, I_nc))``, ``L`` the ``r`` left singular vectors
+    of ``Phi_a`` -- an invariant subspace of ``A(U)`` for every ``U`` and ``theta`` (the
+    compensator rows map it and ``q`` into it: ``kron(I, Ac) kron(L, I) = kron(L, I) kron(I_r,
+    Ac)`` and ``kron(I, Bc) Phi_a = kron(L, Bc) (L^T Phi_a)``). With ``T = blockdiag(I,
+    kron(L, I_nc))`` and ``T_left = T^T`` (orthonormal ``L``), ``T_left A T`` has exactly the
+    eigenvalues of ``A`` on that subspace: all but ``(n_flaps - r) nc`` copies of the
+    compensator poles, which the damping constraints exclude anyway. Derivatives carry over
+    (``T`` is constant), and the weights ``w`` scale the flap forces, not ``Phi_a``, so the
+    reduction holds for the placement design too. ``nx``: the closed loop's state count.
+    ``keep0``: the reduced indices without the lag states (``U = 0``). None when nothing is
+    removed.
+    """
+    import scipy.sparse as sp
+
+    ol = model.open_loop
+    pa = np.asarray(model.flaps.phi_a, float)
+    nF = pa.shape[0]
+    nc = (nx - ol.n_states) // max(nF, 1)
+    if nF == 0 or nc == 0:
+        return None
+    U_, sv, _ = np.linalg.svd(pa, full_matrices=False)
+    r = int(np.sum(sv > REDUCTION_RTOL * sv[0])) if sv.size and sv[0] > 0 else 0
+    if r >= nF:
+        return None
+    k = ol.n_states
+    T = sp.block_diag([sp.identity(k), sp.kron(sp.csr_matrix(U_[:, :r]), sp.identity(nc))],
+                      format="csc")
+    keep = np.ones(k + r * nc, bool)
+    keep[ol.index.aero_lag] = False
+    return T, T.T.tocsc(), np.flatnonzero(keep)
+
+
 def closed_loop_abscissa(A_parts, U) -> np.ndarray:
     """Spectral abscissa [1/s] of ``A0 + U A1 + U^2 A2`` per speed (lag states dropped at 0)."""
     A0, A1, A2, keep0 = A_parts

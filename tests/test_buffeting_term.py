@@ -92,3 +92,46 @@ def test_frozen_grid_against_the_converged_adaptive_grid(term):
     for th in (THETA, np.array([0.2, -0.4, -2.0, 0.03, 0.8])):
         c = mb.check(prob, th)
         assert c["max_relative_difference"] < 1e-2
+
+
+def test_compiled_point_function_equals_the_virtual_machine():
+    # the JIT-compiled closed form (design.buffeting_term.JIT) is the same SX expression
+    # evaluated by C code instead of CasADi's virtual machine: only the floating-point
+    # evaluation order may differ (-O2 keeps IEEE semantics), so values and reverse-mode
+    # gradients agree to round-off; 1e-12 relative is ~1e4 ulps on sums of ~1e3 terms
+    import design.buffeting_term as bt
+
+    n = 6
+    rng = np.random.default_rng(3)
+    fc, fv = bt._eig_point_function(n, jit=True), bt._eig_point_function(n, jit=False)
+    if fc is fv or "compile failed" in bt.JIT_STATUS:
+        pytest.skip(f"no compiler: {bt.JIT_STATUS}")
+    m = 40
+    th = ca.MX.sym("theta", 5)
+    data = [ca.DM(rng.uniform(0.1, 3.0, (1, m))), ca.DM(rng.normal(size=(n, m))),
+            ca.DM(rng.normal(size=(n, m)))]
+    H = []
+    for _ in range(2):
+        Z = rng.normal(size=(n, n)) + 1j * rng.normal(size=(n, n))
+        Hh = Z @ Z.conj().T
+        H += [ca.DM(np.hstack([Hh.real] * m)), ca.DM(np.hstack([Hh.imag] * m))]
+    x = np.array([-0.8, 0.3, -2.7, 0.28, 0.03])
+    outs = []
+    for f in (fc, fv):
+        J = ca.sum2(f.map(m, "serial")(th, *data, *H))
+        g = ca.Function("g", [th], [J, ca.jacobian(J, th)])
+        outs.append([np.asarray(v.full()) for v in g(x)])
+    for a, b in zip(outs[0], outs[1], strict=True):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
+
+
+def test_compiled_point_function_writes_nothing_in_the_working_directory(tmp_path, monkeypatch):
+    # CasADi's JIT writes its C source and library into the current directory by default;
+    # bridgeflap's go to a private temporary directory (a user's folder stays clean)
+    import design.buffeting_term as bt
+
+    monkeypatch.chdir(tmp_path)
+    bt._POINT_CACHE.pop((3, True), None)
+    f = bt._eig_point_function(3, jit=True)
+    ca.Function("r", f.sx_in(), [ca.gradient(ca.sum1(f(*f.sx_in())), f.sx_in()[0])])
+    assert list(tmp_path.iterdir()) == []

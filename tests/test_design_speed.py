@@ -189,3 +189,49 @@ def test_numeric_verification_equals_the_symbolic_parts(small):
     np.testing.assert_allclose(vn.violation_1_s, vs.violation_1_s, rtol=0, atol=1e-9)
     assert (vn.meets_damping, vn.stable_everywhere, vn.stable_to_m_s, vn.max_gain) == (
         vs.meets_damping, vs.stable_everywhere, vs.stable_to_m_s, vs.max_gain)
+
+
+@pytest.mark.parametrize("placement", [False, True])
+def test_compensator_reduction_keeps_every_constraint_and_derivative(small, placement):
+    # design.plant.compensator_reduction: the per-flap compensator states of 5 flaps on 6 modes
+    # (rank Phi_a < 5) projected on their invariant subspace. The reduced A(U) has exactly the
+    # eigenvalues of the full one minus copies of the compensator poles (the 0 m/s and 60 m/s
+    # matrices, sorted, to 1e-9 relative: eigenvalue round-off of a 50-state matrix), and the
+    # damping constraints and their Jacobians equal the full-state ones (the same eigenvalues
+    # and, T being constant, the same derivatives; 1e-9 relative: FD rows use 1e-6 steps,
+    # identical in both paths, the analytic rows agree to round-off).
+    import design.nlp as nlp
+    from design.plant import compensator_reduction
+
+    s, model = small
+    s = s if not placement else load_settings(n_modes=6, flap_count=5, optimise_placement=True,
+                                              robust_design_speeds_m_s=(30.0, 60.0),
+                                              n_robust_omega=8)
+    red = compensator_reduction(model, model.casadi_functions()["A_cl"].size1_out(0))
+    assert red is not None and red[0].shape[1] < red[0].shape[0]
+    speeds = np.array([0.0, 30.0, 60.0, 85.0])
+    out = {}
+    try:
+        for flag in (False, True):
+            nlp.REDUCE_COMPENSATORS = flag
+            prob = DesignProblem(s, model)
+            cb = prob.grid_callback(speeds)
+            p = THETA if not placement else np.concatenate([THETA, 0.7 * np.ones(prob.n_z)])
+            out[flag] = (cb.values(p), cb.jacobian(p), cb.matrices(p))
+    finally:
+        nlp.REDUCE_COMPENSATORS = True
+    np.testing.assert_allclose(out[True][0], out[False][0], rtol=1e-9, atol=1e-12)
+    J0 = out[False][1]
+    np.testing.assert_allclose(out[True][1], J0, rtol=0, atol=1e-9 * np.abs(J0).max())
+    poles = np.roots([THETA[3], THETA[4], 1.0])
+    for k in (0, 2):
+        full = np.linalg.eigvals(out[False][2][k])
+        reduced = list(np.linalg.eigvals(out[True][2][k]))
+        # remove each reduced eigenvalue from the full set; what is left: compensator poles
+        rest = list(full)
+        for lam in reduced:
+            j = int(np.argmin(np.abs(np.asarray(rest) - lam)))
+            assert abs(rest[j] - lam) <= 1e-9 * max(1.0, abs(lam))
+            rest.pop(j)
+        assert len(rest) == out[False][2][k].shape[0] - out[True][2][k].shape[0] > 0
+        assert all(np.min(np.abs(poles - lam)) <= 1e-6 * max(1.0, abs(lam)) for lam in rest)
