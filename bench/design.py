@@ -145,6 +145,8 @@ def run_full(definition=None, quick=False) -> dict:
                        "verified": st.verified, "robust_margin": st.robust_margin})
     best = res.best
     result = {} if best is None else {
+        "compensator_b2_b1_b0_a2_a1": [round(float(v), 4) for v in best.theta],
+        "chosen_start": best.start,
         "max_gain": best.max_gain, "robust_margin_optimiser": 1.0 / best.gamma_T_frobenius,
         "robust_margin_verified": best.robust_margin,
         "closed_loop_flutter_m_s": res.extras.get("closed_loop_limits", {}).get(
