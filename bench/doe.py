@@ -12,7 +12,11 @@ Coarse mesh (50 m elements) and 8 modes keep one case at ~0.1-0.2 s. Measures, b
   case (serial runner, and 1-worker Dask without its start-up);
 * ``cpu_share``: CPU time over wall time of the cases inside the workers. Below ~0.9 with two
   workers on two cores the cases did not get a core each: other load on the machine, not the
-  runner, then limits the ratio (report it with the load average).
+  runner, then limits the ratio (report it with the load average);
+* ``page_faults_per_case``: minor page faults of a case inside its process (of the last run).
+  A worker far above the serial runner's few hundred runs with glibc's dynamic malloc
+  thresholds switched off (``MALLOC_TRIM_THRESHOLD_``, :data:`design.cluster.LOCAL_WORKER_CONFIG`):
+  every large array is mapped and unmapped again, system time that ``cpu_share`` still counts.
 
 The machine is often shared: the load average before and after each run is printed.
 
@@ -32,12 +36,22 @@ OPTIONS = {"speeds": "0:120:2", "modes": 8}
 RANGES = {"deck.gj_nm2": (2.8e11, 4.7e11), "cable.main_sag_m": (110.0, 125.0)}
 
 
+def _minor_faults() -> int:
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - Windows
+        return 0
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+
+
 def timed_case(params: dict, fn) -> dict:
-    """``fn(params)`` with the case's CPU and wall time inside its process (for ``cpu_share``)."""
-    wall, cpu = time.perf_counter(), time.process_time()
+    """``fn(params)`` with the case's CPU and wall time and its minor page faults inside its
+    process (for ``cpu_share`` and ``page_faults_per_case``)."""
+    wall, cpu, faults = time.perf_counter(), time.process_time(), _minor_faults()
     out = dict(fn(params))
     out["bench_cpu_s"] = time.process_time() - cpu
     out["bench_wall_s"] = time.perf_counter() - wall
+    out["bench_minor_faults"] = _minor_faults() - faults
     return out
 
 
@@ -114,15 +128,17 @@ def main():
             b = run_batch(fn, cases, os.path.join(tmp, str(next(counter))), progress=False,
                           fingerprint="bench.doe", **kw)
             rows = [r["result"] for r in b.rows if r["status"] == "ok"]
-            return b.failed, (sum(r["bench_cpu_s"] for r in rows)
-                              / max(1e-12, sum(r["bench_wall_s"] for r in rows)))
+            return (b.failed, (sum(r["bench_cpu_s"] for r in rows)
+                               / max(1e-12, sum(r["bench_wall_s"] for r in rows))),
+                    sum(r["bench_minor_faults"] for r in rows) / max(1, len(rows)))
 
-        res["serial_failed"], res["cpu_share_serial"] = best(
-            "serial", lambda: batch(scheduler="serial"))
+        (res["serial_failed"], res["cpu_share_serial"],
+         res["page_faults_per_case_serial"]) = best("serial", lambda: batch(scheduler="serial"))
         for n in (1, 2):
             best(f"startup_{n}", lambda n=n: _startup(n))
-            res[f"dask_{n}_failed"], res[f"cpu_share_dask_{n}"] = best(
-                f"dask_{n}", lambda n=n: batch(workers=n))
+            (res[f"dask_{n}_failed"], res[f"cpu_share_dask_{n}"],
+             res[f"page_faults_per_case_dask_{n}"]) = best(f"dask_{n}",
+                                                          lambda n=n: batch(workers=n))
             res[f"dask_{n}_steady_s"] = res[f"dask_{n}_s"] - res[f"startup_{n}_s"]
     bare = res["bare_s"] / args.cases
     res["bare_per_case_s"] = bare
