@@ -13,7 +13,11 @@ Coarse mesh (50 m elements) and 8 modes keep one case at ~0.1-0.2 s. Measures, b
 * ``cpu_share``: CPU time over wall time of the cases inside the workers. Below ~0.9 with two
   workers on two cores the cases did not get a core each: other load on the machine, not the
   runner, then limits the ratio (report it with the load average);
-* ``page_faults_per_case``: minor page faults of a case inside its process (of the last run).
+* ``case_cpu_s``: median CPU time of a case inside its process (of the last run; the median
+  leaves out a worker's first case, which pays the imports and caches), and
+  ``case_cpu_in_worker_vs_serial_pct`` its excess in a one-worker cluster over the serial
+  runner: the part of the Dask overhead that other load on the machine hardly changes;
+* ``page_faults_per_case``: median minor page faults of a case inside its process (ditto).
   A worker far above the serial runner's few hundred runs with glibc's dynamic malloc
   thresholds switched off (``MALLOC_TRIM_THRESHOLD_``, :data:`design.cluster.LOCAL_WORKER_CONFIG`):
   every large array is mapped and unmapped again, system time that ``cpu_share`` still counts.
@@ -29,6 +33,7 @@ import argparse
 import functools
 import json
 import os
+import statistics
 import tempfile
 import time
 
@@ -128,17 +133,19 @@ def main():
             b = run_batch(fn, cases, os.path.join(tmp, str(next(counter))), progress=False,
                           fingerprint="bench.doe", **kw)
             rows = [r["result"] for r in b.rows if r["status"] == "ok"]
-            return (b.failed, (sum(r["bench_cpu_s"] for r in rows)
-                               / max(1e-12, sum(r["bench_wall_s"] for r in rows))),
-                    sum(r["bench_minor_faults"] for r in rows) / max(1, len(rows)))
+            cpu = [r["bench_cpu_s"] for r in rows]
+            return (b.failed, sum(cpu) / max(1e-12, sum(r["bench_wall_s"] for r in rows)),
+                    statistics.median(cpu),
+                    statistics.median(r["bench_minor_faults"] for r in rows))
 
-        (res["serial_failed"], res["cpu_share_serial"],
-         res["page_faults_per_case_serial"]) = best("serial", lambda: batch(scheduler="serial"))
+        for label, kw in (("serial", {"scheduler": "serial"}), ("dask_1", {"workers": 1}),
+                          ("dask_2", {"workers": 2})):
+            if label.startswith("dask"):
+                n = kw["workers"]
+                best(f"startup_{n}", lambda n=n: _startup(n))
+            (res[f"{label}_failed"], res[f"cpu_share_{label}"], res[f"case_cpu_s_{label}"],
+             res[f"page_faults_per_case_{label}"]) = best(label, lambda kw=kw: batch(**kw))
         for n in (1, 2):
-            best(f"startup_{n}", lambda n=n: _startup(n))
-            (res[f"dask_{n}_failed"], res[f"cpu_share_dask_{n}"],
-             res[f"page_faults_per_case_dask_{n}"]) = best(f"dask_{n}",
-                                                          lambda n=n: batch(workers=n))
             res[f"dask_{n}_steady_s"] = res[f"dask_{n}_s"] - res[f"startup_{n}_s"]
     bare = res["bare_s"] / args.cases
     res["bare_per_case_s"] = bare
@@ -147,6 +154,8 @@ def main():
     res["overhead_per_case_serial_pct"] = 100 * (res["serial_s"] - res["bare_s"]) / res["bare_s"]
     res["overhead_per_case_dask_1_pct"] = (100 * (res["dask_1_steady_s"] - res["bare_s"])
                                            / res["bare_s"])
+    res["case_cpu_in_worker_vs_serial_pct"] = (
+        100 * (res["case_cpu_s_dask_1"] - res["case_cpu_s_serial"]) / res["case_cpu_s_serial"])
     res["load_end"] = _load()
     if args.json:
         print(json.dumps(res, indent=1))
