@@ -46,6 +46,8 @@ WORKERS_TIMEOUT_S = 30.0
 #: * the statistical profiler off: it samples the task thread's stack every 10 ms on the
 #:   worker's event-loop thread, holding the GIL; that thread's CPU during 17 cases was
 #:   0.17 s with it, 0.08 s without (2 % of the cases' 4.4 s); nothing here reads profiles.
+#:
+#: Workers of a remote scheduler are started by their owner, with that owner's settings.
 LOCAL_WORKER_CONFIG = {
     "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
     "distributed.worker.profile.enabled": False,
