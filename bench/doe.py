@@ -1,13 +1,14 @@
 """Benchmark of the DOE batch runner on a 64-case flutter DOE (issue 16 goal 4).
 
-Coarse mesh (50 m elements) and 8 modes keep one case at ~0.1-0.2 s. Measures, best of
+Coarse mesh (50 m elements) and 8 modes keep one case at ~0.2 s. Measures, best of
 ``--repeat`` runs each:
 
 * ``bare``: the analysis on every case in this process, no runner;
 * ``serial``: the runner in this process (``scheduler="serial"``): files, hashes, table;
 * ``dask_<n>``: the runner on a local Dask cluster of ``n`` worker processes, and ``startup``,
-  the time to start (and close) such a cluster with its workers warmed (imports) -- the
-  ``steady`` times subtract it;
+  the time to start (and close) such a cluster with one case run on each worker (its imports
+  and caches, ~1 s, which ``bare`` pays in an untimed first case) -- the ``steady`` times
+  subtract it;
 * ratios: 1 -> 2 workers (total and steady), the per-case runner overhead relative to a bare
   case (serial runner, and 1-worker Dask without its start-up);
 * ``cpu_share``: CPU time over wall time of the cases inside the workers. Below ~0.9 with two
@@ -60,13 +61,6 @@ def timed_case(params: dict, fn) -> dict:
     return out
 
 
-def _warm(_=None) -> bool:
-    import design.cases  # noqa: F401 - the imports a first case would pay
-    import model.analysis  # noqa: F401
-
-    return True
-
-
 def _load() -> str:
     return "/".join(f"{x:.2f}" for x in os.getloadavg())
 
@@ -84,13 +78,15 @@ def blas_threads() -> str:
         return f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}"
 
 
-def _startup(workers: int) -> float:
-    """Start a local cluster of ``workers``, warm every worker, close it [s]."""
+def _startup(workers: int, fn, params: dict) -> float:
+    """Start a local cluster of ``workers``, run ``fn(params)`` once on every worker (the
+    imports and caches a worker's first case pays, as the untimed first ``bare`` case does),
+    close it [s]."""
     from design.cluster import cluster_client
 
     t = time.perf_counter()
     with cluster_client(workers, None) as client:
-        client.run(_warm)
+        client.run(fn, params)
     return time.perf_counter() - t
 
 
@@ -142,7 +138,7 @@ def main():
                           ("dask_2", {"workers": 2})):
             if label.startswith("dask"):
                 n = kw["workers"]
-                best(f"startup_{n}", lambda n=n: _startup(n))
+                best(f"startup_{n}", lambda n=n: _startup(n, fn, plain[0]))
             (res[f"{label}_failed"], res[f"cpu_share_{label}"], res[f"case_cpu_s_{label}"],
              res[f"page_faults_per_case_{label}"]) = best(label, lambda kw=kw: batch(**kw))
         for n in (1, 2):
