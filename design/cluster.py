@@ -5,26 +5,53 @@ within :data:`CONNECT_TIMEOUT_S`, else one line naming ``scheduler``); :func:`ru
 cases with at most one in flight per worker thread, retries cases whose worker died, and
 abandons (and restarts the worker of) a case past its time limit. Local clusters listen on
 random ports only: a batch never depends on a free well-known port (8787).
+
+Local worker processes run a case at the in-process speed (:data:`LOCAL_WORKER_CONFIG`): glibc
+malloc keeps its dynamic thresholds (distributed's default ``MALLOC_TRIM_THRESHOLD_=65536``
+made every freed large NumPy array go back to the kernel, ~86,000 page faults and +45 % CPU
+per flutter case) and distributed's statistical profiler is off (no dashboard shows it). The
+environment variables the nannies set in this process to spawn their workers are restored
+when the cluster closes.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import copy
 import logging
+import os
 import time
 import uuid
 from collections import deque
 
 from model.errors import BridgeflapInputError
 
-__all__ = ["CONNECT_TIMEOUT_S", "WORKERS_TIMEOUT_S", "cluster_client", "run_dask"]
+__all__ = ["CONNECT_TIMEOUT_S", "LOCAL_WORKER_CONFIG", "WORKERS_TIMEOUT_S", "cluster_client",
+           "run_dask"]
 
 _POLL_S = 0.1
 #: connect timeout to a remote Dask scheduler [s]: a dead address fails within this
 CONNECT_TIMEOUT_S = 5.0
 #: how long a reachable remote scheduler may take to show its first worker [s]
 WORKERS_TIMEOUT_S = 30.0
+#: dask settings of a local cluster's workers, measured on the 64-case flutter DOE of
+#: ``bench/doe.py`` (one worker, per case: bare 0.25 s CPU in-process vs 0.38 s in the worker):
+#:
+#: * ``MALLOC_TRIM_THRESHOLD_`` unset (``None``; a value set in this process's environment
+#:   still applies): distributed sets 65536 before spawning a worker, and any such variable
+#:   switches glibc's dynamic mmap/trim thresholds off, so every array above 128 KiB is
+#:   mmap-ed and unmapped again: 86,500 minor page faults and 0.087 s system time per case,
+#:   against 370 and 0.002 s in-process (and in the worker without it: 50 and 0.003 s);
+#: * the statistical profiler off: it samples the task thread's stack every 10 ms on the
+#:   worker's event-loop thread, holding the GIL; that thread's CPU during 17 cases was
+#:   0.17 s with it, 0.08 s without (2 % of the cases' 4.4 s); nothing here reads profiles.
+#:
+#: Workers of a remote scheduler are started by their owner, with that owner's settings.
+LOCAL_WORKER_CONFIG = {
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    "distributed.worker.profile.enabled": False,
+}
 
 
 @contextlib.contextmanager
@@ -49,25 +76,38 @@ def cluster_client(workers: int, scheduler: str | None):
         settings = {
             "distributed.scheduler.allowed-failures": 0,
             "distributed.scheduler.worker-saturation": 1.0,
+            **LOCAL_WORKER_CONFIG,
         }
-        with dask.config.set(settings):
-            cluster = LocalCluster(
-                n_workers=workers,
-                threads_per_worker=1,
-                processes=True,
-                scheduler_port=0,
-                # no dashboard; the scheduler's HTTP server (health/metrics routes) starts even
-                # without one, on the default port 8787 unless told otherwise: port 0 (random)
-                dashboard_address=None,
-                scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
-                worker_dashboard_address=None,
-                silence_logs=logging.CRITICAL,
-            )
-            try:
-                client = Client(cluster)
-            except BaseException:
-                cluster.close()
-                raise
+        # the nannies write their pre-spawn variables (and PYTHONHASHSEED) into os.environ
+        # before each worker start; restored after the cluster closes
+        saved_env = {k: os.environ.get(k) for k in
+                     (*dask.config.get("distributed.nanny.pre-spawn-environ"), "PYTHONHASHSEED")}
+        try:
+            with dask.config.set(settings):
+                cluster = LocalCluster(
+                    n_workers=workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    scheduler_port=0,
+                    # no dashboard; the scheduler's HTTP server (health/metrics routes) starts
+                    # even without one, on the default port 8787 unless told otherwise: port 0
+                    dashboard_address=None,
+                    scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
+                    worker_dashboard_address=None,
+                    silence_logs=logging.CRITICAL,
+                    # the workers' dask config, a copy: a nanny keeps only a shallow one of
+                    # the global config, which the end of this ``config.set`` reverts, so a
+                    # restarted worker (an abandoned case) would run with the defaults again
+                    config=copy.deepcopy(dask.config.config),
+                )
+                try:
+                    client = Client(cluster)
+                except BaseException:
+                    cluster.close()
+                    raise
+        except BaseException:
+            _restore_environ(saved_env)
+            raise
     else:
         loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
         levels = [lg.level for lg in loggers]
@@ -95,6 +135,16 @@ def cluster_client(workers: int, scheduler: str | None):
         client.close()
         if cluster is not None:
             cluster.close()
+            _restore_environ(saved_env)
+
+
+def _restore_environ(saved: dict) -> None:
+    """Put back the environment variables in ``saved`` (``None``: it was not set)."""
+    for key, value in saved.items():
+        if value is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = value
 
 
 def run_dask(client, fn, pending, workers, scheduler, timeout_s, retries, finish) -> None:
@@ -104,7 +154,8 @@ def run_dask(client, fn, pending, workers, scheduler, timeout_s, retries, finish
     One case per thread, not more: a second one submitted ahead would not wait on the
     scheduler (single tasks are not "root-ish", so distributed's queueing does not hold them
     back) but on the worker, and a dying worker would take it along. The round trip between a
-    case's end and the next one's start is kept short instead: ``finish`` only queues the
+    case's end and the next one's start is kept short instead: the next case is submitted as
+    soon as one is seen done, before its result is fetched, and ``finish`` only queues the
     case's file for a writer thread (:func:`design.doe.run_batch`).
     """
     from dask.distributed import wait
@@ -141,17 +192,21 @@ def run_dask(client, fn, pending, workers, scheduler, timeout_s, retries, finish
                 done, _ = wait(list(in_flight), timeout=_POLL_S, return_when="FIRST_COMPLETED")
             except (TimeoutError, asyncio.TimeoutError):
                 done = set()
+            ended = []
             for future in done:
                 case_id, params, attempt, submitted = in_flight.pop(future)
-                elapsed = time.monotonic() - submitted
+                ended.append((future, case_id, params, attempt, time.monotonic() - submitted))
+                if future.status != "finished" and attempt < retries:
+                    queue.appendleft((case_id, params, attempt + 1))
+            # the freed worker threads get their next cases before any result travels back
+            while queue and len(in_flight) < capacity:
+                submit(*queue.popleft())
+            for future, case_id, params, attempt, elapsed in ended:
                 if future.status == "finished":
                     finish(future.result())
-                    continue
-                reason = _future_error(future)
-                if attempt < retries:
-                    queue.appendleft((case_id, params, attempt + 1))
-                    continue
-                finish(_record(case_id, params, STATUS_FAILED, reason, None, elapsed))
+                elif attempt >= retries:
+                    finish(_record(case_id, params, STATUS_FAILED, _future_error(future), None,
+                                   elapsed))
             if timeout_s is None:
                 continue
             now = time.monotonic()
