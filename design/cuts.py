@@ -21,7 +21,6 @@ from design.nlp import (
 from design.records import CutRound, CutsOutcome
 from model.control import Compensator
 
-
 #: Round 0 warm-started (monotone barrier from ``design.nlp.WARM_MU_INIT``) when its start
 #: is feasible (a feasible start, or phase 1's first feasible iterate). Measured on the
 #: default card (``python -m bench.design``, 2 starts): Ipopt's adaptive barrier in round 0
