@@ -341,10 +341,10 @@ def _eig_point_data(Pa, X, M, C, weights):
 #: system compiler (CasADi ``jit``, ``shell``): on the default card (16 modes, 2,847
 #: frequencies) one value of ``J_buf`` takes 5 ms instead of 27 ms and value plus gradient
 #: 18-20 ms instead of 96 ms (measured on this machine). The compile (``-O1``: as fast as
-#: ``-O2`` here, quicker to build) takes ~2-4 s once per process, in a private temporary
-#: directory. Without a working compiler the CasADi virtual machine evaluates the same
-#: expression (:data:`JIT_STATUS` says which); ``tests/test_buffeting_term.py`` checks both
-#: agree to 1e-12.
+#: ``-O2`` here, quicker to build) takes ~2-4 s once per process, in a temporary directory
+#: of the process (:func:`_jit_options`). Without a working compiler the CasADi virtual
+#: machine evaluates the same expression (:data:`JIT_STATUS` says which);
+#: ``tests/test_buffeting_term.py`` checks both agree to 1e-12.
 JIT = True
 #: ``"compiled"``, ``"virtual machine (compile failed: ...)"`` or ``"not built"``: the outcome
 #: of this process's JIT compile of the point function
@@ -356,19 +356,36 @@ _JIT_DIR = None
 
 
 def _jit_options() -> dict:
-    """:data:`_JIT_OPTIONS` writing the generated C and the libraries into one directory per
-    user under the system's temporary directory, never into the user's working directory
-    (CasADi's default). CasADi removes its files when the functions are unloaded; the
-    directory is kept (shared by later runs)."""
+    """:data:`_JIT_OPTIONS` writing the generated C and the libraries into a directory of this
+    process under ``$TMPDIR/bridgeflap_jit_<uid>/``, never into the user's working directory
+    (CasADi's default). CasADi leaves its files behind at exit, so the directories of processes
+    that no longer run are removed here, before this process adds its own."""
     global _JIT_DIR
     if _JIT_DIR is None:
+        import shutil
         import tempfile
 
         uid = os.getuid() if hasattr(os, "getuid") else "user"
-        _JIT_DIR = os.path.join(tempfile.gettempdir(), f"bridgeflap_jit_{uid}")
+        root = os.path.join(tempfile.gettempdir(), f"bridgeflap_jit_{uid}")
+        os.makedirs(root, exist_ok=True)
+        for name in os.listdir(root):
+            if name.isdigit() and not _alive(int(name)):
+                shutil.rmtree(os.path.join(root, name), ignore_errors=True)
+        _JIT_DIR = os.path.join(root, str(os.getpid()))
         os.makedirs(_JIT_DIR, exist_ok=True)
     return dict(_JIT_OPTIONS,
                 jit_options=dict(_JIT_OPTIONS["jit_options"], directory=_JIT_DIR + os.sep))
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` runs (signal 0); unknown counts as running."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
 
 
 def _eig_point_function(n, jit=None) -> ca.Function:

@@ -135,3 +135,27 @@ def test_compiled_point_function_writes_nothing_in_the_working_directory(tmp_pat
     f = bt._eig_point_function(3, jit=True)
     ca.Function("r", f.sx_in(), [ca.gradient(ca.sum1(f(*f.sx_in())), f.sx_in()[0])])
     assert list(tmp_path.iterdir()) == []
+
+
+def test_jit_directories_of_finished_processes_are_removed(tmp_path, monkeypatch):
+    # CasADi leaves its generated files at exit: the per-process JIT directories under
+    # $TMPDIR/bridgeflap_jit_<uid>/ of processes that no longer run are pruned by the next
+    # process, so the temporary directory does not grow run after run
+    import os
+    import subprocess
+    import sys
+
+    import design.buffeting_term as bt
+
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    code = ("import tempfile, design.buffeting_term as bt; tempfile.tempdir = None; "
+            "bt._jit_options(); print(bt._JIT_DIR)")
+    first = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           check=True).stdout.strip()
+    assert first.startswith(str(tmp_path))
+    with open(os.path.join(first, "left_by_casadi.so"), "w") as fh:
+        fh.write("x")
+    second = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            check=True).stdout.strip()
+    assert second != first and not os.path.exists(first)
+    assert bt._alive(os.getpid())
