@@ -533,7 +533,7 @@ class DesignProblem:
         parts = self.A_parts(theta, weights)
         red = self.reduction(parts[0].shape[0])
         if red is not None:         # exact: the dropped eigenvalues are compensator poles
-            parts = (*[np.asarray(red[1] @ (red[0].T @ a.T).T) for a in parts[:3]], red[2])
+            parts = (*[red[1] @ (a @ red[0]) for a in parts[:3]], red[2])
         chk = damping_check(parts, U, lag_rates(self.model), theta, s.zeta_min)
         absc = chk["abscissa_1_s"]
         viol = chk["measure_1_s"]
