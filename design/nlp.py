@@ -595,4 +595,5 @@ class DesignProblem:
             return (self.robust_dense_omega(theta, U, w) if omega is None
                     else np.asarray(omega, float))
 
-        return robust_margin(self.model, theta, speeds, w, omega_at, peaks=peaks)
+        return robust_margin(self.model, theta, speeds, w, omega_at, peaks=peaks,
+                             cache=self.callbacks.setdefault("plant factors", {}))

@@ -134,13 +134,50 @@ def true_t_peak(theta, Pa, X, omega, weights) -> np.ndarray:
     return np.linalg.svd(K[:, None, None] * (Pa[None] @ Z), compute_uv=False)[:, 0]
 
 
-def t_sigma_function(model, U, theta, weights):
-    """``omega -> sigma_max(T(j omega, U))`` (vectorised over ``omega``) for one speed."""
+def t_sigma_function(model, U, theta, weights, cache=None):
+    """``omega -> sigma_max(T(j omega, U))`` (vectorised over ``omega``) for one speed;
+    ``cache``: a dict of plant factors already computed on this model (:func:`cached_plant`),
+    used for grids (more than one frequency)."""
     def f(omega):
         omega = np.atleast_1d(np.asarray(omega, float))
-        Pa, X = plant_factors(model, float(U), 1j * omega)
+        if cache is None or omega.size == 1:
+            Pa, X = plant_factors(model, float(U), 1j * omega)
+        else:
+            Pa, X = cached_plant(model, float(U), omega, cache)
         return true_t_peak(theta, Pa, X, omega, weights)
     return f
+
+
+#: Frequencies per speed kept by :func:`cached_plant` (each ``n_modes x n_flaps`` complex:
+#: 2,000 x 16 x 25 is 13 MB per speed on the default card).
+PLANT_CACHE_POINTS = 2000
+
+
+def cached_plant(model, U, omega, cache) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`design.plant.plant_factors` at ``(U, j omega)`` with the frequencies computed
+    before at ``U`` taken from ``cache`` (``{U: (sorted omega, X)}``) and the others computed
+    and added (up to :data:`PLANT_CACHE_POINTS` per speed). The plant does not depend on
+    ``theta``: the dense robust check of every cutting-plane round reuses the fixed part of
+    its grid (400 log points + the structural frequencies per speed). The values are the
+    plant's own, point by point (bitwise: each frequency is solved on its own either way)."""
+    om_c, X_c, Pa = cache.get(U, (np.empty(0), None, None))
+    i = np.clip(np.searchsorted(om_c, omega), 0, max(om_c.size - 1, 0))
+    hit = (om_c[i] == omega) if om_c.size else np.zeros(omega.shape, bool)
+    miss = ~hit
+    Xm = None
+    if miss.any():
+        Pa, Xm = plant_factors(model, U, 1j * omega[miss])
+    X = np.empty((omega.size, *(X_c if X_c is not None else Xm).shape[1:]), complex)
+    if hit.any():
+        X[hit] = X_c[i[hit]]
+    if Xm is not None:
+        X[miss] = Xm
+        if om_c.size + int(miss.sum()) <= PLANT_CACHE_POINTS:
+            om_n = np.concatenate([om_c, omega[miss]])
+            X_n = Xm if X_c is None else np.concatenate([X_c, Xm])
+            order = np.argsort(om_n, kind="stable")
+            cache[U] = (om_n[order], X_n[order], Pa)
+    return Pa, X
 
 
 def refine_peaks(fun, omega, values, count) -> list[tuple[float, float]]:
@@ -188,7 +225,8 @@ def robust_dense_omega(A_parts, U, structural_frequencies) -> np.ndarray:
                                      structural_frequencies, wd]))
 
 
-def robust_margin(model, theta, speeds, weights, omega_at, peaks=1) -> RobustMargin:
+def robust_margin(model, theta, speeds, weights, omega_at, peaks=1,
+                  cache=None) -> RobustMargin:
     """True small-gain margin ``1 / max_U sup_w sigma_max(T(jw))`` on a dense grid.
 
     ``T = (I - L)^{-1} L``, ``L(jw) = K(jw) G(jw)`` (positive feedback ``beta = K alpha``):
@@ -211,6 +249,8 @@ def robust_margin(model, theta, speeds, weights, omega_at, peaks=1) -> RobustMar
         ``U -> frequencies`` [rad/s] of the grid at speed ``U`` [m/s].
     peaks : int
         Local peaks ``(omega, sigma_max)`` per speed kept in ``RobustMargin.peaks``.
+    cache : dict, optional
+        Plant factors of ``model`` kept between calls (:func:`cached_plant`).
     """
     speeds = np.asarray(speeds, float)
     w = np.asarray(weights, float)
@@ -218,7 +258,7 @@ def robust_margin(model, theta, speeds, weights, omega_at, peaks=1) -> RobustMar
     out_peaks, t_inf, at = [], [], []
     for U in speeds:
         om = omega_at(float(U))
-        fun = t_sigma_function(model, float(U), theta, w)
+        fun = t_sigma_function(model, float(U), theta, w, cache)
         pk = refine_peaks(fun, om, fun(om), max(8, int(peaks)))
         out_peaks.append(pk[:max(1, int(peaks))])
         t_inf.append(pk[0][1])

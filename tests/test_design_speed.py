@@ -235,3 +235,30 @@ def test_compensator_reduction_keeps_every_constraint_and_derivative(small, plac
             rest.pop(j)
         assert len(rest) == out[False][2][k].shape[0] - out[True][2][k].shape[0] > 0
         assert all(np.min(np.abs(poles - lam)) <= 1e-6 * max(1.0, abs(lam)) for lam in rest)
+
+
+def test_robust_check_plant_cache_is_exact(small):
+    # design.robust.cached_plant: the dense robust check of every cutting-plane round reuses
+    # the theta-independent plant factors of its fixed grid. Exactness is bitwise (each
+    # frequency is solved on its own in both paths), so the margins, peaks and the factors
+    # themselves must be identical, at a first theta (cache filled) and a second (reused),
+    # and the cache must actually hold the fixed grid after the first call.
+    from design.plant import plant_factors
+    from design.robust import cached_plant, robust_margin
+
+    s, model = small
+    prob = DesignProblem(s, model)
+    speeds = prob.robust_check_speeds()
+    for th in (THETA, THETA * 1.05):
+        cached = prob.robust_margin(th, speeds=speeds, peaks=3)
+        plain = robust_margin(model, th, speeds, prob.weights,
+                              lambda U, th=th: prob.robust_dense_omega(th, U), peaks=3)
+        assert np.array_equal(cached.t_inf, plain.t_inf)
+        assert cached.peaks == plain.peaks
+    cache = prob.callbacks["plant factors"]
+    assert set(cache) == {float(u) for u in speeds}
+    U = float(speeds[0])
+    om = cache[U][0][::7]
+    Pa, X = cached_plant(model, U, om, cache)
+    Pa0, X0 = plant_factors(model, U, 1j * om)
+    assert np.array_equal(Pa, Pa0) and np.array_equal(X, X0)
