@@ -40,6 +40,7 @@ from design.cli_common import (
     emit,
     limit_text,
     log,
+    number_text,
     save_plot,
     spec_from_args,
     speed_text,
@@ -186,11 +187,13 @@ def cmd_flutter(args):
         pk = pk_flutter(spec, parse_range(args.speeds, "speeds", 0.0), args.modes, controller)
         s.update({f"pk_{k}": pk[k] for k in ("flutter_speed_m_s", "flutter_frequency_hz",
                                               "flutter_status", "critical_branch_label")})
+    hz = number_text(s["flutter_frequency_hz"], ".4f", " Hz", none="")
     text = (f"{spec.name} (erected {spec.erected_fraction:.2f}, {s['modes_retained']} modes, "
             f"{s['order']} RFA {s['rfa']}, b = {spec.deck.half_chord_m} m)\n"
-            f"flutter:    {limit_text(s, 'flutter')} at "
-            f"{s['flutter_frequency_hz'] or float('nan'):.4f} Hz"
-            f" [{s['flutter_status']}], critical branch {s['critical_branch']['label']}\n"
+            f"flutter:    {limit_text(s, 'flutter')}"
+            + (f" at {hz}" if hz else "")
+            + f" [{s['flutter_status']}], critical branch "
+            f"{s['critical_branch']['label'] or '-'}\n"
             f"divergence: {limit_text(s, 'divergence')} [{s['divergence_status']}]"
             f" (static check {speed_text(s['divergence_static_speed_m_s'])}"
             f" [{s.get('divergence_static_status', '')}])\n"
@@ -201,8 +204,9 @@ def cmd_flutter(args):
     if s.get("truncation_status") == "all_modes_retained":
         text += f"\ntruncation: all {s['truncation_reference_modes']} modes of the model retained"
     elif "truncation_status" in s:
-        text += (f"\ntruncation: flutter {s['flutter_truncation_error_pct']:.3g} %, divergence "
-                 f"{s['divergence_truncation_error_pct']:.3g} % against "
+        text += (f"\ntruncation: flutter "
+                 f"{number_text(s['flutter_truncation_error_pct'], '.3g', ' %')}, divergence "
+                 f"{number_text(s['divergence_truncation_error_pct'], '.3g', ' %')} against "
                  f"{s['truncation_reference_modes']} modes [{s['truncation_status']}]")
     if args.plot:
         save_plot(res, args.plot)

@@ -155,6 +155,13 @@ def limit_text(s: dict, mech: str) -> str:
             else f"unstable already at the first speed, {first:.2f} m/s")
 
 
-def speed_text(u) -> str:
-    """A speed [m/s] for the text output; ``None``/NaN (not found on the grid) as such."""
-    return "none on the grid" if u is None or u != u else f"{u:.2f} m/s"
+def number_text(x, fmt, unit="", none="-") -> str:
+    """``x`` formatted with ``fmt`` (e.g. ``".4f"``) and ``unit`` for the text output;
+    ``None``/NaN as ``none``."""
+    return none if x is None or x != x else f"{float(x):{fmt}}{unit}"
+
+
+def speed_text(u, digits=2, none="none on the grid") -> str:
+    """A speed [m/s] for the text output with ``digits`` decimals; ``None``/NaN (not found)
+    as ``none``, never "nan m/s"."""
+    return none if u is None or u != u else f"{float(u):.{int(digits)}f} m/s"

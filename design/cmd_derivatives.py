@@ -24,7 +24,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.cli_common import add_common, check_plot_target, emit, log, save_figure
+from design.cli_common import (
+    add_common,
+    check_plot_target,
+    emit,
+    log,
+    save_figure,
+    speed_text,
+)
 from model.errors import BridgeflapInputError
 
 __all__ = ["SectionCaseResult", "add_parser", "arguments", "run", "section_case_result"]
@@ -127,10 +134,10 @@ def run(args):
                 "pk_flutter_speed_m_s", "pk_flutter_frequency_hz", "pk_flutter_status",
                 "pk_relative_to_reference", "n_states")
         payload.update({k: fl[k] for k in keys})
-        lines.append(f"flutter: RFA {fl['rfa_flutter_speed_m_s']:.3f} m/s at "
-                     f"{fl['rfa_flutter_frequency_hz']:.4f} Hz [{fl['rfa_flutter_status']}], "
-                     f"exact p-k {fl['pk_flutter_speed_m_s']:.3f} m/s at "
-                     f"{fl['pk_flutter_frequency_hz']:.4f} Hz [{fl['pk_flutter_status']}]; "
+        lines.append(f"flutter: RFA {speed_text(fl['rfa_flutter_speed_m_s'], 3)} at "
+                     f"{_hz(fl['rfa_flutter_frequency_hz'])} [{fl['rfa_flutter_status']}], "
+                     f"exact p-k {speed_text(fl['pk_flutter_speed_m_s'], 3)} at "
+                     f"{_hz(fl['pk_flutter_frequency_hz'])} [{fl['pk_flutter_status']}]; "
                      f"reference {fl['reference_flutter_speed_m_s']:g} m/s "
                      f"({fl['reference_convention']})")
     if args.plot:
@@ -235,3 +242,8 @@ def section_case_result(name: str, speeds=None, added_inertia: bool | None = Non
     system, fit = case_system(case, n_lags)
     return SectionCaseResult(case, stability.sweep(system, speeds),
                              stability.pk_sweep(system, speeds), fit, system.n_states)
+
+
+def _hz(f) -> str:
+    """A frequency [Hz] for the text output (``None``/NaN: not found)."""
+    return "-" if f is None or f != f else f"{f:.4f} Hz"

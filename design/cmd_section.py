@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from design.cli_common import add_common, emit
+from design.cli_common import add_common, emit, speed_text
 from design.options import parse_range
 from model.errors import BridgeflapInputError
 
@@ -37,10 +37,13 @@ def cmd_section(args):
         out["divergence_status"] = out["divergence_static_status"]
     out["aero"] = args.aero
     out["selberg_flutter_speed_m_s"] = _selberg(args)
-    text = (f"section ({args.aero}): flutter {out['flutter_speed_m_s']:.3f} m/s "
-            f"[{out['flutter_status']}] at {out['flutter_frequency_hz']:.4f} Hz; divergence "
-            f"{out['divergence_speed_m_s']:.3f} m/s [{out['divergence_status']}]; "
-            f"Selberg estimate {out['selberg_flutter_speed_m_s']:.3f} m/s")
+    fhz = out.get("flutter_frequency_hz")
+    text = (f"section ({args.aero}): flutter {speed_text(out['flutter_speed_m_s'], 3)} "
+            f"[{out['flutter_status']}]"
+            + (f" at {fhz:.4f} Hz" if fhz is not None and fhz == fhz else "")
+            + f"; divergence {speed_text(out['divergence_speed_m_s'], 3)} "
+            f"[{out['divergence_status']}]; "
+            f"Selberg estimate {speed_text(out['selberg_flutter_speed_m_s'], 3)}")
     emit(args, out, text)
 
 

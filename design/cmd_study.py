@@ -24,6 +24,7 @@ from design.cli_common import (
     log,
     save_plot,
     spec_from_args,
+    speed_text,
 )
 from design.options import parse_range
 from model.errors import BridgeflapInputError
@@ -41,7 +42,7 @@ def cmd_study(args):
     r = s["results"]
 
     def f(x):
-        return "-" if x is None else f"{x:.2f}"
+        return "-" if x is None or x != x else f"{x:.2f}"
 
     lines = [f"study {s['study']}: {s['status']} -> {s['out_dir']}"]
     lines += [f"  {k:16s} {v}" for k, v in s["statuses"].items()]
@@ -79,8 +80,9 @@ def cmd_sensitivity(args):
                             progress=lambda p: log(f"sensitivity: {p} done"))
     if args.plot:
         save_plot(res, args.plot)
-    text = (f"{spec.name}: flutter {res.flutter_speed_m_s:.3f} m/s [{res.flutter_status}], "
-            f"divergence {res.divergence_speed_m_s:.3f} m/s [{res.divergence_status}]\n"
+    text = (f"{spec.name}: flutter {speed_text(res.flutter_speed_m_s, 3)} "
+            f"[{res.flutter_status}], divergence {speed_text(res.divergence_speed_m_s, 3)} "
+            f"[{res.divergence_status}]\n"
             + res.table())
     emit(args, res.summary(), text)
 

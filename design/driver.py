@@ -328,6 +328,19 @@ def buffeting_comparison(settings: DesignSettings, controller: Controller, speed
         closed_loop_rms_torsion_rad=tuple(cl.rms_torsion.tolist()))
 
 
+def _limits_text(lim) -> str:
+    """One log line of :func:`closed_loop_limits` (a limit not found within the searched
+    range as such, never "nan m/s")."""
+    from design.cli_common import speed_text
+
+    def sp(k):
+        return speed_text(lim.get(k), none=f"none below {lim.get('searched_to_m_s', 0):g} m/s")
+    return (f"closed loop: flutter {sp('flutter_speed_m_s')} ({lim.get('flutter_status')}), "
+            f"divergence {sp('divergence_speed_m_s')} ({lim.get('divergence_status')}; static "
+            f"{sp('divergence_static_speed_m_s')}), governing {sp('governing_speed_m_s')} "
+            f"{lim.get('governing_mechanism') or ''}").rstrip()
+
+
 def _timed(fun, *args, **kw):
     """``(fun(*args, **kw), seconds)`` (a worker task of :func:`design`)."""
     t0 = time.perf_counter()
@@ -514,11 +527,7 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
                 mark("flap-count check (same K)")
             try:
                 lim = _done(lim_job, phases, "closed-loop limits")
-                log(f"closed loop: flutter {lim['flutter_speed_m_s']:.2f} m/s "
-                    f"({lim['flutter_status']}), divergence "
-                    f"{lim['divergence_speed_m_s']:.2f} m/s ({lim['divergence_status']}; "
-                    f"static {lim['divergence_static_speed_m_s']:.2f}), governing "
-                    f"{lim['governing_speed_m_s']:.2f} m/s {lim['governing_mechanism']}")
+                log(_limits_text(lim))
             except Exception as exc:  # noqa: BLE001 - a report item, not the design
                 lim = {"status": f"failed: {exc}"}
             extras["closed_loop_limits"] = lim

@@ -345,8 +345,10 @@ class SensitivityResult(ResultData):
         ax.set_yticklabels([self.rows[i]["parameter"] for i in order], fontsize=8)
         ax.axvline(0, color="k", lw=0.8)
         ax.set_xlabel("relative sensitivity (p/U) dU/dp [-]")
-        ax.set_title(f"{self.bridge}: U_F = {self.flutter_speed_m_s:.2f} m/s, "
-                     f"U_D = {self.divergence_speed_m_s:.2f} m/s (IFT, {self.n_modes} modes)",
+        def sp(u):
+            return "none found" if u is None or u != u else f"{u:.2f} m/s"
+        ax.set_title(f"{self.bridge}: U_F = {sp(self.flutter_speed_m_s)}, "
+                     f"U_D = {sp(self.divergence_speed_m_s)} (IFT, {self.n_modes} modes)",
                      fontsize=9)
         ax.grid(alpha=0.3, axis="x")
         ax.legend(fontsize=8)
