@@ -334,7 +334,10 @@ def _limits_text(lim) -> str:
     from design.cli_common import speed_text
 
     def sp(k):
-        return speed_text(lim.get(k), none=f"none below {lim.get('searched_to_m_s', 0):g} m/s")
+        status = lim.get(k.replace("_speed_m_s", "_status"), "no_crossing_in_range")
+        return speed_text(lim.get(k), none=(
+            f"none below {lim.get('searched_to_m_s', 0):g} m/s"
+            if status in (None, "no_crossing_in_range") else "not determined"))
     return (f"closed loop: flutter {sp('flutter_speed_m_s')} ({lim.get('flutter_status')}), "
             f"divergence {sp('divergence_speed_m_s')} ({lim.get('divergence_status')}; static "
             f"{sp('divergence_static_speed_m_s')}), governing {sp('governing_speed_m_s')} "

@@ -30,6 +30,9 @@ def test_closed_loop_limits_line_without_divergence():
     assert "nan" not in line.lower()
     assert "divergence none below 170 m/s" in line
     assert "flutter 95.92 m/s" in line
+    # a crossing that failed verification is not "none": its speed is not determined
+    line = _limits_text({**lim, "divergence_status": "unverified_crossing"})
+    assert "divergence not determined (unverified_crossing" in line and "nan" not in line
 
 
 def test_section_and_flutter_text_without_crossings(capsys):
