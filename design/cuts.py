@@ -14,7 +14,6 @@ import numpy as np
 from design.nlp import (
     GAIN_BACKOFF,
     ROBUST_CLUSTER_STEP,
-    ROBUST_CUT_TOL,
     ROBUST_CUTS_PER_SPEED,
     VIOLATION_TOL,
 )
@@ -84,7 +83,7 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
         if use_rob and _a2_ok(theta):
             rob = prob.robust_margin(theta, speeds=prob.robust_check_speeds(), weights=w,
                                      peaks=ROBUST_CUTS_PER_SPEED)
-            lim = gamma * (1.0 + ROBUST_CUT_TOL)
+            lim = gamma * (1.0 + s.robust_cut_tol)
             rob_ok = bool(rob.peak <= lim)
             for U, pk in zip(rob.speeds_m_s, rob.peaks, strict=True):
                 new_rob += [(float(U), om * (1.0 + k * ROBUST_CLUSTER_STEP))
@@ -142,10 +141,10 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
     # a re-solve sees only the sample points and can land on a design whose dense peak
     # (or gain, damping) is worse than before the cuts: return the best round --
     # feasible (damping and gain) first, then the smallest dense peak of sigma_max(T); peaks
-    # within ROBUST_CUT_TOL of the smallest feasible one count as equal, and among those a
+    # within robust_cut_tol of the smallest feasible one count as equal, and among those a
     # round whose bound gamma_T holds is preferred (its margin is certified by the NLP too)
     feas = [pk for _, _, _, _, ok, pk, _ in kept if ok and np.isfinite(pk)]
-    tie = min(feas) * (1.0 + ROBUST_CUT_TOL) if feas else -np.inf
+    tie = min(feas) * (1.0 + s.robust_cut_tol) if feas else -np.inf
 
     def rank(i):
         _, _, _, _, ok, pk, holds = kept[i]
@@ -158,7 +157,7 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
         chosen_round=ibest + off, design_speeds_m_s=tuple(cuts["speeds"]),
         gain_ok=bool(ver.max_gain <= s.gain_limit),
         robust_bound_holds=(bool(rob is not None and rob.peak
-                                 <= res.gamma_T * (1.0 + ROBUST_CUT_TOL))
+                                 <= res.gamma_T * (1.0 + s.robust_cut_tol))
                             if use_rob else None),
         robust_cuts=tuple(tuple(c) for c in cuts["robust_cuts"]),
         gain_cuts=tuple(cuts["gain_cuts"]))

@@ -56,6 +56,11 @@ class DesignSettings:
     design speed 0..``speed_max_m_s``; the copies of the aerodynamic lag poles ``-p_i U / b``
     and of the compensator poles are excluded (:mod:`design.eigen`).
 
+    ``robust_cut_tol`` [-]: the cutting planes stop when the dense peak of ``sigma_max(T)`` is
+    within this of the optimiser's bound ``gamma_T`` (``robust_bound_holds``), i.e. the
+    verified margin is within it of the optimiser's (default 1 %,
+    :data:`design.nlp.ROBUST_CUT_TOL`).
+
     ``objective``: ``"margin"`` (default) maximises the robust margin subject to the damping up
     to ``speed_max_m_s``; ``"critical_speed"`` searches the largest design speed whose
     max-margin design verifies with robust margin >= ``margin_min`` [-], from
@@ -87,6 +92,7 @@ class DesignSettings:
     robust_omega_max_rad_s: float = 10.0
     n_robust_omega: int = 20
     robust_speeds_m_s: tuple = (10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 85.0)
+    robust_cut_tol: float = 0.01
     weight_robust: float = 1.0
     weight_regularisation: float = 1e-3
     weight_buffeting: float = 0.0
@@ -169,6 +175,9 @@ class DesignSettings:
                 raise BridgeflapInputError(name, f"must be true or false, got "
                                                  f"{getattr(self, name)!r}")
         _num("b_bound", self.b_bound, positive=True)
+        if not 0 < _num("robust_cut_tol", self.robust_cut_tol) <= 0.1:
+            raise BridgeflapInputError("robust_cut_tol", "must be in (0, 0.1] (relative gap "
+                                       f"of the robust bound), got {self.robust_cut_tol!r}")
         for name in ("seed", "cutting_plane_rounds"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 0:

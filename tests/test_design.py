@@ -9,7 +9,7 @@ import pytest
 
 from design.buffeting_term import BuffetingCost
 from design.driver import build_model, select_start
-from design.nlp import ROBUST_CUT_TOL, DesignProblem
+from design.nlp import DesignProblem
 from design.plant import plant_factors
 from design.records import RobustMargin, StartRecord, Verification
 from design.robust import refine_peaks, robust_point_function, true_t_peak
@@ -240,7 +240,7 @@ def test_gain_cuts_enforce_true_peak(small):
 
 def test_robust_cuts_report_dense_peak(small):
     # robust cut loop on the small model: the reported dense peak is the sigma_max check of
-    # the chosen design, and the flag is exactly dense peak <= gamma_T (1 + ROBUST_CUT_TOL)
+    # the chosen design, and the flag is exactly dense peak <= gamma_T (1 + robust_cut_tol)
     s, model = small
     s2 = replace(s, max_iter=30, resolve_max_iter=15, cutting_plane_rounds=1,
                  design_step_m_s=20.0, robust_speeds_m_s=(30.0, 60.0))
@@ -249,7 +249,7 @@ def test_robust_cuts_report_dense_peak(small):
     peak = res.robust.peak
     chk = prob.robust_margin(res.theta, speeds=prob.robust_check_speeds())
     assert peak == pytest.approx(chk.peak, rel=1e-12)
-    assert res.robust_bound_holds == (peak <= res.solve.gamma_T * (1 + ROBUST_CUT_TOL))
+    assert res.robust_bound_holds == (peak <= res.solve.gamma_T * (1 + s2.robust_cut_tol))
 
 
 def test_buffeting_callback_value_and_gradient(buffeting_problem):
