@@ -112,8 +112,11 @@ def closed_loop_limits(settings: DesignSettings, controller: Controller, spec=No
 
     spec = load_bridge(settings.bridge) if spec is None else spec
     U = np.arange(0.0, LIMIT_SPEED_FACTOR * settings.speed_max_m_s + 1e-9, LIMIT_STEP_M_S)
+    # the fast path (coarse tracked sweep, Newton on the critical eigenpairs, dense fallback
+    # when unsure; the flutter command's default): on the default design (30 modes) 96.99256
+    # m/s against the dense sweep's 96.99250, in 1.4-2.5x less time (tests/test_design.py)
     r = closed_loop_flutter(spec, controller, U, n_modes=settings.verification_modes,
-                            flap_chord_m=settings.flap_chord_m).summary()
+                            flap_chord_m=settings.flap_chord_m, sweep_method="fast").summary()
     keys = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
             "divergence_speed_m_s", "divergence_status", "divergence_static_speed_m_s",
             "critical_speed_m_s", "critical_mechanism", "critical_participation",

@@ -171,7 +171,8 @@ def cmd_flutter(args):
         from model.analysis import closed_loop_flutter
 
         res = closed_loop_flutter(spec, controller, parse_range(args.speeds, "speeds", 0.0),
-                                  n_modes=args.modes)
+                                  n_modes=args.modes, sweep_method=args.sweep or (
+                                      "dense" if args.plot else _default("flutter", "sweep")))
     else:
         outcome = _outcome("flutter", spec, speeds=args.speeds, modes=args.modes,
                            order=args.order, rfa=args.rfa,

@@ -488,10 +488,12 @@ class ClosedLoopFlutterResult(ResultData):
 
 
 def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEFAULT_MODES,
-                        flap_chord_m: float = DEFAULT_FLAP_CHORD_M) -> ClosedLoopFlutterResult:
+                        flap_chord_m: float = DEFAULT_FLAP_CHORD_M,
+                        sweep_method: str = "dense") -> ClosedLoopFlutterResult:
     """Closed-loop flutter/divergence sweep (and the open-loop one for reference).
 
-    ``speeds`` [m/s] is an array (strings are parsed by the CLI).
+    ``speeds`` [m/s] is an array (strings are parsed by the CLI); ``sweep_method`` that of
+    :func:`model.stability.sweep` (``"dense"``, the reference, or ``"fast"``) for both.
     """
     u = check_speeds(speeds)
     model = closed_loop_model(spec, controller.flap_strip_positions_m, controller.flap_width_m,
@@ -499,8 +501,10 @@ def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEF
                               controller.trailing_edge)
     system = model.open_loop
     cl = model.system(controller.compensator)
-    base = FlutterResult(spec, sweep(cl, u), int(n_modes), "modal", "rfa4", cl.n_states)
-    ol = FlutterResult(spec, sweep(system, u), int(n_modes), "modal", "rfa4", system.n_states)
+    base = FlutterResult(spec, sweep(cl, u, method=sweep_method), int(n_modes), "modal", "rfa4",
+                         cl.n_states)
+    ol = FlutterResult(spec, sweep(system, u, method=sweep_method), int(n_modes), "modal",
+                       "rfa4", system.n_states)
     return ClosedLoopFlutterResult(base, ol, controller)
 
 

@@ -551,11 +551,19 @@ def test_closed_loop_limits_reported_with_mechanism(small_box):
     s, model = small_box
     ctrl = Controller(Compensator(*THETA), tuple(s.positions()), s.flap_width_m)
     lim = closed_loop_limits(s, ctrl)
-    ref = closed_loop_flutter(load_bridge(s.bridge), ctrl, np.arange(0.0, 170.0001, 0.5),
-                              n_modes=6).summary()
+    grid = np.arange(0.0, 170.0001, 0.5)
+    ref = closed_loop_flutter(load_bridge(s.bridge), ctrl, grid, n_modes=6,
+                              sweep_method="fast").summary()
+    dense = closed_loop_flutter(load_bridge(s.bridge), ctrl, grid, n_modes=6).summary()
     assert lim["searched_to_m_s"] == 170.0 and lim["modes"] == 6
     for k in ("flutter_speed_m_s", "divergence_speed_m_s", "divergence_static_speed_m_s"):
         assert lim[k] == ref[k] or (np.isnan(lim[k]) and np.isnan(ref[k]))
+        # the fast path (the limits' method) against the dense reference sweep: 1e-4
+        # relative, issue 16 goal 2's agreement (both refine to round-off / 1e-3 m/s)
+        assert (np.isnan(ref[k]) and np.isnan(dense[k])) or \
+            abs(ref[k] - dense[k]) <= 1e-4 * abs(dense[k])
+    for k in ("flutter_status", "divergence_status", "critical_mechanism"):
+        assert ref[k] == dense[k]
     assert lim["flutter_status"] in ("converged", "no_crossing_in_range", "bracket_failed",
                                      "unstable_at_first_speed")
     cands = [v for v in (ref["critical_speed_m_s"], ref["divergence_static_speed_m_s"])
@@ -620,3 +628,25 @@ def test_pareto_points_are_each_verified(small_box):
         assert np.isfinite(p["robust_margin"])
     good = [p["flap_count"] for p in out["points"] if p["verified"]]
     assert out["minimum_verified"] == (min(good) if good else None)
+
+
+@pytest.mark.slow
+def test_closed_loop_limits_fast_path_on_the_default_design():
+    # the default card's design on its 30-mode verification model (230 states): the fast
+    # sweep of the closed-loop limits against the dense reference sweep, 1e-4 relative (issue
+    # 16 goal 2's agreement), the same statuses and mechanism
+    from design.cmd_optimise import DEFAULT_DEFINITION
+    from model.analysis import closed_loop_flutter
+    from model.spec import load_bridge
+
+    s = load_settings(DEFAULT_DEFINITION)
+    ctrl = Controller(Compensator(-0.8354, 0.2968, -2.68, 0.2815, 0.0341), tuple(s.positions()),
+                      s.flap_width_m)
+    grid = np.arange(0.0, 170.0001, 0.5)
+    out = {m: closed_loop_flutter(load_bridge(s.bridge), ctrl, grid, n_modes=30,
+                                  sweep_method=m).summary() for m in ("fast", "dense")}
+    f, d = out["fast"], out["dense"]
+    assert d["flutter_status"] == "converged" and 90.0 < d["flutter_speed_m_s"] < 100.0
+    assert abs(f["flutter_speed_m_s"] - d["flutter_speed_m_s"]) <= 1e-4 * d["flutter_speed_m_s"]
+    for k in ("flutter_status", "divergence_status", "critical_mechanism"):
+        assert f[k] == d[k]
