@@ -337,18 +337,21 @@ def _eig_point_data(Pa, X, M, C, weights):
     return mu, Hs
 
 
-#: Just-in-time compile the closed-form point function (and its derivatives) to C with the
-#: system compiler (CasADi ``jit``, ``shell``): on the default card (16 modes, 2,847
+#: Compile the closed-form point function and its reverse derivative (CasADi code generation,
+#: the system compiler ``$CC`` or ``cc``, ``-O1``): on the default card (16 modes, 2,847
 #: frequencies) one value of ``J_buf`` takes 5 ms instead of 27 ms and value plus gradient
 #: 18-20 ms instead of 96 ms (measured on this machine). The compile (``-O1``: as fast as
-#: ``-O2`` here, quicker to build) takes ~2-4 s once per process, in a temporary directory
-#: of the process (:func:`_jit_options`). Without a working compiler the CasADi virtual
-#: machine evaluates the same expression (:data:`JIT_STATUS` says which);
-#: ``tests/test_buffeting_term.py`` checks both agree to 1e-12.
+#: ``-O2`` here, quicker to build) takes ~2-4 s; the library is kept in :func:`_library_dir`
+#: under a hash of its source, compiler and flags, so later processes load it in ~5 ms (the
+#: two starts of a design, the inner designs of a critical-speed search, every later run).
+#: Without a working compiler the CasADi virtual machine evaluates the same expression
+#: (:data:`JIT_STATUS` says which); ``tests/test_buffeting_term.py`` checks both agree to 1e-12.
 JIT = True
-#: ``"compiled"``, ``"virtual machine (compile failed: ...)"`` or ``"not built"``: the outcome
-#: of this process's JIT compile of the point function
+#: ``"compiled"``, ``"compiled (cached library)"``, ``"virtual machine (compile failed:
+#: ...)"`` or ``"not built"``: the outcome of this process's build of the point function
 JIT_STATUS = "not built"
+#: Compiler flags of the point-function library (part of its cache key).
+JIT_FLAGS = ("-O1", "-shared", "-fPIC")
 _JIT_OPTIONS = {"jit": True, "compiler": "shell",
                 "jit_options": {"flags": ["-O1"], "verbose": False}}
 _POINT_CACHE: dict = {}
@@ -377,6 +380,62 @@ def _jit_options() -> dict:
                 jit_options=dict(_JIT_OPTIONS["jit_options"], directory=_JIT_DIR + os.sep))
 
 
+def _library_dir() -> str:
+    """Directory of the compiled point-function libraries: ``$BRIDGEFLAP_CACHE_DIR/jit``, else
+    ``$XDG_CACHE_HOME/bridgeflap/jit`` or ``~/.cache/bridgeflap/jit`` (kept between
+    processes, private to the user); when none can be created, this process's temporary
+    directory (:func:`_jit_options`)."""
+    base = os.environ.get("BRIDGEFLAP_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
+        "bridgeflap")
+    path = os.path.join(base, "jit")
+    try:
+        os.makedirs(path, mode=0o700, exist_ok=True)
+        if os.access(path, os.W_OK | os.X_OK):
+            return path
+    except OSError:
+        pass
+    _jit_options()
+    return _JIT_DIR
+
+
+def _compiled(f) -> tuple[ca.Function, str]:
+    """``f`` (an SX function) as a compiled library with its reverse derivative
+    (``adj1_<name>``, which CasADi's external functions use for gradients), from
+    :func:`_library_dir` when a library of the same source, compiler and flags is there,
+    else compiled into it (written under a temporary name, then renamed: concurrent
+    processes never load a half-written file). Returns the function and its status."""
+    import hashlib
+    import subprocess
+
+    name = f.name()
+    cg = ca.CodeGenerator(f"{name}.c", {"with_header": False})
+    cg.add(f)
+    cg.add(f.reverse(1))
+    src = cg.dump()
+    cc = os.environ.get("CC", "cc")
+    key = hashlib.sha256("\0".join([src, cc, *JIT_FLAGS, ca.__version__]).encode()).hexdigest()
+    d = _library_dir()
+    lib = os.path.join(d, f"{name}_{key[:24]}.so")
+    if os.path.exists(lib):
+        try:
+            return ca.external(name, lib), "compiled (cached library)"
+        except Exception:  # noqa: BLE001 - unreadable or foreign file: rebuilt below
+            pass
+    tmp = os.path.join(d, f".{name}_{key[:24]}_{os.getpid()}")
+    try:
+        with open(tmp + ".c", "w", encoding="utf-8") as fh:
+            fh.write(src)
+        subprocess.run([cc, *JIT_FLAGS, tmp + ".c", "-o", tmp + ".so", "-lm"], check=True,
+                       capture_output=True, timeout=600)
+        os.replace(tmp + ".so", lib)
+    finally:
+        for ext in (".c", ".so"):
+            if os.path.exists(tmp + ext):
+                os.remove(tmp + ext)
+    return ca.external(name, lib), "compiled"
+
+
 def _alive(pid: int) -> bool:
     """Whether process ``pid`` runs (signal 0); unknown counts as running."""
     try:
@@ -398,12 +457,11 @@ def _eig_point_function(n, jit=None) -> ca.Function:
         f = _eig_point_expression(n)
         if jit:
             try:
-                jo = _jit_options()
-                opts = dict(jo, der_options=dict(jo))
-                f = ca.Function("buffeting_point_c", f.sx_in(), f.call(f.sx_in()), opts)
-                JIT_STATUS = "compiled"
+                f, JIT_STATUS = _compiled(ca.Function(f"buffeting_point_c{int(n)}", f.sx_in(),
+                                                      f.call(f.sx_in())))
             except Exception as exc:  # noqa: BLE001 - no compiler: the same expression, VM
-                JIT_STATUS = f"virtual machine (compile failed: {str(exc).splitlines()[0]})"
+                msg = (str(exc).splitlines() or [type(exc).__name__])[0]
+                JIT_STATUS = f"virtual machine (compile failed: {msg})"
         _POINT_CACHE[key] = f
     return _POINT_CACHE[key]
 

@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
-from scipy.signal import czt, lfilter
 
 from model.errors import BridgeflapInputError
 from model.spectral import MODAL_CONDITION_LIMIT, check_system
@@ -211,6 +210,8 @@ def simulate_monte_carlo(
     -------
     MonteCarloResult
     """
+    from scipy.signal import czt, lfilter  # lazily: scipy.signal costs ~1 s to import
+
     A, B, C = check_system(A, B, C)
     n, m = B.shape
     p = C.shape[0]

@@ -159,3 +159,40 @@ def test_jit_directories_of_finished_processes_are_removed(tmp_path, monkeypatch
                             check=True).stdout.strip()
     assert second != first and not os.path.exists(first)
     assert bt._alive(os.getpid())
+
+
+def test_point_function_library_is_kept_between_processes(tmp_path):
+    # design.buffeting_term._compiled: the first process compiles the point function into the
+    # cache directory, the next one loads that library (no compile), and a corrupt library
+    # (here: garbage under its name) is rebuilt rather than trusted; every process's values
+    # equal the virtual machine's (1e-12 relative, as the compiled-vs-VM test). Each step runs
+    # in its own process: a library already loaded in a process is not opened again by name.
+    import os
+    import subprocess
+    import sys
+
+    code = ("import numpy as np, design.buffeting_term as bt; "
+            "f = bt._eig_point_function(4); g = bt._eig_point_function(4, jit=False); "
+            "rng = np.random.default_rng(0); "
+            "a = [rng.random(f.size_in(i)) for i in range(f.n_in())]; "
+            "x, y = np.asarray(f(*a)), np.asarray(g(*a)); "
+            "assert np.allclose(x, y, rtol=1e-12, atol=0), (x, y); print(bt.JIT_STATUS)")
+    env = {**os.environ, "BRIDGEFLAP_CACHE_DIR": str(tmp_path)}
+
+    def run():
+        return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              env=env, check=True).stdout.strip()
+
+    first = run()
+    if "compile failed" in first:
+        pytest.skip(f"no compiler: {first}")
+    assert first == "compiled"
+    libs = sorted((tmp_path / "jit").iterdir())
+    assert len(libs) == 1 and libs[0].suffix == ".so"      # no temporary files left behind
+    stamp = libs[0].stat().st_mtime_ns
+    assert run() == "compiled (cached library)"
+    assert libs[0].stat().st_mtime_ns == stamp
+    libs[0].unlink()
+    libs[0].write_bytes(b"not a shared library")
+    assert run() == "compiled"
+    assert sorted((tmp_path / "jit").iterdir()) == libs
