@@ -81,9 +81,10 @@ from design.robust import (
     analytic_robust_data,
     analytic_robust_function,
     k_complex,
+    lowrank_point_function,
+    lowrank_robust_data,
     robust_dense_omega,
     robust_margin,
-    robust_point_function,
 )
 from design.settings import DesignSettings
 from model.control import Compensator
@@ -348,12 +349,12 @@ class DesignProblem:
                     fa = analytic_robust_function(oms[i], mu[i], H[i])
                     vals.append(fa(th).T)
             j = np.flatnonzero(exact)
-            if j.size:
-                fm = robust_point_function(Pa).map(j.size, "serial")
+            if j.size:      # the exact solve, in its low-rank form (design.robust)
+                US, sv, E = lowrank_robust_data(Pa, [Xs[k] for k in j])
+                fm = lowrank_point_function(US, sv).map(j.size, "serial")
                 wj = ca.DM(self.weights) if analytic else w
-                vals.append(fm(th, wj, ca.DM(oms[j][None, :]),
-                               ca.DM(np.hstack([Xs[k].real for k in j])),
-                               ca.DM(np.hstack([Xs[k].imag for k in j]))))
+                vals.append(fm(th, wj, ca.DM(oms[j][None, :]), ca.DM(np.hstack(list(E.real))),
+                               ca.DM(np.hstack(list(E.imag)))))
             order = np.concatenate([np.flatnonzero(~exact), j]).astype(int)
             pts = [pts[k] for k in order]
             fun = ca.Function("T_fro2_grid", [th, w], [ca.horzcat(*vals).T], ["theta", "w"],

@@ -55,6 +55,55 @@ def robust_point_function(Pa: np.ndarray) -> ca.Function:
                        ["T_fro2"])
 
 
+#: Relative singular value of ``Phi_a`` below which a direction counts as absent in
+#: :func:`lowrank_robust_data` (the pitch map of 25 flaps on 16 modes has rank 4 exactly: only
+#: the torsional modes pitch; the rest of its spectrum is round-off, ~1e-16).
+LOWRANK_RTOL = 1e-12
+
+
+def lowrank_robust_data(Pa, X):
+    """``(US, s, E)`` of the low-rank form of ``||T||_F^2`` (:func:`lowrank_point_function`).
+
+    With ``Phi_a = U_r S V_r^T`` (rank ``r``, :data:`LOWRANK_RTOL`) and ``W = diag(w)``, the
+    push-through identity gives ``Phi_a (I - K X W Phi_a)^{-1} = U_r S (I_r - K G)^{-1} V_r^T``
+    with ``G = E W U_r S`` and ``E = V_r^T X`` (r x n_flaps, independent of theta and w), so
+    ``T = K U_r S (I_r - K G)^{-1} E W`` and ``||T||_F^2 = |K|^2 ||S (I_r - K G)^{-1} E W||_F^2``
+    (``U_r`` has orthonormal columns): one r x r complex solve per point instead of one
+    n_modes x n_modes solve, exact for any ``w`` (the placement design).
+
+    Returns ``US`` (n_flaps, r) = ``U_r S``, ``s`` (r,) and ``E`` (n_points, r, n_flaps)."""
+    Pa = np.asarray(Pa, float)
+    U, s, Vt = np.linalg.svd(Pa, full_matrices=False)
+    r = max(1, int(np.sum(s > LOWRANK_RTOL * s[0]))) if s.size and s[0] > 0 else 1
+    E = np.einsum("rn,knf->krf", Vt[:r], np.asarray(X, complex))
+    return U[:, :r] * s[:r], s[:r], E
+
+
+def lowrank_point_function(US, s) -> ca.Function:
+    """``(theta, w, omega, Er, Ei) -> ||T(j omega)||_F^2`` for one point in the low-rank form
+    of :func:`lowrank_robust_data` (SX, real arithmetic; exact derivatives in theta and w).
+    Equals :func:`robust_point_function` to round-off."""
+    US = np.asarray(US, float)
+    nF, r = US.shape
+    th = ca.SX.sym("theta", 5)
+    w = ca.SX.sym("w", nF)
+    om = ca.SX.sym("omega")
+    Er, Ei = ca.SX.sym("Er", r, nF), ca.SX.sym("Ei", r, nF)
+    Kr, Ki = k_complex(th, om)
+    Wd = ca.repmat(w.T, r, 1)
+    EWr, EWi = Er * Wd, Ei * Wd
+    Gr, Gi = ca.mtimes(EWr, ca.DM(US)), ca.mtimes(EWi, ca.DM(US))
+    Mr = ca.DM.eye(r) - (Kr * Gr - Ki * Gi)
+    Mi = -(Kr * Gi + Ki * Gr)
+    big = ca.vertcat(ca.horzcat(Mr, -Mi), ca.horzcat(Mi, Mr))
+    Y = ca.solve(big, ca.vertcat(EWr, EWi))
+    S2 = ca.DM(np.asarray(s, float) ** 2)
+    f = (Kr * Kr + Ki * Ki) * ca.sum1(ca.mtimes(ca.diag(S2), Y[:r, :] ** 2 + Y[r:, :] ** 2)
+                                      @ ca.DM.ones(nF, 1))
+    return ca.Function("T_fro2_lowrank", [th, w, om, Er, Ei], [f],
+                       ["theta", "w", "omega", "Er", "Ei"], ["T_fro2"])
+
+
 #: Condition number of the eigenvector matrix of ``N = X diag(w) Phi_a`` above which a point
 #: of :func:`analytic_robust_data` is not diagonalised (a nearly defective ``N`` would make
 #: ``H`` large with cancelling terms); such points keep the exact solve of

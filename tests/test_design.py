@@ -115,6 +115,32 @@ def test_robust_bound_is_frobenius_of_true_t(small):
         assert np.sqrt(v) >= smax[k] * (1 - 1e-12)
 
 
+def test_lowrank_robust_form_equals_the_full_solve(small):
+    # design.robust.lowrank_point_function (the placement design's robust constraint): the
+    # push-through identity through the rank-r pitch map Phi_a = U_r S V_r^T turns the
+    # n_modes solve into an r x r one. Same algebra, so values and Jacobians in theta and
+    # in the flap weights agree with robust_point_function to round-off (1e-10 relative:
+    # ~1e6 ulps, far below any effect, far above the ~1e-15 observed)
+    from design.robust import lowrank_point_function, lowrank_robust_data
+
+    s, model = small
+    om = np.array([0.3, 1.2, 2.5])
+    Pa, X = plant_factors(model, 60.0, 1j * om)
+    US, sv, E = lowrank_robust_data(Pa, X)
+    assert US.shape[1] == np.linalg.matrix_rank(Pa) <= min(Pa.shape)
+    f0, f1 = robust_point_function(Pa), lowrank_point_function(US, sv)
+    x = ca.MX.sym("x", 5 + model.n_flaps)
+    rng = np.random.default_rng(5)
+    for k in range(3):
+        e0 = f0(x[:5], x[5:], om[k], X[k].real, X[k].imag)
+        e1 = f1(x[:5], x[5:], om[k], E[k].real, E[k].imag)
+        J = ca.Function("J", [x], [e0, e1, ca.jacobian(e0, x), ca.jacobian(e1, x)])
+        p = np.concatenate([THETA, rng.uniform(0.2, 1.0, model.n_flaps)])
+        v0, v1, j0, j1 = (np.asarray(v.full()) for v in J(p))
+        np.testing.assert_allclose(v1, v0, rtol=1e-10)
+        np.testing.assert_allclose(j1, j0, rtol=0, atol=1e-10 * np.abs(j0).max())
+
+
 def test_robust_constraint_gradient_matches_finite_differences(small):
     # (d) gradient of ||T(jw, U)||_F^2 w.r.t. theta and the flap weights (CasADi AD through the
     # complex solve) against central differences
