@@ -29,6 +29,14 @@ def k_complex(th, om):
     return (nr * dr + ni * di) / d2, (ni * dr - nr * di) / d2
 
 
+def _loop_block(Kr, Ki, Nr, Ni):
+    """``I - K N`` (``K = Kr + i Ki`` scalar, ``N = Nr + i Ni`` square) as the real block matrix
+    ``[[Re, -Im], [Im, Re]]`` of a complex solve in real arithmetic."""
+    Mr = ca.DM.eye(Nr.shape[0]) - (Kr * Nr - Ki * Ni)
+    Mi = -(Kr * Ni + Ki * Nr)
+    return ca.vertcat(ca.horzcat(Mr, -Mi), ca.horzcat(Mi, Mr))
+
+
 def robust_point_function(Pa: np.ndarray) -> ca.Function:
     """``(theta, w, omega, Xr, Xi) -> ||T(j omega)||_F^2`` for one speed and frequency.
 
@@ -44,10 +52,7 @@ def robust_point_function(Pa: np.ndarray) -> ca.Function:
     Wd = ca.repmat(w.T, n, 1)
     XWr, XWi = Xr * Wd, Xi * Wd
     P = ca.DM(Pa)
-    Nr, Ni = ca.mtimes(XWr, P), ca.mtimes(XWi, P)
-    Mr = ca.DM.eye(n) - (Kr * Nr - Ki * Ni)
-    Mi = -(Kr * Ni + Ki * Nr)
-    big = ca.vertcat(ca.horzcat(Mr, -Mi), ca.horzcat(Mi, Mr))
+    big = _loop_block(Kr, Ki, ca.mtimes(XWr, P), ca.mtimes(XWi, P))
     Z = ca.solve(big, ca.vertcat(XWr, XWi), "lapacklu", {})
     f = (Kr * Kr + Ki * Ki) * (ca.sumsqr(ca.mtimes(P, Z[:n, :]))
                                + ca.sumsqr(ca.mtimes(P, Z[n:, :])))
@@ -92,14 +97,10 @@ def lowrank_point_function(US, s) -> ca.Function:
     Kr, Ki = k_complex(th, om)
     Wd = ca.repmat(w.T, r, 1)
     EWr, EWi = Er * Wd, Ei * Wd
-    Gr, Gi = ca.mtimes(EWr, ca.DM(US)), ca.mtimes(EWi, ca.DM(US))
-    Mr = ca.DM.eye(r) - (Kr * Gr - Ki * Gi)
-    Mi = -(Kr * Gi + Ki * Gr)
-    big = ca.vertcat(ca.horzcat(Mr, -Mi), ca.horzcat(Mi, Mr))
+    big = _loop_block(Kr, Ki, ca.mtimes(EWr, ca.DM(US)), ca.mtimes(EWi, ca.DM(US)))
     Y = ca.solve(big, ca.vertcat(EWr, EWi))
-    S2 = ca.DM(np.asarray(s, float) ** 2)
-    f = (Kr * Kr + Ki * Ki) * ca.sum1(ca.mtimes(ca.diag(S2), Y[:r, :] ** 2 + Y[r:, :] ** 2)
-                                      @ ca.DM.ones(nF, 1))
+    f = (Kr * Kr + Ki * Ki) * ca.dot(ca.DM(np.asarray(s, float) ** 2),
+                                     ca.sum2(Y[:r, :] ** 2 + Y[r:, :] ** 2))
     return ca.Function("T_fro2_lowrank", [th, w, om, Er, Ei], [f],
                        ["theta", "w", "omega", "Er", "Ei"], ["T_fro2"])
 
