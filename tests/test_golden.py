@@ -13,9 +13,26 @@ from __future__ import annotations
 import json
 
 import pytest
-from golden.cases import CASES, HERE, compare, run_case, strip_volatile
+from golden.cases import (
+    CASE_TOL,
+    CASES,
+    DESIGN_CASES,
+    DESIGN_RTOL,
+    HERE,
+    compare,
+    design_summary,
+    run_case,
+    strip_volatile,
+)
 
-RTOL = 1e-9
+#: 1e-6 relative (the redesign's 1e-9 until the dependencies moved): only floating-point
+#: reassociation and library releases may change a number. A dense eig of a 96-state matrix
+#: reproduces to ~1e-13 relative, but derived numbers amplify it -- participation shares from
+#: eigenvectors, a divergence slope dRe(lambda)/dU from nearby solves, Brent/Newton crossings
+#: stopped at 1e-3 m/s / 1e-8 -- and a fresh install (numpy 2.4.6, scipy 1.17.1, casadi 3.8.2)
+#: moved 2e-9 to 4e-7 of them against the recordings (largest: buffeting RMS, IABSE 1.1c);
+#: 1e-6 passes that and still fails on any change of the physics (>= 1e-4 for a 1 % input).
+RTOL = 1e-6
 
 
 @pytest.mark.parametrize(
@@ -27,5 +44,10 @@ RTOL = 1e-9
 def test_golden(name, argv, tmp_path):
     golden = json.loads((HERE / f"{name}.json").read_text())
     new = json.loads(json.dumps(strip_volatile(run_case(name, argv, tmp_path))))
-    diffs = compare(golden, new, RTOL)
+    if name in DESIGN_CASES:
+        (g_exact, g_out), (n_exact, n_out) = design_summary(golden), design_summary(new)
+        diffs = compare(g_exact, n_exact, RTOL) + compare(g_out, n_out, DESIGN_RTOL)
+    else:
+        rtol, atol = CASE_TOL.get(name, (RTOL, 1e-12))
+        diffs = compare(golden, new, rtol, atol=atol)
     assert not diffs, f"{name}: {len(diffs)} differences, first: " + "; ".join(diffs[:8])
