@@ -30,6 +30,9 @@ from model.control import Compensator
 #: 315 -> 582 into another basin); with 60 it is not. Tried and dropped: re-solves started
 #: from the previous multipliers (warm_start_init_point): 313 iterations and another design.
 WARM_FIRST = True
+#: Re-solves stopped by the divergence watchdog (``design.nlp.DIVERGE_LEVEL``) after which
+#: the loop ends (the first one is followed by a round from the best round's point).
+MAX_DIVERGED = 2
 
 
 def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
@@ -43,6 +46,7 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
     gamma = None
     res = ver = rob = None
     kept = []
+    diverged = 0
     use_rob = s.weight_robust > 0 and (bool(s.robust_design_speeds_m_s)
                                        or bool(s.robust_speeds_m_s))
     viol0 = max(float(np.max(q.constraint_values(theta, sorted(speeds), w)))
@@ -126,6 +130,17 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
         # optimum): then the next round continues it warm-started
         if (eig_ok and gain_ok and rob_ok and res.success) or not _a2_ok(theta):
             break
+        if res.diverged:
+            # the watchdog stopped a re-solve stalled far outside the feasible set: its
+            # iterate is no warm start. The next round starts from the best round so far
+            # (with every cut added since); a second divergence ends the loop.
+            diverged += 1
+            if diverged >= MAX_DIVERGED:
+                break
+            ib = min(range(len(kept)), key=_ranker(kept, s.robust_cut_tol))
+            bres = kept[ib][0]
+            theta, w = bres.theta, bres.weights
+            gamma = bres.gamma_T if use_rob else None
         # No early stop for a re-solve that ran out of iterations with a worse dense peak
         # (issue 16 goal 3 lever, tried): on the default design it never fired (548 Ipopt
         # iterations with and without it), and a capped round can be followed by converging
@@ -143,13 +158,7 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
     # feasible (damping and gain) first, then the smallest dense peak of sigma_max(T); peaks
     # within robust_cut_tol of the smallest feasible one count as equal, and among those a
     # round whose bound gamma_T holds is preferred (its margin is certified by the NLP too)
-    feas = [pk for _, _, _, _, ok, pk, _ in kept if ok and np.isfinite(pk)]
-    tie = min(feas) * (1.0 + s.robust_cut_tol) if feas else -np.inf
-
-    def rank(i):
-        _, _, _, _, ok, pk, holds = kept[i]
-        return (not ok, not (holds and pk <= tie), pk if np.isfinite(pk) else np.inf, -i)
-    ibest = min(range(len(kept)), key=rank)
+    ibest = min(range(len(kept)), key=_ranker(kept, s.robust_cut_tol))
     res, ver, rob, cuts, _, _, _ = kept[ibest]
     return CutsOutcome(
         solve=res, verification=ver, robust=rob,
@@ -161,6 +170,20 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
                             if use_rob else None),
         robust_cuts=tuple(tuple(c) for c in cuts["robust_cuts"]),
         gain_cuts=tuple(cuts["gain_cuts"]))
+
+
+def _ranker(kept, tol):
+    """Sort key of the kept rounds, best first: feasible (damping and gain), then the
+    smallest dense peak of sigma_max(T), peaks within ``tol`` of the smallest feasible one
+    counting as equal and among those a round whose bound gamma_T holds first, then the
+    latest."""
+    feas = [pk for _, _, _, _, ok, pk, _ in kept if ok and np.isfinite(pk)]
+    tie = min(feas) * (1.0 + tol) if feas else -np.inf
+
+    def rank(i):
+        _, _, _, _, ok, pk, holds = kept[i]
+        return (not ok, not (holds and pk <= tie), pk if np.isfinite(pk) else np.inf, -i)
+    return rank
 
 
 def _worst_per_run(U, bad, viol) -> list[float]:

@@ -28,13 +28,31 @@ class IterationCallback(ca.Callback):
         Iterations seen.
     stopped_feasible : bool
         True once the callback stopped Ipopt at a feasible iterate.
+    stopped_diverged : bool
+        True once the callback stopped Ipopt because the watchdog fired (``watch``).
+    violations : list of float
+        Largest constraint violation of each iterate (only with ``watch``).
+
+    ``watch = (lbg, ubg, level, iterations)``: the divergence watchdog of a warm-started
+    re-solve -- stop when the iterate's largest violation ``max(lbg - g, g - ubg)`` has stayed
+    above ``level`` for more than ``iterations`` consecutive iterations and is not below half
+    its value ``iterations`` iterations before: stalled far outside the feasible set
+    (:data:`design.nlp.DIVERGE_LEVEL`).
     """
 
-    def __init__(self, name, nx, ng, fun=None, ubg=None):
+    def __init__(self, name, nx, ng, fun=None, ubg=None, watch=None):
         ca.Callback.__init__(self)
         self._nx, self._ng, self._fun, self.count = int(nx), int(ng), fun, 0
         self._ubg = None if ubg is None else np.asarray(ubg, float).ravel()
         self.stopped_feasible = False
+        self.stopped_diverged = False
+        self.violations = []
+        self._watch = None
+        if watch is not None:
+            lo, hi, level, its = watch
+            self._watch = (np.asarray(lo, float).ravel(), np.asarray(hi, float).ravel(),
+                           float(level), int(its))
+        self._over = 0
         self.construct(name, {})
 
     def get_n_in(self):
@@ -63,6 +81,17 @@ class IterationCallback(ca.Callback):
         if self._fun is not None:
             self._fun(self.count, float(arg[1]), np.asarray(arg[0]).ravel())
         self.count += 1
+        if self._watch is not None:
+            lo, hi, level, its = self._watch
+            g = np.asarray(arg[2]).ravel()
+            v = float(np.max(np.maximum(lo - g, g - hi), initial=0.0)) \
+                if np.all(np.isfinite(g)) else np.inf
+            self.violations.append(v)
+            self._over = self._over + 1 if v > level else 0
+            # stalled far outside: above `level` for `its` iterations and not halved over them
+            if self._over > its and v > 0.5 * self.violations[-1 - its]:
+                self.stopped_diverged = True
+                return [1]
         if self._ubg is not None and self.count > 1:    # iteration 0 is the start point
             g = np.asarray(arg[2]).ravel()
             if np.all(np.isfinite(g)) and np.all(g <= self._ubg):

@@ -133,6 +133,16 @@ WARM_MU_INIT = 1e-3
 #: copies (:func:`design.plant.compensator_reduction`, exact): 146 -> 104 states on the
 #: default card, 230 -> 200 on its 30-mode check (closed-loop limits: the full state).
 REDUCE_COMPENSATORS = True
+#: Divergence watchdog of a warm-started re-solve (:class:`design.ipopt_hooks.IterationCallback`):
+#: stop when the iterate's largest constraint violation (NLP units: ``EIG_SCALE`` x damping
+#: measure [1/s], robust epigraph, gain) has stayed above ``DIVERGE_LEVEL`` for more than
+#: ``DIVERGE_ITERATIONS`` iterations without halving over them. Measured on the default card
+#: (this machine, casadi 3.8.2, numpy 2.4.6): start 1's round 1 stalled at a violation of
+#: 29-30 from iteration 11 on and ran to its 150-iteration cap (33.5 s, gamma_T 175, dense
+#: peak 25.9, worse than round 0's 6.5); the worst converging round seen (start 0, round 0)
+#: was above 5 for 17 iterations while falling from 390 to 11. 0 iterations: off.
+DIVERGE_LEVEL = 5.0
+DIVERGE_ITERATIONS = 20
 
 
 class DesignProblem:
@@ -491,11 +501,17 @@ class DesignProblem:
         if warm:
             opts["ipopt.mu_init"] = WARM_MU_INIT
             opts["ipopt.mu_strategy"] = "monotone"
-        if self.on_iteration is not None or feasibility:
-            # phase 1 stops at its first feasible iterate (design.ipopt_hooks)
+        watch = None
+        if warm and not feasibility and DIVERGE_ITERATIONS > 0:
+            watch = (np.concatenate(lbg), np.concatenate(ubg), DIVERGE_LEVEL,
+                     DIVERGE_ITERATIONS)
+        it_cb = None
+        if self.on_iteration is not None or feasibility or watch is not None:
+            # phase 1 stops at its first feasible iterate, a warm re-solve when it diverges
+            # (design.ipopt_hooks)
             it_cb = IterationCallback("design_iterations", x.size1(), nlp["g"].size1(),
                                       self.on_iteration,
-                                      np.concatenate(ubg) if feasibility else None)
+                                      np.concatenate(ubg) if feasibility else None, watch)
             self.callbacks["iterations"] = it_cb
             opts["iteration_callback"] = it_cb
         solver = ca.nlpsol("design", "ipopt", nlp, opts)
@@ -510,12 +526,18 @@ class DesignProblem:
         its = st.get("iterations", {})
         history = {k: [float(v) for v in its[k]] for k in ("obj", "inf_pr", "inf_du", "mu")
                    if k in its}
+        if watch is not None:       # the watchdog's measure per iteration (NLP units)
+            history["max_violation"] = [float(v) for v in it_cb.violations]
         return Solve(theta=xs[:5], gamma_T=float(xs[5]),
                      weights=(self.symmetry @ xs[6:] if s.optimise_placement
                               else self.weights.copy()),
                      ipopt_status=st["return_status"] + (
                          " (phase 1: first feasible iterate)" if feasibility
-                         and self.callbacks["iterations"].stopped_feasible else ""),
+                         and it_cb.stopped_feasible else "") + (
+                         f" (diverged: constraint violation above {DIVERGE_LEVEL:g} for "
+                         f"{DIVERGE_ITERATIONS} iterations)"
+                         if it_cb is not None and it_cb.stopped_diverged else ""),
+                     diverged=bool(it_cb is not None and it_cb.stopped_diverged),
                      success=bool(st["success"]),
                      iterations=int(st["iter_count"]), time_s=elapsed,
                      objective=float(sol["f"]),

@@ -129,6 +129,8 @@ class Solve:
     eig_evaluations: int
     eig_time_per_speed_s: float
     history: dict | None = None
+    #: the divergence watchdog stopped this warm re-solve (design.nlp.DIVERGE_LEVEL)
+    diverged: bool = False
 
 
 @dataclass(frozen=True)

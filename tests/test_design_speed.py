@@ -262,3 +262,30 @@ def test_robust_check_plant_cache_is_exact(small):
     Pa, X = cached_plant(model, U, om, cache)
     Pa0, X0 = plant_factors(model, U, 1j * om)
     assert np.array_equal(Pa, Pa0) and np.array_equal(X, X0)
+
+
+def _feed(cb, violations, ub=0.0):
+    """Drive an IterationCallback with iterates whose one constraint violates by ``v``."""
+    stops = []
+    for v in violations:
+        stops.append(cb.eval([np.zeros(1), 0.0, np.array([ub + v])])[0])
+    return stops
+
+
+@pytest.mark.parametrize("stall", [True, False])
+def test_divergence_watchdog_stops_a_stall_not_a_falling_violation(stall):
+    from design.ipopt_hooks import IterationCallback
+    from design.nlp import DIVERGE_ITERATIONS, DIVERGE_LEVEL
+
+    cb = IterationCallback("w", 1, 1, watch=([-np.inf], [0.0], DIVERGE_LEVEL,
+                                             DIVERGE_ITERATIONS))
+    n = DIVERGE_ITERATIONS + 1
+    if stall:       # start 1 round 1 of the default card: flat at ~30 (design.nlp comment)
+        seq = [0.0] * 5 + [30.0] * (n + 3)
+    else:           # start 0 round 0: 390 -> 11 above the level, halving on the way
+        seq = [0.0] * 3 + list(np.geomspace(390.0, 6.0, n + 3)) + [0.0] * 5
+    stops = _feed(cb, seq)
+    assert cb.stopped_diverged is stall
+    if stall:       # fires on the first iterate that completes the stalled window
+        assert stops.index(1) == 5 + DIVERGE_ITERATIONS   # the (its + 1)-th iterate above
+    assert len(cb.violations) == len(stops)
