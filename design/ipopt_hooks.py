@@ -14,6 +14,17 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+#: Divergence watchdog of a warm-started re-solve (:class:`IterationCallback`):
+#: stop when the iterate's largest constraint violation (NLP units: ``EIG_SCALE`` x damping
+#: measure [1/s], robust epigraph, gain) has stayed above ``DIVERGE_LEVEL`` for more than
+#: ``DIVERGE_ITERATIONS`` iterations without halving over them. Measured on the default card
+#: (this machine, casadi 3.8.2, numpy 2.4.6): start 1's round 1 stalled at a violation of
+#: 29-30 from iteration 11 on and ran to its 150-iteration cap (33.5 s, gamma_T 175, dense
+#: peak 25.9, worse than round 0's 6.5); the worst converging round seen (start 0, round 0)
+#: was above 5 for 17 iterations while falling from 390 to 11. 0 iterations: off.
+DIVERGE_LEVEL = 5.0
+DIVERGE_ITERATIONS = 20
+
 
 class IterationCallback(ca.Callback):
     """Ipopt ``iteration_callback``: calls ``fun(iteration, objective, x)`` once per Ipopt
@@ -37,7 +48,7 @@ class IterationCallback(ca.Callback):
     re-solve -- stop when the iterate's largest violation ``max(lbg - g, g - ubg)`` has stayed
     above ``level`` for more than ``iterations`` consecutive iterations and is not below half
     its value ``iterations`` iterations before: stalled far outside the feasible set
-    (:data:`design.nlp.DIVERGE_LEVEL`).
+    (:data:`DIVERGE_LEVEL`).
     """
 
     def __init__(self, name, nx, ng, fun=None, ubg=None, watch=None):

@@ -68,7 +68,7 @@ import scipy.linalg
 
 from design.buffeting_term import buffeting_objective
 from design.eigen import PolynomialStructuralDamping
-from design.ipopt_hooks import IterationCallback
+from design.ipopt_hooks import DIVERGE_ITERATIONS, DIVERGE_LEVEL, IterationCallback
 from design.plant import (
     compensator_reduction,
     damping_check,
@@ -133,16 +133,6 @@ WARM_MU_INIT = 1e-3
 #: copies (:func:`design.plant.compensator_reduction`, exact): 146 -> 104 states on the
 #: default card, 230 -> 200 on its 30-mode check (closed-loop limits: the full state).
 REDUCE_COMPENSATORS = True
-#: Divergence watchdog of a warm-started re-solve (:class:`design.ipopt_hooks.IterationCallback`):
-#: stop when the iterate's largest constraint violation (NLP units: ``EIG_SCALE`` x damping
-#: measure [1/s], robust epigraph, gain) has stayed above ``DIVERGE_LEVEL`` for more than
-#: ``DIVERGE_ITERATIONS`` iterations without halving over them. Measured on the default card
-#: (this machine, casadi 3.8.2, numpy 2.4.6): start 1's round 1 stalled at a violation of
-#: 29-30 from iteration 11 on and ran to its 150-iteration cap (33.5 s, gamma_T 175, dense
-#: peak 25.9, worse than round 0's 6.5); the worst converging round seen (start 0, round 0)
-#: was above 5 for 17 iterations while falling from 390 to 11. 0 iterations: off.
-DIVERGE_LEVEL = 5.0
-DIVERGE_ITERATIONS = 20
 
 
 class DesignProblem:
@@ -547,31 +537,13 @@ class DesignProblem:
                      history=history)
 
     # ---- verification
-    def verify(self, theta, weights=None) -> Verification:
+    def verify(self, theta, weights=None, refined=False) -> Verification:
         """Dense a posteriori check on the check grid: abscissa (every eigenvalue), damping of
-        the movable branches, peak gain."""
-        s = self.settings
-        U = s.check_speeds()
-        parts = self.A_parts(theta, weights)
-        red = self.reduction(parts[0].shape[0])
-        if red is not None:         # exact: the dropped eigenvalues are compensator poles
-            parts = (*[red[1] @ (a @ red[0]) for a in parts[:3]], red[2])
-        chk = damping_check(parts, U, lag_rates(self.model), theta, s.zeta_min)
-        absc = chk["abscissa_1_s"]
-        viol = chk["measure_1_s"]
-        comp = Compensator(*(float(v) for v in theta))
-        stable = absc < 0
-        stable_to = float(U[-1]) if stable.all() else (
-            float(U[np.argmax(~stable) - 1]) if np.argmax(~stable) > 0 else 0.0)
-        return Verification(speeds_m_s=U, abscissa_1_s=absc, violation_1_s=viol,
-                            max_violation_1_s=float(viol.max()),
-                            stable_everywhere=bool(stable.all()), stable_to_m_s=stable_to,
-                            max_gain=comp.max_gain(), modes=int(self.model.open_loop.basis.n),
-                            step_m_s=s.check_step_m_s,
-                            meets_damping=bool(viol.max() <= VIOLATION_TOL),
-                            min_damping_ratio=float(chk["zeta"].min()),
-                            min_damping_speed_m_s=float(U[int(np.argmin(chk["zeta"]))]),
-                            damping_ratio=chk["zeta"])
+        the movable branches, peak gain (:func:`design.verification.verify`; ``refined``: on
+        the subset of :func:`design.plant.damping_check_refined`)."""
+        from design.verification import verify
+
+        return verify(self, theta, weights, refined)
 
     def solve_with_cuts(self, theta0, weights0=None) -> CutsOutcome:
         """Solve and re-solve with cutting planes (at most ``cutting_plane_rounds`` re-solves).

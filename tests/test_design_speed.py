@@ -274,8 +274,7 @@ def _feed(cb, violations, ub=0.0):
 
 @pytest.mark.parametrize("stall", [True, False])
 def test_divergence_watchdog_stops_a_stall_not_a_falling_violation(stall):
-    from design.ipopt_hooks import IterationCallback
-    from design.nlp import DIVERGE_ITERATIONS, DIVERGE_LEVEL
+    from design.ipopt_hooks import DIVERGE_ITERATIONS, DIVERGE_LEVEL, IterationCallback
 
     cb = IterationCallback("w", 1, 1, watch=([-np.inf], [0.0], DIVERGE_LEVEL,
                                              DIVERGE_ITERATIONS))
@@ -289,3 +288,27 @@ def test_divergence_watchdog_stops_a_stall_not_a_falling_violation(stall):
     if stall:       # fires on the first iterate that completes the stalled window
         assert stops.index(1) == 5 + DIVERGE_ITERATIONS   # the (its + 1)-th iterate above
     assert len(cb.violations) == len(stops)
+
+
+@pytest.mark.parametrize("theta", [
+    (0.0, 0.0, 0.0, 1.0, 1.0),                  # open loop: flutter inside the grid
+    tuple(THETA),
+    (-0.8376, 0.3004, -2.7004, 0.2818, 0.0323),  # the default card's design
+    (0.0, 0.5, -1.0, 0.05, 0.5),                 # the nominal start (violates the damping)
+    (-3.0, 2.0, -8.0, 0.5, 0.3),                 # high gain
+])
+def test_refined_check_takes_the_dense_checks_decisions(small_box_fresh, theta):
+    # the refined check is a subset of the dense grid: where it agrees it agrees exactly, so
+    # the maximum violation, the first unstable speed and the verdicts must be equal (no
+    # tolerance); and it must check fewer speeds than the dense grid
+    from dataclasses import replace
+
+    s = replace(small_box_fresh, check_step_m_s=0.25)
+    prob = DesignProblem(s, build_model(s)[1], numeric=True)
+    dense = prob.verify(np.asarray(theta, float))
+    fast = prob.verify(np.asarray(theta, float), refined=True)
+    assert set(fast.speeds_m_s) <= set(dense.speeds_m_s)
+    assert len(fast.speeds_m_s) < len(dense.speeds_m_s)
+    assert fast.max_violation_1_s == dense.max_violation_1_s
+    assert (fast.meets_damping, fast.stable_everywhere, fast.stable_to_m_s) == \
+        (dense.meets_damping, dense.stable_everywhere, dense.stable_to_m_s)
