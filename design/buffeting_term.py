@@ -23,7 +23,7 @@ import os
 import casadi as ca
 import numpy as np
 
-from design.robust import k_complex
+from design.robust import _loop_block, k_complex
 
 
 class BuffetingCost(ca.Callback):
@@ -264,12 +264,11 @@ class ModalBuffeting:
                        *[ca.DM(np.hstack(list(h))) for H in Hs for h in (H.real, H.imag)])
                 var.append(ca.sum2(v).T)
         else:
+            US, V = _lowrank_pitch_map(Pa)
+            f1 = _lowrank_point_function(US)
             for om, X, M, C in data:
-                f1 = _solve_point_function(Pa, C)
                 fm = f1.map(om.size, "serial")
-                v = fm(th, w, ca.DM(om[None, :]), ca.DM(np.hstack(list(X.real))),
-                       ca.DM(np.hstack(list(X.imag))), ca.DM(np.hstack(list(M.real))),
-                       ca.DM(np.hstack(list(M.imag))))
+                v = fm(th, w, ca.DM(om[None, :]), *_lowrank_point_data(V, X, M, C))
                 var.append(ca.sum2(v).T)
         V = ca.vertcat(*var)                                   # (n_speeds, 2) variances
         ratio = V / ca.DM(self.open_loop_var)
@@ -480,23 +479,68 @@ def _eig_point_expression(n) -> ca.Function:
     return ca.Function("buffeting_point", [th, om, mr, mi, *H], [out])
 
 
-def _solve_point_function(Pa, C) -> ca.Function:
-    nF, n = Pa.shape
-    th = ca.MX.sym("theta", 5)
-    w = ca.MX.sym("w", nF)
-    om = ca.MX.sym("omega")
-    Xr, Xi = ca.MX.sym("Xr", n, nF), ca.MX.sym("Xi", n, nF)
-    Mr, Mi = ca.MX.sym("Mr", n, n), ca.MX.sym("Mi", n, n)
+def _lowrank_pitch_map(Pa) -> tuple[np.ndarray, np.ndarray]:
+    """``(U_r S, V_r)`` of ``Phi_a = U_r S V_r^T`` truncated at ``design.robust.LOWRANK_RTOL``
+    (rank 4 for 25 flaps on 16 modes: only the torsional modes pitch)."""
+    from design.robust import LOWRANK_RTOL
+
+    U, s, Vt = np.linalg.svd(np.asarray(Pa, float), full_matrices=False)
+    r = max(1, int(np.sum(s > LOWRANK_RTOL * s[0]))) if s.size and s[0] > 0 else 1
+    return U[:, :r] * s[:r], Vt[:r].T
+
+
+def _lowrank_point_data(V, X, M, C) -> list:
+    """Per frequency data of :func:`_lowrank_point_function` as horizontally stacked DMs:
+    ``E = V_r^T X`` (r x n_flaps), ``C X`` (2 x n_flaps), ``c M c^T`` (2), ``V_r^T M c^T``
+    (r x 2) and ``V_r^T M V_r`` (r x r); complex ones as real and imaginary parts."""
+    E = np.einsum("ir,kif->krf", V, X)
+    CX = np.einsum("pi,kif->kpf", C, X)
+    m0 = np.einsum("pi,kij,pj->kp", C, M, C).real
+    m1 = np.einsum("ir,kij,pj->krp", V, M, C)
+    M2 = np.einsum("ir,kij,js->krs", V, M, V)
+    out = []
+    for a in (E, CX):
+        out += [ca.DM(np.hstack(list(a.real))), ca.DM(np.hstack(list(a.imag)))]
+    out.append(ca.DM(m0.T))
+    for a in (m1, M2):
+        out += [ca.DM(np.hstack(list(a.real))), ca.DM(np.hstack(list(a.imag)))]
+    return out
+
+
+def _lowrank_point_function(US) -> ca.Function:
+    """The placement form of one frequency's variances (w a variable): ``z_p M z_p^H`` for the
+    two output rows ``c_p``, ``z_p = c_p (I - K X W Phi_a)^{-1}``, in the low-rank form of
+    ``Phi_a = U_r S V_r^T``. Woodbury: ``z_p = c_p + K a_p V_r^T`` with ``a_p = c_p X W U_r S
+    (I_r - K G)^{-1}``, ``G = V_r^T X W U_r S``, so ``z_p M z_p^H = c_p M c_p^T + 2 Re(K a_p
+    V_r^T M c_p^T) + |K|^2 a_p (V_r^T M V_r) a_p^H``: one r x r complex solve per frequency
+    instead of an n_modes one (exact; SX, real arithmetic, exact derivatives in theta and w).
+    """
+    US = np.asarray(US, float)
+    nF, r = US.shape
+    th, w, om = ca.SX.sym("theta", 5), ca.SX.sym("w", nF), ca.SX.sym("omega")
+    Er, Ei = ca.SX.sym("Er", r, nF), ca.SX.sym("Ei", r, nF)
+    Br, Bi = ca.SX.sym("CXr", 2, nF), ca.SX.sym("CXi", 2, nF)
+    m0 = ca.SX.sym("m0", 2)
+    m1r, m1i = ca.SX.sym("m1r", r, 2), ca.SX.sym("m1i", r, 2)
+    Hr, Hi = ca.SX.sym("M2r", r, r), ca.SX.sym("M2i", r, r)
     Kr, Ki = k_complex(th, om)
-    Wd = ca.repmat(w.T, n, 1)
-    P = ca.DM(Pa)
-    Nr, Ni = ca.mtimes(Xr * Wd, P), ca.mtimes(Xi * Wd, P)
-    Ar = ca.DM.eye(n) - (Kr * Nr - Ki * Ni)
-    Ai = -(Kr * Ni + Ki * Nr)
-    big = ca.vertcat(ca.horzcat(Ar.T, -Ai.T), ca.horzcat(Ai.T, Ar.T))
-    Y = ca.solve(big, ca.vertcat(ca.DM(C.T), ca.DM.zeros(n, C.shape[0])), "lapacklu", {})
-    out = ca.vertcat(*[_quad(Y[:n, p], -Y[n:, p], Mr, Mi) for p in range(C.shape[0])])
-    return ca.Function("buffeting_point_solve", [th, w, om, Xr, Xi, Mr, Mi], [out])
+    W = ca.repmat(w.T, r, 1)
+    Gr, Gi = ca.mtimes(Er * W, ca.DM(US)), ca.mtimes(Ei * W, ca.DM(US))
+    W2 = ca.repmat(w.T, 2, 1)
+    Rr, Ri = ca.mtimes(Br * W2, ca.DM(US)), ca.mtimes(Bi * W2, ca.DM(US))     # (2, r)
+    # a (I - K G) = R  <=>  (I - K G^T) a^T = R^T
+    A = ca.solve(_loop_block(Kr, Ki, Gr.T, Gi.T), ca.vertcat(Rr.T, Ri.T))
+    ar, ai = A[:r, :], A[r:, :]                                            # (r, 2): a_p^T
+    out = []
+    for p in range(2):
+        xr, xi = ar[:, p], ai[:, p]
+        tr = ca.dot(xr, m1r[:, p]) - ca.dot(xi, m1i[:, p])
+        ti = ca.dot(xr, m1i[:, p]) + ca.dot(xi, m1r[:, p])
+        quad = (ca.dot(xr, ca.mtimes(Hr.T, xr)) + ca.dot(xi, ca.mtimes(Hr.T, xi))
+                + 2.0 * ca.dot(xr, ca.mtimes(Hi, xi)))
+        out.append(m0[p] + 2.0 * (Kr * tr - Ki * ti) + (Kr * Kr + Ki * Ki) * quad)
+    return ca.Function("buffeting_point_lowrank",
+                       [th, w, om, Er, Ei, Br, Bi, m0, m1r, m1i, Hr, Hi], [ca.vertcat(*out)])
 
 
 def buffeting_objective(problem, theta0, weights0, th, w, p):

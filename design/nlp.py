@@ -78,10 +78,10 @@ from design.plant import (
 )
 from design.records import CutsOutcome, RobustMargin, Solve, Verification
 from design.robust import (
+    LowRankRobustPoints,
     analytic_robust_data,
     analytic_robust_function,
     k_complex,
-    lowrank_point_function,
     lowrank_robust_data,
     robust_dense_omega,
     robust_margin,
@@ -349,17 +349,17 @@ class DesignProblem:
                     fa = analytic_robust_function(oms[i], mu[i], H[i])
                     vals.append(fa(th).T)
             j = np.flatnonzero(exact)
+            cb = None
             if j.size:      # the exact solve, in its low-rank form (design.robust)
                 US, sv, E = lowrank_robust_data(Pa, [Xs[k] for k in j])
-                fm = lowrank_point_function(US, sv).map(j.size, "serial")
+                cb = LowRankRobustPoints(US, sv, oms[j], E)
                 wj = ca.DM(self.weights) if analytic else w
-                vals.append(fm(th, wj, ca.DM(oms[j][None, :]), ca.DM(np.hstack(list(E.real))),
-                               ca.DM(np.hstack(list(E.imag)))))
+                vals.append(cb(ca.vertcat(th, wj)).T)
             order = np.concatenate([np.flatnonzero(~exact), j]).astype(int)
             pts = [pts[k] for k in order]
             fun = ca.Function("T_fro2_grid", [th, w], [ca.horzcat(*vals).T], ["theta", "w"],
                               ["T_fro2"])
-            self._robust = (fun, pts, key)
+            self._robust = (fun, pts, key, cb)     # cb: kept alive with the function
         return self._robust[:2]
 
     # ---- buffeting

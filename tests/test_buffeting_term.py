@@ -46,8 +46,9 @@ def test_closed_form_equals_state_space_integrand_on_the_same_grid(term):
 
 
 def test_solve_form_equals_closed_form(term):
-    # the placement form (one 2n real solve per frequency, w a variable) and the closed form
-    # (eigendecomposition of N with w fixed) are the same algebra: round-off only
+    # the placement form (w a variable: the low-rank Woodbury form, one r x r solve per
+    # frequency) and the closed form (eigendecomposition of N with w fixed) are the same
+    # algebra: round-off only
     prob, _, _, mb = term
     ms = ModalBuffeting(prob, THETA, fixed_layout=False)
     for th in (THETA, np.array([0.2, -0.4, -2.0, 0.03, 0.8])):
