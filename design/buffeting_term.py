@@ -266,6 +266,11 @@ class ModalBuffeting:
         else:
             US, V = _lowrank_pitch_map(Pa)
             f1 = _lowrank_point_function(US)
+            if JIT:         # compiled like the closed form (falls back to the VM)
+                try:
+                    f1, _ = _compiled(f1)
+                except Exception:  # noqa: BLE001 - no compiler: the same expression, VM
+                    pass
             for om, X, M, C in data:
                 fm = f1.map(om.size, "serial")
                 v = fm(th, w, ca.DM(om[None, :]), *_lowrank_point_data(V, X, M, C))

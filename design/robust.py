@@ -114,7 +114,9 @@ class LowRankRobustPoints(ca.Callback):
     (forward mode, ``5 + n_flaps`` sweeps of the whole map): 0.80 s on the placement card
     (816 points, 25 flaps), against 0.029 s here, where each point's gradient is one reverse
     sweep of its own SX graph (``casadi.jacobian`` of the scalar point function), mapped and
-    evaluated numerically -- the same numbers to 2e-15 relative. One input ``p = [theta;
+    evaluated numerically (compiled with the buffeting term's point functions when
+    ``design.buffeting_term.JIT``; value and Jacobian together, cached for the last ``p``) --
+    the same numbers to 2e-15 relative. One input ``p = [theta;
     w]`` (the weights may be constants in the caller's expression), one output ``out``.
     Keep the object alive while expressions built from it are used (design.eigen).
     """
@@ -128,9 +130,17 @@ class LowRankRobustPoints(ca.Callback):
         Er, Ei = ca.SX.sym("Er", r, nF), ca.SX.sym("Ei", r, nF)
         f = pf(th, w, om, Er, Ei)
         n = len(omega)
-        self._val = pf.map(n, "serial")
-        self._grad = ca.Function("grad", [th, w, om, Er, Ei],
-                                 [ca.jacobian(f, ca.vertcat(th, w))]).map(n, "serial")
+        both = ca.Function(f"T_fro2_lowrank_grad_{nF}_{r}", [th, w, om, Er, Ei],
+                           [f, ca.jacobian(f, ca.vertcat(th, w))])
+        from design import buffeting_term as bt
+
+        if bt.JIT:          # compiled like the buffeting term's point functions (else the VM)
+            try:
+                both, _ = bt._compiled(both)
+            except Exception:  # noqa: BLE001 - no compiler: the same expression, VM
+                pass
+        self._both = both.map(n, "serial")
+        self._last = (None, None, None)
         E = np.asarray(E, complex)
         self._data = (ca.DM(np.asarray(omega, float)[None, :]),
                       ca.DM(np.hstack(list(E.real))), ca.DM(np.hstack(list(E.imag))))
@@ -165,15 +175,20 @@ class LowRankRobustPoints(ca.Callback):
         self._jac_callback = _JacobianCallback(self, name, inames, onames, opts)
         return self._jac_callback
 
-    def values(self, p) -> np.ndarray:
+    def _evaluate(self, p):
         p = np.asarray(p, float).ravel()
-        return np.asarray(self._val(p[:5], p[5:], *self._data).full()).ravel()
+        if self._last[0] is None or not np.array_equal(self._last[0], p):
+            v, J = self._both(p[:5], p[5:], *self._data)
+            self._last = (p.copy(), np.asarray(v.full()).ravel(),
+                          np.asarray(J.full()).reshape(self._n_out, self._n_p))
+        return self._last[1], self._last[2]
+
+    def values(self, p) -> np.ndarray:
+        return self._evaluate(p)[0]
 
     def jacobian(self, p) -> np.ndarray:
         """``(n_points, 5 + n_flaps)``."""
-        p = np.asarray(p, float).ravel()
-        J = np.asarray(self._grad(p[:5], p[5:], *self._data).full())
-        return J.reshape(self._n_out, self._n_p)
+        return self._evaluate(p)[1]
 
     def eval(self, arg):
         return [ca.DM(self.values(np.asarray(arg[0], float)))]
