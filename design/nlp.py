@@ -67,7 +67,7 @@ import numpy as np
 import scipy.linalg
 
 from design.buffeting_term import buffeting_objective
-from design.eigen import PolynomialStructuralDamping
+from design.eigen import PolynomialStructuralDamping, parts_jacobian
 from design.ipopt_hooks import DIVERGE_ITERATIONS, DIVERGE_LEVEL, IterationCallback
 from design.plant import (
     compensator_reduction,
@@ -241,7 +241,14 @@ class DesignProblem:
 
     # ---- pieces
     def parts_function(self) -> ca.Function:
-        """``p -> (A0, A1, A2)`` with ``p = theta`` or ``(theta, w)`` (placement)."""
+        """``p -> (A0, A1, A2)`` with ``p = theta`` or ``(theta, w)`` (placement), built once,
+        with its Jacobian (:func:`design.eigen.parts_jacobian`, shared by every grid)."""
+        if self.callbacks.get("parts") is None:
+            f = self._parts_function()
+            self.callbacks["parts"] = (f, parts_jacobian(f))
+        return self.callbacks["parts"][0]
+
+    def _parts_function(self) -> ca.Function:
         th = ca.SX.sym("theta", 5)
         if self.settings.optimise_placement:
             z = ca.SX.sym("z", self.n_z)
@@ -265,7 +272,8 @@ class DesignProblem:
                 self.parts_function(), np.array(key), self.settings.n_eig,
                 lag_rates(self.model), self.settings.zeta_min,
                 subsets={0.0: self.keep0_constraints},
-                name=f"damping_grid_{len(self.callbacks)}")
+                name=f"damping_grid_{len(self.callbacks)}",
+                dparts=self.callbacks["parts"][1])
         return self.callbacks[key]
 
     def A_parts(self, theta, weights=None) -> tuple:
