@@ -99,7 +99,10 @@ def _design_and_write(args, settings, out):
              f"{payload['verification'].get('step_m_s')} m/s grid): stable everywhere "
              f"{payload['verification'].get('stable_everywhere')}, stable to "
              f"{payload['verification'].get('stable_to_m_s')} m/s",
-             f"minimum flap count {payload['minimum_flaps']['minimum']}",
+             (f"flap layout optimised (placement): {payload['flap_count']} of "
+              f"{settings.flap_count} candidate pairs"
+              if settings.optimise_placement else
+              f"minimum flap count (same K) {payload['minimum_flaps']['minimum']}"),
              f"controller written: {payload['controller_file']}"]
     lines.append(f"optimiser gamma_T (Frobenius, sample points) "
                  f"{g(payload['gamma_T_frobenius'], '.4g')} vs dense sigma_max peak "

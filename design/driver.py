@@ -219,7 +219,11 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     every variant as well."""
     t0 = time.perf_counter()
     spec, model = build_model(settings, spec=spec)
-    prob = DesignProblem(settings, model, spec=spec)
+    relaxed = settings
+    if settings.optimise_placement and settings.placement_cut_rounds >= 0:
+        # the relaxed rounds only choose the layout: their own cut budget
+        relaxed = replace(settings, cutting_plane_rounds=settings.placement_cut_rounds)
+    prob = DesignProblem(relaxed, model, spec=spec)
     prob.variants = [DesignProblem(settings, build_model(settings, spec=v)[1], spec=v)
                      for v in variants]
     bar = _progress_bar(index, progress_bar)
@@ -518,7 +522,9 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
                                       model_d, numeric=True).verify(theta)
             extras["active_constraints"] = active_constraints(settings, best, ver_d)
             mark("chosen design checks")
-            if ok:
+            if ok and not settings.optimise_placement:
+                # (a placed layout is its own flap-count answer: the same-K check of evenly
+                # spaced counts does not apply to it)
                 # the chosen start's check of its full evenly spaced layout is count flap_count
                 full = (not settings.optimise_placement
                         and len(positions) == settings.flap_count

@@ -244,8 +244,7 @@ class DesignProblem:
         """``p -> (A0, A1, A2)`` with ``p = theta`` or ``(theta, w)`` (placement), built once,
         with its Jacobian (:func:`design.eigen.parts_jacobian`, shared by every grid)."""
         if self.callbacks.get("parts") is None:
-            f = self._parts_function()
-            self.callbacks["parts"] = (f, parts_jacobian(f))
+            self.callbacks["parts"] = (f := self._parts_function(), parts_jacobian(f))
         return self.callbacks["parts"][0]
 
     def _parts_function(self) -> ca.Function:

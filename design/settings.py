@@ -108,6 +108,7 @@ class DesignSettings:
     max_iter: int = 80
     resolve_max_iter: int = 60
     cutting_plane_rounds: int = 5
+    placement_cut_rounds: int = -1
     b_bound: float = 15.0
     a2_bounds: tuple = (1e-3, 5.0)
     a1_bounds: tuple = (1e-2, 10.0)
@@ -182,6 +183,10 @@ class DesignSettings:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 0:
                 raise BridgeflapInputError(name, f"must be an integer >= 0, got {v!r}")
+        v = self.placement_cut_rounds
+        if isinstance(v, bool) or not isinstance(v, int) or v < -1:
+            raise BridgeflapInputError("placement_cut_rounds", "must be an integer >= 0, or -1 "
+                                       f"(as cutting_plane_rounds), got {v!r}")
         if not isinstance(self.bridge, str) or not self.bridge:
             raise BridgeflapInputError("bridge", f"must be a bridge name or path, got "
                                                  f"{self.bridge!r}")

@@ -54,11 +54,13 @@ def test_card_loads_and_inner_settings_extend_to_the_design_speed():
     assert s.objective == "critical_speed" and s.margin_min == 0.25
     base = load_settings(CARD.parent / "humber_flaps.toml")
     # the inner problem is the default design: only the objective's own keys, the starts,
-    # the buffeting weight and the robust cut tolerance (pinned to the 0.001 its recorded
-    # outcome was computed with) differ
+    # the buffeting weight, the robust cut tolerance (pinned to the 0.001 its recorded
+    # outcome was computed with) and the layout (its outcome was recorded on the 25 evenly
+    # spaced pairs, before placement became the default) differ
     diff = {k for k in s.__dataclass_fields__ if k != "extras"
             and getattr(s, k) != getattr(base, k)}
-    assert diff == {"objective", "starts", "weight_buffeting", "robust_cut_tol"}
+    assert diff == {"objective", "starts", "weight_buffeting", "robust_cut_tol",
+                    "optimise_placement", "placement_cut_rounds"}
     t = settings_at(s, 103.0)
     assert t.speed_max_m_s == 103.0 and t.design_speeds()[-1] == 103.0
     assert t.design_speeds().max() <= 103.0 and t.check_speeds()[-1] == 103.0
