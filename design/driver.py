@@ -237,15 +237,19 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     try:
         res = prob.solve_with_cuts(np.asarray(theta0))
         rounds = list(res.rounds)
-        weights = np.ones(model.n_flaps)
+        positions = settings.positions()
         if settings.optimise_placement:
             w_cont = tuple(float(v) for v in res.solve.weights)
-            weights = round_layout(prob.symmetry, prob.z_of(w_cont), settings.flap_budget)
-            fixed = DesignProblem(replace(settings, optimise_placement=False), model,
-                                  weights=weights, spec=spec)
+            rounded = round_layout(prob.symmetry, prob.z_of(w_cont), settings.flap_budget)
+            positions = positions[rounded > 0.5]
+            # K re-optimised on the placed flaps only: the candidates left out are not built,
+            # so the flap loop (and its robust margin) has no channel for them
+            fixed_s = replace(settings, optimise_placement=False)
+            fixed = DesignProblem(fixed_s, build_model(settings, positions=positions,
+                                                       spec=spec)[1], spec=spec)
             fixed.on_iteration = prob.on_iteration
-            fixed.variants = [DesignProblem(replace(settings, optimise_placement=False),
-                                            v.model, weights=weights, spec=v.spec)
+            fixed.variants = [DesignProblem(fixed_s, build_model(settings, positions=positions,
+                                                                 spec=v.spec)[1], spec=v.spec)
                               for v in prob.variants]
             res = fixed.solve_with_cuts(res.theta)
             rounds += [replace(r, placement="rounded") for r in res.rounds]
@@ -262,12 +266,11 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     ver = res.verification
     rob = _margin_at(res.robust, settings.robust_speeds_m_s)
     if rob is None:
-        rob = prob.robust_margin(theta, weights=weights)
-    positions = settings.positions()[weights > 0.5]
+        rob = prob.robust_margin(theta)
     ver16 = (verify_layout(settings, theta, positions, spec=spec)
              if settings.verification_modes != settings.n_modes else ver)
     gain_ok = bool(ver.max_gain <= settings.gain_limit)
-    vchecks = [q.verify(theta, weights) for q in prob.variants]
+    vchecks = [q.verify(theta) for q in prob.variants]
     variants_ok = all(v.meets_damping for v in vchecks)
     return StartRecord(
         start=index, theta0=theta0, theta=tuple(float(v) for v in theta),
