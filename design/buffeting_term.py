@@ -403,7 +403,7 @@ def _library_dir() -> str:
     return _JIT_DIR
 
 
-def _compiled(f) -> tuple[ca.Function, str]:
+def _compiled(f, reverse=True) -> tuple[ca.Function, str]:
     """``f`` (an SX function) as a compiled library with its reverse derivative
     (``adj1_<name>``, which CasADi's external functions use for gradients), from
     :func:`_library_dir` when a library of the same source, compiler and flags is there,
@@ -415,7 +415,8 @@ def _compiled(f) -> tuple[ca.Function, str]:
     name = f.name()
     cg = ca.CodeGenerator(f"{name}.c", {"with_header": False})
     cg.add(f)
-    cg.add(f.reverse(1))
+    if reverse:         # (a function that carries its own derivative outputs needs none)
+        cg.add(f.reverse(1))
     src = cg.dump()
     cc = os.environ.get("CC", "cc")
     key = hashlib.sha256("\0".join([src, cc, *JIT_FLAGS, ca.__version__]).encode()).hexdigest()

@@ -78,11 +78,11 @@ from design.plant import (
 )
 from design.records import CutsOutcome, RobustMargin, Solve, Verification
 from design.robust import (
-    LowRankRobustPoints,
     analytic_robust_data,
     analytic_robust_function,
     k_complex,
     lowrank_robust_data,
+    lowrank_robust_points,
     robust_dense_omega,
     robust_margin,
 )
@@ -347,7 +347,7 @@ class DesignProblem:
             w = ca.MX.sym("w", self.model.n_flaps)
             oms = np.asarray(oms, float)
             exact = np.ones(len(pts), bool)
-            vals = []
+            vals, cbs = [], []
             if analytic:
                 mu, H, ok = analytic_robust_data(Pa, np.asarray(Xs), self.weights)
                 exact = ~ok
@@ -355,18 +355,18 @@ class DesignProblem:
                 if i.size:
                     fa = analytic_robust_function(oms[i], mu[i], H[i])
                     vals.append(fa(th).T)
+                    cbs.append(fa)
             j = np.flatnonzero(exact)
-            cb = None
             if j.size:      # the exact solve, in its low-rank form (design.robust)
                 US, sv, E = lowrank_robust_data(Pa, [Xs[k] for k in j])
-                cb = LowRankRobustPoints(US, sv, oms[j], E)
+                cbs.append(lowrank_robust_points(US, sv, oms[j], E))
                 wj = ca.DM(self.weights) if analytic else w
-                vals.append(cb(ca.vertcat(th, wj)).T)
+                vals.append(cbs[-1](ca.vertcat(th, wj)).T)
             order = np.concatenate([np.flatnonzero(~exact), j]).astype(int)
             pts = [pts[k] for k in order]
             fun = ca.Function("T_fro2_grid", [th, w], [ca.horzcat(*vals).T], ["theta", "w"],
                               ["T_fro2"])
-            self._robust = (fun, pts, key, cb)     # cb: kept alive with the function
+            self._robust = (fun, pts, key, cbs)    # the callbacks kept alive with it
         return self._robust[:2]
 
     # ---- buffeting

@@ -105,46 +105,38 @@ def lowrank_point_function(US, s) -> ca.Function:
                        ["theta", "w", "omega", "Er", "Ei"], ["T_fro2"])
 
 
-class LowRankRobustPoints(ca.Callback):
-    """``[theta; w] -> ||T(j omega_k)||_F^2`` at every point ``k`` of the low-rank form
-    (:func:`lowrank_robust_data`), with its Jacobian per point by reverse mode.
+class PointsCallback(ca.Callback):
+    """``p -> (f(p, d_k))_k``: a scalar point function ``f`` at every point ``k`` of the data
+    ``d_k``, with its Jacobian per point by reverse mode.
 
-    The same values as ``lowrank_point_function(US, s).map(n)`` (it is that function), but
     CasADi's Jacobian of a mapped function seeds every input direction through all points
-    (forward mode, ``5 + n_flaps`` sweeps of the whole map): 0.80 s on the placement card
-    (816 points, 25 flaps), against 0.029 s here, where each point's gradient is one reverse
-    sweep of its own SX graph (``casadi.jacobian`` of the scalar point function), mapped and
-    evaluated numerically (compiled with the buffeting term's point functions when
-    ``design.buffeting_term.JIT``; value and Jacobian together, cached for the last ``p``) --
-    the same numbers to 2e-15 relative. One input ``p = [theta;
-    w]`` (the weights may be constants in the caller's expression), one output ``out``.
-    Keep the object alive while expressions built from it are used (design.eigen).
+    (forward mode, one sweep of the whole map per parameter): 0.80 s on the placement card's
+    robust constraint (816 points, 30 parameters), against 0.029 s here, where each point's
+    gradient is one reverse sweep of its own SX graph (``casadi.jacobian`` of the scalar point
+    function), mapped and evaluated numerically -- compiled when ``design.buffeting_term.JIT``
+    (0.009 s; the library is cached by its source, so the same point function on other data is
+    not recompiled), value and Jacobian together, cached for the last ``p``; the same numbers
+    to 2e-15 relative. ``point``: SX function ``(p, *data) -> f`` (scalar); ``data``: per-point
+    DM inputs stacked horizontally. Keep the object alive while expressions built from it are
+    used (design.eigen).
     """
 
-    def __init__(self, US, s, omega, E, name="T_fro2_lowrank_points"):
+    def __init__(self, point: ca.Function, data, n_points: int, name: str):
         ca.Callback.__init__(self)
-        pf = lowrank_point_function(US, s)
-        nF = int(np.asarray(US).shape[0])
-        th, w, om = ca.SX.sym("theta", 5), ca.SX.sym("w", nF), ca.SX.sym("omega")
-        r = int(np.asarray(US).shape[1])
-        Er, Ei = ca.SX.sym("Er", r, nF), ca.SX.sym("Ei", r, nF)
-        f = pf(th, w, om, Er, Ei)
-        n = len(omega)
-        both = ca.Function(f"T_fro2_lowrank_grad_{nF}_{r}", [th, w, om, Er, Ei],
-                           [f, ca.jacobian(f, ca.vertcat(th, w))])
+        ins = point.sx_in()
+        f = point(*ins)
+        both = ca.Function(f"{point.name()}_grad", ins, [f, ca.jacobian(f, ins[0])])
         from design import buffeting_term as bt
 
         if bt.JIT:          # compiled like the buffeting term's point functions (else the VM)
             try:
-                both, _ = bt._compiled(both)
+                both, _ = bt._compiled(both, reverse=False)
             except Exception:  # noqa: BLE001 - no compiler: the same expression, VM
                 pass
-        self._both = both.map(n, "serial")
+        self._both = both.map(int(n_points), "serial")
+        self._data = list(data)
+        self._n_p, self._n_out = int(point.size1_in(0)), int(n_points)
         self._last = (None, None, None)
-        E = np.asarray(E, complex)
-        self._data = (ca.DM(np.asarray(omega, float)[None, :]),
-                      ca.DM(np.hstack(list(E.real))), ca.DM(np.hstack(list(E.imag))))
-        self._n_p, self._n_out, self._nF = 5 + nF, n, nF
         self._jac_callback = None
         self.construct(name, {})
 
@@ -178,7 +170,7 @@ class LowRankRobustPoints(ca.Callback):
     def _evaluate(self, p):
         p = np.asarray(p, float).ravel()
         if self._last[0] is None or not np.array_equal(self._last[0], p):
-            v, J = self._both(p[:5], p[5:], *self._data)
+            v, J = self._both(p, *self._data)
             self._last = (p.copy(), np.asarray(v.full()).ravel(),
                           np.asarray(J.full()).reshape(self._n_out, self._n_p))
         return self._last[1], self._last[2]
@@ -187,11 +179,28 @@ class LowRankRobustPoints(ca.Callback):
         return self._evaluate(p)[0]
 
     def jacobian(self, p) -> np.ndarray:
-        """``(n_points, 5 + n_flaps)``."""
+        """``(n_points, n_p)``."""
         return self._evaluate(p)[1]
 
     def eval(self, arg):
         return [ca.DM(self.values(np.asarray(arg[0], float)))]
+
+
+def lowrank_robust_points(US, s, omega, E) -> PointsCallback:
+    """``[theta; w] -> ||T(j omega_k)||_F^2`` at every point of the low-rank form
+    (:func:`lowrank_robust_data`, :func:`lowrank_point_function`) as a :class:`PointsCallback`."""
+    US = np.asarray(US, float)
+    nF, r = US.shape
+    pf = lowrank_point_function(US, s)
+    q = ca.SX.sym("p", 5 + nF)
+    om = ca.SX.sym("omega")
+    Er, Ei = ca.SX.sym("Er", r, nF), ca.SX.sym("Ei", r, nF)
+    point = ca.Function(f"T_fro2_lowrank_{nF}_{r}", [q, om, Er, Ei],
+                        [pf(q[:5], q[5:], om, Er, Ei)])
+    E = np.asarray(E, complex)
+    data = (ca.DM(np.asarray(omega, float)[None, :]), ca.DM(np.hstack(list(E.real))),
+            ca.DM(np.hstack(list(E.imag))))
+    return PointsCallback(point, data, len(omega), "T_fro2_lowrank_points")
 
 
 #: Condition number of the eigenvector matrix of ``N = X diag(w) Phi_a`` above which a point
@@ -237,11 +246,12 @@ def analytic_robust_data(Pa, X, weights):
     return mu, H, ok
 
 
-def analytic_robust_function(omega, mu, H) -> ca.Function:
+def analytic_robust_function(omega, mu, H) -> PointsCallback:
     """``theta -> ||T(j omega_k)||_F^2`` (n_points,) from the data of
-    :func:`analytic_robust_data`, one SX expression in real arithmetic (exact derivatives in
-    theta; the data are constants): ``d^H H d = a^T H_r a + b^T H_r b - 2 a^T H_i b`` for
-    ``d = a + i b``."""
+    :func:`analytic_robust_data` as a :class:`PointsCallback` (the point function in real
+    arithmetic, exact derivatives in theta): ``d^H H d = a^T H_r a + b^T H_r b - 2 a^T H_i b``
+    for ``d = a + i b``. (Before: one flat SX graph of every point, data as constants, which
+    every ``nlpsol`` differentiated again.)"""
     mu, H = np.asarray(mu), np.asarray(H)
     N, n = mu.shape
     th = ca.SX.sym("theta", 5)
@@ -255,13 +265,10 @@ def analytic_robust_function(omega, mu, H) -> ca.Function:
     a, b = qr / q2, -qi / q2
     f = (Kr * Kr + Ki * Ki) * (ca.dot(a, ca.mtimes(Hr, a)) + ca.dot(b, ca.mtimes(Hr, b))
                                - 2.0 * ca.dot(a, ca.mtimes(Hi, b)))
-    f1 = ca.Function("T_fro2_point", [th, om, mr, mi, Hr, Hi], [f])
-    x = ca.SX.sym("theta", 5)
-    # called on SX the mapped function is inlined: one flat SX graph, data as constants
-    val = f1.map(N)(x, ca.DM(np.asarray(omega, float)[None, :]), ca.DM(mu.real.T),
-                    ca.DM(mu.imag.T), ca.DM(np.hstack(list(H.real))),
-                    ca.DM(np.hstack(list(H.imag))))
-    return ca.Function("T_fro2_analytic", [x], [val.T])
+    f1 = ca.Function(f"T_fro2_point_{n}", [th, om, mr, mi, Hr, Hi], [f])
+    data = (ca.DM(np.asarray(omega, float)[None, :]), ca.DM(mu.real.T), ca.DM(mu.imag.T),
+            ca.DM(np.hstack(list(H.real))), ca.DM(np.hstack(list(H.imag))))
+    return PointsCallback(f1, data, N, "T_fro2_analytic")
 
 
 def true_t_peak(theta, Pa, X, omega, weights) -> np.ndarray:
