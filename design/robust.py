@@ -15,6 +15,7 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
+from design.eigen import _JacobianCallback, _VectorIO
 from design.plant import plant_factors
 from design.records import RobustMargin
 from model.control import Compensator
@@ -105,7 +106,7 @@ def lowrank_point_function(US, s) -> ca.Function:
                        ["theta", "w", "omega", "Er", "Ei"], ["T_fro2"])
 
 
-class PointsCallback(ca.Callback):
+class PointsCallback(_VectorIO, ca.Callback):
     """``p -> (f(p, d_k))_k``: a scalar point function ``f`` at every point ``k`` of the data
     ``d_k``, with its Jacobian per point by reverse mode.
 
@@ -117,7 +118,8 @@ class PointsCallback(ca.Callback):
     (0.009 s; the library is cached by its source, so the same point function on other data is
     not recompiled), value and Jacobian together, cached for the last ``p``; the same numbers
     to 2e-15 relative. ``point``: SX function ``(p, *data) -> f`` (scalar); ``data``: per-point
-    DM inputs stacked horizontally. Keep the object alive while expressions built from it are
+    DM inputs stacked horizontally (the one-input boilerplate: ``design.eigen._VectorIO``).
+    Keep the object alive while expressions built from it are
     used (design.eigen).
     """
 
@@ -140,21 +142,6 @@ class PointsCallback(ca.Callback):
         self._jac_callback = None
         self.construct(name, {})
 
-    def get_n_in(self):
-        return 1
-
-    def get_n_out(self):
-        return 1
-
-    def get_name_in(self, i):
-        return "p"
-
-    def get_name_out(self, i):
-        return "out"
-
-    def get_sparsity_in(self, i):
-        return ca.Sparsity.dense(self._n_p, 1)
-
     def get_sparsity_out(self, i):
         return ca.Sparsity.dense(self._n_out, 1)
 
@@ -162,8 +149,6 @@ class PointsCallback(ca.Callback):
         return True
 
     def get_jacobian(self, name, inames, onames, opts):
-        from design.eigen import _JacobianCallback
-
         self._jac_callback = _JacobianCallback(self, name, inames, onames, opts)
         return self._jac_callback
 
