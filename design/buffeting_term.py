@@ -213,6 +213,9 @@ class ModalBuffeting:
         basis = ol.basis
         self.weights = np.asarray(problem.weights, float)
         self.fixed_layout = bool(fixed_layout)
+        #: buffeting speeds of a fixed layout built in the low-rank form because the loop
+        #: matrix was nearly defective (the closed form needs its eigenvectors)
+        self.defective_fallbacks = 0
         self.speeds_m_s = np.asarray(s.buffeting_speeds_m_s, float)
         strip_x = np.asarray(basis.strip_x, float)
         ns = strip_x.size
@@ -255,26 +258,34 @@ class ModalBuffeting:
         th = ca.MX.sym("theta", 5)
         w = ca.MX.sym("w", Pa.shape[0])
         var = []
-        if self.fixed_layout:
-            f1 = _eig_point_function(Pa.shape[1])
-            for om, X, M, C in data:
-                mu, Hs = _eig_point_data(Pa, X, M, C, self.weights)
-                fm = f1.map(om.size, "serial")
-                v = fm(th, ca.DM(om[None, :]), ca.DM(mu.real.T), ca.DM(mu.imag.T),
-                       *[ca.DM(np.hstack(list(h))) for H in Hs for h in (H.real, H.imag)])
-                var.append(ca.sum2(v).T)
-        else:
-            US, V = _lowrank_pitch_map(Pa)
-            f1 = _lowrank_point_function(US)
-            if JIT:         # compiled like the closed form (falls back to the VM)
+        low = None
+        for om, X, M, C in data:
+            if self.fixed_layout:
                 try:
-                    f1, _ = _compiled(f1)
-                except Exception:  # noqa: BLE001 - no compiler: the same expression, VM
-                    pass
-            for om, X, M, C in data:
-                fm = f1.map(om.size, "serial")
-                v = fm(th, w, ca.DM(om[None, :]), *_lowrank_point_data(V, X, M, C))
-                var.append(ca.sum2(v).T)
+                    mu, Hs = _eig_point_data(Pa, X, M, C, self.weights)
+                except np.linalg.LinAlgError:
+                    # a nearly defective loop matrix at some frequency (e.g. a placed layout
+                    # whose flaps' loop G is singular there): the low-rank form below is exact
+                    # without eigenvectors
+                    self.defective_fallbacks += 1
+                else:
+                    fm = _eig_point_function(Pa.shape[1]).map(om.size, "serial")
+                    v = fm(th, ca.DM(om[None, :]), ca.DM(mu.real.T), ca.DM(mu.imag.T),
+                           *[ca.DM(np.hstack(list(h))) for H in Hs for h in (H.real, H.imag)])
+                    var.append(ca.sum2(v).T)
+                    continue
+            if low is None:
+                US, V = _lowrank_pitch_map(Pa)
+                f1 = _lowrank_point_function(US)
+                if JIT:         # compiled like the closed form (falls back to the VM)
+                    try:
+                        f1, _ = _compiled(f1)
+                    except Exception:  # noqa: BLE001 - no compiler: the same expression, VM
+                        pass
+                low = (V, f1)
+            fm = low[1].map(om.size, "serial")
+            v = fm(th, w, ca.DM(om[None, :]), *_lowrank_point_data(low[0], X, M, C))
+            var.append(ca.sum2(v).T)
         V = ca.vertcat(*var)                                   # (n_speeds, 2) variances
         ratio = V / ca.DM(self.open_loop_var)
         self.variance_function = ca.Function("buffeting_variance", [th, w], [V],

@@ -11,6 +11,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from design import variants
 from design.nlp import (
     GAIN_BACKOFF,
     ROBUST_CLUSTER_STEP,
@@ -49,11 +50,13 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
     diverged = 0
     use_rob = s.weight_robust > 0 and (bool(s.robust_design_speeds_m_s)
                                        or bool(s.robust_speeds_m_s))
-    viol0 = max(float(np.max(q.constraint_values(theta, sorted(speeds), w)))
-                for q in [prob, *prob.variants])
+    nominal0 = prob.constraint_values(theta, sorted(speeds), w)
+    # the variants' largest measure; lazy: each speed's worst variant seeds its set
+    viol0 = max(float(np.max(nominal0)),
+                variants.seed(prob, theta, w, sorted(speeds), nominal0))
     if viol0 > 0:
         ph1 = prob.solve(theta, np.array(sorted(speeds)), weights0=w, feasibility=True)
-        ver1 = prob.verify(ph1.theta, ph1.weights, refined=not prob.variants)
+        ver1 = prob.verify(ph1.theta, ph1.weights, refined=True)
         history.append(CutRound(
             round=0, ipopt_status=ph1.ipopt_status, iterations=ph1.iterations,
             theta=tuple(float(v) for v in ph1.theta), time_s=ph1.time_s,
@@ -66,23 +69,27 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
         # phase 2 from the phase-1 point when it is less violating than the start
         if float(np.max(ph1.constraints_eig_1_s)) < viol0:
             theta, w = ph1.theta, ph1.weights
-        feasible0 = max(float(np.max(q.constraint_values(theta, sorted(speeds), w)))
-                        for q in [prob, *prob.variants]) <= 0
+        nominal1 = prob.constraint_values(theta, sorted(speeds), w)
+        feasible0 = max(float(np.max(nominal1)),
+                        variants.seed(prob, theta, w, sorted(speeds), nominal1)) <= 0
     else:
         feasible0 = True
     off = len(history)          # the phase-1 record, if any, precedes the rounds
     for rnd in range(s.cutting_plane_rounds + 1):
         # round 0 from a feasible point is warm-started like the re-solves (WARM_FIRST)
+        n_var = variants.constraint_count(prob, sorted(speeds))
         res = prob.solve(theta, np.array(sorted(speeds)), weights0=w, gamma0=gamma,
                          warm=rnd > 0 or (WARM_FIRST and feasible0),
                          max_iter=s.resolve_max_iter if rnd > 0 else s.max_iter)
         theta, w = res.theta, res.weights
         gamma = res.gamma_T if use_rob else None
         # the rounds on the refined subset of the check grid (the same decisions and worst
-        # speeds, design.plant.damping_check_refined; variants: dense, their grids must
-        # match); the chosen round is re-checked on the dense grid below
-        ver = prob.verify(theta, w, refined=not prob.variants)
-        vvers = [v.verify(theta, w) for v in prob.variants]
+        # speeds, design.plant.damping_check_refined); the chosen round is re-checked on the
+        # dense grid below. Variants: checked alike; when lazy, their violating and
+        # near-active speeds join their own sets (design.variants)
+        ver = prob.verify(theta, w, refined=True)
+        vvers, new_variant = variants.round_checks(prob, theta, w, sorted(speeds),
+                                                   VIOLATION_TOL, _worst_per_run)
         eig_ok = all(vv.max_violation_1_s <= VIOLATION_TOL for vv in [ver, *vvers])
         gain_ok = ver.max_gain <= s.gain_limit
         rob_ok, new_rob = True, []
@@ -110,10 +117,11 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
                         if abs(comp.frequency_response(x)) > s.gain_limit
                         * (1.0 - GAIN_BACKOFF) and float(x) not in prob.gain_cuts]
         new_speeds = []
-        if not eig_ok:
-            viol = np.max([vv.violation_1_s for vv in [ver, *vvers]], axis=0)
-            new_speeds = [u for u in _worst_per_run(ver.speeds_m_s, viol > VIOLATION_TOL,
-                                                    viol) if u not in speeds]
+        if not eig_ok:      # the variants' too when they share the design speeds ("all")
+            checks = [ver] if variants.lazy(prob) else [ver, *vvers]
+            new_speeds = sorted({u for vv in checks for u in _worst_per_run(
+                vv.speeds_m_s, vv.violation_1_s > VIOLATION_TOL, vv.violation_1_s)
+                if u not in speeds})
         peak = rob.peak if rob else float("nan")
         history.append(CutRound(
             round=rnd, ipopt_status=res.ipopt_status, iterations=res.iterations,
@@ -124,7 +132,8 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
                 analytic=not s.optimise_placement)[1]) if use_rob else 0,
             n_gain_points=len(prob.omega_grid()), new_speeds=len(new_speeds),
             new_gain_cuts=len(new_gain), new_robust_cuts=len(new_rob),
-            eig_time_per_speed_s=res.eig_time_per_speed_s, history=res.history))
+            eig_time_per_speed_s=res.eig_time_per_speed_s, history=res.history,
+            n_variant_constraints=n_var, new_variant_constraints=new_variant))
         kept.append((res, ver, rob, dict(speeds=sorted(speeds), robust_cuts=list(
             prob.robust_cuts), gain_cuts=list(prob.gain_cuts)), eig_ok and gain_ok, peak,
                      rob is not None and rob_ok))
@@ -151,7 +160,7 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
         # no new cut: stop, unless the solve ran out of iterations short of the checks --
         # then the next round continues it (re-solve to convergence)
         if rnd == s.cutting_plane_rounds or not (new_speeds or new_gain or new_rob
-                                                 or not res.success):
+                                                 or new_variant or not res.success):
             break
         speeds.extend(new_speeds)
         prob.gain_cuts.extend(new_gain)
@@ -163,8 +172,7 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
     # round whose bound gamma_T holds is preferred (its margin is certified by the NLP too)
     ibest = min(range(len(kept)), key=_ranker(kept, s.robust_cut_tol))
     res, ver, rob, cuts, _, _, _ = kept[ibest]
-    if not prob.variants:       # the dense check of the chosen round (the a posteriori one)
-        ver = prob.verify(res.theta, res.weights)
+    ver = prob.verify(res.theta, res.weights)   # the chosen round's dense check (a posteriori)
     return CutsOutcome(
         solve=res, verification=ver, robust=rob,
         rounds=tuple(replace(h, chosen=i - off == ibest) for i, h in enumerate(history)),

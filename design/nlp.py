@@ -51,8 +51,7 @@ round is recorded. A design whose true peak gain exceeds ``gain_limit`` is never
 Placement (``optimise_placement``): relaxed weights ``w = S z`` in [0, 1], one per mirror pair
 with ``symmetric_layout`` (:attr:`DesignProblem.symmetry`), an optional flap-count budget
 ``sum(w) <= flap_budget`` and penalty ``weight_flaps``; rounding and the re-solve of K for the
-rounded layout are in :mod:`design.driver`. Multi-model: :attr:`DesignProblem.variants` add
-every damping constraint and dense check on bridge variants.
+rounded layout are in :mod:`design.driver`. Multi-model: :mod:`design.variants`.
 
 Multistart, verification on the ``verification_modes`` model, placement rounding and the
 result records: :mod:`design.driver`; settings: :mod:`design.settings`.
@@ -87,6 +86,7 @@ from design.robust import (
     robust_margin,
 )
 from design.settings import DesignSettings
+from design.variants import speeds_of
 from model.control import Compensator
 
 #: Scale of theta in the regularisation term (a2 ~ 0.01..1 s^2).
@@ -174,8 +174,7 @@ class DesignProblem:
         self.gain_cuts: list[float] = []
         #: ``(iteration, objective, x) -> None`` called once per Ipopt iteration (progress).
         self.on_iteration = None
-        #: Multi-model design: problems on bridge variants (same layout and settings) whose
-        #: damping constraints join the NLP and whose dense checks join the verification.
+        #: Multi-model: bridge-variant problems (same layout, settings; design.variants)
         self.variants: list[DesignProblem] = []
 
     @property
@@ -414,9 +413,7 @@ class DesignProblem:
         the start satisfies the robust constraints whatever cuts were added; ``warm``
         starts Ipopt's barrier at ``WARM_MU_INIT`` (a re-solve after cuts). ``feasibility``:
         phase 1 -- no robust epigraph, damping constraints tightened by
-        ``FEASIBILITY_BACKOFF_1_S`` (see there).
-
-        Returns the :class:`design.records.Solve` record (Ipopt status, iterate, timings).
+        ``FEASIBILITY_BACKOFF_1_S`` (see there). Returns a :class:`design.records.Solve`.
         """
         s = self.settings
         nF = self.model.n_flaps
@@ -483,11 +480,13 @@ class DesignProblem:
             lbx += [0.0] * self.n_z
             ubx += [1.0] * self.n_z
             x0 = np.append(x0, np.clip(self.z_of(w0), 0.0, 1.0))
-        for v in self.variants:     # multi-model: every damping constraint on every variant
-            g.append(EIG_SCALE * v.grid_callback(speeds)(p))
-            lbg.append(np.full(n_eig_cons, -np.inf))
-            ubg.append(np.full(n_eig_cons, -EIG_SCALE * FEASIBILITY_BACKOFF_1_S
-                               if feasibility else 0.0))
+        for v in self.variants:     # multi-model: a variant's damping speeds (design.variants)
+            vs = speeds_of(v, speeds)
+            if vs.size:
+                g.append(EIG_SCALE * v.grid_callback(vs)(p))
+                lbg.append(np.full(vs.size * s.n_eig, -np.inf))
+                ubg.append(np.full(vs.size * s.n_eig, -EIG_SCALE * FEASIBILITY_BACKOFF_1_S
+                                   if feasibility else 0.0))
         nlp = {"x": x, "f": f, "g": ca.vertcat(*g)}
         opts = {"ipopt.hessian_approximation": "limited-memory",
                 "ipopt.max_iter": int(max_iter or s.max_iter), "ipopt.print_level": 0,

@@ -162,6 +162,10 @@ class CutRound:
     #: Ipopt's per-iteration ``obj``, ``inf_pr``, ``inf_du``, ``mu`` (not in the JSON summary;
     #: written to ``ipopt_history.json`` by :meth:`design.result.DesignResult.history`)
     history: dict | None = None
+    #: multi-model: (variant, speed) damping constraints the round's NLP carried, and the
+    #: pairs it adds (design.variants; 0 without variants)
+    n_variant_constraints: int = 0
+    new_variant_constraints: int = 0
 
     @strict_json
     def to_dict(self) -> dict:
@@ -172,7 +176,9 @@ class CutRound:
                "gamma_T_frobenius": self.gamma_T_frobenius, "dense_T_peak": self.dense_t_peak,
                "n_robust_points": self.n_robust_points, "n_gain_points": self.n_gain_points,
                "new_cuts": {"speeds": self.new_speeds, "gain": self.new_gain_cuts,
-                            "robust": self.new_robust_cuts},
+                            "robust": self.new_robust_cuts,
+                            "variant_constraints": self.new_variant_constraints},
+               "n_variant_constraints": self.n_variant_constraints,
                "eig_time_per_speed_s": self.eig_time_per_speed_s, "chosen": self.chosen}
         if self.placement is not None:
             out["placement"] = self.placement

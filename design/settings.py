@@ -119,6 +119,7 @@ class DesignSettings:
     fresh_variant_modes: int = 30
     variant_seed: int = 7
     variant_fixed: tuple = ("deck.half_chord_m", "aero.coherence_decay")
+    variant_speeds: str = "lazy"
     pareto_step: int = 2
     objective: str = "margin"
     margin_min: float = 0.25
@@ -194,6 +195,10 @@ class DesignSettings:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < 0:
                 raise BridgeflapInputError(name, f"must be an integer >= 0, got {v!r}")
+        if self.variant_speeds not in ("lazy", "all"):
+            raise BridgeflapInputError("variant_speeds", "must be 'lazy' (constraint generation "
+                                       "over variant and speed, design.variants) or 'all', "
+                                       f"got {self.variant_speeds!r}")
         if self.buffeting_term not in ("modal", "callback", "casadi"):
             raise BridgeflapInputError("buffeting_term", "must be 'modal' (CasADi spectral "
                                        "integral in modal coordinates), 'casadi' (on the state "
