@@ -137,7 +137,8 @@ def run_full(definition=None, quick=False) -> dict:
         starts.append({"start": st.start, "status": st.ipopt_status,
                        "ipopt_iterations": st.iterations,
                        "rounds": [{"placement": r.placement, "round": r.round,
-                                   "iterations": r.iterations, "time_s": round(r.time_s, 2)}
+                                   "iterations": r.iterations, "time_s": round(r.time_s, 2),
+                                   "variant_constraints": r.n_variant_constraints}
                                   for r in st.rounds],
                        "start_time_s": round(st.time_s, 2), "ipopt_time_s": round(ipopt_s, 2),
                        "ipopt_share_of_start": round(ipopt_s / st.time_s, 3)
@@ -196,6 +197,8 @@ def main(argv=None) -> int:
                       f"iterations, Ipopt {st['ipopt_time_s']} s of {st['start_time_s']} s; "
                       "rounds " + ", ".join(f"{r['placement'] or r['round']}: "
                                             f"{r['iterations']} it {r['time_s']} s"
+                                            + (f" ({r['variant_constraints']} variant pairs)"
+                                               if r["variant_constraints"] else "")
                                             for r in st["rounds"]))
         return 0
     rows = run()

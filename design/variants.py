@@ -3,24 +3,29 @@
 A multi-model design (``variants > 0``) asks the damping constraint of every movable branch at
 every design speed on every variant as well as on the nominal bridge. Written out in full
 (``variant_speeds = "all"``) that is ``(1 + variants)`` eigen-decompositions with vectors per
-design speed and Ipopt iteration: 9x the nominal eigenvalue work for 8 variants (the full card
-``design/studies/humber_flaps_multimodel.toml`` took 5.5 min). Most of those constraints are
+design speed and Ipopt iteration: 9x the nominal eigenvalue work for 8 variants (the card
+``design/studies/humber_flaps_multimodel.toml`` took 144 s so, 87.6 s lazy). Most of them are
 slack: the variants are perturbations of one bridge, and where the nominal constraint is
 satisfied with room so are theirs. ``variant_speeds = "lazy"`` (default) keeps, per variant,
 only the speeds at which its constraint can bind (constraint generation, the same cutting-plane
 idea as the nominal bridge's dense-check cuts of :mod:`design.cuts`):
 
-* **seed** (before the first solve, :func:`seed`): the design speeds at which a variant is
-  near its bound (below) or over it at the start;
+* **seed** (before the first solve, :func:`seed`): at each design speed the variant whose
+  damping measure at the start is the largest, when it exceeds the nominal one (an envelope:
+  there the nominal constraint does not cover it). Measured on the multi-model card (one run
+  each, deterministic): this seed 87.6 s; the near-active pairs (below) as the seed instead
+  190 s (one start's first rounded solve wandered into the left-out constraints: 80 + 146
+  iterations at ~0.7 s, line-search trials evaluating every speed); both 107 s;
 * **cuts** (after every round, :func:`round_checks`): every variant is checked on the check
   grid (the refined subset of :func:`design.plant.damping_check_refined`, which keeps the dense
   check's decisions); the worst speed of each run of violations joins that variant's set, and
   so does every design speed at which the variant is near its bound (:data:`NEAR_ACTIVE_REL`;
   the next round would otherwise be free to push it over).
 
-The loop of :mod:`design.cuts` ends only when every variant passes its check, so a lazy design
-is held to the same a posteriori standard as a full one: the constraints left out are verified
-satisfied, not assumed. The sets only grow, so the loop cannot cycle.
+A round of :mod:`design.cuts` counts as feasible, and a start as verified, only when every
+variant passes its check, so a lazy design is held to the same a posteriori standard as a full
+one: the constraints left out are verified satisfied, not assumed. The sets only grow, so the
+loop cannot cycle.
 """
 
 from __future__ import annotations
@@ -62,19 +67,21 @@ def _add(variant, speeds) -> int:
 
 def seed(prob, theta, w, speeds, nominal) -> float:
     """The largest damping measure of the variants at ``theta`` on the design ``speeds``
-    [1/s] (``nominal``: the nominal bridge's per speed, unused but for symmetry with the
-    rounds); when lazy, the pairs near their bound or violated there join the sets."""
+    [1/s]; when lazy, each speed's worst variant joins its set where it exceeds the nominal
+    measures ``nominal`` (per speed)."""
     if not prob.variants:
         return -np.inf
     U = np.asarray(speeds, float)
-    worst = -np.inf
     z = prob.settings.zeta_min
-    for v in prob.variants:
-        chk = damping_check(v.A_parts(theta, w), U, lag_rates(v.model), theta, z)
-        worst = max(worst, float(chk["measure_1_s"].max()))
-        if lazy(prob):
-            _add(v, U[_near(chk, z)])
-    return worst
+    chks = [damping_check(v.A_parts(theta, w), U, lag_rates(v.model), theta, z)
+            for v in prob.variants]
+    vals = np.array([c["measure_1_s"] for c in chks])
+    if lazy(prob):
+        worst = np.argmax(vals, axis=0)
+        for j, u in enumerate(U):
+            if vals[worst[j], j] > nominal[j]:
+                _add(prob.variants[worst[j]], [u])
+    return float(vals.max())
 
 
 def round_checks(prob, theta, w, speeds, tol, worst_per_run) -> tuple[list, int]:
