@@ -712,3 +712,22 @@ def test_lazy_variant_constraints_meet_every_variant(small_box):
     res_all, n_all, _ = out["all"]
     assert n_all == 3 * len(res_all.design_speeds_m_s)
     assert 0 < n_lazy < n_all
+
+
+def test_design_cards_load_and_the_multimodel_card_is_the_default_plus_variants():
+    # every packaged card validates (a card broken by a renamed setting fails here, not in a
+    # user's run), and the multi-model card's header claim holds: the default design with
+    # the variants switched on, nothing else changed
+    from dataclasses import asdict
+    from pathlib import Path
+
+    cards = [c for c in sorted((Path(__file__).resolve().parents[1] / "design"
+                                / "studies").glob("*.toml"))
+             if c.read_text(encoding="utf-8").startswith("# bridgeflap optimise")]
+    assert len(cards) >= 4
+    loaded = {c.name: load_settings(c) for c in cards}
+    default = asdict(loaded["humber_flaps.toml"])
+    multi = asdict(loaded["humber_flaps_multimodel.toml"])
+    diff = {k for k in default if default[k] != multi[k]}
+    assert diff == {"variants", "fresh_variants"}
+    assert multi["variants"] >= 8 and multi["variant_speeds"] == "lazy"
