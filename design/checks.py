@@ -209,6 +209,12 @@ def fresh_variant_check(settings: DesignSettings, controller: Controller, specs)
     On the refined subset of the check grid (:func:`design.plant.damping_check_refined`: the
     dense check's decisions at ~1/5 of its eigenvalues; ``min_damping_ratio`` is the smallest
     over the speeds checked)."""
+    return fresh_variant_summary(settings, fresh_variant_rows(settings, controller, specs))
+
+
+def fresh_variant_rows(settings: DesignSettings, controller: Controller, specs) -> list:
+    """The per-variant rows of :func:`fresh_variant_check` (a chunk of them can run in a
+    worker process: :func:`design.driver.design` splits them over its pool)."""
     rows = []
     th = _driver().warm_start_theta(controller)
     for v in specs:
@@ -218,6 +224,11 @@ def fresh_variant_check(settings: DesignSettings, controller: Controller, specs)
         rows.append({"stable_everywhere": ver.stable_everywhere,
                      "stable_to_m_s": ver.stable_to_m_s, "meets_damping": ver.meets_damping,
                      "min_damping_ratio": ver.min_damping_ratio})
+    return rows
+
+
+def fresh_variant_summary(settings: DesignSettings, rows) -> dict:
+    """:func:`fresh_variant_check`'s result from its rows."""
     n = max(len(rows), 1)
     return {"count": len(rows), "modes": settings.fresh_variant_modes,
             "fraction_stable": sum(r["stable_everywhere"] for r in rows) / n,

@@ -46,6 +46,8 @@ from design.checks import (  # noqa: F401 - re-exported (tests, API)
     closed_loop_limits,
     flap_count_pareto,
     fresh_variant_check,
+    fresh_variant_rows,
+    fresh_variant_summary,
     nlp_active_speeds,
     sample_variants,
 )
@@ -504,9 +506,10 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
                                 settings.flap_width_m, settings.leading_edge,
                                 settings.trailing_edge, settings.gain_limit)
         ok = status in ("converged", "unverified")
-        # issue 16 goal 3: the closed-loop limits and the buffeting comparison run in two
-        # worker processes while this one checks the chosen design; the flap counts follow
-        # them in the same workers (phase times: each task's own time, marked "worker")
+        # issue 16 goal 3: the closed-loop limits, the buffeting comparison and the fresh
+        # variants (two halves) run in two worker processes while this one checks the chosen
+        # design; the flap counts follow them in the same workers (phase times: each task's
+        # own time, marked "worker")
         pool = None
         if settings.parallel:
             from concurrent.futures import ProcessPoolExecutor
@@ -516,6 +519,13 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
             lim_job = _job(pool, closed_loop_limits, settings, controller, spec=spec)
             buf_job = _job(pool, buffeting_comparison, settings, controller, spec=spec) if ok \
                 else None
+            fresh_jobs = []         # the fresh variants in two halves, in the workers too
+            if ok and settings.fresh_variants > 0:
+                fresh = sample_variants(settings, base, settings.fresh_variants,
+                                        settings.variant_seed + 1000)
+                h = (len(fresh) + 1) // 2
+                fresh_jobs = [_job(pool, fresh_variant_rows, settings, controller, part)
+                              for part in (fresh[:h], fresh[h:]) if part]
             _, model = build_model(settings, n_modes=settings.verification_modes,
                                    positions=positions, spec=spec)
             ver_best = best.verification      # run_start's check on this model: not recomputed
@@ -552,14 +562,14 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
                 lim = {"status": f"failed: {exc}"}
             extras["closed_loop_limits"] = lim
             mark("closed-loop limits" + (" (wait)" if pool else ""))
-            if ok and settings.fresh_variants > 0:
-                fresh = sample_variants(settings, base, settings.fresh_variants,
-                                        settings.variant_seed + 1000)
-                extras["fresh_variants"] = fresh_variant_check(settings, controller, fresh)
+            if fresh_jobs:
+                rows = [r for k, j in enumerate(fresh_jobs)
+                        for r in _done(j, phases, f"fresh-variant check {k}")]
+                extras["fresh_variants"] = fresh_variant_summary(settings, rows)
                 extras["fresh_variants"]["design_variants"] = len(variants)
                 log(f"fresh variants: {extras['fresh_variants']['fraction_stable']:.2f} "
                     f"stable 0..{settings.speed_max_m_s} m/s")
-                mark("fresh-variant check")
+                mark("fresh-variant check" + (" (wait)" if pool else ""))
             if ok and settings.pareto:
                 extras["pareto"] = flap_count_pareto(settings, theta, spec=spec, log=log)
                 mark("flap-count Pareto (K re-optimised)")

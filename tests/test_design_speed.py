@@ -312,3 +312,25 @@ def test_refined_check_takes_the_dense_checks_decisions(small_box_fresh, theta):
     assert fast.max_violation_1_s == dense.max_violation_1_s
     assert (fast.meets_damping, fast.stable_everywhere, fast.stable_to_m_s) == \
         (dense.meets_damping, dense.stable_everywhere, dense.stable_to_m_s)
+
+
+def test_multi_model_design_in_two_processes_reports_every_variant(small_box_fresh):
+    # design() with variants and fresh variants, parallel: the fresh variants checked in two
+    # halves in the worker pool give the serial check's rows (the same computation per
+    # variant, in order), and the design variants' checks are reported one per variant
+    from dataclasses import replace
+
+    from design.driver import design, fresh_variant_check, sample_variants
+    from model.spec import load_bridge
+
+    s = replace(small_box_fresh, starts=1, parallel=True, variants=2, fresh_variants=3,
+                design_step_m_s=10.0, cutting_plane_rounds=1, max_iter=30,
+                resolve_max_iter=30, weight_buffeting=0.0, min_flap_counts=(5,))
+    res = design(s, progress_bar=False)
+    assert res.best is not None and len(res.best.variant_checks) == 2
+    fv = res.extras["fresh_variants"]
+    assert fv["count"] == 3 and fv["design_variants"] == 2
+    fresh = sample_variants(s, load_bridge(s.bridge), 3, s.variant_seed + 1000)
+    ser = fresh_variant_check(s, res.candidate, fresh)
+    assert fv["variants"] == ser["variants"]
+    assert fv["fraction_stable"] == ser["fraction_stable"]
