@@ -4,7 +4,7 @@ A multi-model design (``variants > 0``) asks the damping constraint of every mov
 every design speed on every variant as well as on the nominal bridge. Written out in full
 (``variant_speeds = "all"``) that is ``(1 + variants)`` eigen-decompositions with vectors per
 design speed and Ipopt iteration: 9x the nominal eigenvalue work for 8 variants (the card
-``design/studies/humber_flaps_multimodel.toml`` took 144 s so, 87.6 s lazy). Most of them are
+``design/studies/humber_flaps_multimodel.toml`` took 144 s so, 88 s lazy). Most of them are
 slack: the variants are perturbations of one bridge, and where the nominal constraint is
 satisfied with room so are theirs. ``variant_speeds = "lazy"`` (default) keeps, per variant,
 only the speeds at which its constraint can bind (constraint generation, the same cutting-plane
@@ -13,7 +13,7 @@ idea as the nominal bridge's dense-check cuts of :mod:`design.cuts`):
 * **seed** (before the first solve, :func:`seed`): at each design speed the variant whose
   damping measure at the start is the largest, when it exceeds the nominal one (an envelope:
   there the nominal constraint does not cover it). Measured on the multi-model card (one run
-  each, deterministic): this seed 87.6 s; the near-active pairs (below) as the seed instead
+  each, deterministic): this seed 88 s; the near-active pairs (below) as the seed instead
   190 s (one start's first rounded solve wandered into the left-out constraints: 80 + 146
   iterations at ~0.7 s, line-search trials evaluating every speed); both 107 s;
 * **cuts** (after every round, :func:`round_checks`): every variant is checked on the check
