@@ -31,7 +31,9 @@ def cmd_optimise(args):
         settings = quick_settings(settings)
     out = Path(args.out)
     parent = out.resolve().parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK):
+    if not parent.is_dir():
+        raise BridgeflapInputError("out", f"parent folder does not exist: {parent}")
+    if not os.access(parent, os.W_OK):
         raise BridgeflapInputError("out", f"folder not writable: {parent}")
     if out.exists() and not out.is_dir():
         raise BridgeflapInputError("out", f"is a file, not a folder: {out}")

@@ -283,6 +283,8 @@ CASES = [
     ("optimise-out-file", ["optimise", "--out", "{d}/prev.npz"], "out"),
     # the folder's parent is a file: found only after a 3-minute design before the fix
     ("optimise-out-under-file", ["optimise", "--out", "{d}/prev.npz/sub"], "out"),
+    # the folder's parent does not exist (was reported as "not writable")
+    ("optimise-out-no-parent", ["optimise", "--out", "{d}/no_such_parent/opt"], "out"),
     # ---- study
     ("study-missing", ["study", "{d}/nosuch.toml", "--out", "{d}/prev_study"], "study"),
     ("study-dir", ["study", "{d}/adir.toml", "--out", "{d}/prev_study"], "study"),
