@@ -176,6 +176,7 @@ class DesignProblem:
         self.on_iteration = None
         #: Multi-model: bridge-variant problems (same layout, settings; design.variants)
         self.variants: list[DesignProblem] = []
+        self.lazy_speeds: list[float] = []   # a variant's own damping speeds (ditto)
 
     @property
     def functions(self) -> dict:

@@ -46,20 +46,21 @@ NEAR_ACTIVE_1_S = 1e-4
 
 
 def lazy(prob) -> bool:
-    """Whether ``prob``'s variants carry their own (lazy) speed sets."""
+    """Whether ``prob``'s variants (or ``prob``, a variant) carry their own (lazy) speed
+    sets (:attr:`design.nlp.DesignProblem.lazy_speeds`)."""
     return prob.settings.variant_speeds == "lazy"
 
 
 def speeds_of(variant, speeds) -> np.ndarray:
     """The design speeds [m/s] whose damping constraints ``variant`` (a variant problem)
     carries in the NLP: its own set when lazy, else every design speed ``speeds``."""
-    if variant.settings.variant_speeds != "lazy":
+    if not lazy(variant):
         return np.asarray(speeds, float)
-    return np.array(sorted(getattr(variant, "lazy_speeds", ())), float)
+    return np.array(variant.lazy_speeds, float)
 
 
 def _add(variant, speeds) -> int:
-    have = set(getattr(variant, "lazy_speeds", ()))
+    have = set(variant.lazy_speeds)
     new = [float(u) for u in speeds if float(u) not in have]
     variant.lazy_speeds = sorted(have | set(new))
     return len(new)
@@ -72,10 +73,7 @@ def seed(prob, theta, w, speeds, nominal) -> float:
     if not prob.variants:
         return -np.inf
     U = np.asarray(speeds, float)
-    z = prob.settings.zeta_min
-    chks = [damping_check(v.A_parts(theta, w), U, lag_rates(v.model), theta, z)
-            for v in prob.variants]
-    vals = np.array([c["measure_1_s"] for c in chks])
+    vals = np.array([v.constraint_values(theta, U, w) for v in prob.variants])
     if lazy(prob):
         worst = np.argmax(vals, axis=0)
         for j, u in enumerate(U):
@@ -88,9 +86,10 @@ def round_checks(prob, theta, w, speeds, tol, worst_per_run) -> tuple[list, int]
     """Check every variant after a round: ``(verifications, new constraints)``.
 
     Verifications on the refined check grid; when lazy, the worst speed of each run of
-    violations above ``tol`` and every design speed within :data:`NEAR_ACTIVE_1_S` of the bound
-    join the variant's set (``new constraints`` counts the (variant, speed) pairs added). When
-    not lazy the violating check speeds are returned through the nominal loop instead (0)."""
+    violations above ``tol`` and every design speed where the variant is near its bound
+    (:data:`NEAR_ACTIVE_REL`, :data:`NEAR_ACTIVE_1_S`) join the variant's set (``new
+    constraints`` counts the (variant, speed) pairs added). When not lazy the violating check
+    speeds are returned through the nominal loop instead (0)."""
     vers = [v.verify(theta, w, refined=True) for v in prob.variants]
     if not lazy(prob):
         return vers, 0

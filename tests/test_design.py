@@ -708,7 +708,7 @@ def test_lazy_variant_constraints_meet_every_variant(small_box):
         # the refined subset keeps the dense maximum (design.plant.damping_check_refined)
         assert q.verify(res.solve.theta, refined=True).max_violation_1_s == pytest.approx(
             dense.max_violation_1_s, rel=1e-12, abs=1e-15)
-    assert n_lazy <= sum(len(v.lazy_speeds) for v in prob.variants if hasattr(v, "lazy_speeds"))
+    assert n_lazy <= sum(len(v.lazy_speeds) for v in prob.variants)
     res_all, n_all, _ = out["all"]
     assert n_all == 3 * len(res_all.design_speeds_m_s)
     assert 0 < n_lazy < n_all
