@@ -42,8 +42,9 @@ def cmd_optimise(args):
     load_bridge(settings.bridge)  # bad bridge input stops here, before the design runs
     from design.outputs import check_replaceable, claim_output
 
-    out = check_replaceable(out)  # a foreign non-empty folder is refused (design.outputs)
-    with claim_output(out):  # one run at a time; crashed runs' leftovers recovered
+    # a foreign non-empty folder, or another command's output, is refused (design.outputs)
+    out = check_replaceable(out, "out", "optimise")
+    with claim_output(out, "out", kind="optimise"):  # one run at a time; crashes recovered
         return _design_and_write(args, settings, out)
 
 

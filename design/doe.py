@@ -57,7 +57,6 @@ from design.outputs import (
     check_replaceable,
     claim_output,
     is_marked_output,
-    read_marker,
     remove_stale_file_temporaries,
     write_marker,
 )
@@ -413,8 +412,7 @@ def run_batch(
     if fingerprint is None:
         fingerprint = f"{function_fingerprint(fn)}|bridgeflap {_package_version()}"
     digests = {case_id: case_hash(params, fingerprint) for case_id, params in normalised}
-    target = check_replaceable(out_dir, "out")
-    _check_kind(target, kind)
+    target = check_replaceable(out_dir, "out", kind)  # typed: another kind's folder refused
 
     with contextlib.ExitStack() as stack:
         # a remote scheduler is reached before anything is written (a dead address fails in
@@ -422,7 +420,7 @@ def run_batch(
         client = None
         if scheduler not in (None, "serial"):
             client = stack.enter_context(cluster_client(workers, scheduler))
-        out = stack.enter_context(claim_output(target, "out"))
+        out = stack.enter_context(claim_output(target, "out", kind=kind))
         records: dict[str, dict] = {}
         pending: list[tuple[str, dict]] = []
         stale = []
@@ -522,15 +520,6 @@ def run_batch(
         reused=reused,
         stale=len(stale),
     )
-
-
-def _check_kind(target: Path, kind: str) -> None:
-    """A batch writes into its folder in place: refuse a folder holding another kind of
-    bridgeflap output (a study), whose files would be mixed with the batch's."""
-    tag = read_marker(target)
-    if tag is not None and tag.get("kind") != kind:
-        raise BridgeflapInputError("out", f"{target} holds a bridgeflap {tag.get('kind')} "
-                                          f"output, not a {kind}; choose another --out")
 
 
 def _package_version() -> str:

@@ -107,8 +107,13 @@ def is_marked_output(folder: str | os.PathLike) -> bool:
     return read_marker(folder) is not None
 
 
-def check_replaceable(target: str | os.PathLike, field: str = "out") -> Path:
+def check_replaceable(target: str | os.PathLike, field: str = "out",
+                      kind: str | None = None) -> Path:
     """Refuse an existing non-empty folder that bridgeflap did not write; write nothing.
+
+    Output folders are typed: with ``kind`` given, a folder whose marker names another kind
+    (a DOE folder for a study, a study for ``optimise``) is refused too, untouched, with both
+    kinds named, so one command's output is never replaced by another's.
 
     Parameters
     ----------
@@ -116,6 +121,9 @@ def check_replaceable(target: str | os.PathLike, field: str = "out") -> Path:
         The output folder a run is about to replace or write into.
     field : str, optional
         Field named in the error (the CLI option).
+    kind : str, optional
+        The kind of output about to be written (``"study"``, ``"optimise"``, ``"doe"``, ...);
+        ``None`` skips the kind check.
 
     Returns
     -------
@@ -125,8 +133,8 @@ def check_replaceable(target: str | os.PathLike, field: str = "out") -> Path:
     Raises
     ------
     BridgeflapInputError
-        ``target`` is a file, cannot be listed, or is a non-empty folder without a valid
-        :data:`OUTPUT_MARKER`.
+        ``target`` is a file, cannot be listed, is a non-empty folder without a valid
+        :data:`OUTPUT_MARKER`, or holds another kind of bridgeflap output.
     """
     folder = Path(target).expanduser().absolute()
     if not folder.exists() and not folder.is_symlink():
@@ -143,6 +151,13 @@ def check_replaceable(target: str | os.PathLike, field: str = "out") -> Path:
             field, f"{folder} is a non-empty folder not written by bridgeflap (no "
                    f"{OUTPUT_MARKER} marker); refusing to replace it (choose another --out, "
                    "or empty it)")
+    if kind is not None and not empty:
+        tag = read_marker(folder)
+        other = tag.get("kind") if tag is not None else None
+        if other != kind:
+            raise BridgeflapInputError(
+                field, f"{folder} holds a bridgeflap {other} output, not a {kind} output; "
+                       f"refusing to replace it (choose another --{field.replace('_', '-')})")
     return folder
 
 
@@ -269,7 +284,7 @@ def _stderr(text: str) -> None:
 
 @contextlib.contextmanager
 def claim_output(target: str | os.PathLike, field: str = "out",
-                 say: Callable[[str], None] | None = None):
+                 say: Callable[[str], None] | None = None, kind: str | None = None):
     """Hold the run lock of output folder ``target`` meanwhile; refuse a foreign folder.
 
     In order: :func:`check_replaceable` (nothing written on refusal), create the parent
@@ -290,7 +305,7 @@ def claim_output(target: str | os.PathLike, field: str = "out",
     """
     from filelock import FileLock, Timeout
 
-    folder = check_replaceable(target, field)
+    folder = check_replaceable(target, field, kind)
     lock_file = lock_path(folder)
     key = (str(lock_file), threading.get_ident())  # re-entrant per thread, not per process
     if key in _HELD:
@@ -313,7 +328,7 @@ def claim_output(target: str | os.PathLike, field: str = "out",
     _HELD[key] = [lock, 1]
     try:
         recover_output(folder, say)
-        check_replaceable(folder, field)
+        check_replaceable(folder, field, kind)
         yield folder
     finally:
         del _HELD[key]

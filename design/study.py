@@ -330,8 +330,8 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
     say = progress or (lambda msg: None)
     validate_study(config)
     spec = config.spec()
-    target = check_replaceable(output_folder(out, config.name), "out")
-    with claim_output(target, "out", say=progress):  # recovery notes: progress or stderr
+    target = check_replaceable(output_folder(out, config.name), "out", "study")  # typed folder
+    with claim_output(target, "out", say=progress, kind="study"):  # notes: progress/stderr
         tmp = temporary_sibling(target)
         start = time.perf_counter()
         try:
