@@ -50,7 +50,7 @@ from model.pk import (  # noqa: F401 - the p-k check is part of this module's pu
     pk_sweep,
 )
 from model.results import ResultData, sweep_dataset, sweep_frame
-from model.statespace import AeroelasticSystem, divergence_speed_static
+from model.statespace import AeroelasticSystem, divergence_mechanism, divergence_speed_static
 from model.tracking import (  # noqa: F401 - statuses and helpers are re-exported
     BRACKET_FAILED,
     CONVERGED,
@@ -183,6 +183,7 @@ class StabilitySweep(ResultData):
                                                  else float("nan")),
             "divergence_branch_label": self.divergence.label,
             "divergence_branch_label_source": self.divergence.label_source,
+            "divergence_mechanism": self.divergence.mechanism,
             "divergence_static_speed_m_s": (self.divergence_static_speed
                                             if static_st == CONVERGED else float("nan")),
             "divergence_static_status": static_st,
@@ -334,16 +335,28 @@ def _name_flutter(system, flutter, labels, vector):
 
 
 def _name_divergence(system, divergence, labels, vector):
-    """Divergence crossing named, ``vector()`` its (real) eigenvector."""
+    """Divergence crossing named by its mechanism, ``vector()`` its (real) eigenvector.
+
+    The label is the coordinate whose deflection does the largest share of the static
+    aerodynamic work (:func:`divergence_mechanism`), not the largest strain-energy share: on a
+    deck the twist's lift bends the deck, so the heave mode VS1 carries most of the strain
+    energy of a torsional divergence (80 % on the built-in Humber) though it makes no static
+    load. A branch tracked from U = 0 keeps its index; the tracked name (the mode the real
+    eigenvalue's branch started from) is used only when the work cannot be split.
+    """
     if divergence.status != CONVERGED:
         return divergence
     n = system.basis.n
-    if divergence.branch >= 0:
-        return replace(divergence, branch=divergence.branch % n,
-                       label=labels[divergence.branch % n], label_source="tracking")
-    # the real eigenvalue continued to the grid speeds passes the point where its
-    # complex pair split, and the tracking may have kept its partner: name it by its
-    # strain-energy participation (a static mode has no kinetic energy), K_jj |q_j|^2
+    try:
+        mechanism, source = divergence_mechanism(system, vector())
+    except (AttributeError, TypeError, ValueError, np.linalg.LinAlgError):
+        mechanism, source = "", ""  # a system without the static pieces: left unnamed
+    branch = divergence.branch % n if divergence.branch >= 0 else -1
+    if source:  # the dense and the fast sweep name it alike, tracked or not
+        return replace(divergence, branch=branch, label=source, label_source="static_aero_work",
+                       mechanism=mechanism)
+    if branch >= 0:
+        return replace(divergence, branch=branch, label=labels[branch], label_source="tracking")
     vq = _shares(system, vector(), "strain")
     return replace(divergence, label=system.basis.labels[int(np.argmax(vq))],
                    label_source="participation")

@@ -193,6 +193,20 @@ def divergence_speed_static(system: AeroelasticSystem) -> float:
     Returns NaN when no positive real root exists.
     """
     K = system.basis.K
+    mu = np.linalg.eigvals(np.linalg.solve(K, static_aero_stiffness(system)))
+    real = mu[(np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()) & (mu.real > 0)].real
+    if real.size == 0:
+        return float("nan")
+    return float(1.0 / np.sqrt(real.max()))
+
+
+def static_aero_stiffness(system: AeroelasticSystem) -> np.ndarray:
+    """Modal static aerodynamic stiffness per ``U^2``, ``Q`` of ``K q = U^2 Q q`` (C(0) = 1).
+
+    Column ``j`` is the static load that coordinate ``j``'s deflection generates: for strip
+    loads only twist does (a deck's heave makes no static lift), for derivative tables
+    ``H4*``/``A4*`` give heave columns too (:func:`divergence_mechanism`).
+    """
     n = system.basis.n
     if system.pieces is None:
         Q = system.aero.P @ system.aero.G0
@@ -204,8 +218,40 @@ def divergence_speed_static(system: AeroelasticSystem) -> float:
             k0 = float(Dc - (Cc @ np.linalg.solve(Ac, Bc))[0, 0])
             PF, (_, q0) = op.W_beta
             Q = Q + k0 * (op.H[2] + q0 * PF) @ op.phi_a_flaps
-    mu = np.linalg.eigvals(np.linalg.solve(K, Q))
-    real = mu[(np.abs(mu.imag) <= 1e-9 * np.abs(mu).max()) & (mu.real > 0)].real
-    if real.size == 0:
-        return float("nan")
-    return float(1.0 / np.sqrt(real.max()))
+    return Q
+
+
+def coordinate_families(system) -> list[str]:
+    """``"torsional"``, ``"vertical"`` or ``"lateral"`` for each structural coordinate: by
+    the larger of its twist (``b phi_a``) and heave (``phi_h``) content over the strips."""
+    basis = system.basis
+    b = float(system.aero.half_chord)
+    w = np.asarray(basis.strip_length, dtype=float)[:, None]
+    n = basis.n
+    tw = (w * (b * np.asarray(basis.phi_a)) ** 2).sum(0) if basis.phi_a is not None \
+        else np.zeros(n)
+    hv = (w * np.asarray(basis.phi_h) ** 2).sum(0) if basis.phi_h is not None else np.zeros(n)
+    return ["lateral" if max(t, h) == 0 else "torsional" if t >= h else "vertical"
+            for t, h in zip(tw, hv, strict=True)]
+
+
+def divergence_mechanism(system, vec) -> tuple[str, str]:
+    """Mechanism and source coordinate of a divergence with state eigenvector ``vec``.
+
+    With ``K q = U^2 Q q`` (:func:`model.statespace.static_aero_stiffness`), the static
+    aerodynamic work ``q^T Q q`` splits over the coordinates whose deflection generates the
+    load, ``w_j = (q^T Q)_j q_j``. The mechanism is the family (:func:`coordinate_families`)
+    with the largest share, the source its largest coordinate. Returns ``("", "")`` when the
+    work is not positive (no divergence-like eigenvector).
+    """
+    q = np.real(np.asarray(vec)[system.index.q])
+    q = q / (np.abs(q).max() or 1.0)
+    Q = np.real(static_aero_stiffness(system))
+    w = (q @ Q) * q
+    if not np.sum(w) > 0:
+        return "", ""
+    fam = coordinate_families(system)
+    share = {f: float(sum(x for x, g in zip(w, fam, strict=True) if g == f)) for f in set(fam)}
+    mech = max(share, key=share.get)
+    j = max((i for i, g in enumerate(fam) if g == mech), key=lambda i: w[i])
+    return mech, system.basis.labels[j]

@@ -80,7 +80,11 @@ class Crossing:
     verification bracket; ``branch`` the tracked structural branch (-1 when the crossing
     eigenvalue is none of them) and ``label`` its name, from ``label_source`` (``"tracking"``
     from U = 0, or ``"participation"``: the largest kinetic-energy share of the crossing
-    eigenvector); ``reason`` says why a crossing is not ``converged``.
+    eigenvector; for divergence ``"static_aero_work"``: the coordinate whose deflection does the
+    largest share of the static aerodynamic work, :func:`model.stability.divergence_mechanism`);
+    ``reason`` says why a crossing is not ``converged``; ``mechanism`` names a divergence by
+    the family of the coordinates that generate its static aerodynamic load (``"torsional"``
+    for strip loads, where only twist makes static lift and moment).
     """
 
     speed: float
@@ -92,6 +96,7 @@ class Crossing:
     label: str = ""
     reason: str = ""
     label_source: str = ""
+    mechanism: str = ""
 
     def damping_slope_s_per_m(self) -> float:
         """``d zeta / dU`` [s/m] at the crossing: ``-(d Re lambda/dU) / |lambda|`` (Re = 0)."""
