@@ -303,8 +303,6 @@ def claim_output(target: str | os.PathLike, field: str = "out",
     BridgeflapInputError
         Foreign non-empty folder, unwritable parent, or another run holds the lock.
     """
-    from filelock import FileLock, Timeout
-
     folder = check_replaceable(target, field, kind)
     lock_file = lock_path(folder)
     key = (str(lock_file), threading.get_ident())  # re-entrant per thread, not per process
@@ -316,15 +314,15 @@ def claim_output(target: str | os.PathLike, field: str = "out",
             _HELD[key][1] -= 1
         return
     ensure_writable_dir(folder.parent, field)
-    lock = FileLock(lock_file, timeout=0)
+    lock = _RunLock(lock_file)
     try:
-        lock.acquire(timeout=0, blocking=False)
-    except Timeout:
-        raise BridgeflapInputError(
-            field, f"another bridgeflap run is writing {folder} (lock {lock_file.name} held); "
-                   "wait for it or choose another --out") from None
+        held = lock.acquire()
     except OSError as exc:
         raise BridgeflapInputError(field, f"cannot lock {lock_file}: {exc.strerror}") from None
+    if not held:
+        raise BridgeflapInputError(
+            field, f"another bridgeflap run is writing {folder} (lock {lock_file.name} held); "
+                   "wait for it or choose another --out")
     _HELD[key] = [lock, 1]
     try:
         recover_output(folder, say)
@@ -333,6 +331,65 @@ def claim_output(target: str | os.PathLike, field: str = "out",
     finally:
         del _HELD[key]
         lock.release()
+
+
+class _RunLock:
+    """An exclusive, non-waiting lock file that is removed when released.
+
+    ``flock`` on a file opened afresh (so another thread of this process is refused too), then
+    a check that the path still names the locked file: a run that opened the file just before
+    its holder removed it holds a lock on a deleted file and is refused like a held lock. The
+    file is removed while still locked, so no lock file is left behind a finished or refused
+    run (issue 29 item 5). Without ``fcntl`` (not POSIX), :mod:`filelock` is used and its
+    file stays.
+    """
+
+    def __init__(self, path: Path):
+        self.path = path
+        self._fd: int | None = None
+        self._fallback = None
+
+    def acquire(self) -> bool:
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - not POSIX
+            from filelock import FileLock, Timeout
+
+            self._fallback = FileLock(self.path, timeout=0)
+            try:
+                self._fallback.acquire(timeout=0, blocking=False)
+            except Timeout:
+                return False
+            return True
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            return False
+        except OSError:
+            os.close(fd)
+            raise
+        try:
+            same = os.stat(self.path).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if not same:  # its holder removed it between our open and flock: it was held
+            os.close(fd)
+            return False
+        self._fd = fd
+        return True
+
+    def release(self) -> None:
+        if self._fallback is not None:  # pragma: no cover - not POSIX
+            self._fallback.release()
+            return
+        if self._fd is None:
+            return
+        with contextlib.suppress(OSError):
+            os.unlink(self.path)  # still locked: nobody can take the name in between
+        os.close(self._fd)
+        self._fd = None
 
 
 def _fault(point: str) -> None:

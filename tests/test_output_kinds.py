@@ -84,3 +84,31 @@ def test_cli_refuses_another_commands_folder(tmp_path, capsys, command, kind):
     assert _snapshot(out) == before
     assert not any(p.name.startswith(".") and p.name.endswith(".lock")
                    for p in tmp_path.iterdir()), "a lock file was left behind"
+
+
+def test_run_lock_is_exclusive_and_leaves_no_file(tmp_path):
+    """The run lock refuses a second claim (another thread too) and is removed on release."""
+    import threading
+
+    out = tmp_path / "out"
+    refused = []
+    with claim_output(out, "out", kind="study"):
+        assert (tmp_path / ".out.lock").is_file()
+
+        def other():
+            try:
+                with claim_output(out, "out", kind="study"):
+                    pass  # pragma: no cover - refused
+            except BridgeflapInputError as exc:
+                refused.append(str(exc))
+
+        t = threading.Thread(target=other)
+        t.start()
+        t.join()
+    assert refused and "lock .out.lock held" in refused[0]
+    assert not (tmp_path / ".out.lock").exists()
+    # a stale lock file (a killed run's: the kernel dropped its lock) is taken over and removed
+    (tmp_path / ".out.lock").write_text("")
+    with claim_output(out, "out", kind="study"):
+        pass
+    assert not (tmp_path / ".out.lock").exists()

@@ -99,9 +99,8 @@ def test_study_writes_a_self_describing_folder(small, tmp_path, capsys):
     assert "| flutter speed [m/s] | 65 |" in report and "| torsional divergence [m/s] | 74 |" \
         in report
     assert "Table 1" in report
-    # no temporary or backup folder left; the run lock file stays next to the folder
-    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.")
-                and p.name != ".out.lock"]
+    # no temporary or backup folder left, and no run lock file (removed when released)
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.")]
     assert (out / ".bridgeflap-output").is_file()
 
 
@@ -117,7 +116,8 @@ def test_earlier_output_survives_a_failed_run(small, tmp_path, monkeypatch):
     with pytest.raises(RuntimeError):
         run_study(small, out=out, quick=True)
     assert _tree(out) == before
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".out.lock", "out", "study.toml"]
+    # nothing left beside the folder, the run lock file neither (removed on release)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "study.toml"]
 
 
 def test_killed_study_never_leaves_half_written_results(small, tmp_path):
