@@ -1,0 +1,145 @@
+"""More bad-input cases (issue 30, items 1 and 4): each once ended in "internal error ... a bug".
+
+The contract is that of tests/test_bad_input.py: exit status 2, exactly one line
+``bridgeflap: error: <field>: <reason>`` on stderr naming the field, no traceback, nothing on
+stdout, nothing written (an earlier output left byte-identical). Tiny modal files (11
+stations, 2 modes) keep every case to a fraction of a second.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from design.cli import main
+from model.errors import BridgeflapInputError
+from model.spec import load_bridge
+
+UNITS_TOML = 'units = { frequency = "Hz", length = "m", rotation = "rad", mass = "kg" }\n'
+
+
+def _arrays(**over) -> dict:
+    x = np.linspace(0.0, 1000.0, 11)
+    s = np.sin(np.pi * x / 1000.0)
+    a = {"station_x": x, "frequency": np.array([0.1, 0.3]),
+         "damping_ratio": np.array([0.005, 0.005]), "generalised_mass": np.array([1.0, 1.0]),
+         "vertical": np.column_stack([s, 0 * s]), "torsional": np.column_stack([0 * s, s])}
+    a.update(over)
+    return a
+
+
+def _lateral_1e300() -> dict:
+    """Two deck modes and a lateral one at 1e300 Hz (once accepted)."""
+    x = np.linspace(0.0, 1000.0, 11)
+    s, z = np.sin(np.pi * x / 1000.0), np.zeros(11)
+    return _arrays(frequency=np.array([0.1, 0.3, 1e300]), damping_ratio=np.full(3, 0.005),
+                   generalised_mass=np.ones(3), vertical=np.column_stack([s, z, z]),
+                   torsional=np.column_stack([z, s, z]), lateral=np.column_stack([z, z, s]))
+
+
+def _json(arrays: dict, **extra) -> str:
+    return json.dumps({**{k: v.tolist() for k, v in arrays.items()}, **extra})
+
+
+#: modal data files: name -> bytes (the bridge file ``<stem>.toml`` points at each)
+DATA = {
+    "units5.json": _json(_arrays(), units=5).encode(),
+    "null.json": b"null",
+    "list.json": b"[1, 2, 3]",
+    "notzip.npz": b"PK\x03\x04 this is not a zip archive",
+    "empty.npz": b"",
+}
+#: npz modal files: name -> arrays
+NPZ = {
+    "ok.npz": _arrays(),
+    "f_1e300.npz": _arrays(frequency=np.array([0.1, 1e300])),
+    "f_1e-300.npz": _arrays(frequency=np.array([1e-300, 0.3])),
+    "lateral_1e300.npz": _lateral_1e300(),
+}
+#: bridge files: name -> (data file, extra [structure] lines)
+BRIDGES = {
+    "units5": ("units5.json", ""), "null": ("null.json", ""), "list": ("list.json", ""),
+    "notzip": ("notzip.npz", ""), "empty": ("empty.npz", ""),
+    "f_1e300": ("f_1e300.npz", ""), "f_1e-300": ("f_1e-300.npz", ""),
+    "lateral_1e300": ("lateral_1e300.npz", ""),
+    "strip_1e-9": ("ok.npz", "strip_length_m = 1e-9\n"),
+}
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("bad_input_more")
+    for name, data in DATA.items():
+        (d / name).write_bytes(data)
+    for name, arrays in NPZ.items():
+        np.savez(d / name, **arrays)
+    for name, (file, extra) in BRIDGES.items():
+        (d / f"{name}.toml").write_text(
+            f'name = "toy"\n[structure]\nkind = "modal"\nfile = "{file}"\n{UNITS_TOML}{extra}'
+            '[deck]\nhalf_chord_m = { value = 10.0, source = "test" }\n', "utf-8")
+    (d / "prev.npz").write_bytes(b"previous state space")
+    return d
+
+
+def _snapshot(folder: Path) -> dict:
+    return {p.relative_to(folder): (p.stat().st_mtime_ns, p.read_bytes() if p.is_file() else None)
+            for p in folder.rglob("*")}
+
+
+B = "--bridge"
+#: (id, argv, field named on stderr); ``{d}`` is the working folder
+CASES = [
+    # item 1: a wrong-typed units entry, a file holding just null (TypeError before)
+    ("modal-units-int", ["flutter", B, "{d}/units5.toml"], "structure.units"),
+    ("modal-json-null", ["flutter", B, "{d}/null.toml"], "structure.file"),
+    ("modal-json-list", ["flutter", B, "{d}/list.toml"], "structure.file"),
+    # item 2: 1e-9 m strips would be 1e12 strips (MemoryError before)
+    ("modal-strip-1e-9", ["flutter", B, "{d}/strip_1e-9.toml"], "structure.strip_length_m"),
+    # item 3: an npz that is no zip archive (BadZipFile before)
+    ("modal-npz-not-zip", ["flutter", B, "{d}/notzip.toml"], "structure.file"),
+    ("modal-npz-empty", ["flutter", B, "{d}/empty.toml"], "structure.file"),
+    # item 4: implausible frequencies (ValueError / LinAlgError before; lateral accepted)
+    ("modal-f-1e300", ["flutter", B, "{d}/f_1e300.toml"], "structure.frequency"),
+    ("modal-f-1e-300", ["flutter", B, "{d}/f_1e-300.toml"], "structure.frequency"),
+    ("modal-lateral-1e300", ["flutter", B, "{d}/lateral_1e300.toml"], "structure.frequency"),
+    ("modal-f-1e300-ss", ["state-space", "--speed", "10", B, "{d}/f_1e300.toml", "--out",
+                          "{d}/prev.npz"], "structure.frequency"),
+]
+
+
+@pytest.mark.parametrize("argv,field", [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_bad_input_more(capsys, monkeypatch, folder, argv, field):
+    monkeypatch.chdir(folder)
+    before = _snapshot(folder)
+    rc = main([a.format(d=folder) for a in argv] + ["--json"])
+    cap = capsys.readouterr()
+    assert rc == 2, cap.err
+    assert cap.out == ""
+    assert cap.err.count("\n") == 1 and cap.err.endswith("\n"), cap.err
+    assert cap.err.startswith("bridgeflap: error: "), cap.err
+    assert "Traceback" not in cap.err and "bug" not in cap.err
+    assert field in cap.err, cap.err
+    assert _snapshot(folder) == before
+
+
+@pytest.mark.parametrize("name,field", [("units5", "structure.units"),
+                                        ("null", "structure.file"),
+                                        ("strip_1e-9", "structure.strip_length_m"),
+                                        ("notzip", "structure.file"),
+                                        ("f_1e300", "structure.frequency")])
+def test_api_raises_typed_error(folder, name, field):
+    """The API gives the typed exception with the field, at load."""
+    with pytest.raises(BridgeflapInputError) as exc:
+        load_bridge(str(folder / f"{name}.toml"))
+    assert exc.value.field == field
+
+
+def test_bounds_are_stated(capsys, folder):
+    """Resource and range limits state their bound."""
+    main(["flutter", B, str(folder / "strip_1e-9.toml")])
+    assert "100000" in capsys.readouterr().err
+    main(["flutter", B, str(folder / "f_1e-300.toml")])
+    assert "[0.0001, 1000] Hz" in capsys.readouterr().err
