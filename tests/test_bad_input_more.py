@@ -44,13 +44,18 @@ def _json(arrays: dict, **extra) -> str:
     return json.dumps({**{k: v.tolist() for k, v in arrays.items()}, **extra})
 
 
-#: modal data files: name -> bytes (the bridge file ``<stem>.toml`` points at each)
+_CTRL = ("b2 = 0.0\nb1 = 0.0\nb0 = {b0}\na2 = {a2}\na1 = 1.0\nflap_strip_positions_m = [0.0]\n"
+         "flap_width_m = 50.0\n")
+#: modal data and other input files: name -> bytes (the bridge file ``<stem>.toml`` points at each)
 DATA = {
     "units5.json": _json(_arrays(), units=5).encode(),
     "null.json": b"null",
     "list.json": b"[1, 2, 3]",
     "notzip.npz": b"PK\x03\x04 this is not a zip archive",
     "empty.npz": b"",
+    "ctrl_b0_1e300.toml": _CTRL.format(b0="1e300", a2="0.1").encode(),
+    "ctrl_b0_int.toml": _CTRL.format(b0="1" + "0" * 400, a2="0.1").encode(),
+    "ctrl_a2_1e-300.toml": _CTRL.format(b0="1.0", a2="1e-300").encode(),
 }
 #: npz modal files: name -> arrays
 NPZ = {
@@ -105,6 +110,16 @@ CASES = [
     ("modal-f-1e300", ["flutter", B, "{d}/f_1e300.toml"], "structure.frequency"),
     ("modal-f-1e-300", ["flutter", B, "{d}/f_1e-300.toml"], "structure.frequency"),
     ("modal-lateral-1e300", ["flutter", B, "{d}/lateral_1e300.toml"], "structure.frequency"),
+    # item 5: controller coefficients beyond finite, plausible magnitudes (OverflowError)
+    ("controller-b0-1e300", ["flutter", "--controller", "{d}/ctrl_b0_1e300.toml"],
+     "controller.b0"),
+    ("controller-b0-int-huge", ["flutter", "--controller", "{d}/ctrl_b0_int.toml"],
+     "controller.b0"),
+    ("controller-a2-1e-300", ["flutter", "--controller", "{d}/ctrl_a2_1e-300.toml"],
+     "controller.a2"),
+    ("controller-b0-1e300-ss", ["state-space", "--speed", "10", "--controller",
+                                "{d}/ctrl_b0_1e300.toml", "--out", "{d}/prev.npz"],
+     "controller.b0"),
     ("modal-f-1e300-ss", ["state-space", "--speed", "10", B, "{d}/f_1e300.toml", "--out",
                           "{d}/prev.npz"], "structure.frequency"),
 ]
