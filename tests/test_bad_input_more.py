@@ -120,6 +120,8 @@ CASES = [
     ("controller-b0-1e300-ss", ["state-space", "--speed", "10", "--controller",
                                 "{d}/ctrl_b0_1e300.toml", "--out", "{d}/prev.npz"],
      "controller.b0"),
+    # item 7: an unbounded table (ran without limit)
+    ("derivatives-points-1e8", ["derivatives", "--points", "100000000"], "points"),
     ("modal-f-1e300-ss", ["state-space", "--speed", "10", B, "{d}/f_1e300.toml", "--out",
                           "{d}/prev.npz"], "structure.frequency"),
 ]
@@ -158,3 +160,5 @@ def test_bounds_are_stated(capsys, folder):
     assert "100000" in capsys.readouterr().err
     main(["flutter", B, str(folder / "f_1e-300.toml")])
     assert "[0.0001, 1000] Hz" in capsys.readouterr().err
+    main(["derivatives", "--points", "100000000"])
+    assert "10000," in capsys.readouterr().err
