@@ -275,10 +275,10 @@ def read_modal_file(path, units: dict, normalisation: str = "mass",
         Sign of the file's vertical shapes (bridgeflap heave is positive down).
     """
     path = Path(path)
-    if not path.is_file():
-        raise BridgeflapInputError("structure.file", f"file not found: {path}")
     suffix = path.suffix.lower()
     try:
+        if not path.is_file():  # inside: a name beyond NAME_MAX raises OSError
+            raise BridgeflapInputError("structure.file", f"file not found: {path}")
         if suffix == ".npz":
             # an open file of our own: np.load leaks its handle when the zip is bad
             with path.open("rb") as fh, np.load(fh, allow_pickle=False) as z:
@@ -293,8 +293,9 @@ def read_modal_file(path, units: dict, normalisation: str = "mass",
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         if isinstance(exc, BridgeflapInputError):
             raise
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
         raise BridgeflapInputError("structure.file", f"cannot read {path}: "
-                                   f"{type(exc).__name__}: {exc}") from None
+                                   f"{type(exc).__name__}: {why}") from None
     file_units = raw.pop("units", None)
     if file_units is not None and dict(file_units) != dict(units):
         raise BridgeflapInputError("structure.units", f"the file states {dict(file_units)}, the "

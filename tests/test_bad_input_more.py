@@ -53,6 +53,7 @@ DATA = {
     "list.json": b"[1, 2, 3]",
     "notzip.npz": b"PK\x03\x04 this is not a zip archive",
     "empty.npz": b"",
+    "study_ok.toml": b'name = "s"\nanalyses = ["modes"]\n',
     "ctrl_b0_1e300.toml": _CTRL.format(b0="1e300", a2="0.1").encode(),
     "ctrl_b0_int.toml": _CTRL.format(b0="1" + "0" * 400, a2="0.1").encode(),
     "ctrl_a2_1e-300.toml": _CTRL.format(b0="1.0", a2="1e-300").encode(),
@@ -71,7 +72,10 @@ BRIDGES = {
     "f_1e300": ("f_1e300.npz", ""), "f_1e-300": ("f_1e-300.npz", ""),
     "lateral_1e300": ("lateral_1e300.npz", ""),
     "strip_1e-9": ("ok.npz", "strip_length_m = 1e-9\n"),
+    "long_modal": ("x" * 300 + ".npz", ""),
 }
+#: a path component beyond any file system's NAME_MAX (255 bytes)
+LONG = "x" * 300
 
 
 @pytest.fixture(scope="module")
@@ -122,6 +126,17 @@ CASES = [
      "controller.b0"),
     # item 7: an unbounded table (ran without limit)
     ("derivatives-points-1e8", ["derivatives", "--points", "100000000"], "points"),
+    # item 6: a 300-character path component ("File name too long"; "a bug" before)
+    ("long-bridge", ["modes", B, "{d}/{L}.toml"], "bridge"),
+    ("long-ss-out", ["state-space", "--speed", "10", "--out", "{d}/{L}.npz"], "out"),
+    ("long-ss-out-folder", ["state-space", "--speed", "10", "--out", "{d}/{L}/a.npz"], "out"),
+    ("long-study-out", ["study", "{d}/study_ok.toml", "--out", "{d}/{L}"], "out"),
+    ("long-study-file", ["study", "{d}/{L}.toml", "--out", "{d}/s_out"], "study"),
+    ("long-plot", ["modes", "--plot", "{d}/{L}.png"], "plot"),
+    ("long-plot-folder", ["modes", "--plot", "{d}/{L}/a.png"], "plot"),
+    ("long-controller", ["flutter", "--controller", "{d}/{L}.toml"], "controller"),
+    ("long-optimise-out", ["optimise", "--out", "{d}/{L}"], "out"),
+    ("long-modal-file", ["flutter", B, "{d}/long_modal.toml"], "structure.file"),
     ("modal-f-1e300-ss", ["state-space", "--speed", "10", B, "{d}/f_1e300.toml", "--out",
                           "{d}/prev.npz"], "structure.frequency"),
 ]
@@ -131,7 +146,7 @@ CASES = [
 def test_bad_input_more(capsys, monkeypatch, folder, argv, field):
     monkeypatch.chdir(folder)
     before = _snapshot(folder)
-    rc = main([a.format(d=folder) for a in argv] + ["--json"])
+    rc = main([a.format(d=folder, L=LONG) for a in argv] + ["--json"])
     cap = capsys.readouterr()
     assert rc == 2, cap.err
     assert cap.out == ""
@@ -162,3 +177,13 @@ def test_bounds_are_stated(capsys, folder):
     assert "[0.0001, 1000] Hz" in capsys.readouterr().err
     main(["derivatives", "--points", "100000000"])
     assert "10000," in capsys.readouterr().err
+    main(["modes", "--plot", str(folder / f"{LONG}.png")])
+    err = capsys.readouterr().err
+    assert err.startswith("bridgeflap: error: plot: ") and "File name too long" in err
+    assert len(err) < 300  # the long name is shortened in the message
+
+
+def test_api_long_bridge_path_is_typed(folder):
+    with pytest.raises(BridgeflapInputError) as exc:
+        load_bridge(str(folder / f"{LONG}.toml"))
+    assert exc.value.field == "bridge" and "File name too long" in exc.value.reason
