@@ -281,8 +281,13 @@ def read_modal_file(path, units: dict, normalisation: str = "mass",
             raise BridgeflapInputError("structure.file", f"file not found: {path}")
         if suffix == ".npz":
             # an open file of our own: np.load leaks its handle when the zip is bad
-            with path.open("rb") as fh, np.load(fh, allow_pickle=False) as z:
-                raw = _table_from_mapping({k: z[k] for k in z.files}, path.name, str(path))
+            with path.open("rb") as fh:
+                z = np.load(fh, allow_pickle=False)
+                if not hasattr(z, "files"):
+                    raise BridgeflapInputError("structure.file", f"{path.name} holds one .npy "
+                                               "array, not an .npz archive of named arrays")
+                with z:
+                    raw = _table_from_mapping({k: z[k] for k in z.files}, path.name, str(path))
         elif suffix == ".json":
             raw = _table_from_mapping(json.loads(path.read_text("utf-8")), path.name, str(path))
         elif suffix == ".csv":

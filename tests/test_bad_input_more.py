@@ -68,7 +68,7 @@ NPZ = {
 #: bridge files: name -> (data file, extra [structure] lines)
 BRIDGES = {
     "units5": ("units5.json", ""), "null": ("null.json", ""), "list": ("list.json", ""),
-    "notzip": ("notzip.npz", ""), "empty": ("empty.npz", ""),
+    "notzip": ("notzip.npz", ""), "empty": ("empty.npz", ""), "npy": ("npy.npz", ""),
     "f_1e300": ("f_1e300.npz", ""), "f_1e-300": ("f_1e-300.npz", ""),
     "lateral_1e300": ("lateral_1e300.npz", ""),
     "strip_1e-9": ("ok.npz", "strip_length_m = 1e-9\n"),
@@ -85,6 +85,8 @@ def folder(tmp_path_factory) -> Path:
         (d / name).write_bytes(data)
     for name, arrays in NPZ.items():
         np.savez(d / name, **arrays)
+    with (d / "npy.npz").open("wb") as fh:  # one .npy array under an .npz name
+        np.save(fh, np.arange(3.0))
     for name, (file, extra) in BRIDGES.items():
         (d / f"{name}.toml").write_text(
             f'name = "toy"\n[structure]\nkind = "modal"\nfile = "{file}"\n{UNITS_TOML}{extra}'
@@ -109,6 +111,7 @@ CASES = [
     ("modal-strip-1e-9", ["flutter", B, "{d}/strip_1e-9.toml"], "structure.strip_length_m"),
     # item 3: an npz that is no zip archive (BadZipFile before)
     ("modal-npz-not-zip", ["flutter", B, "{d}/notzip.toml"], "structure.file"),
+    ("modal-npz-is-npy", ["flutter", B, "{d}/npy.toml"], "structure.file"),
     ("modal-npz-empty", ["flutter", B, "{d}/empty.toml"], "structure.file"),
     # item 4: implausible frequencies (ValueError / LinAlgError before; lateral accepted)
     ("modal-f-1e300", ["flutter", B, "{d}/f_1e300.toml"], "structure.frequency"),
