@@ -1,4 +1,8 @@
-"""More bad-input cases (issue 30, items 1 and 4): each once ended in "internal error ... a bug".
+"""More bad-input cases (issue 30): each once ended in "internal error ... a bug" (exit 1).
+
+Modal files with a wrong-typed ``units`` or holding just ``null``, a ``strip_length_m`` giving
+1e12 strips, an ``.npz`` that is no zip, mode frequencies of 1e300 / 1e-300 Hz, controller
+coefficients of 1e300, 300-character path components, ``derivatives --points 100000000``.
 
 The contract is that of tests/test_bad_input.py: exit status 2, exactly one line
 ``bridgeflap: error: <field>: <reason>`` on stderr naming the field, no traceback, nothing on
