@@ -41,6 +41,7 @@ from design.cli_common import (
     limit_text,
     log,
     number_text,
+    os_error_as_input,
     save_plot,
     spec_from_args,
     speed_text,
@@ -557,18 +558,29 @@ def _main(argv: list[str], debug: bool) -> int:
     except BridgeflapError as exc:  # BridgeflapInputError included
         log(f"bridgeflap: error: {_one_line(str(exc))}")
         return EXIT_BAD_INPUT
+    except OSError as exc:  # a path the user gave that the OS refuses: bad input, not a bug
+        bad = os_error_as_input(exc, locals().get("args"))
+        if bad is None:
+            return _internal(exc, debug)
+        log(f"bridgeflap: error: {_one_line(str(bad))}")
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         log("bridgeflap: interrupted")
         return 130
     except Exception as exc:  # the last line of defence: one line, exit 1
-        if debug:
-            import traceback
-
-            traceback.print_exc(file=sys.stderr)
-        log(f"bridgeflap: internal error: {type(exc).__name__}: {_one_line(str(exc))[:300]}; "
-            f"{BUG_REPORT if not debug else 'traceback above'}")
-        return EXIT_INTERNAL
+        return _internal(exc, debug)
     return int(rc or 0)  # a command may report a result that is not usable (exit 1)
+
+
+def _internal(exc: BaseException, debug: bool) -> int:
+    """An internal fault: one line saying it is a bug (the traceback with ``--debug``)."""
+    if debug:
+        import traceback
+
+        traceback.print_exception(exc, file=sys.stderr)
+    log(f"bridgeflap: internal error: {type(exc).__name__}: {_one_line(str(exc))[:300]}; "
+        f"{BUG_REPORT if not debug else 'traceback above'}")
+    return EXIT_INTERNAL
 
 
 def _one_line(text: str) -> str:

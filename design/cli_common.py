@@ -21,7 +21,7 @@ from model.errors import BridgeflapInputError
 
 __all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",
            "controller_from_args", "controller_report", "default_workers", "emit", "limit_text",
-           "log",
+           "log", "os_error_as_input",
            "save_figure", "save_plot", "spec_from_args", "speed_text"]
 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -104,13 +104,40 @@ def controller_report(controller) -> dict:
     return {} if controller is None else controller.gain_check()
 
 
+def _short(path) -> str:
+    """``path`` for a message: a long one cut in the middle (a 300-character name stays short)."""
+    s = os.fspath(path)
+    return s if len(s) <= 120 else f"{s[:60]}...{s[-50:]}"
+
+
+def os_error_as_input(exc: OSError, args=None) -> BridgeflapInputError | None:
+    """A file-system refusal of a path the user gave ("File name too long", "Permission
+    denied", ...) as bad input: the option whose value the path is (or lies in, or holds)
+    named when ``args`` shows it, else ``path``; ``None`` for an OSError without a file name
+    (not about a path the user gave)."""
+    if exc.filename is None:
+        return None
+    path = os.path.abspath(os.fspath(exc.filename))
+    field = "path"
+    for key, value in sorted(vars(args).items()) if args is not None else ():
+        if isinstance(value, str | os.PathLike) and os.fspath(value) and key != "command":
+            v = os.path.abspath(os.fspath(value))
+            if path == v or path.startswith(v + os.sep) or v.startswith(path + os.sep):
+                field = key.replace("_", "-")
+                break
+    return BridgeflapInputError(field, f"{_short(exc.filename)}: {exc.strerror or exc}")
+
+
 def check_writable_parent(field: str, path: Path) -> None:
     """Raise unless ``path``'s folder exists and is writable and ``path`` is not a folder."""
     parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir() or not os.access(parent, os.W_OK):
-        raise BridgeflapInputError(field, f"folder missing or not writable: {parent}")
-    if path.is_dir():
-        raise BridgeflapInputError(field, f"is a folder, not a file: {path}")
+    try:
+        if not parent.is_dir() or not os.access(parent, os.W_OK):
+            raise BridgeflapInputError(field, f"folder missing or not writable: {parent}")
+        if path.is_dir():
+            raise BridgeflapInputError(field, f"is a folder, not a file: {path}")
+    except OSError as exc:  # e.g. a component beyond the file system's NAME_MAX
+        raise BridgeflapInputError(field, f"{_short(path)}: {exc.strerror or exc}") from None
 
 
 def _check_figure_path(path: Path) -> None:

@@ -38,6 +38,11 @@ __all__ = ["SectionCaseResult", "add_parser", "arguments", "run", "section_case_
 
 HELP = "flutter derivatives in use and their RFA fit (error per derivative)"
 
+#: most rows of the printed table (``--points``): a reduced-frequency table is read by eye and
+#: the tabulated derivatives are smooth in K, so 10000 rows is far beyond any use; 1e8 rows
+#: are 0.8 GB per derivative column before the JSON text
+MAX_TABLE_POINTS = 10000
+
 
 def arguments(sp) -> None:
     """The options of ``bridgeflap derivatives``."""
@@ -87,8 +92,9 @@ def run(args):
     check_plot_target(args)
     if args.lags is not None and args.lags < 0:
         raise BridgeflapInputError("lags", f"must be >= 0, got {args.lags}")
-    if args.points < 2:
-        raise BridgeflapInputError("points", f"must be at least 2, got {args.points}")
+    if not 2 <= args.points <= MAX_TABLE_POINTS:
+        raise BridgeflapInputError("points", f"must be between 2 and {MAX_TABLE_POINTS}, got "
+                                   f"{args.points}")
     name, src, case = _source(args)
     if hasattr(case, "fit_k_range"):  # [derivatives] of a modal bridge (model.modal_import)
         d = 3 if src.lateral and case.lateral else 2

@@ -189,12 +189,13 @@ def check_option_names(kind: str, names, allowed: tuple | None, what: str) -> No
 
 def read_toml(path: Path, field_name: str) -> dict:
     """Parsed TOML of ``path``; a missing, unreadable or malformed file is bad input."""
-    if not path.is_file():
-        raise BridgeflapInputError(field_name, f"file not found: {path}")
-    try:
+    try:  # an OSError of is_file too: a name beyond the file system's NAME_MAX
+        if not path.is_file():
+            raise BridgeflapInputError(field_name, f"file not found: {path}")
         return tomllib.loads(path.read_text("utf-8"))
     except (OSError, UnicodeDecodeError) as exc:
-        raise BridgeflapInputError(field_name, f"cannot read {path}: {exc}") from None
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+        raise BridgeflapInputError(field_name, f"cannot read {path}: {why}") from None
     except tomllib.TOMLDecodeError as exc:
         raise BridgeflapInputError(field_name, f"malformed TOML in {path}: {exc}") from None
 

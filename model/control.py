@@ -50,7 +50,10 @@ def _check_number(fieldname: str, value: Any) -> float:
     """Return ``value`` as a float, or raise if it is not a finite real number."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise BridgeflapInputError(fieldname, f"must be a number, got {type(value).__name__}")
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:  # an integer beyond 1.8e308
+        raise BridgeflapInputError(fieldname, "number too large") from None
     if not math.isfinite(value):
         raise BridgeflapInputError(fieldname, f"must be finite, got {value!r}")
     return value
@@ -401,6 +404,16 @@ _LAYOUT_KEYS = (
     "gain_limit",
 )
 _REQUIRED_KEYS = _COMPENSATOR_KEYS + ("flap_strip_positions_m", "flap_width_m")
+#: largest magnitude of a coefficient read from a controller file: b0 is a static gain
+#: [rad/rad] (flaps turn a few tenths of a radian, the default gain limit is 15), b1, a1 [s] and
+#: b2, a2 [s^2] are time constants of a deck controller (bridge modes at 0.03..10 Hz give
+#: 0.01..100 s); 1e6 is four orders beyond both, and keeps their squares (sup |K(jw)|) finite,
+#: where b0 = 1e300 overflowed
+MAX_COEFFICIENT = 1.0e6
+#: smallest positive a1 [s] and a2 [s^2] read from a file: a time constant T of 1 microsecond
+#: (a1 = T, a2 = T^2) is three orders faster than any flap actuator, and b/a2, b/a1 of the
+#: realisation stay finite (a2 = 1e-300 overflowed)
+MIN_DENOMINATOR_COEFFICIENT = {"a1": 1.0e-6, "a2": 1.0e-12}
 
 
 def load_controller(path) -> Controller:
@@ -440,6 +453,16 @@ def load_controller(path) -> Controller:
     for key in _REQUIRED_KEYS:
         if key not in data:
             raise BridgeflapInputError(f"controller.{key}", f"missing in {path}")
+    for k in _COMPENSATOR_KEYS:
+        v = _check_number(f"controller.{k}", data[k])
+        if abs(v) > MAX_COEFFICIENT:
+            raise BridgeflapInputError(f"controller.{k}", f"|{k}| = {abs(v):g} is beyond the "
+                                       f"plausible {MAX_COEFFICIENT:g}")
+        low = MIN_DENOMINATOR_COEFFICIENT.get(k, 0.0)
+        if 0.0 < v < low:
+            hint = " (a2 = 0 gives a first-order K)" if k == "a2" else ""
+            raise BridgeflapInputError(f"controller.{k}", f"{k} = {v:g} is below the plausible "
+                                       f"{low:g}{hint}")
     compensator = Compensator(*(data[k] for k in _COMPENSATOR_KEYS))
     layout = {k: data[k] for k in _LAYOUT_KEYS if k in data}
     return Controller(compensator=compensator, **layout)

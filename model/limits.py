@@ -12,7 +12,8 @@ from typing import Any
 
 from model.errors import BridgeflapInputError
 
-__all__ = ["MAX_ELEMENTS", "MAX_SECTION_COORDINATE_M", "MIN_SAG_RATIO", "PLAUSIBLE_RANGES",
+__all__ = ["MAX_ELEMENTS", "MAX_SECTION_COORDINATE_M", "MAX_STRIPS", "MIN_SAG_RATIO",
+           "PLAUSIBLE_RANGES",
            "check_finite", "check_in_range", "check_nonnegative", "check_positive",
            "check_section_geometry", "to_float"]
 
@@ -48,6 +49,11 @@ MIN_SAG_RATIO = 1.0e-4
 #: most finite elements of a mesh: the families' matrices are dense and solved by a dense
 #: eigh, O(n^3); 1000 elements give about 4000 lateral DOFs (Humber's 23.5 m mesh: 95 elements)
 MAX_ELEMENTS = 1000
+#: most aerodynamic strips of an imported modal deck (``structure.strip_length_m``): the strip
+#: loads are (n_strip, n_modes) arrays per frequency and speed; 100000 strips are 2 cm strips
+#: on the longest span built (1991 m), while Humber's 23.5 m strips give 95 and a few hundred
+#: resolve any mode of interest. 1e-9 m strips would be 1e12 strips (terabytes)
+MAX_STRIPS = 100_000
 
 
 def to_float(field_name: str, raw: Any) -> float:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,8 +19,9 @@ import numpy as np
 
 from model.errors import BridgeflapInputError
 
-__all__ = ["FAMILIES", "NORMALISATIONS", "UNIT_FACTORS", "ModalData", "export_modal",
-           "needs_fe", "read_modal_file", "read_polimi_derivatives", "units_from_table"]
+__all__ = ["FAMILIES", "FREQUENCY_RANGE_HZ", "NORMALISATIONS", "UNIT_FACTORS", "ModalData",
+           "export_modal", "needs_fe", "read_modal_file", "read_polimi_derivatives",
+           "units_from_table"]
 
 FAMILIES = ("vertical", "torsional", "lateral")
 UNIT_FACTORS = {
@@ -29,6 +31,11 @@ UNIT_FACTORS = {
     "mass": {"kg": 1.0, "t": 1e3},                              # to kg (generalised masses)
 }
 NORMALISATIONS = ("mass", "generalised_mass")
+#: plausible natural frequencies of a bridge mode [Hz]: the first mode of the longest span built
+#: (Akashi Kaikyo, 1991 m) is near 0.03 Hz and deck modes of interest for flutter and buffeting
+#: are below about 10 Hz; 1e-4 Hz (a 2.8-hour period) to 1e3 Hz is two orders of magnitude
+#: outside both, and keeps omega^2 and 1/omega finite in the modal matrices (1e300 Hz overflows)
+FREQUENCY_RANGE_HZ = (1.0e-4, 1.0e3)
 _FILE_KEYS = {"station_x", "frequency", "damping_ratio", "generalised_mass", "vertical",
               "torsional", "lateral", "label", "family", "units", "source", "provenance"}
 
@@ -96,6 +103,14 @@ class ModalData:
             raise BridgeflapInputError("structure.frequency", "no modes in the file")
         if np.any(np.asarray(self.frequency_hz) <= 0):
             raise BridgeflapInputError("structure.frequency", "frequencies must be positive")
+        lo, hi = FREQUENCY_RANGE_HZ
+        out = np.flatnonzero((np.asarray(self.frequency_hz) < lo)
+                             | (np.asarray(self.frequency_hz) > hi))
+        if out.size:
+            j = int(out[0])
+            raise BridgeflapInputError(
+                "structure.frequency", f"mode {j + 1}: {float(self.frequency_hz[j]):g} Hz is "
+                f"outside the plausible range [{lo:g}, {hi:g}] Hz of a bridge mode")
         if np.any(np.asarray(self.generalised_mass) <= 0):
             raise BridgeflapInputError("structure.generalised_mass", "must be positive")
         z = np.asarray(self.damping_ratio)
@@ -165,6 +180,10 @@ def _as_float_array(v, name: str) -> np.ndarray:
 def _table_from_mapping(d, name: str, source: str) -> dict:
     """Arrays of a JSON object or an npz archive (keys of docs/modal_import.md)."""
     required = ("station_x", "frequency", "vertical", "torsional")
+    if not hasattr(d, "keys"):
+        raise BridgeflapInputError("structure.file", f"{name} must hold an object of named "
+                                   f"arrays (docs/modal_import.md#files), got "
+                                   f"{type(d).__name__}")
     unknown = sorted(set(d) - _FILE_KEYS)
     if unknown:
         raise BridgeflapInputError(f"structure.{unknown[0]}", f"unknown key in {name}")
@@ -179,7 +198,15 @@ def _table_from_mapping(d, name: str, source: str) -> dict:
             out[key] = tuple(str(s) for s in np.asarray(d[key]).ravel())
     if "units" in d:
         u = d["units"]
-        out["units"] = json.loads(str(np.asarray(u))) if not isinstance(u, dict) else u
+        try:
+            u = json.loads(str(np.asarray(u))) if not isinstance(u, dict) else u
+        except ValueError:
+            u = None
+        if not isinstance(u, dict):
+            raise BridgeflapInputError("structure.units", f"{name} states units that are not "
+                                       "a table such as {\"frequency\": \"Hz\", ...}, got "
+                                       f"{d['units']!r}"[:200])
+        out["units"] = u
     out["source"] = str(np.asarray(d["source"])) if "source" in d else source
     return out
 
@@ -248,13 +275,19 @@ def read_modal_file(path, units: dict, normalisation: str = "mass",
         Sign of the file's vertical shapes (bridgeflap heave is positive down).
     """
     path = Path(path)
-    if not path.is_file():
-        raise BridgeflapInputError("structure.file", f"file not found: {path}")
     suffix = path.suffix.lower()
     try:
+        if not path.is_file():  # inside: a name beyond NAME_MAX raises OSError
+            raise BridgeflapInputError("structure.file", f"file not found: {path}")
         if suffix == ".npz":
-            with np.load(path, allow_pickle=False) as z:
-                raw = _table_from_mapping({k: z[k] for k in z.files}, path.name, str(path))
+            # an open file of our own: np.load leaks its handle when the zip is bad
+            with path.open("rb") as fh:
+                z = np.load(fh, allow_pickle=False)
+                if not hasattr(z, "files"):
+                    raise BridgeflapInputError("structure.file", f"{path.name} holds one .npy "
+                                               "array, not an .npz archive of named arrays")
+                with z:
+                    raw = _table_from_mapping({k: z[k] for k in z.files}, path.name, str(path))
         elif suffix == ".json":
             raw = _table_from_mapping(json.loads(path.read_text("utf-8")), path.name, str(path))
         elif suffix == ".csv":
@@ -262,10 +295,12 @@ def read_modal_file(path, units: dict, normalisation: str = "mass",
         else:
             raise BridgeflapInputError("structure.file",
                                        f"unsupported type {suffix!r} (use .npz, .json or .csv)")
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         if isinstance(exc, BridgeflapInputError):
             raise
-        raise BridgeflapInputError("structure.file", f"cannot read {path}: {exc}") from None
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+        raise BridgeflapInputError("structure.file", f"cannot read {path}: "
+                                   f"{type(exc).__name__}: {why}") from None
     file_units = raw.pop("units", None)
     if file_units is not None and dict(file_units) != dict(units):
         raise BridgeflapInputError("structure.units", f"the file states {dict(file_units)}, the "

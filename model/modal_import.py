@@ -39,6 +39,7 @@ import numpy as np
 
 from model import spec as sm
 from model.errors import BridgeflapInputError
+from model.limits import MAX_STRIPS
 from model.modal_files import (
     FAMILIES,
     UNIT_FACTORS,
@@ -137,6 +138,11 @@ class ModalStructure:
             object.__setattr__(self, "strip_length_m", float(np.max(np.diff(x))))
         if not (math.isfinite(self.strip_length_m) and self.strip_length_m > 0):
             raise BridgeflapInputError("structure.strip_length_m", "must be positive")
+        n_strips = sum((b - a) / self.strip_length_m for a, b in segs)
+        if n_strips > MAX_STRIPS:
+            raise BridgeflapInputError(
+                "structure.strip_length_m", f"{self.strip_length_m:g} m gives {n_strips:.3g} "
+                f"strips over the deck, more than the {MAX_STRIPS} allowed")
         ms = self.main_span_m or (segs[0][0], segs[-1][1])
         if not ms[1] > ms[0]:
             raise BridgeflapInputError("structure.main_span_m", "end must be beyond start")

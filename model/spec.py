@@ -399,12 +399,13 @@ def _read_source(name_or_path: str | Path) -> tuple[str, str]:
         raise BridgeflapInputError(
             "bridge", f"unknown bridge {s!r} (built-in: {', '.join(BUILTIN_BRIDGES)}; "
             "or a path to a .toml file)")
-    if not path.is_file():
-        raise BridgeflapInputError("bridge", f"file not found: {path}")
-    try:
+    try:  # an OSError of is_file too: a name beyond the file system's NAME_MAX
+        if not path.is_file():
+            raise BridgeflapInputError("bridge", f"file not found: {path}")
         return path.read_text("utf-8"), str(path)
     except (OSError, UnicodeDecodeError) as exc:
-        raise BridgeflapInputError("bridge", f"cannot read {path}: {exc}") from None
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+        raise BridgeflapInputError("bridge", f"cannot read {path}: {why}") from None
 
 
 _SPAN_KEYS = {"name", "length_m", "chord_rise_m", "suspended_deck", "cable_area_m2"}
