@@ -12,11 +12,12 @@ failure raises, and the runner records the row as failed.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 
 from model.errors import BridgeflapInputError
 from model.spec import PARAMETER_PATHS, BridgeSpec, load_bridge
 
-__all__ = ["ERECTED_FRACTION", "analysis_case", "apply_parameters",
+__all__ = ["ERECTED_FRACTION", "analysis_case", "apply_parameters", "check_applicable",
            "flutter_case"]
 
 ERECTED_FRACTION = "erected_fraction"
@@ -58,6 +59,22 @@ def analysis_case(params: Mapping, analysis: str, bridge: str = "humber", **opti
         raise BridgeflapInputError("analysis", f"{analysis!r} has no DOE case")
     spec = apply_parameters(load_bridge(bridge), params)
     return entry.case(entry(spec, options, RunContext(bridge=bridge, figures=False)))
+
+
+def check_applicable(bridge: str, values: Mapping) -> None:
+    """Each parameter applied alone to ``bridge`` before a batch runs: an FE parameter on a
+    modal bridge (or a value the bridge refuses) is refused in one line naming
+    ``parameters.<path>``, not recorded as the failure of every case (issue 30 item 3)."""
+    if not isinstance(bridge, str | Path):
+        raise BridgeflapInputError(
+            "bridge", f"a batch takes a built-in name or a bridge TOML path, got "
+                      f"{type(bridge).__name__}")
+    spec = load_bridge(bridge)
+    for path, value in values.items():
+        try:
+            apply_parameters(spec, {path: value})
+        except BridgeflapInputError as exc:
+            raise BridgeflapInputError(f"parameters.{path}", exc.reason) from None
 
 
 def flutter_case(params: Mapping, bridge: str = "humber", **options) -> dict:

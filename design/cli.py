@@ -48,7 +48,7 @@ from design.cli_common import (
 )
 from design.io import atomic_write
 from design.options import MAX_GRID_VALUE, MAX_MODES, check_int, check_number, parse_range
-from model.errors import BridgeflapError, BridgeflapInputError
+from model.errors import BatchFailedError, BridgeflapError, BridgeflapInputError
 from model.results import table_text
 from model.spec import SIDE_SPAN_SEQUENCES, check_fraction
 
@@ -555,6 +555,9 @@ def _main(argv: list[str], debug: bool) -> int:
             return EXIT_BAD_INPUT
         _check_args(args)
         rc = args.func(args)
+    except BatchFailedError as exc:  # input accepted, every case failed: no usable result
+        log(f"bridgeflap: error: {_one_line(str(exc))}")
+        return 1
     except BridgeflapError as exc:  # BridgeflapInputError included
         log(f"bridgeflap: error: {_one_line(str(exc))}")
         return EXIT_BAD_INPUT

@@ -511,6 +511,11 @@ def run_batch(
                 "statuses": {row["case_id"]: row["status"] for row in rows},
             },
         )
+    if rows and not succeeded:  # nothing usable: a typed error, never an empty table
+        from model.errors import BatchFailedError
+
+        first = next((r.get("error") or r["status"] for r in rows), "")
+        raise BatchFailedError(len(rows), out, _one_line_error(first))
     return BatchResult(
         cases=len(rows),
         succeeded=succeeded,
@@ -520,6 +525,11 @@ def run_batch(
         reused=reused,
         stale=len(stale),
     )
+
+
+def _one_line_error(text: str, limit: int = 300) -> str:
+    line = " ".join(str(text).split())
+    return line if len(line) <= limit else line[:limit - 3] + "..."
 
 
 def _package_version() -> str:

@@ -215,6 +215,10 @@ def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
             raise BridgeflapInputError(fld, f"empty range [{lo}, {hi}] (need lo < hi)")
         params[path] = DoeParameter(low=lo, high=hi)
     _check_size(kind, params, levels, n)
+    from design.cases import check_applicable
+
+    check_applicable(bridge, {k: (v.values[0] if v.values else v.low)
+                              for k, v in params.items()})
     return DoeConfig(name=name, bridge=bridge, analysis=analysis, options=options, kind=kind,
                      parameters=params, levels=levels, n=n, seed=seed, quick=bool(quick),
                      source=source)
@@ -299,18 +303,9 @@ class DoeResult(ResultData):
 def doe_fingerprint(config: DoeConfig) -> str:
     """What, besides a case's parameters, determines its result: bridge file content (and the
     resolved bridge), analysis, resolved options, bridgeflap version (the ``case_hash`` key)."""
-    from importlib import resources
+    from model.spec import _read_source, _split_variant, load_bridge
 
-    from model.spec import BUILTIN_BRIDGES, load_bridge
-
-    base = config.bridge
-    head, sep, tail = base.rpartition(":")
-    if sep and (head in BUILTIN_BRIDGES or head.lower().endswith(".toml")):
-        base = head
-    if base in BUILTIN_BRIDGES:
-        content = resources.files("model.bridges").joinpath(f"{base}.toml").read_bytes()
-    else:
-        content = Path(base).read_bytes()
+    content = _read_source(_split_variant(config.bridge)[0])[0].encode("utf-8")
     from design.doe import _package_version
 
     payload = {"bridge": config.bridge,

@@ -218,13 +218,15 @@ def resolve_bridge(bridge: Any, base: Path, field_name: str = "bridge") -> str:
 
     The bridge is loaded once here, so that bad input stops before anything is written.
     """
-    from model.spec import BUILTIN_BRIDGES, load_bridge
+    from model.spec import BUILTIN_BRIDGES, _split_variant, load_bridge
 
     if not isinstance(bridge, str) or not bridge:
         raise BridgeflapInputError(field_name, "missing or not a string")
-    if bridge not in BUILTIN_BRIDGES:
-        p = Path(bridge)
-        bridge = str(p if p.is_absolute() else (base / p).resolve())
+    head, variant = _split_variant(bridge)  # "humber:box", "my.toml:variant"
+    if head not in BUILTIN_BRIDGES:
+        p = Path(head)
+        head = str(p if p.is_absolute() else (base / p).resolve())
+    bridge = head if variant is None else f"{head}:{variant}"
     load_bridge(bridge)
     return bridge
 

@@ -206,11 +206,12 @@ def global_sensitivity(bridge: str = "humber",
     trajectories on a 4-level grid, uniform in each marginal, so the band is indicative; the
     Sobol' (Saltelli) sample is quasi-random uniform on the box.
     """
-    from design.cases import flutter_case
+    from design.cases import check_applicable, flutter_case
     from design.doe import run_batch
 
     ranges = dict(DEFAULT_UNCERTAIN_RANGES if ranges is None else ranges)
     problem = _salib_problem(ranges)
+    check_applicable(bridge, {k: v[0] for k, v in ranges.items()})
     if method not in ("morris", "sobol"):
         raise BridgeflapInputError("method", f"must be 'morris' or 'sobol', got {method!r}")
     if isinstance(n, bool) or not isinstance(n, int) or n < 2:

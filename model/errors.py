@@ -25,3 +25,18 @@ class BridgeflapInputError(BridgeflapError, ValueError):
         self.field = field
         self.reason = reason
         super().__init__(f"{field}: {reason}")
+
+
+class BatchFailedError(BridgeflapError):
+    """Every case of a batch (DOE, global sensitivity) failed: no usable result.
+
+    The batch folder is complete (each case's record says why it failed) and kept for the
+    diagnosis; the CLI says so in one line with exit status 1 (a result that is not usable),
+    not 2 (the input was accepted). ``out_dir`` is that folder, ``first_error`` one case's
+    reason.
+    """
+
+    def __init__(self, cases: int, out_dir, first_error: str):
+        self.cases, self.out_dir, self.first_error = cases, out_dir, first_error
+        super().__init__(f"all {cases} cases failed (first: {first_error}); per-case records "
+                         f"in {out_dir}/cases")

@@ -249,12 +249,13 @@ def test_serial_scheduler_matches_and_reruns_changed_parameters(tmp_path):
 
 
 def test_serial_timeout_interrupts_python_code(tmp_path):
-    cases = _cases(tmp_path, ["sleep"])
+    # an ok case beside it: a batch whose every case fails raises (BatchFailedError)
+    cases = _cases(tmp_path, ["sleep", "ok"])
     cases[0]["sleep_s"] = 30.0
     result = run_batch(
         toy_analysis, cases, tmp_path / "out", scheduler="serial", timeout_s=0.2, progress=False
     )
-    assert result.rows[0]["status"] == "timeout"
+    assert result.rows[0]["status"] == "timeout" and result.rows[1]["status"] == "ok"
     # SIGALRM stops time.sleep; 5 s is generous against a loaded CI machine
     assert result.rows[0]["elapsed_s"] < 5.0
 
