@@ -37,10 +37,16 @@ __all__ = [
     "Compensator",
     "Controller",
     "canonical_realisation",
+    "DEFAULT_FLAP_CHORD_M",
     "DerivativeFeedthrough",
+    "PlantRecord",
     "load_controller",
     "save_controller",
 ]
+
+#: Chordwise flap size of seed §6 [m] ("the width of the flap is assumed to be 3 m"); the
+#: chord of a controller that does not record its own (:attr:`Controller.chord_m`).
+DEFAULT_FLAP_CHORD_M = 3.0
 
 #: Default dense frequency grid of :meth:`Compensator.max_gain` [rad/s].
 _DEFAULT_OMEGA = np.logspace(-4.0, 3.0, 4001)
@@ -286,6 +292,44 @@ class Compensator:
 
 
 @dataclass(frozen=True)
+class PlantRecord:
+    """The plant a controller was designed on (recorded in ``controller.toml``).
+
+    Attributes
+    ----------
+    bridge : str
+        Built-in bridge name or bridge file path, without the variant.
+    bridge_variant : str
+        ``[variants.<name>]`` applied ("" for none).
+    bridge_name : str
+        The bridge's own ``name``.
+    bridge_sha256 : str
+        SHA-256 (hex) of the bridge definition file's content (built-in bridges: the packaged
+        file), or of the spec's canonical form for a spec built in memory
+        (:func:`model.controller_file.plant_record`).
+    design_modes : int
+        Retained modes of the design model.
+    """
+
+    bridge: str
+    bridge_variant: str
+    bridge_name: str
+    bridge_sha256: str
+    design_modes: int
+
+    def __post_init__(self):
+        """Validate the field types (one field named per error)."""
+        for name in ("bridge", "bridge_variant", "bridge_name", "bridge_sha256"):
+            if not isinstance(getattr(self, name), str):
+                raise BridgeflapInputError(f"controller.{name}", "must be a string")
+        m = self.design_modes
+        if isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1:
+            raise BridgeflapInputError("controller.design_modes",
+                                       f"must be a positive integer, got {m!r}")
+        object.__setattr__(self, "design_modes", int(m))
+
+
+@dataclass(frozen=True)
 class Controller:
     """Compensator plus flap layout: the controller definition of seed paper §6.
 
@@ -306,6 +350,12 @@ class Controller:
         Whether the trailing-edge flaps are fitted (driven by +K).
     gain_limit : float
         Upper bound on ``sup_w |K(jw)|`` [rad/rad] (15 in seed §6).
+    flap_chord_m : float or None
+        Chordwise size of each flap, measured from its edge inside the deck chord [m];
+        ``None`` (a controller file without a geometry record) means
+        :data:`DEFAULT_FLAP_CHORD_M`, see :attr:`chord_m`.
+    plant : PlantRecord or None
+        The bridge and mode count the controller was designed on (``None``: not recorded).
 
     Raises
     ------
@@ -319,6 +369,8 @@ class Controller:
     leading_edge: bool = True
     trailing_edge: bool = True
     gain_limit: float = 15.0
+    flap_chord_m: float | None = None
+    plant: PlantRecord | None = None
 
     def __post_init__(self):
         """Validate the layout and normalise the positions to a tuple of floats."""
@@ -367,6 +419,20 @@ class Controller:
                 "controller.gain_limit", f"gain limit must be > 0, got {limit!r}"
             )
         object.__setattr__(self, "gain_limit", limit)
+        if self.flap_chord_m is not None:
+            chord = _check_number("controller.flap_chord_m", self.flap_chord_m)
+            if chord <= 0.0:
+                raise BridgeflapInputError("controller.flap_chord_m",
+                                           f"flap chord must be > 0 m, got {chord!r}")
+            object.__setattr__(self, "flap_chord_m", chord)
+        if self.plant is not None and not isinstance(self.plant, PlantRecord):
+            raise BridgeflapInputError("controller.plant", "must be a PlantRecord")
+
+    @property
+    def chord_m(self) -> float:
+        """The flap chord the loop is closed with [m]: :attr:`flap_chord_m`, or
+        :data:`DEFAULT_FLAP_CHORD_M` when the controller does not record one."""
+        return DEFAULT_FLAP_CHORD_M if self.flap_chord_m is None else self.flap_chord_m
 
     @property
     def n_flaps(self) -> int:
@@ -399,7 +465,10 @@ _LAYOUT_KEYS = (
     "leading_edge",
     "trailing_edge",
     "gain_limit",
+    "flap_chord_m",
 )
+#: the plant record (:class:`PlantRecord`): all of these or none
+_PLANT_KEYS = ("bridge", "bridge_variant", "bridge_name", "bridge_sha256", "design_modes")
 _REQUIRED_KEYS = _COMPENSATOR_KEYS + ("flap_strip_positions_m", "flap_width_m")
 
 
@@ -411,11 +480,14 @@ def load_controller(path) -> Controller:
     path : str or pathlib.Path
         File written by :func:`save_controller` (flat keys: ``b2 b1 b0 a2 a1``,
         ``flap_strip_positions_m``, ``flap_width_m``, optional ``leading_edge``,
-        ``trailing_edge``, ``gain_limit``).
+        ``trailing_edge``, ``gain_limit``, ``flap_chord_m`` and the plant record
+        ``bridge bridge_variant bridge_name bridge_sha256 design_modes``, all or none).
 
     Returns
     -------
     Controller
+        ``flap_chord_m`` and ``plant`` are ``None`` for a file without them (written before
+        they were recorded): such a file is read as before, with the default 3 m chord.
 
     Raises
     ------
@@ -434,15 +506,24 @@ def load_controller(path) -> Controller:
         data = tomllib.loads(text.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise BridgeflapInputError("controller", f"invalid TOML in {path}: {exc}") from None
-    unknown = sorted(set(data) - set(_COMPENSATOR_KEYS) - set(_LAYOUT_KEYS))
+    unknown = sorted(set(data) - set(_COMPENSATOR_KEYS) - set(_LAYOUT_KEYS) - set(_PLANT_KEYS))
     if unknown:
         raise BridgeflapInputError(f"controller.{unknown[0]}", "unknown field")
     for key in _REQUIRED_KEYS:
         if key not in data:
             raise BridgeflapInputError(f"controller.{key}", f"missing in {path}")
+    plant = None
+    given = [k for k in _PLANT_KEYS if k in data]
+    if given:
+        missing = [k for k in _PLANT_KEYS if k not in data]
+        if missing:
+            raise BridgeflapInputError(f"controller.{missing[0]}",
+                                       f"missing in {path} (the plant record is "
+                                       f"{', '.join(_PLANT_KEYS)}: all or none)")
+        plant = PlantRecord(**{k: data[k] for k in _PLANT_KEYS})
     compensator = Compensator(*(data[k] for k in _COMPENSATOR_KEYS))
     layout = {k: data[k] for k in _LAYOUT_KEYS if k in data}
-    return Controller(compensator=compensator, **layout)
+    return Controller(compensator=compensator, plant=plant, **layout)
 
 
 _CONTROLLER_HEADER = """\
@@ -452,7 +533,10 @@ _CONTROLLER_HEADER = """\
 # The leading-edge flap is driven by -K, the trailing-edge flap by +K.
 # Units: b2, a2 [s^2]; b1, a1 [s]; b0 [rad/rad]; a2 >= 0, a1 > 0.
 # flap_strip_positions_m: strip centres along the main span from its mid-point [m];
-# flap_width_m: spanwise width per strip [m]; gain_limit: bound on sup_w |K(jw)| [rad/rad].
+# flap_width_m: spanwise width per strip [m]; gain_limit: bound on sup_w |K(jw)| [rad/rad];
+# flap_chord_m: chordwise flap size from each edge inside the deck chord [m].
+# Designed on: bridge (built-in name or file), bridge_variant, bridge_name, bridge_sha256
+# (SHA-256 of the bridge file's content) and design_modes (retained modes).
 
 """
 
@@ -487,6 +571,12 @@ def save_controller(controller: Controller, path) -> Path:
             "leading_edge": bool(controller.leading_edge),
             "trailing_edge": bool(controller.trailing_edge),
             "gain_limit": float(controller.gain_limit)}
+    if controller.flap_chord_m is not None:
+        data["flap_chord_m"] = float(controller.flap_chord_m)
+    if controller.plant is not None:
+        p = controller.plant
+        data.update(bridge=p.bridge, bridge_variant=p.bridge_variant, bridge_name=p.bridge_name,
+                    bridge_sha256=p.bridge_sha256, design_modes=int(p.design_modes))
     path = Path(path)
     path.write_text(_CONTROLLER_HEADER + tomli_w.dumps(data), encoding="utf-8")
     return path
