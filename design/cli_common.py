@@ -102,8 +102,9 @@ def controller_from_args(args, spec=None):
 
                 spec = load_bridge(bridge)
             note = check_controller_plant(controller, bridge, spec)
-            if note:
-                log(f"bridgeflap: warning: controller {args.controller}: {note}")
+            if note:  # an old file is read as before: a note, not a warning
+                kind = "note" if controller.plant is None else "warning"
+                log(f"bridgeflap: {kind}: controller {args.controller}: {note}")
         check = controller.gain_check()
         if not check["controller_within_gain_limit"]:
             log(f"bridgeflap: warning: controller {args.controller}: max gain "
