@@ -149,3 +149,34 @@ def test_cli_recheck_uses_the_files_5m_flaps(tmp_path, capsys):
     assert three["critical_speed_m_s"] == pytest.approx(78.52, abs=0.01)
     assert cli["critical_speed_m_s"] - three["critical_speed_m_s"] > 10.0
     assert np.isfinite(cli["divergence_static_speed_m_s"])
+
+
+def test_state_space_and_buffeting_use_the_files_chord(tmp_path, capsys):
+    # the other --controller commands close the same 5 m loop: state-space's A equals the
+    # in-process closed loop on 5 m flaps bit for bit (same function, same inputs) and differs
+    # from the 3 m one; buffeting's RMS equals the in-process 5 m value to round-off (rel 1e-9,
+    # as above) and is not the 3 m one (1 % apart). 4 modes for state-space, 6 for buffeting
+    # (the first four are vertical: no pitch, no flap action on the RMS), one speed: seconds.
+    from model.buffeting import buffeting
+    from model.control_plant import closed_loop_plant
+
+    path = save_controller(_controller(), tmp_path / "c.toml")
+    out = tmp_path / "cl.npz"
+    assert main(["state-space", "--speed", "30", "--modes", "4", "--controller", str(path),
+                 "--out", str(out), "--json"]) == 0
+    capsys.readouterr()
+    spec, c = load_bridge("humber"), _controller()
+    a_cli = np.load(out)["A"]
+    np.testing.assert_array_equal(a_cli, closed_loop_plant(spec, c, 30.0, 4, 5.0).A)
+    assert not np.allclose(a_cli, closed_loop_plant(spec, c, 30.0, 4, 3.0).A)
+    assert main(["buffeting", "--speeds", "20", "--modes", "6", "--controller", str(path),
+                 "--json"]) == 0
+    rms = json.loads(capsys.readouterr().out)["rms_vertical_m"]
+    kw = dict(spectrum="busch-panofsky", admittance=None, coherence_decay=None, n_modes=6,
+              method="spectral", turbulence_intensity=None, allow_unstable=False,
+              mc_records=16, mc_seed=0, loads=None)
+    five = buffeting(spec, np.array([20.0]), controller=c, **kw).summary()["rms_vertical_m"]
+    three = buffeting(spec, np.array([20.0]), controller=Controller(K_5M, POSITIONS, 56.4),
+                      **kw).summary()["rms_vertical_m"]
+    assert rms == pytest.approx(five, rel=1e-9)
+    assert rms != pytest.approx(three, rel=1e-3)
