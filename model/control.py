@@ -343,7 +343,7 @@ class Controller:
         is driven by the pitch at its own strip (seed §6).
     flap_width_m : float
         Spanwise length of each flap pair (LE + TE flap at one strip) [m]; the chordwise
-        flap size (3 m in seed §6) is a separate input of :mod:`model.flaps`.
+        flap size (3 m in seed §6) is ``flap_chord_m``.
     leading_edge : bool
         Whether the leading-edge flaps are fitted (driven by -K, seed §6).
     trailing_edge : bool
