@@ -167,7 +167,7 @@ def cmd_flutter(args):
     if args.controller and (args.order, args.rfa) != ("modal", "rfa4"):
         raise BridgeflapInputError("controller", "the closed loop is built on the modal order "
                                                  "with rfa4: drop --order/--rfa")
-    controller = controller_from_args(args)
+    controller = controller_from_args(args, spec)
     if controller is not None:
         from model.analysis import closed_loop_flutter
 
@@ -242,7 +242,7 @@ def cmd_state_space(args):
     if out.suffix.lower() not in (".npz", ".mat"):
         raise BridgeflapInputError("out", "must end in .npz or .mat")
     check_writable_parent("out", out)
-    controller = controller_from_args(args)
+    controller = controller_from_args(args, spec)
     if controller is not None and args.inputs == "gust":  # the package's closed loop
         plant = closed_loop_plant(spec, controller, args.speed, args.modes)
     else:  # open loop; a controller gives only its flap layout

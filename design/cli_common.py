@@ -78,17 +78,33 @@ def spec_from_args(args):
     return spec
 
 
-def controller_from_args(args):
+def controller_from_args(args, spec=None):
     """The controller of ``--controller`` (a .toml), or ``None``.
 
     A controller whose peak gain exceeds its own ``gain_limit`` is used (the user asked for
     it), with one warning line on stderr; :func:`controller_report` gives the flag for the
-    JSON.
+    JSON. Its flap geometry (chord, width, positions, edges) is the file's; a file designed on
+    another bridge, or without a geometry record, gives one warning line on stderr, and flaps
+    that do not fit on ``--bridge`` raise naming the field
+    (:func:`model.controller_file.check_controller_plant`; ``spec``: the bridge of
+    ``--bridge`` when already loaded).
     """
     if getattr(args, "controller", None):
-        from model.control import load_controller
+        from model.controller_file import load_controller
 
         controller = load_controller(args.controller)
+        bridge = getattr(args, "bridge", None)
+        if bridge is not None:
+            from model.controller_file import check_controller_plant
+
+            if spec is None:
+                from model.spec import load_bridge
+
+                spec = load_bridge(bridge)
+            note = check_controller_plant(controller, bridge, spec)
+            if note:  # an old file is read as before: a note, not a warning
+                kind = "note" if controller.plant is None else "warning"
+                log(f"bridgeflap: {kind}: controller {args.controller}: {note}")
         check = controller.gain_check()
         if not check["controller_within_gain_limit"]:
             log(f"bridgeflap: warning: controller {args.controller}: max gain "

@@ -47,7 +47,7 @@ def cmd_buffeting(args):
     if args.modes < 1:
         raise BridgeflapInputError("modes", f"must be at least 1, got {args.modes}")
     spec = spec_from_args(args)
-    controller = controller_from_args(args)
+    controller = controller_from_args(args, spec)
     res = buffeting(spec, speeds, spectrum=args.spectrum, admittance=args.admittance,
                     coherence_decay=args.coherence_decay, n_modes=args.modes,
                     method=args.method, turbulence_intensity=args.turbulence_intensity,

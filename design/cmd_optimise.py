@@ -52,7 +52,7 @@ def _design_and_write(args, settings, out):
     """Run the design and replace ``out`` by its complete folder (crash-safe swap)."""
     from design.driver import design
     from design.outputs import swap_into_place, temporary_sibling, write_marker
-    from model.control import save_controller
+    from model.controller_file import save_controller
 
     result = design(settings, progress=log)
     tmp = temporary_sibling(out)

@@ -227,7 +227,8 @@ def _limits(s: DesignSettings, rec, spec) -> dict:
 
     ctrl = Controller(Compensator(*(float(v) for v in rec.theta)),
                       tuple(float(x) for x in rec.flap_positions_m), s.flap_width_m,
-                      s.leading_edge, s.trailing_edge, s.gain_limit)
+                      s.leading_edge, s.trailing_edge, s.gain_limit,
+                      flap_chord_m=s.flap_chord_m)
     try:
         lim = closed_loop_limits(s, ctrl, spec=spec)
     except Exception as exc:  # noqa: BLE001 - a report item, not the design

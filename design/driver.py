@@ -501,10 +501,14 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
     if best is not None:
         theta = np.asarray(best.theta)
         positions = np.asarray(best.flap_positions_m)
+        from model.controller_file import plant_record
+
         controller = Controller(Compensator(*(float(v) for v in theta)),
                                 tuple(float(x) for x in positions),
                                 settings.flap_width_m, settings.leading_edge,
-                                settings.trailing_edge, settings.gain_limit)
+                                settings.trailing_edge, settings.gain_limit,
+                                flap_chord_m=settings.flap_chord_m,
+                                plant=plant_record(settings.bridge, settings.n_modes, spec))
         ok = status in ("converged", "unverified")
         # issue 16 goal 3: the closed-loop limits, the buffeting comparison and the fresh
         # variants (two halves) run in two worker processes while this one checks the chosen

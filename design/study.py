@@ -292,7 +292,7 @@ def _write_outcome(kind: str, outcome: Outcome, folder: Path) -> tuple[dict, lis
     summary = dict(outcome.summary)
     controller = getattr(outcome.result, "controller", None) if kind == "design" else None
     if controller is not None:
-        from model.control import save_controller
+        from model.controller_file import save_controller
 
         save_controller(controller, folder / "results" / "controller.toml")
         summary["controller_file"] = "results/controller.toml"

@@ -34,7 +34,7 @@ _PUBLIC = {
     "sweep": "model.stability", "pk_sweep": "model.stability",
     "buffeting": "model.buffeting",
     "Compensator": "model.control", "Controller": "model.control",
-    "load_controller": "model.control", "save_controller": "model.control",
+    "load_controller": "model.controller_file", "save_controller": "model.controller_file",
     "closed_loop_model": "model.flaps", "closed_loop_state_space": "model.flaps",
     "plant": "model.control_plant", "plant_data": "model.control_plant",
     "Plant": "model.control_plant",

@@ -21,7 +21,7 @@ from model import statespace
 from model.control import Controller
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import assemble
-from model.flaps import DEFAULT_FLAP_CHORD_M, closed_loop_model
+from model.flaps import closed_loop_model
 from model.modes import ModalModel, solve
 from model.results import ResultData
 from model.spec import BridgeSpec, check_fraction
@@ -488,16 +488,19 @@ class ClosedLoopFlutterResult(ResultData):
 
 
 def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEFAULT_MODES,
-                        flap_chord_m: float = DEFAULT_FLAP_CHORD_M,
+                        flap_chord_m: float | None = None,
                         sweep_method: str = "dense") -> ClosedLoopFlutterResult:
     """Closed-loop flutter/divergence sweep (and the open-loop one for reference).
+
+    ``flap_chord_m`` [m] default: the controller's own (:attr:`Controller.chord_m`).
 
     ``speeds`` [m/s] is an array (strings are parsed by the CLI); ``sweep_method`` that of
     :func:`model.stability.sweep` (``"dense"``, the reference, or ``"fast"``) for both.
     """
     u = check_speeds(speeds)
+    chord = controller.chord_m if flap_chord_m is None else flap_chord_m
     model = closed_loop_model(spec, controller.flap_strip_positions_m, controller.flap_width_m,
-                              n_modes, flap_chord_m, controller.leading_edge,
+                              n_modes, chord, controller.leading_edge,
                               controller.trailing_edge)
     system = model.open_loop
     cl = model.system(controller.compensator)
@@ -521,6 +524,6 @@ def pk_flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
     else:
         c = controller
         system = closed_loop_model(spec, c.flap_strip_positions_m, c.flap_width_m, n_modes,
-                                   DEFAULT_FLAP_CHORD_M, c.leading_edge,
+                                   c.chord_m, c.leading_edge,
                                    c.trailing_edge).system(c.compensator)
     return pk_sweep(system, u).summary()

@@ -18,9 +18,7 @@ the numeric one (:meth:`Compensator.state_space`) both use it.
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -28,19 +26,18 @@ import numpy as np
 from model import backend as bk
 from model.errors import BridgeflapInputError
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - exercised only on Python 3.10
-    import tomli as tomllib
-
 __all__ = [
     "Compensator",
     "Controller",
     "canonical_realisation",
+    "DEFAULT_FLAP_CHORD_M",
     "DerivativeFeedthrough",
-    "load_controller",
-    "save_controller",
+    "PlantRecord",
 ]
+
+#: Chordwise flap size of seed §6 [m] ("the width of the flap is assumed to be 3 m"); the
+#: chord of a controller that does not record its own (:attr:`Controller.chord_m`).
+DEFAULT_FLAP_CHORD_M = 3.0
 
 #: Default dense frequency grid of :meth:`Compensator.max_gain` [rad/s].
 _DEFAULT_OMEGA = np.logspace(-4.0, 3.0, 4001)
@@ -289,6 +286,44 @@ class Compensator:
 
 
 @dataclass(frozen=True)
+class PlantRecord:
+    """The plant a controller was designed on (recorded in ``controller.toml``).
+
+    Attributes
+    ----------
+    bridge : str
+        Built-in bridge name or bridge file path, without the variant.
+    bridge_variant : str
+        ``[variants.<name>]`` applied ("" for none).
+    bridge_name : str
+        The bridge's own ``name``.
+    bridge_sha256 : str
+        SHA-256 (hex) of the bridge definition file's content (built-in bridges: the packaged
+        file), or of the spec's canonical form for a spec built in memory
+        (:func:`model.controller_file.plant_record`).
+    design_modes : int
+        Retained modes of the design model.
+    """
+
+    bridge: str
+    bridge_variant: str
+    bridge_name: str
+    bridge_sha256: str
+    design_modes: int
+
+    def __post_init__(self):
+        """Validate the field types (one field named per error)."""
+        for name in ("bridge", "bridge_variant", "bridge_name", "bridge_sha256"):
+            if not isinstance(getattr(self, name), str):
+                raise BridgeflapInputError(f"controller.{name}", "must be a string")
+        m = self.design_modes
+        if isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1:
+            raise BridgeflapInputError("controller.design_modes",
+                                       f"must be a positive integer, got {m!r}")
+        object.__setattr__(self, "design_modes", int(m))
+
+
+@dataclass(frozen=True)
 class Controller:
     """Compensator plus flap layout: the controller definition of seed paper §6.
 
@@ -302,13 +337,19 @@ class Controller:
         is driven by the pitch at its own strip (seed §6).
     flap_width_m : float
         Spanwise length of each flap pair (LE + TE flap at one strip) [m]; the chordwise
-        flap size (3 m in seed §6) is a separate input of :mod:`model.flaps`.
+        flap size (3 m in seed §6) is ``flap_chord_m``.
     leading_edge : bool
         Whether the leading-edge flaps are fitted (driven by -K, seed §6).
     trailing_edge : bool
         Whether the trailing-edge flaps are fitted (driven by +K).
     gain_limit : float
         Upper bound on ``sup_w |K(jw)|`` [rad/rad] (15 in seed §6).
+    flap_chord_m : float or None
+        Chordwise size of each flap, measured from its edge inside the deck chord [m];
+        ``None`` (a controller file without a geometry record) means
+        :data:`DEFAULT_FLAP_CHORD_M`, see :attr:`chord_m`.
+    plant : PlantRecord or None
+        The bridge and mode count the controller was designed on (``None``: not recorded).
 
     Raises
     ------
@@ -322,6 +363,8 @@ class Controller:
     leading_edge: bool = True
     trailing_edge: bool = True
     gain_limit: float = 15.0
+    flap_chord_m: float | None = None
+    plant: PlantRecord | None = None
 
     def __post_init__(self):
         """Validate the layout and normalise the positions to a tuple of floats."""
@@ -370,6 +413,20 @@ class Controller:
                 "controller.gain_limit", f"gain limit must be > 0, got {limit!r}"
             )
         object.__setattr__(self, "gain_limit", limit)
+        if self.flap_chord_m is not None:
+            chord = _check_number("controller.flap_chord_m", self.flap_chord_m)
+            if chord <= 0.0:
+                raise BridgeflapInputError("controller.flap_chord_m",
+                                           f"flap chord must be > 0 m, got {chord!r}")
+            object.__setattr__(self, "flap_chord_m", chord)
+        if self.plant is not None and not isinstance(self.plant, PlantRecord):
+            raise BridgeflapInputError("controller.plant", "must be a PlantRecord")
+
+    @property
+    def chord_m(self) -> float:
+        """The flap chord the loop is closed with [m]: :attr:`flap_chord_m`, or
+        :data:`DEFAULT_FLAP_CHORD_M` when the controller does not record one."""
+        return DEFAULT_FLAP_CHORD_M if self.flap_chord_m is None else self.flap_chord_m
 
     @property
     def n_flaps(self) -> int:
@@ -394,122 +451,9 @@ class Controller:
                 "controller_within_gain_limit": bool(gain <= self.gain_limit * (1 + 1e-6))}
 
 
-# ---------------------------------------------------------------------------- TOML I/O
-_COMPENSATOR_KEYS = ("b2", "b1", "b0", "a2", "a1")
-_LAYOUT_KEYS = (
-    "flap_strip_positions_m",
-    "flap_width_m",
-    "leading_edge",
-    "trailing_edge",
-    "gain_limit",
-)
-_REQUIRED_KEYS = _COMPENSATOR_KEYS + ("flap_strip_positions_m", "flap_width_m")
-#: largest magnitude of a coefficient read from a controller file: b0 is a static gain
-#: [rad/rad] (flaps turn a few tenths of a radian, the default gain limit is 15), b1, a1 [s] and
-#: b2, a2 [s^2] are time constants of a deck controller (bridge modes at 0.03..10 Hz give
-#: 0.01..100 s); 1e6 is four orders beyond both, and keeps their squares (sup |K(jw)|) finite,
-#: where b0 = 1e300 overflowed
-MAX_COEFFICIENT = 1.0e6
-#: smallest positive a1 [s] and a2 [s^2] read from a file: a time constant T of 1 microsecond
-#: (a1 = T, a2 = T^2) is three orders faster than any flap actuator, and b/a2, b/a1 of the
-#: realisation stay finite (a2 = 1e-300 overflowed)
-MIN_DENOMINATOR_COEFFICIENT = {"a1": 1.0e-6, "a2": 1.0e-12}
+def __getattr__(name):  # the file I/O lives in model.controller_file (kept importable here)
+    if name in ("load_controller", "save_controller"):
+        from model import controller_file
 
-
-def load_controller(path) -> Controller:
-    """Read a controller definition from a TOML file.
-
-    Parameters
-    ----------
-    path : str or pathlib.Path
-        File written by :func:`save_controller` (flat keys: ``b2 b1 b0 a2 a1``,
-        ``flap_strip_positions_m``, ``flap_width_m``, optional ``leading_edge``,
-        ``trailing_edge``, ``gain_limit``).
-
-    Returns
-    -------
-    Controller
-
-    Raises
-    ------
-    BridgeflapInputError
-        Field ``"controller"`` for a missing or unparsable file, ``"controller.<key>"`` for a
-        missing, unknown or invalid key.
-    """
-    path = Path(path)
-    try:
-        text = path.read_bytes()
-    except FileNotFoundError:
-        raise BridgeflapInputError("controller", f"file not found: {path}") from None
-    except OSError as exc:
-        raise BridgeflapInputError("controller", f"cannot read {path}: {exc}") from None
-    try:
-        data = tomllib.loads(text.decode("utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise BridgeflapInputError("controller", f"invalid TOML in {path}: {exc}") from None
-    unknown = sorted(set(data) - set(_COMPENSATOR_KEYS) - set(_LAYOUT_KEYS))
-    if unknown:
-        raise BridgeflapInputError(f"controller.{unknown[0]}", "unknown field")
-    for key in _REQUIRED_KEYS:
-        if key not in data:
-            raise BridgeflapInputError(f"controller.{key}", f"missing in {path}")
-    for k in _COMPENSATOR_KEYS:
-        v = _check_number(f"controller.{k}", data[k])
-        if abs(v) > MAX_COEFFICIENT:
-            raise BridgeflapInputError(f"controller.{k}", f"|{k}| = {abs(v):g} is beyond the "
-                                       f"plausible {MAX_COEFFICIENT:g}")
-        low = MIN_DENOMINATOR_COEFFICIENT.get(k, 0.0)
-        if 0.0 < v < low:
-            hint = " (a2 = 0 gives a first-order K)" if k == "a2" else ""
-            raise BridgeflapInputError(f"controller.{k}", f"{k} = {v:g} is below the plausible "
-                                       f"{low:g}{hint}")
-    compensator = Compensator(*(data[k] for k in _COMPENSATOR_KEYS))
-    layout = {k: data[k] for k in _LAYOUT_KEYS if k in data}
-    return Controller(compensator=compensator, **layout)
-
-
-_CONTROLLER_HEADER = """\
-# bridgeflap controller definition (seed paper section 6)
-# K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1)
-# flap angle beta [rad] from local deck pitch alpha [rad]
-# The leading-edge flap is driven by -K, the trailing-edge flap by +K.
-# Units: b2, a2 [s^2]; b1, a1 [s]; b0 [rad/rad]; a2 >= 0, a1 > 0.
-# flap_strip_positions_m: strip centres along the main span from its mid-point [m];
-# flap_width_m: spanwise width per strip [m]; gain_limit: bound on sup_w |K(jw)| [rad/rad].
-
-"""
-
-
-def save_controller(controller: Controller, path) -> Path:
-    """Write a controller definition as TOML (readable by :func:`load_controller`).
-
-    Parameters
-    ----------
-    controller : Controller
-        Definition to write.
-    path : str or pathlib.Path
-        Output file; parent directories must exist.
-
-    Returns
-    -------
-    pathlib.Path
-        The path written.
-
-    Notes
-    -----
-    Written by :mod:`tomli_w` (floats round-trip exactly) under a comment header stating the
-    transfer function, the drive signs and the units.
-    """
-    import tomli_w
-
-    k = controller.compensator
-    data = {"b2": float(k.b2), "b1": float(k.b1), "b0": float(k.b0), "a2": float(k.a2),
-            "a1": float(k.a1),
-            "flap_strip_positions_m": [float(x) for x in controller.flap_strip_positions_m],
-            "flap_width_m": float(controller.flap_width_m),
-            "leading_edge": bool(controller.leading_edge),
-            "trailing_edge": bool(controller.trailing_edge),
-            "gain_limit": float(controller.gain_limit)}
-    path = Path(path)
-    path.write_text(_CONTROLLER_HEADER + tomli_w.dumps(data), encoding="utf-8")
-    return path
+        return getattr(controller_file, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -183,7 +183,8 @@ def plant_data(spec, wind_speed: float, inputs: str = "gust", n_modes: int = 16,
         Without a controller: this many flaps side by side over the main span
         (:func:`even_flap_layout`).
     flap_chord_m : float, optional
-        Chordwise flap size [m] (default :data:`model.flaps.DEFAULT_FLAP_CHORD_M`).
+        Chordwise flap size [m] (default: the controller's own,
+        :attr:`model.control.Controller.chord_m`, else :data:`model.flaps.DEFAULT_FLAP_CHORD_M`).
     system : AeroelasticSystem, optional
         A prebuilt open-loop system of ``spec`` (else built from ``n_modes`` modes).
     """
@@ -215,7 +216,8 @@ def plant_data(spec, wind_speed: float, inputs: str = "gust", n_modes: int = 16,
     empty = np.zeros(0)
     fx = fpos = fwidth = empty
     if inputs in ("flaps", "both"):
-        chord = DEFAULT_FLAP_CHORD_M if flap_chord_m is None else float(flap_chord_m)
+        chord = (float(flap_chord_m) if flap_chord_m is not None else
+                 controller.chord_m if controller is not None else DEFAULT_FLAP_CHORD_M)
         if controller is not None:
             pos, width = controller.flap_strip_positions_m, controller.flap_width_m
             edges = [e for e, on in (("te", controller.trailing_edge),
@@ -256,10 +258,10 @@ def closed_loop_plant(spec, controller, wind_speed: float, n_modes: int = 16,
     """The package's closed loop (``controller``'s K(s) fed back, :mod:`model.flaps`) with
     gust inputs ``gust[i]``; outputs ``heave[i]``, ``pitch[i]`` and each flap's drive angle
     ``beta[f]`` [rad] (TE flap TE-down; the LE flap is at ``-beta``, LE-down)."""
-    from model.flaps import DEFAULT_FLAP_CHORD_M, closed_loop_system
+    from model.flaps import closed_loop_system
 
     U = float(wind_speed)
-    chord = DEFAULT_FLAP_CHORD_M if flap_chord_m is None else float(flap_chord_m)
+    chord = controller.chord_m if flap_chord_m is None else float(flap_chord_m)
     cl = closed_loop_system(spec, controller, int(n_modes), chord)
     ns = cl.basis.n_strip
     C = np.vstack([cl.C_out, cl.extras["flap_angle_map"]])

@@ -46,7 +46,7 @@ from model.aero import SectionLoads, flap_section_loads
 from model.assembly import OpenPieces, dynamic_matrices, open_pieces, rfa_parts
 from model.backend import is_symbolic
 from model.basis import StructuralBasis
-from model.control import Compensator, Controller
+from model.control import DEFAULT_FLAP_CHORD_M, Compensator, Controller
 from model.errors import BridgeflapInputError
 from model.fe import assemble
 from model.modes import solve
@@ -65,9 +65,6 @@ __all__ = [
     "section_model",
     "flap_set",
 ]
-
-#: Chordwise flap size of seed §6 [m] ("the width of the flap is assumed to be 3 m").
-DEFAULT_FLAP_CHORD_M = 3.0
 
 
 # --------------------------------------------------------------------------- flap geometry
@@ -291,10 +288,12 @@ class ClosedLoopModel:
 
 
 def controller_flaps(spec, basis: StructuralBasis, controller: Controller,
-                     flap_chord_m: float = DEFAULT_FLAP_CHORD_M) -> FlapSet:
-    """The :class:`FlapSet` of a :class:`~model.control.Controller` on a bridge basis."""
+                     flap_chord_m: float | None = None) -> FlapSet:
+    """The :class:`FlapSet` of a :class:`~model.control.Controller` on a bridge basis
+    (``flap_chord_m`` default: the controller's own, :attr:`~model.control.Controller.chord_m`)."""
+    chord = controller.chord_m if flap_chord_m is None else flap_chord_m
     return flap_set(spec, basis, controller.flap_strip_positions_m, controller.flap_width_m,
-                    flap_chord_m, controller.leading_edge, controller.trailing_edge)
+                    chord, controller.leading_edge, controller.trailing_edge)
 
 
 def closed_loop_model(spec, positions_m, width_m, n_modes: int = 16,
@@ -324,16 +323,18 @@ def section_model(basis: StructuralBasis, half_chord: float, air_density: float,
 
 
 def closed_loop_system(spec, controller: Controller, n_modes: int = 16,
-                       flap_chord_m: float = DEFAULT_FLAP_CHORD_M) -> AeroelasticSystem:
-    """Closed-loop system with the AeroelasticSystem interface (``A(U)``, ``B_gust(U)``, ...)."""
+                       flap_chord_m: float | None = None) -> AeroelasticSystem:
+    """Closed-loop system with the AeroelasticSystem interface (``A(U)``, ``B_gust(U)``, ...);
+    ``flap_chord_m`` default: the controller's own (:attr:`~model.control.Controller.chord_m`)."""
+    chord = controller.chord_m if flap_chord_m is None else flap_chord_m
     model = closed_loop_model(spec, controller.flap_strip_positions_m, controller.flap_width_m,
-                              n_modes, flap_chord_m, controller.leading_edge,
+                              n_modes, chord, controller.leading_edge,
                               controller.trailing_edge)
     return model.system(controller.compensator)
 
 
 def closed_loop_state_space(spec, controller: Controller, speed: float, n_modes: int = 16,
-                            flap_chord_m: float = DEFAULT_FLAP_CHORD_M):
+                            flap_chord_m: float | None = None):
     """``(A, B, C, D, state_names, input_names, output_names)`` of the closed loop at ``speed``.
 
     Inputs: strip gust velocities [m/s] (up, before admittance). Outputs: strip heave [m],
