@@ -36,6 +36,7 @@ from design.cli_common import (
     check_writable_parent,
     controller_from_args,
     controller_report,
+    default_bridge,
     default_workers,
     emit,
     limit_text,
@@ -488,7 +489,10 @@ _SECTION_RANGES = (
 
 
 def _check_args(args) -> None:
-    """Refuse out-of-range numeric options (one line naming the option and its limit)."""
+    """Refuse out-of-range numeric options (one line naming the option and its limit); the
+    default ``--bridge`` resolved (:func:`design.cli_common.default_bridge`)."""
+    if hasattr(args, "bridge"):
+        args.bridge = default_bridge(args)
     for name, lo, hi, integer in _NUMERIC_ARGS:
         value = getattr(args, name, None)
         if value is None:

@@ -20,7 +20,8 @@ from design.io import atomic_write, to_jsonable
 from model.errors import BridgeflapInputError
 
 __all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",
-           "controller_from_args", "controller_report", "default_workers", "emit", "limit_text",
+           "controller_from_args", "controller_report", "default_bridge", "default_workers",
+           "emit", "limit_text",
            "log", "os_error_as_input",
            "save_figure", "save_plot", "spec_from_args", "speed_text"]
 
@@ -41,8 +42,10 @@ def add_common(sp: argparse.ArgumentParser, bridge: bool = True, erection: bool 
     sp.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                     help="on an internal fault, print the traceback")
     if bridge:
-        sp.add_argument("--bridge", default="humber",
-                        help="built-in name (humber) or path to a bridge .toml")
+        sp.add_argument("--bridge", default=None,
+                        help="built-in name such as humber or humber:box, or path to a bridge "
+                             ".toml (default: humber; with --controller, the bridge the "
+                             "controller file was designed on)")
     if erection:
         sp.add_argument("--erection", type=float, default=None,
                         help="erected fraction of the main span in (0, 1]")
@@ -66,6 +69,25 @@ def log(msg: str) -> None:
     """One line of progress on stderr."""
     sys.stderr.write(msg + "\n")
     sys.stderr.flush()
+
+
+def default_bridge(args) -> str:
+    """``--bridge`` when given; else the bridge a ``--controller`` file records (its plant
+    record, variant included: a design on ``humber:box`` is re-checked there, said in one
+    note line); else ``humber``."""
+    if getattr(args, "bridge", None) is not None:
+        return args.bridge
+    path = getattr(args, "controller", None)
+    if path:
+        from model.controller_file import load_controller
+
+        plant = load_controller(path).plant
+        if plant is not None:
+            bridge = plant.bridge + (f":{plant.bridge_variant}" if plant.bridge_variant else "")
+            if bridge != "humber":  # the built-in default needs no word
+                log(f"bridgeflap: note: --bridge {bridge} (the bridge {path} was designed on)")
+            return bridge
+    return "humber"
 
 
 def spec_from_args(args):

@@ -180,3 +180,22 @@ def test_state_space_and_buffeting_use_the_files_chord(tmp_path, capsys):
                       **kw).summary()["rms_vertical_m"]
     assert rms == pytest.approx(five, rel=1e-9)
     assert rms != pytest.approx(three, rel=1e-3)
+
+
+def test_default_bridge_is_the_files(tmp_path, capsys):
+    """Without --bridge a controller is re-checked on the bridge it was designed on (the
+    default card designs on humber:box), with one note line; --bridge still wins."""
+    from design.cli_common import default_bridge
+
+    path = save_controller(_controller(chord=3.0, bridge="humber:box"),
+                           tmp_path / "controller.toml")
+    args = argparse.Namespace(bridge=None, controller=str(path))
+    assert default_bridge(args) == "humber:box"
+    assert capsys.readouterr().err.count("\n") == 1
+    assert default_bridge(argparse.Namespace(bridge="great-belt", controller=str(path))) == \
+        "great-belt"
+    assert default_bridge(argparse.Namespace(bridge=None, controller=None)) == "humber"
+    assert main(["flutter", "--controller", str(path), "--speeds", "0:40:5", "--modes", "6",
+                 "--json"]) == 0
+    err = capsys.readouterr().err
+    assert "humber:box" in err and "warning" not in err, err  # checked on its own bridge
