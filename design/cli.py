@@ -412,6 +412,9 @@ COMMANDS: tuple[Command, ...] = (
             _later("design.cmd_study", "cmd_study")),
     Command("doe", "design of experiments through the batch runner",
             _later("design.cmd_study", "doe_arguments"), _later("design.cmd_study", "cmd_doe")),
+    Command("robustness", "do no harm: a controller on fresh bridge variants, closed vs open "
+            "loop", _later("design.cmd_robustness", "arguments"),
+            _later("design.cmd_robustness", "cmd_robustness")),
     Command("sensitivity", "derivatives of flutter/divergence speed",
             _later("design.cmd_study", "sensitivity_arguments"),
             _later("design.cmd_study", "cmd_sensitivity")),
