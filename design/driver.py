@@ -48,6 +48,7 @@ from design.checks import (  # noqa: F401 - re-exported (tests, API)
     fresh_variant_check,
     fresh_variant_rows,
     fresh_variant_summary,
+    margin_on_speed_grid,
     nlp_active_speeds,
     sample_variants,
 )
@@ -521,6 +522,7 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
             pool = ProcessPoolExecutor(max_workers=2)
         try:
             lim_job = _job(pool, closed_loop_limits, settings, controller, spec=spec)
+            grid_job = _job(pool, margin_on_speed_grid, settings, controller, spec=spec)
             buf_job = _job(pool, buffeting_comparison, settings, controller, spec=spec) if ok \
                 else None
             fresh_jobs = []         # the fresh variants in two halves, in the workers too
@@ -565,6 +567,7 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
             except Exception as exc:  # noqa: BLE001 - a report item, not the design
                 lim = {"status": f"failed: {exc}"}
             extras["closed_loop_limits"] = lim
+            extras["robust_margin_speed_grid"] = _done(grid_job, phases, "margin speed grid")
             mark("closed-loop limits" + (" (wait)" if pool else ""))
             if fresh_jobs:
                 rows = [r for k, j in enumerate(fresh_jobs)

@@ -94,6 +94,7 @@ class DesignResult(ResultData):
             "pareto": self.extras.get("pareto", {}),
             "fresh_variants": self.extras.get("fresh_variants", {}),
             "closed_loop_limits": self.extras.get("closed_loop_limits", {}),
+            "robust_margin_speed_grid": self.extras.get("robust_margin_speed_grid", {}),
             "spectral_abscissa_by_speed": [
                 {"speed_m_s": float(u), "abscissa_1_s": float(a)}
                 for u, a in zip(self.abscissa_speeds_m_s, self.abscissa_1_s, strict=True)],
