@@ -171,6 +171,10 @@ class DesignSettings:
         for name in ("robust_design_speeds_m_s", "robust_speeds_m_s", "buffeting_speeds_m_s"):
             for v in getattr(self, name):
                 _num(name, v, positive=True)
+            if self.weight_robust > 0 and name.startswith("robust") and not getattr(self, name):
+                # an empty list ran the design 30 s, then failed on a broadcast (issue 30)
+                raise BridgeflapInputError(name, "needs at least one speed while weight_robust "
+                                                 "> 0 (or set weight_robust = 0)")
         for name in ("optimise_placement", "leading_edge", "trailing_edge", "parallel",
                      "pareto", "symmetric_layout"):
             if not isinstance(getattr(self, name), bool):

@@ -194,3 +194,21 @@ def test_api_long_bridge_path_is_typed(folder):
     with pytest.raises(BridgeflapInputError) as exc:
         load_bridge(str(folder / f"{LONG}.toml"))
     assert exc.value.field == "bridge" and "File name too long" in exc.value.reason
+
+
+@pytest.mark.parametrize("name", ["robust_design_speeds_m_s", "robust_speeds_m_s"])
+def test_empty_robust_speed_list_refused_before_the_design(tmp_path, capsys, name):
+    """An empty robust speed list ran the design 30 s, then failed on a broadcast (exit 1)."""
+    from importlib import resources as _res
+
+    card = _res.files("design.studies").joinpath("humber_flaps.toml").read_text("utf-8")
+    import re as _re
+
+    text, n = _re.subn(rf"^{name} = \[[^\]]*\]", f"{name} = []", card, flags=_re.M)
+    assert n == 1
+    (tmp_path / "card.toml").write_text(text, "utf-8")
+    out = tmp_path / "opt"
+    rc = main(["optimise", str(tmp_path / "card.toml"), "--out", str(out), "--json"])
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert rc == 2 and len(err) == 1 and name in err[0], err
+    assert not out.exists() and not (tmp_path / ".opt.lock").exists()
