@@ -467,6 +467,18 @@ def validate_study(config: StudyConfig) -> None:
         if not isinstance(opts, Mapping):
             raise BridgeflapInputError(kind, "must be a table of options")
         ANALYSES[kind].resolve(opts)
+    fe_only = [k for k, _ in config.analyses if k in FE_ONLY_ANALYSES]
+    if fe_only:
+        from model.modal_files import needs_fe
+        from model.spec import load_bridge
+
+        spec = load_bridge(config.bridge)
+        if getattr(spec, "structure", None) is not None:  # an imported modal model
+            raise needs_fe(spec.name, f"the {fe_only[0]} analysis")
+
+
+#: analyses that rebuild the structure (erection stages, per-stage modes): the cable/FE model
+FE_ONLY_ANALYSES = ("erection", "frequency_ratio")
 
 
 def _save_figures(figs: Mapping, folder: Path) -> list[str]:

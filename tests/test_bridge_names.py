@@ -77,3 +77,16 @@ def test_global_sensitivity_of_fe_parameters_on_modal_bridge_refused(tmp_path, c
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "parameters.deck." in err[0], err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("analysis", ["erection", "frequency_ratio"])
+def test_study_of_fe_analysis_on_modal_bridge_refused(tmp_path, capsys, analysis):
+    from design.cli import main
+
+    study = tmp_path / "study.toml"
+    study.write_text(f'name = "s"\nbridge = "iabse-2a"\nanalyses = ["{analysis}"]\n', "utf-8")
+    out = tmp_path / "out"
+    rc = main(["study", str(study), "--out", str(out), "--json"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "structure" in err[0] and analysis in err[0], err
+    assert not out.exists()
