@@ -9,8 +9,9 @@ from the same sweep on the same grid and mode count (:func:`model.analysis.close
 A variant is *harmed* when the closed loop goes unstable below the open loop's critical speed
 (by more than :data:`HARM_TOL_REL`: Brent stops each crossing at 1e-3 m/s, so a smaller
 difference is the same speed). A crossing that is neither converged nor absent from the grid
-(``unverified_crossing``, ``bracket_failed``, ``unstable_at_first_speed``) makes its row
-``unresolved``: it is counted apart, never as a pass. A speed beyond the grid is reported as
+(``unverified_crossing``, ``bracket_failed``, ``unstable_at_first_speed``) and whose grid
+bracket does not lie above the converged critical speed makes its row ``unresolved``: it is
+counted apart, never as a pass. A speed beyond the grid is reported as
 ``null`` with ``*_beyond_grid`` true (a lower bound: the grid's last speed).
 
 The summary gives the fraction stable to the design speed, the fraction harmed, the worst
@@ -41,13 +42,24 @@ DEFAULT_FIXED = ("deck.half_chord_m", "aero.coherence_decay")
 
 
 def _crit(summary: dict) -> tuple[float, str, bool]:
-    """(critical speed [m/s] or inf beyond the grid, mechanism, resolved) of a summary."""
-    statuses = (summary.get("flutter_status"), summary.get("divergence_status"))
-    resolved = all(s in _RESOLVED for s in statuses)
+    """(critical speed [m/s] or inf beyond the grid, mechanism, resolved) of a summary.
+
+    Resolved: every crossing is converged or absent, or the converged critical speed lies
+    below the grid bracket of each crossing that is not (the lower crossing governs, whatever
+    the unverified one above it is: the closed-loop divergence of the default design is
+    ``unverified_crossing`` with a bracket above its flutter speed).
+    """
     u = summary.get("critical_speed_m_s")
-    if u is None or not np.isfinite(u):
-        return math.inf, "none", resolved
-    return float(u), str(summary.get("critical_mechanism", "")), resolved
+    u = math.inf if u is None or not np.isfinite(u) else float(u)
+    lows = []
+    for kind in ("flutter", "divergence"):
+        if summary.get(f"{kind}_status") in _RESOLVED:
+            continue
+        bracket = summary.get(f"{kind}_bracket_m_s")
+        lows.append(float(bracket[0]) if bracket else -math.inf)  # no bracket: unknown
+    resolved = all(u <= lo for lo in lows) and not (lows and math.isinf(u))
+    mech = "none" if math.isinf(u) else str(summary.get("critical_mechanism", ""))
+    return u, mech, resolved
 
 
 def harm_row(spec, controller, speeds, n_modes: int, speed_max_m_s: float,

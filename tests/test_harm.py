@@ -87,3 +87,22 @@ def test_cli_robustness_exit_and_table(tmp_path, capsys):
     assert rc == 1 and s["status"] == "harm" and s["fraction_harmed"] > 0
     assert out.read_text().count("\n") == 3  # header and two variants
     assert main(["robustness", "--controller", str(path), "--samples", "0", "--json"]) == 2
+
+
+def test_an_unverified_crossing_above_the_critical_one_does_not_hide_it():
+    from design.harm import _crit
+
+    base = {"flutter_status": "converged", "critical_speed_m_s": 102.3,
+            "critical_mechanism": "flutter"}
+    # the default design's closed-loop divergence: unverified, its bracket above the flutter
+    above = base | {"divergence_status": "unverified_crossing",
+                    "divergence_bracket_m_s": [110.0, 110.5]}
+    assert _crit(above) == (102.3, "flutter", True)
+    below = above | {"divergence_bracket_m_s": [90.0, 90.5]}  # might come first: unknown
+    assert _crit(below)[2] is False
+    none = {"flutter_status": "no_crossing_in_range", "divergence_status": "bracket_failed",
+            "critical_speed_m_s": None}
+    assert _crit(none) == (float("inf"), "none", False)
+    clean = {"flutter_status": "no_crossing_in_range",
+             "divergence_status": "no_crossing_in_range", "critical_speed_m_s": None}
+    assert _crit(clean) == (float("inf"), "none", True)
