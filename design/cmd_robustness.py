@@ -38,7 +38,7 @@ def cmd_robustness(args):
     controller = controller_from_args(args, spec)
     res = do_no_harm(controller, args.bridge, count=args.samples, seed=args.seed,
                      n_modes=args.modes, speed_max_m_s=args.speed_max, workers=args.workers,
-                     progress=None if args.json else log)
+                     progress=log)  # progress on stderr, also with --json
     s = res.summary()
     if args.out:
         from design.io import atomic_write_text

@@ -190,19 +190,26 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
     samples = _sample(spec, dict(ranges), count, seed)
     say = progress or (lambda msg: None)
     say(f"do no harm: {count} variants x 2 sweeps ({n_modes} modes, 0..{u[-1]:g} m/s)")
-    if workers == 1:
-        rows = _rows_of(samples, controller, u, n_modes, speed_max_m_s)
-    else:
-        from concurrent.futures import ProcessPoolExecutor
+    rows: list = [None] * len(samples)
+    step = max(1, len(samples) // 10)
 
-        chunks = [samples[i::workers] for i in range(workers)]
+    def done(i, row):
+        rows[i] = row
+        n = sum(r is not None for r in rows)
+        if n % step == 0 or n == len(samples):
+            say(f"do no harm: {n}/{len(samples)} variants")
+
+    if workers == 1:
+        for i, sample in enumerate(samples):
+            done(i, _rows_of([sample], controller, u, n_modes, speed_max_m_s)[0])
+    else:
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
         with ProcessPoolExecutor(max_workers=workers) as ex:
-            parts = list(ex.map(_rows_of, chunks, *([x] * workers for x in
-                                                     (controller, u, n_modes, speed_max_m_s))))
-        order = [i for c in range(workers) for i in range(c, len(samples), workers)]
-        rows = [None] * len(samples)
-        for i, row in zip(order, (r for p in parts for r in p), strict=True):
-            rows[i] = row
+            futures = {ex.submit(_rows_of, [sample], controller, u, n_modes, speed_max_m_s): i
+                       for i, sample in enumerate(samples)}
+            for f in as_completed(futures):
+                done(futures[f], f.result()[0])
     return HarmResult(bridge=str(name), count=count, n_modes=int(n_modes),
                       speed_max_m_s=float(speed_max_m_s), speeds_max_m_s=float(u[-1]),
                       seed=int(seed), ranges=dict(ranges), rows=tuple(rows))
