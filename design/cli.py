@@ -412,9 +412,8 @@ COMMANDS: tuple[Command, ...] = (
             _later("design.cmd_study", "cmd_study")),
     Command("doe", "design of experiments through the batch runner",
             _later("design.cmd_study", "doe_arguments"), _later("design.cmd_study", "cmd_doe")),
-    Command("robustness", "do no harm: a controller on fresh bridge variants, closed vs open "
-            "loop", _later("design.cmd_robustness", "arguments"),
-            _later("design.cmd_robustness", "cmd_robustness")),
+    Command("robustness", "do no harm: a controller on fresh variants, closed vs open loop",
+            *(_later("design.cmd_robustness", f) for f in ("arguments", "cmd_robustness"))),
     Command("sensitivity", "derivatives of flutter/divergence speed",
             _later("design.cmd_study", "sensitivity_arguments"),
             _later("design.cmd_study", "cmd_sensitivity")),
@@ -492,10 +491,7 @@ _SECTION_RANGES = (
 
 
 def _check_args(args) -> None:
-    """Refuse out-of-range numeric options (one line naming the option and its limit); the
-    default ``--bridge`` resolved (:func:`design.cli_common.default_bridge`)."""
-    if hasattr(args, "bridge"):
-        args.bridge = default_bridge(args)
+    """Refuse out-of-range numeric options (one line naming the option and its limit)."""
     for name, lo, hi, integer in _NUMERIC_ARGS:
         value = getattr(args, name, None)
         if value is None:
@@ -529,6 +525,8 @@ def _check_args(args) -> None:
         path = getattr(args, name, None)
         if path is not None and not Path(path).is_file():
             raise BridgeflapInputError(name, f"not a file: {path}")
+    if hasattr(args, "bridge"):  # the default --bridge: design.cli_common.default_bridge
+        args.bridge = default_bridge(args)
 
 
 def main(argv=None) -> int:

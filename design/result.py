@@ -94,7 +94,6 @@ class DesignResult(ResultData):
             "pareto": self.extras.get("pareto", {}),
             "fresh_variants": self.extras.get("fresh_variants", {}),
             "closed_loop_limits": self.extras.get("closed_loop_limits", {}),
-            "robust_margin_speed_grid": self.extras.get("robust_margin_speed_grid", {}),
             "spectral_abscissa_by_speed": [
                 {"speed_m_s": float(u), "abscissa_1_s": float(a)}
                 for u, a in zip(self.abscissa_speeds_m_s, self.abscissa_1_s, strict=True)],
@@ -110,6 +109,8 @@ class DesignResult(ResultData):
             "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"
                          and (crit or k2 not in CRITICAL_SPEED_FIELDS)},
         })
+        if "robust_margin_speed_grid" in self.extras:  # a design that reached its checks
+            out["robust_margin_speed_grid"] = jsonable(self.extras["robust_margin_speed_grid"])
         if crit:    # the critical-speed search (design.critical_speed), only when it ran
             out["critical_speed"] = jsonable(self.extras.get("critical_speed", {}))
         return out

@@ -264,6 +264,11 @@ CASES = [
     ("buffeting-modes-huge", ["buffeting", "--modes", "100000"], "modes"),
     ("buffeting-plot-suffix", ["buffeting", "--plot", "{d}/prev.npz"], "plot"),
     # ---- optimise
+    ("robustness-no-controller", ["robustness"], "controller"),
+    ("robustness-missing-controller", ["robustness", "--controller", "{d}/nosuch.toml"],
+     "controller"),
+    ("robustness-samples-0", ["robustness", "--controller", "{d}/nosuch.toml", "--samples", "0"],
+     "samples"),
     ("optimise-dir", ["optimise", "{d}/prev_out", "--out", "{d}/prev_out"], "definition"),
     ("optimise-missing", ["optimise", "{d}/nosuch.toml", "--out", "{d}/prev_out"],
      "definition"),
