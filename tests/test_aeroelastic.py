@@ -587,14 +587,14 @@ def test_frequency_ratio_never_picks_a_cable_mode(side_spans):
 
 
 def test_grid_starting_above_the_limits_is_not_a_missing_crossing(humber):
-    """A grid that starts where the bridge is already unstable (built-in Humber: divergence
-    70.80 m/s, flutter 72.17 m/s) reports ``unstable_at_first_speed`` with that speed, never
+    """A grid that starts where the bridge is already unstable (built-in Humber: flutter
+    69.51 m/s, divergence 75.95 m/s) reports ``unstable_at_first_speed`` with that speed, never
     ``no_crossing_in_range``; the governing speed is then unknown, not a number."""
-    sw = stability.sweep(humber["system"], np.arange(75.0, 85.0001, 0.5))
+    sw = stability.sweep(humber["system"], np.arange(80.0, 85.0001, 0.5))
     for c in (sw.flutter, sw.divergence):
         assert c.status == stability.UNSTABLE_AT_FIRST and np.isnan(c.speed)
     s = sw.summary()
-    assert s["flutter_unstable_from_m_s"] == s["divergence_unstable_from_m_s"] == 75.0
+    assert s["flutter_unstable_from_m_s"] == s["divergence_unstable_from_m_s"] == 80.0
     assert analysis.critical_speed(s)["critical_mechanism"] == "unstable_at_first_speed"
     # a grid that ends below the limits: no crossing, and the status says so
     low = stability.sweep(humber["system"], np.arange(0.0, 40.0001, 1.0))

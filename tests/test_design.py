@@ -89,7 +89,13 @@ def test_plant_factors_vanish_at_closed_loop_poles(small):
     s, model = small
     A = model.system(Compensator(*THETA)).A(50.0)
     lam = np.linalg.eigvals(A)
-    lam = lam[np.argsort(-np.abs(lam.imag))][:4]          # oscillatory (structural) poles
+    lam = lam[np.argsort(-np.abs(lam.imag))][:8]          # oscillatory (structural) poles
+    # not an open-loop pole: a mode the flaps cannot move (here an antisymmetric one at
+    # 1e-15 relative distance since issue 27's model updating) keeps its open-loop value and
+    # is no zero of det(I - K G); 1e-8 relative separates the two kinds by 7 orders
+    ol = np.linalg.eigvals(model.open_loop.A(50.0))
+    lam = [p for p in lam if np.min(np.abs(ol - p)) > 1e-8 * abs(p)]
+    assert len(lam) >= 4
     for p in lam:
         Pa, X = plant_factors(model, 50.0, [p])
         K = np.polyval(THETA[:3], p) / np.polyval([THETA[3], THETA[4], 1.0], p)

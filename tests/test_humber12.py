@@ -1,7 +1,7 @@
 """Issue 12 leftovers: mode-count convergence, the flutter mode shape, the frequency-ratio modes.
 
 * model/convergence.py: the truncation error falls with the mode count; the ladder's criterion
-  does not stop at the first small step (Humber: 8 -> 12 moves U_F by 2e-4 %, 12 -> 16 by 3.3 %,
+  does not stop at the first small step (Humber: 8 -> 12 moves U_F by 2e-4 %, 12 -> 16 by 0.9 %,
   because TS2 is the 14th vertical/torsional mode); bad ladders name the field.
 * model/modeshape.py: the flutter shape rebuilt from the modal coordinates through the FE shapes
   equals the physical strip heave/pitch of the *full-order* state space (per-strip lag states,
@@ -31,7 +31,7 @@ SPEEDS = parse_range("0:85:0.5", "speeds", 0.0)
 
 
 def test_truncation_error_falls_with_the_mode_count(humber):
-    """8 modes (no TS2) are 3 % off; 30 modes against 38 are converged far below 0.05 %."""
+    """8 modes (no TS2) are about 1 % off; 30 modes against 38 converge far below 0.05 %."""
     e8 = truncation_error(humber, 8, SPEEDS)
     e30 = truncation_error(humber, 30, SPEEDS)
     for e in (e8, e30):
@@ -39,8 +39,9 @@ def test_truncation_error_falls_with_the_mode_count(humber):
         assert e["reference_modes"] == e["n_modes"] + 8
     assert e30["flutter_truncation_error_pct"] < e8["flutter_truncation_error_pct"]
     assert e30["divergence_truncation_error_pct"] <= e8["divergence_truncation_error_pct"]
-    # measured 3.3 % and 5e-6 %: the bounds sit an order of magnitude inside either side
-    assert e8["flutter_truncation_error_pct"] > 1.0
+    # measured 0.94 % (3.3 % before issue 27's model updating) and far below 0.01 %: the bounds
+    # sit a factor 2 and more inside either side
+    assert e8["flutter_truncation_error_pct"] > 0.5
     assert e30["flutter_truncation_error_pct"] < 0.01
 
 
@@ -63,9 +64,10 @@ def test_ladder_does_not_stop_at_the_first_small_step(coarse_humber):
     assert r.status == CONVERGED
     assert r.first_small_step_modes == 8
     assert r.converged_modes == 16
-    assert r.row(12)["flutter_step_change_pct"] > 1.0       # TS2 enters between 12 and 16
+    # TS2 enters between 12 and 16: 0.93 % measured (3.3 % before issue 27's model updating)
+    assert r.row(12)["flutter_step_change_pct"] > 0.5
     assert "TS2" in r.row(16)["added_modes"]
-    assert r.error_at_pct(16) < 0.05 and r.error_at_pct(8) > 1.0
+    assert r.error_at_pct(16) < 0.05 and r.error_at_pct(8) > 0.5
     s = r.summary()
     assert s["converged_modes"] == 16 and s["reference_modes"] == 24
     assert "labels" not in s["rows"][0]
