@@ -14,7 +14,7 @@ __all__ = ["arguments", "cmd_optimise"]
 
 #: the default design definition, shipped with the package (a copy lives at
 #: runs/humber_flaps.toml; tests/test_runs.py keeps the two identical)
-DEFAULT_DEFINITION = Path(__file__).resolve().parent / "studies" / "humber_flaps.toml"
+from design.settings import DEFAULT_CARD as DEFAULT_DEFINITION  # noqa: E402
 
 
 def cmd_optimise(args):
@@ -124,8 +124,10 @@ def _design_and_write(args, settings, out):
     if result.controller is None:
         # the design failed its checks: its candidate is in the JSON (for diagnosis), but no
         # controller.toml is written and the exit status says it is not usable
+        best = payload.get("best_achievable") or {}
         log(f"bridgeflap: design {result.status}: no usable controller (controller.toml not "
-            "written)")
+            "written)" + (f"; best design found: {'; '.join(best['why_not_usable'])} "
+                          "(JSON best_achievable)" if best.get("why_not_usable") else ""))
         return 1
     return 0
 

@@ -66,6 +66,21 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
             n_gain_points=len(prob.omega_grid()), new_speeds=0, new_gain_cuts=0,
             new_robust_cuts=0, eig_time_per_speed_s=ph1.eig_time_per_speed_s,
             placement="phase 1 (feasibility, no robust epigraph)", history=ph1.history))
+        # the phase-1 point is a fallback candidate when it meets damping and gain (issue 32
+        # item 3): re-solves that diverge from it under the robust cuts must not turn a
+        # feasible point into "infeasible"; used only when no round is feasible, and as the
+        # restart point after a divergence then (b = 14.25 m Humber, 3 m flaps: every round
+        # of the rounded layout diverged or broke the gain limit, its phase-1 point held both)
+        # Not with design variants: their lazy sets are grown by the rounds' checks only.
+        ph1_kept = None
+        if (ver1.max_violation_1_s <= VIOLATION_TOL and ver1.max_gain <= s.gain_limit
+                and not getattr(prob, "variants", ())):
+            rob1 = (prob.robust_margin(ph1.theta, speeds=prob.robust_check_speeds(),
+                                       weights=ph1.weights, peaks=ROBUST_CUTS_PER_SPEED)
+                    if use_rob and _a2_ok(ph1.theta) else None)
+            ph1_kept = (ph1, ver1, rob1, dict(speeds=sorted(speeds), robust_cuts=list(
+                prob.robust_cuts), gain_cuts=list(prob.gain_cuts)), True,
+                rob1.peak if rob1 is not None else float("nan"), False)
         # phase 2 from the phase-1 point when it is less violating than the start
         if float(np.max(ph1.constraints_eig_1_s)) < viol0:
             theta, w = ph1.theta, ph1.weights
@@ -74,6 +89,7 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
                         variants.seed(prob, theta, w, sorted(speeds), nominal1)) <= 0
     else:
         feasible0 = True
+        ph1_kept = None
     off = len(history)          # the phase-1 record, if any, precedes the rounds
     for rnd in range(s.cutting_plane_rounds + 1):
         # round 0 from a feasible point is warm-started like the re-solves (WARM_FIRST)
@@ -149,8 +165,7 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
             diverged += 1
             if diverged >= MAX_DIVERGED:
                 break
-            ib = min(range(len(kept)), key=_ranker(kept, s.robust_cut_tol))
-            bres = kept[ib][0]
+            bres = _best(kept, ph1_kept, s.robust_cut_tol)[0][0]
             theta, w = bres.theta, bres.weights
             gamma = bres.gamma_T if use_rob else None
         # No early stop for a re-solve that ran out of iterations with a worse dense peak
@@ -170,19 +185,29 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
     # feasible (damping and gain) first, then the smallest dense peak of sigma_max(T); peaks
     # within robust_cut_tol of the smallest feasible one count as equal, and among those a
     # round whose bound gamma_T holds is preferred (its margin is certified by the NLP too)
-    ibest = min(range(len(kept)), key=_ranker(kept, s.robust_cut_tol))
-    res, ver, rob, cuts, _, _, _ = kept[ibest]
+    (res, ver, rob, cuts, _, _, _), ibest = _best(kept, ph1_kept, s.robust_cut_tol)
+    chosen = ibest + off if ibest >= 0 else 0   # -1: the phase-1 point (history[0])
     ver = prob.verify(res.theta, res.weights)   # the chosen round's dense check (a posteriori)
     return CutsOutcome(
         solve=res, verification=ver, robust=rob,
-        rounds=tuple(replace(h, chosen=i - off == ibest) for i, h in enumerate(history)),
-        chosen_round=ibest + off, design_speeds_m_s=tuple(cuts["speeds"]),
+        rounds=tuple(replace(h, chosen=i == chosen) for i, h in enumerate(history)),
+        chosen_round=chosen, design_speeds_m_s=tuple(cuts["speeds"]),
         gain_ok=bool(ver.max_gain <= s.gain_limit),
         robust_bound_holds=(bool(rob is not None and rob.peak
                                  <= res.gamma_T * (1.0 + s.robust_cut_tol))
                             if use_rob else None),
         robust_cuts=tuple(tuple(c) for c in cuts["robust_cuts"]),
         gain_cuts=tuple(cuts["gain_cuts"]))
+
+
+def _best(kept, ph1, tol):
+    """``(entry, index)`` of the best kept round (:func:`_ranker`); when no round meets
+    damping and gain but the phase-1 point does, that point with index -1 (a fallback only:
+    a feasible round always wins, so a design that has one is unchanged)."""
+    if ph1 is not None and not any(k[4] for k in kept):
+        return ph1, -1
+    i = min(range(len(kept)), key=_ranker(kept, tol))
+    return kept[i], i
 
 
 def _ranker(kept, tol):

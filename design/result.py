@@ -111,9 +111,43 @@ class DesignResult(ResultData):
         })
         if "robust_margin_speed_grid" in self.extras:  # a design that reached its checks
             out["robust_margin_speed_grid"] = jsonable(self.extras["robust_margin_speed_grid"])
+        if self.controller is None and b is not None:
+            out["best_achievable"] = jsonable(self.best_achievable())
         if crit:    # the critical-speed search (design.critical_speed), only when it ran
             out["critical_speed"] = jsonable(self.extras.get("critical_speed", {}))
         return out
+
+    def best_achievable(self) -> dict:
+        """The best design found when none is usable (issue 32 item 3): its K, layout and
+        closed-loop critical speed under the stated limits, and every check it misses. It is
+        reported, never written as ``controller.toml``."""
+        b, s = self.best, self.settings
+        lim = self.extras.get("closed_loop_limits", {}) or {}
+        why = []
+        if b.max_gain > s.gain_limit:
+            why.append(f"gain {b.max_gain:.4g} above the limit {s.gain_limit:g}")
+        if not b.meets_damping:
+            why.append(f"damping below zeta_min {s.zeta_min:g} on the design model "
+                       f"(largest violation {b.max_violation_1_s:.3g} 1/s)")
+        ver = b.verification
+        if ver is not None and not ver.stable_everywhere:
+            why.append(f"unstable on the {ver.modes}-mode verification model from "
+                       f"{ver.stable_to_m_s:g} m/s (design range to {s.speed_max_m_s:g} m/s)")
+        if not all(v.get("meets_damping", True) for v in b.variant_checks):
+            why.append("a design variant misses zeta_min")
+        if not why:
+            why.append(f"not verified (Ipopt: {b.ipopt_status})")
+        k = self.candidate.compensator if self.candidate else None
+        return {"status": "best_achievable_not_usable", "why_not_usable": why,
+                "coefficients": ({n: getattr(k, n) for n in THETA_NAMES} if k else {}),
+                "flap_positions_m": list(b.flap_positions_m), "max_gain": b.max_gain,
+                "stable_to_m_s": b.stable_to_m_s,
+                "closed_loop_critical_speed_m_s": lim.get("critical_speed_m_s", NAN),
+                "critical_mechanism": lim.get("critical_mechanism"),
+                "open_loop_critical_speed_m_s": min(
+                    (v for v in (lim.get("open_loop_flutter_speed_m_s"),
+                                 lim.get("open_loop_divergence_speed_m_s"))
+                     if isinstance(v, float) and v == v), default=NAN)}
 
     def _rows(self) -> list[dict]:
         """The start table: one row per start (``time_s``, ``robust_margin`` [-], ...)."""
