@@ -203,10 +203,8 @@ def check_options(kind: str, opts: Mapping, what: str | None = None) -> None:
     """
     what = what or kind
     if kind == "design":
-        from design.settings import load_settings
-
         try:
-            load_settings(**dict(opts))
+            design_settings(opts, bridge=None)
         except BridgeflapInputError as exc:
             raise BridgeflapInputError(f"{what}.{exc.field}", exc.reason) from None
         return
@@ -407,11 +405,28 @@ def _buffeting_case(outcome: Outcome) -> dict:
             "status": outcome.summary.get("status", "unknown")}
 
 
+def design_settings(opts: Mapping, bridge: str | None):
+    """The study's design settings: ``card`` (a packaged card of ``design/studies``, e.g.
+    ``"humber_flaps.toml"`` -- the one `bridgeflap optimise` runs by default --, or a path)
+    with the other options as overrides; without a card the settings' defaults, the study's
+    bridge and the options. With a card its own bridge is kept unless ``bridge`` is among the
+    options, so that the study and `bridgeflap optimise` design the same controller."""
+    from design.settings import load_settings, packaged_card
+
+    opts = dict(opts)
+    card = opts.pop("card", None)
+    if card is None:
+        return load_settings(**({"bridge": bridge} if bridge else {}), **opts)
+    if not isinstance(card, str) or not card:
+        raise BridgeflapInputError("card", f"must be a card name or path, got {card!r}")
+    return load_settings(packaged_card(card), **opts)
+
+
 def _run_design(spec, opts, context) -> Outcome:
     from design.driver import design
-    from design.settings import load_settings, quick_settings
+    from design.settings import quick_settings
 
-    settings = load_settings(**{"bridge": context.bridge, **opts})
+    settings = design_settings(opts, context.bridge)
     if context.quick:
         settings = quick_settings(settings)
     res = design(settings, progress=lambda msg: context.say(f"  design: {msg}"))

@@ -298,6 +298,28 @@ def load_settings(path=None, **overrides) -> DesignSettings:
     return DesignSettings(**flat)
 
 
+#: The packaged design cards (shipped in the wheel).
+CARDS_DIR = Path(__file__).resolve().parent / "studies"
+
+#: The card `bridgeflap optimise` and the default study's design step run.
+DEFAULT_CARD = CARDS_DIR / "humber_flaps.toml"
+
+
+def packaged_card(name) -> Path:
+    """The path of a card: a file name of ``design/studies`` (``"humber_flaps.toml"``, with
+    or without the suffix; ``"default"`` is :data:`DEFAULT_CARD`) or any existing path."""
+    if str(name) == "default":
+        return DEFAULT_CARD
+    p = Path(name)
+    if p.exists():
+        return p
+    q = CARDS_DIR / (p.name if p.suffix == ".toml" else p.name + ".toml")
+    if str(name) == p.name and q.exists():
+        return q
+    known = ", ".join(sorted(c.stem for c in CARDS_DIR.glob("*.toml")))
+    raise BridgeflapInputError("card", f"no card {name!r} (packaged: default, {known})")
+
+
 def quick_settings(settings: DesignSettings) -> DesignSettings:
     """Reduced settings for CI/--quick: one start, coarser design grid, two cut rounds,
     fewer flap counts.
