@@ -37,7 +37,6 @@ from design.cli_common import (
     controller_from_args,
     controller_report,
     default_bridge,
-    default_workers,
     emit,
     limit_text,
     log,
@@ -216,22 +215,6 @@ def cmd_flutter(args):
     emit(args, s, text)
 
 
-def cmd_erection(args):
-    from model.spec import load_bridge
-
-    check_plot_target(args)
-    res = _run("erection", load_bridge(args.bridge), fractions=args.fractions,
-               speeds=args.speeds, modes=args.modes, side_spans=args.side_spans or "",
-               workers=args.workers)
-    cols = ["erected_fraction", "flutter_speed_m_s", "flutter_status", "divergence_speed_m_s",
-            "divergence_status", "stage"]
-    lines = [f"side spans while erecting: {res.side_spans}",
-             table_text(res.to_dataframe()[cols], "simple")]
-    if args.plot:
-        save_plot(res, args.plot)
-    emit(args, res.summary(), "\n".join(lines))
-
-
 def cmd_state_space(args):
     from model.analysis import bridge_system
     from model.control_plant import closed_loop_plant, plant_data
@@ -332,18 +315,6 @@ def _flutter_arguments(sp):
     sp.add_argument("--plot", default=None)
 
 
-def _erection_arguments(sp):
-    add_common(sp, erection=False)
-    sp.add_argument("--fractions", default=_default("erection", "fractions"))
-    sp.add_argument("--speeds", default=_default("erection", "speeds"))
-    sp.add_argument("--modes", type=int, default=_default("erection", "modes"))
-    sp.add_argument("--side-spans", choices=SIDE_SPAN_SEQUENCES, default=None,
-                    help=_SIDE_SPANS_HELP)
-    sp.add_argument("--plot", default=None)
-    sp.add_argument("--workers", type=int, default=default_workers(),
-                    help="worker processes for the stages (default: min(2, CPU count))")
-
-
 def _state_space_arguments(sp):
     add_common(sp)
     sp.add_argument("--speed", type=float, required=True, help="[m/s]")
@@ -392,8 +363,9 @@ COMMANDS: tuple[Command, ...] = (
     Command("frequency-ratio", "f(TS1)/f(VS1) against erected fraction",
             _frequency_ratio_arguments, cmd_frequency_ratio),
     Command("flutter", "flutter and torsional divergence", _flutter_arguments, cmd_flutter),
-    Command("erection", "flutter/divergence against erected fraction", _erection_arguments,
-            cmd_erection),
+    Command("erection", "flutter/divergence against erected fraction",
+            _later("design.cmd_erection", "arguments"), _later("design.cmd_erection",
+                                                                 "cmd_erection")),
     Command("section", "rigid 2-DOF deck section", _later("design.cmd_section", "arguments"),
             _later("design.cmd_section", "cmd_section")),
     Command("state-space", "write A, B, C, D at one speed (.npz or .mat)",
