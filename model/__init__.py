@@ -23,7 +23,7 @@ Conventions (stated once here and in the README; every module refers back)
 #: first use (PEP 562), so ``import model`` stays light (no CasADi, no matplotlib).
 _PUBLIC = {
     "BridgeSpec": "model.spec", "load_bridge": "model.spec", "spec_from_dict": "model.spec",
-    "PARAMETER_PATHS": "model.spec",
+    "PARAMETER_PATHS": "model.spec", "save_bridge": "model.spec_writer",
     "BridgeflapError": "model.errors", "BridgeflapInputError": "model.errors",
     "DEFAULT_MODES": "model.analysis", "modal_model": "model.analysis",
     "bridge_system": "model.analysis", "flutter": "model.analysis",
