@@ -37,7 +37,8 @@ _PUBLIC = {
     "load_controller": "model.controller_file", "save_controller": "model.controller_file",
     "closed_loop_model": "model.flaps", "closed_loop_state_space": "model.flaps",
     "plant": "model.control_plant", "plant_data": "model.control_plant",
-    "Plant": "model.control_plant",
+    "Plant": "model.control_plant", "closed_loop": "model.control_interop",
+    "plant_family": "model.control_interop",
     "build_symbolic": "model.symbolic", "closed_loop_functions": "model.symbolic",
     "section_basis": "model.section", "typical_section": "model.section",
 }
