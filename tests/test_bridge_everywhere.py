@@ -46,10 +46,11 @@ def test_global_sensitivity_on_an_in_memory_spec(tmp_path, base, stiffer):
     assert (mod.cases, mod.succeeded, mod.failed) == (4, 4, 0)  # n (k + 1) cases, all ok
     u_ref, u_mod = ref.outputs["flutter_speed_m_s"], mod.outputs["flutter_speed_m_s"]
     assert np.all(np.isfinite(u_mod))
-    # the same samples (same seed) on a stiffer deck: every flutter speed is higher (GJ raises
-    # the torsional frequency, the flutter mechanism's driver), so the spec reached the cases
+    # the same samples (same seed) on the modified deck give other flutter speeds: the spec
+    # reached the cases (on this coarse 8-mode model they are higher; the direction is not
+    # the point, the 16-mode model of the README moves the other way)
     np.testing.assert_array_equal(ref.samples, mod.samples)
-    assert np.all(u_mod > u_ref)
+    assert np.all(np.abs(u_mod - u_ref) > 1e-3)
     # the two batches' fingerprints differ: a resume of one never reuses the other's cases
     recs = [json.loads(next((tmp_path / k / "cases").glob("*.json")).read_text())
             for k in ("base", "mod")]
