@@ -62,11 +62,11 @@ def test_doe_on_an_in_memory_spec(tmp_path, base, stiffer):
             "options": dict(CASE),
             "design": {"kind": "full-factorial", "levels": 2},
             "parameters": {"aero.air_density_kg_m3": [1.2, 1.25]}}
-    from design.experiments import doe_fingerprint, doe_from_dict
+    from design.experiments import doe_fingerprint
 
-    cfg = doe_from_dict(data)
+    cfg = design.doe_from_dict(data)
     assert cfg.bridge is stiffer
-    assert doe_fingerprint(cfg) != doe_fingerprint(doe_from_dict({**data, "bridge": base}))
+    assert doe_fingerprint(cfg) != doe_fingerprint(design.doe_from_dict({**data, "bridge": base}))
     res = design.run_doe(cfg, out=tmp_path / "doe", scheduler="serial", progress=False)
     assert (res.cases, res.succeeded) == (2, 2)
     doe_json = json.loads((tmp_path / "doe" / "doe.json").read_text())
@@ -117,9 +117,7 @@ def test_model_functions_take_a_name_a_file_or_a_spec(tmp_path, base):
 
 
 def test_study_on_an_in_memory_spec(tmp_path, stiffer):
-    from design.study import study_from_dict
-
-    cfg = study_from_dict({"name": "mem", "bridge": stiffer, "analyses": ["modes"],
+    cfg = design.study_from_dict({"name": "mem", "bridge": stiffer, "analyses": ["modes"],
                            "modes": {"count": 6}})
     assert cfg.bridge is stiffer and cfg.spec() == stiffer
     res = design.run_study(cfg, out=tmp_path / "study")
@@ -129,3 +127,15 @@ def test_study_on_an_in_memory_spec(tmp_path, stiffer):
     assert "in-memory BridgeSpec" in (tmp_path / "study" / "report.md").read_text()
     text = json.dumps(cfg.as_dict())
     assert "in-memory BridgeSpec" in text and "bridge_spec_sha256" in text
+
+
+@pytest.mark.slow
+def test_in_memory_spec_reaches_dask_workers(tmp_path, base, stiffer):
+    """The spec pickled to two worker processes gives the serial numbers."""
+    serial = _gsa(stiffer, tmp_path / "serial")
+    res = design.global_sensitivity(stiffer, {"cable.main_sag_m": (112.0, 118.0)},
+                                    method="morris", n=2, out_dir=tmp_path / "dask", workers=2,
+                                    progress=False, case_options=CASE)
+    assert res.failed == 0
+    np.testing.assert_array_equal(res.outputs["flutter_speed_m_s"],
+                                  serial.outputs["flutter_speed_m_s"])
