@@ -86,6 +86,13 @@ def test_load_doe_bridge_override(tmp_path, stiffer):
     with pytest.raises(BridgeflapInputError) as e:
         design.load_doe(path, bridge=3)
     assert e.value.field == "bridge"
+    with pytest.raises(BridgeflapInputError) as e:  # a loaded config already has its bridge
+        design.run_doe(design.load_doe(path), out=tmp_path / "x", bridge=stiffer)
+    assert e.value.field == "bridge"
+    with pytest.raises(BridgeflapInputError) as e:  # bad input stops before any case runs
+        design.global_sensitivity(3.0, {"cable.main_sag_m": (112.0, 118.0)},
+                                  out_dir=tmp_path / "g")
+    assert e.value.field == "bridge" and not (tmp_path / "g").exists()
 
 
 def _always_fails(params):
