@@ -23,7 +23,9 @@ _PUBLIC = {
     "DesignResult": "design.result",
     "local_sensitivity": "design.sensitivity", "global_sensitivity": "design.screening",
     "load_study": "design.study", "run_study": "design.study",
+    "study_from_dict": "design.study",
     "load_doe": "design.experiments", "run_doe": "design.experiments",
+    "doe_from_dict": "design.experiments",
     "run_batch": "design.doe", "make_design": "design.designs",
     "main": "design.cli",
 }

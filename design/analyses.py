@@ -31,7 +31,7 @@ from design.options import (
 from design.sensitivity import DEFAULT_PARAMETERS
 from model.analysis import DEFAULT_MODES
 from model.errors import BridgeflapInputError
-from model.spec import BridgeSpec
+from model.spec import BUILTIN_BRIDGES, BridgeSpec
 
 __all__ = ["ANALYSES", "DEFAULT_MODES", "DEFAULT_SPEEDS", "Analysis", "Outcome", "RunContext",
            "check_options", "figure_of"]
@@ -45,7 +45,7 @@ class RunContext:
     """How an analysis is run: the bridge it came from, quick mode, figures, progress, and
     how many worker processes it may use for independent parts (erection stages)."""
 
-    bridge: str = "humber"
+    bridge: Any = "humber"  # a built-in name, a bridge TOML path or a BridgeSpec
     quick: bool = False
     figures: bool = True
     progress: Callable[[str], None] | None = None
@@ -426,10 +426,18 @@ def _run_design(spec, opts, context) -> Outcome:
     from design.driver import design
     from design.settings import quick_settings
 
-    settings = design_settings(opts, context.bridge)
+    # an in-memory bridge goes to the design as its spec (settings.bridge: its name if that
+    # loads, else the default; the controller's plant record hashes the spec); with a card,
+    # the spec replaces the card's bridge
+    mem = isinstance(context.bridge, BridgeSpec) and "bridge" not in opts
+    name = context.bridge.name if mem else context.bridge
+    if mem and name.split(":")[0] not in BUILTIN_BRIDGES:
+        name = "humber"
+    settings = design_settings({**opts, "bridge": name} if mem else opts, name)
     if context.quick:
         settings = quick_settings(settings)
-    res = design(settings, progress=lambda msg: context.say(f"  design: {msg}"))
+    res = design(settings, progress=lambda msg: context.say(f"  design: {msg}"),
+                 spec=context.bridge if mem else None)
     s = res.summary()
     figs = {}
     if context.figures and res.controller is not None:
@@ -440,7 +448,7 @@ def _run_design(spec, opts, context) -> Outcome:
         # variant), on the study's mesh
         from model.spec import load_bridge
 
-        dspec = load_bridge(settings.bridge).replace(
+        dspec = load_bridge(context.bridge if mem else settings.bridge).replace(
             **{"mesh.element_length_m": spec.mesh.element_length_m})
         figs["design"] = fig5(dspec, res.controller, n_modes=settings.n_modes,
                               quick=context.quick, open_loop_flutter_m_s=(

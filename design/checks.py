@@ -110,7 +110,7 @@ def closed_loop_limits(settings: DesignSettings, controller: Controller, spec=No
     from model.analysis import closed_loop_flutter
     from model.spec import load_bridge
 
-    spec = load_bridge(settings.bridge) if spec is None else spec
+    spec = load_bridge(settings.bridge if spec is None else spec)
     U = np.arange(0.0, LIMIT_SPEED_FACTOR * settings.speed_max_m_s + 1e-9, LIMIT_STEP_M_S)
     # the fast path (coarse tracked sweep, Newton on the critical eigenpairs, dense fallback
     # when unsure; the flutter command's default): on the default design (30 modes) 96.99256

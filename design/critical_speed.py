@@ -303,7 +303,7 @@ def critical_speed_design(settings: DesignSettings, progress=None, spec=None, wa
     t0 = time.perf_counter()
     log = progress or (lambda msg: None)
     theta_init = NOMINAL_START if warm_start is None else warm_start_theta(warm_start)
-    base = load_bridge(settings.bridge) if spec is None else spec
+    base = load_bridge(settings.bridge if spec is None else spec)
     variants = sample_variants(settings, base, settings.variants, settings.variant_seed)
     u_max = search_limit_m_s(settings)
 

@@ -213,14 +213,20 @@ def function_fingerprint(fn: Callable) -> str:
     """A stable text naming ``fn`` and its bound settings (a ``functools.partial``'s arguments).
 
     The default fingerprint of :func:`run_batch`; callers that know more (a DOE: the bridge
-    file's content) pass their own.
+    file's content) pass their own. A bound in-memory :class:`~model.spec.BridgeSpec` is
+    named by :func:`design.cases.bridge_identity` (the hash of its canonical form).
     """
     import functools
 
+    from design.cases import bridge_identity
+    from model.spec import BridgeSpec
+
     parts = []
     while isinstance(fn, functools.partial):
+        kw = {k: bridge_identity(v) if isinstance(v, BridgeSpec) else v
+              for k, v in fn.keywords.items()}
         parts.append(json.dumps({"args": to_jsonable(list(fn.args)),
-                                 "keywords": to_jsonable(dict(fn.keywords))},
+                                 "keywords": to_jsonable(kw)},
                                 sort_keys=True, default=repr))
         fn = fn.func
     parts.append(f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', repr(fn))}")

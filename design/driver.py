@@ -152,7 +152,7 @@ def build_model(settings: DesignSettings, count=None, modal=None, n_modes=None,
     from model.flaps import closed_loop_model
     from model.spec import load_bridge
 
-    spec = load_bridge(settings.bridge) if spec is None else spec
+    spec = load_bridge(settings.bridge if spec is None else spec)
     pos = settings.positions(count) if positions is None else np.asarray(positions, float)
     return spec, closed_loop_model(spec, pos, settings.flap_width_m,
                                    settings.n_modes if n_modes is None else int(n_modes),
@@ -333,7 +333,7 @@ def buffeting_comparison(settings: DesignSettings, controller: Controller, speed
     from model.buffeting import buffeting
     from model.spec import load_bridge
 
-    spec = load_bridge(settings.bridge) if spec is None else spec
+    spec = load_bridge(settings.bridge if spec is None else spec)
     speeds = np.asarray(settings.buffeting_speeds_m_s if speeds is None else speeds, float)
     nm = settings.verification_modes
     ol = buffeting(spec, speeds, n_modes=nm)
@@ -433,7 +433,7 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
     settings : DesignSettings
     progress : callable, optional
         ``str -> None``, called with one line per start and step.
-    spec : model.spec.BridgeSpec, optional
+    spec : model.spec.BridgeSpec, name or bridge TOML path, optional
         The bridge, e.g. a modified built-in one or a variant (default:
         ``load_bridge(settings.bridge)``); every model of the design is built on it.
     warm_start : Controller, Compensator or array_like, optional
@@ -447,19 +447,19 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
         :func:`design.critical_speed.critical_speed_design`, which calls this with its
         chosen inner design.
     """
+    from model.spec import load_bridge
+
+    spec = None if spec is None else load_bridge(spec)  # a name, a file or a BridgeSpec
     if records is None and settings.objective == "critical_speed":
         from design.critical_speed import critical_speed_design
 
         return critical_speed_design(settings, progress=progress, spec=spec,
                                      warm_start=warm_start, progress_bar=progress_bar)
-    t0 = time.perf_counter()
-    log = progress or (lambda msg: None)
+    t0, log = time.perf_counter(), progress or (lambda msg: None)
     # start 0 is a nominal phase-lead-free design (K ~ -1 static, light lag) or the warm
     # start, the others Sobol
     first = NOMINAL_START if warm_start is None else warm_start_theta(warm_start)
-    from model.spec import load_bridge
-
-    base = load_bridge(settings.bridge) if spec is None else spec
+    base = load_bridge(settings.bridge if spec is None else spec)
     variants = sample_variants(settings, base, settings.variants, settings.variant_seed)
     given = records is not None
     starts0 = [] if given else np.vstack(

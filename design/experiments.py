@@ -13,6 +13,10 @@ sampled design), naming the field. Each case's ``case_hash`` (the key of ``--res
 the bridge file's content, the analysis, its resolved options (defaults included) and the
 bridgeflap version (:func:`doe_fingerprint`), so a folder holding another DOE's cases has them
 recomputed, never reused.
+
+The bridge may be an in-memory :class:`~model.spec.BridgeSpec` (``bridge=`` of :func:`load_doe`
+and :func:`run_doe`, or the ``"bridge"`` of :func:`doe_from_dict`): the cases run on it as it
+is, and the fingerprint hashes its canonical form (:func:`design.cases.bridge_identity`).
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -88,7 +93,7 @@ class DoeConfig:
     """A resolved DOE definition: bridge, analysis and its options, design and parameters."""
 
     name: str
-    bridge: str
+    bridge: Any  # a built-in name, an absolute bridge TOML path or a BridgeSpec
     analysis: str
     options: dict
     kind: str
@@ -101,7 +106,9 @@ class DoeConfig:
 
     def as_dict(self) -> dict:
         """JSON-ready resolved configuration."""
-        return {"name": self.name, "bridge": self.bridge, "analysis": self.analysis,
+        from design.cases import bridge_identity
+
+        return {"name": self.name, **bridge_identity(self.bridge), "analysis": self.analysis,
                 "options": dict(self.options), "kind": self.kind,
                 "parameters": {k: v.as_dict() for k, v in self.parameters.items()},
                 "levels": self.levels, "n": self.n, "seed": self.seed, "quick": self.quick,
@@ -124,8 +131,9 @@ class DoeConfig:
                                  **self.options)
 
 
-def load_doe(path: str | os.PathLike, quick: bool = False) -> DoeConfig:
-    """Read and validate a DOE TOML file.
+def load_doe(path: str | os.PathLike, quick: bool = False, bridge: Any = None) -> DoeConfig:
+    """Read and validate a DOE TOML file; ``bridge`` (a name, a bridge TOML path or a
+    :class:`~model.spec.BridgeSpec`) replaces the file's own ``bridge``.
 
     Format::
 
@@ -153,6 +161,8 @@ def load_doe(path: str | os.PathLike, quick: bool = False) -> DoeConfig:
         Unknown key, analysis, design kind or parameter, empty range or level list.
     """
     data, base, source = read_definition(Path(path), "doe")
+    if bridge is not None:
+        data = {**data, "bridge": bridge}
     return doe_from_dict(data, base=base, quick=quick, source=source)
 
 
@@ -303,13 +313,16 @@ class DoeResult(ResultData):
 def doe_fingerprint(config: DoeConfig) -> str:
     """What, besides a case's parameters, determines its result: bridge file content (and the
     resolved bridge), analysis, resolved options, bridgeflap version (the ``case_hash`` key)."""
-    from model.spec import _read_source, _split_variant, load_bridge
-
-    content = _read_source(_split_variant(config.bridge)[0])[0].encode("utf-8")
+    from design.cases import bridge_identity
     from design.doe import _package_version
+    from model.spec import BridgeSpec, _read_source, _split_variant, load_bridge
 
-    payload = {"bridge": config.bridge,
-               "bridge_sha256": hashlib.sha256(content).hexdigest(),
+    if isinstance(config.bridge, BridgeSpec):  # in memory: the hash of its canonical form
+        ident = bridge_identity(config.bridge)
+    else:
+        content = _read_source(_split_variant(config.bridge)[0])[0].encode("utf-8")
+        ident = {"bridge": config.bridge, "bridge_sha256": hashlib.sha256(content).hexdigest()}
+    payload = {**ident,
                # every resolved value (variants applied); no object addresses, which differ
                # from one process to the next
                "bridge_resolved": re.sub(r" at 0x[0-9a-fA-F]+", "",
@@ -322,8 +335,12 @@ def doe_fingerprint(config: DoeConfig) -> str:
 
 def run_doe(config: DoeConfig | str | os.PathLike, out: str | os.PathLike | None = None,
             workers: int = 1, scheduler: str | None = None, resume: bool = False,
-            quick: bool = False, progress: bool = True) -> DoeResult:
+            quick: bool = False, progress: bool = True, bridge: Any = None) -> DoeResult:
     """Run a DOE through :func:`design.doe.run_batch` (per-case files; resumable).
+
+    ``config``: a :class:`DoeConfig` or a DOE file path; ``bridge`` (a name, a bridge TOML
+    path or a :class:`~model.spec.BridgeSpec`) replaces the file's bridge (a path only; for a
+    loaded config use ``load_doe(path, bridge=...)``).
 
     The resolved configuration is written as ``doe.json`` (and ``manifest.json``) next to the
     batch files, after the scheduler is reachable. ``resume`` reuses only cases whose
@@ -335,7 +352,10 @@ def run_doe(config: DoeConfig | str | os.PathLike, out: str | os.PathLike | None
     from design.manifest import build_manifest
 
     if not isinstance(config, DoeConfig):
-        config = load_doe(config, quick=quick)
+        config = load_doe(config, quick=quick, bridge=bridge)
+    elif bridge is not None:
+        raise BridgeflapInputError("bridge", "given with a loaded DoeConfig: pass it to "
+                                             "load_doe(path, bridge=...) instead")
     _check_size(config.kind, config.parameters, config.levels, config.n)
     ANALYSES[config.analysis].resolve(config.options, what="options")
     cases = config.cases()

@@ -46,7 +46,7 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
         from model.modes import solve
         from model.spec import load_bridge
 
-        spec = load_bridge(settings.bridge) if spec is None else spec
+        spec = load_bridge(settings.bridge if spec is None else spec)
         modal = solve(assemble(spec))
     counts = [int(c) for c in counts if c <= settings.flap_count]
     theta = tuple(float(v) for v in theta)

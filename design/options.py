@@ -213,15 +213,21 @@ def check_keys(data: Mapping, allowed, what: str, known: str = "") -> None:
                                                       + (f" ({known})" if known else ""))
 
 
-def resolve_bridge(bridge: Any, base: Path, field_name: str = "bridge") -> str:
-    """A built-in bridge name, or the absolute path of a bridge TOML relative to ``base``.
+def resolve_bridge(bridge: Any, base: Path, field_name: str = "bridge") -> Any:
+    """A built-in bridge name, or the absolute path of a bridge TOML relative to ``base``; an
+    in-memory :class:`~model.spec.BridgeSpec` as it is (a script's modified bridge).
 
     The bridge is loaded once here, so that bad input stops before anything is written.
     """
-    from model.spec import BUILTIN_BRIDGES, _split_variant, load_bridge
+    from model.spec import BUILTIN_BRIDGES, BridgeSpec, _split_variant, load_bridge
 
+    if isinstance(bridge, BridgeSpec):
+        return bridge
+    if isinstance(bridge, Path):
+        bridge = str(bridge)
     if not isinstance(bridge, str) or not bridge:
-        raise BridgeflapInputError(field_name, "missing or not a string")
+        raise BridgeflapInputError(field_name, "missing, or not a built-in name, a bridge .toml "
+                                               "path or a BridgeSpec")
     head, variant = _split_variant(bridge)  # "humber:box", "my.toml:variant"
     if head not in BUILTIN_BRIDGES:
         p = Path(head)

@@ -95,7 +95,9 @@ def study_document(res: StudyResult, figures: dict) -> Document:
     doc = Document()
     doc.heading(1, f"Study `{cfg.name}`: reproduction of Massaro, Limebeer et al. (flutter and "
                    "buffeting of long-span suspension bridges)")
-    doc.paragraph(f"Bridge: `{cfg.bridge}`; quick mode: {cfg.quick}"
+    from design.cases import bridge_label
+
+    doc.paragraph(f"Bridge: `{bridge_label(cfg.bridge)}`; quick mode: {cfg.quick}"
                   + (f" (mesh {cfg.element_length_m} m)" if cfg.element_length_m else "")
                   + f"; run time {res.elapsed_s:.1f} s. Inputs marked NOT FOUND/ESTIMATE in "
                     "docs/humber_data.md (sag, cable spacing, deck inertia, half-chord; EI/GJ "

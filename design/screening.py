@@ -175,7 +175,7 @@ def _band(y: np.ndarray) -> dict:
             "finite": int(y.size)}
 
 
-def global_sensitivity(bridge: str = "humber",
+def global_sensitivity(bridge="humber",
                        ranges: Mapping[str, tuple[float, float]] | None = None,
                        method: str = "morris", n: int = 8, seed: int = 1,
                        out_dir: str | Path = "gsa", workers: int = 1,
@@ -186,8 +186,10 @@ def global_sensitivity(bridge: str = "humber",
 
     Parameters
     ----------
-    bridge : str
-        Built-in name or bridge TOML path (loaded by each case).
+    bridge : str or BridgeSpec
+        Built-in name, bridge TOML path (loaded by each case) or an in-memory spec (sent to
+        each case as it is, e.g. ``load_bridge("humber").replace(**{"deck.gj_nm2": ...})``);
+        the batch fingerprint hashes the spec, so ``resume`` never mixes two specs.
     ranges : mapping
         Parameter path -> (lower, upper) [SI]; default :data:`DEFAULT_UNCERTAIN_RANGES`.
     method : {"morris", "sobol"}
@@ -230,7 +232,10 @@ def global_sensitivity(bridge: str = "humber",
     cases = [{"case_id": f"case-{i:04d}", **{k: float(v) for k, v in zip(names, row,
                                                                            strict=True)}}
              for i, row in enumerate(X)]
-    fn = functools.partial(flutter_case, bridge=str(bridge), **dict(case_options or {}))
+    from model.spec import BridgeSpec
+
+    bridge = bridge if isinstance(bridge, BridgeSpec) else str(bridge)
+    fn = functools.partial(flutter_case, bridge=bridge, **dict(case_options or {}))
     batch = run_batch(fn, cases, out_dir, workers=workers, scheduler=scheduler, resume=resume,
                       progress=progress)
     outputs, indices, band = {}, {}, {}

@@ -63,6 +63,7 @@ import scipy.linalg as sla
 from design.options import parse_range
 from model import statespace
 from model.analysis import DEFAULT_MODES, bridge_system, modal_model
+from model.bridge_arg import takes_bridge
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import assemble
 from model.modes import ModalModel
@@ -366,6 +367,7 @@ def _unit_key(key: str) -> str:
     return key
 
 
+@takes_bridge
 def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARAMETERS,
                       speeds="0:120:1", n_modes: int = DEFAULT_MODES, rfa: str = "rfa4",
                       order: str = "modal", check: bool = True,

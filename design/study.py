@@ -54,6 +54,7 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
+from typing import Any
 
 from design.analyses import ANALYSES, Outcome, RunContext
 from design.io import (
@@ -102,8 +103,8 @@ class StudyConfig:
     ----------
     name : str
         Study name (default output ``runs/<name>/output``).
-    bridge : str
-        Built-in bridge name or absolute path of a bridge TOML.
+    bridge : str or BridgeSpec
+        Built-in bridge name, absolute path of a bridge TOML or an in-memory spec.
     analyses : tuple of (str, dict)
         Analysis kind and its options, in run order (quick overrides already applied).
     quick : bool
@@ -113,7 +114,7 @@ class StudyConfig:
     """
 
     name: str
-    bridge: str
+    bridge: Any
     analyses: tuple
     quick: bool = False
     element_length_m: float | None = None
@@ -122,7 +123,9 @@ class StudyConfig:
 
     def as_dict(self) -> dict:
         """JSON-ready resolved configuration."""
-        return {"name": self.name, "bridge": self.bridge, "quick": self.quick,
+        from design.cases import bridge_identity
+
+        return {"name": self.name, **bridge_identity(self.bridge), "quick": self.quick,
                 "element_length_m": self.element_length_m, "description": self.description,
                 "source": self.source,
                 "analyses": {kind: dict(opts) for kind, opts in self.analyses}}
@@ -137,8 +140,11 @@ class StudyConfig:
         return spec
 
 
-def load_study(path: str | os.PathLike | None = None, quick: bool = False) -> StudyConfig:
-    """Read and validate a study TOML (the built-in default when ``path`` is ``None``).
+def load_study(path: str | os.PathLike | None = None, quick: bool = False,
+               bridge: Any = None) -> StudyConfig:
+    """Read and validate a study TOML (the built-in default when ``path`` is ``None``);
+    ``bridge`` (a name, a bridge TOML path or a :class:`~model.spec.BridgeSpec`) replaces the
+    file's own ``bridge``.
 
     Raises
     ------
@@ -147,6 +153,8 @@ def load_study(path: str | os.PathLike | None = None, quick: bool = False) -> St
     """
     data, base, source = read_definition(default_study_path() if path is None else Path(path),
                                          "study")
+    if bridge is not None:
+        data = {**data, "bridge": bridge}
     return study_from_dict(data, base=base, quick=quick, source=source)
 
 

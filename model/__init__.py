@@ -23,7 +23,7 @@ Conventions (stated once here and in the README; every module refers back)
 #: first use (PEP 562), so ``import model`` stays light (no CasADi, no matplotlib).
 _PUBLIC = {
     "BridgeSpec": "model.spec", "load_bridge": "model.spec", "spec_from_dict": "model.spec",
-    "PARAMETER_PATHS": "model.spec",
+    "PARAMETER_PATHS": "model.spec", "save_bridge": "model.spec_writer",
     "BridgeflapError": "model.errors", "BridgeflapInputError": "model.errors",
     "DEFAULT_MODES": "model.analysis", "modal_model": "model.analysis",
     "bridge_system": "model.analysis", "flutter": "model.analysis",
@@ -37,7 +37,8 @@ _PUBLIC = {
     "load_controller": "model.controller_file", "save_controller": "model.controller_file",
     "closed_loop_model": "model.flaps", "closed_loop_state_space": "model.flaps",
     "plant": "model.control_plant", "plant_data": "model.control_plant",
-    "Plant": "model.control_plant",
+    "Plant": "model.control_plant", "closed_loop": "model.control_interop",
+    "plant_family": "model.control_interop",
     "build_symbolic": "model.symbolic", "closed_loop_functions": "model.symbolic",
     "section_basis": "model.section", "typical_section": "model.section",
 }

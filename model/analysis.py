@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from model import statespace
+from model.bridge_arg import takes_bridge
 from model.control import Controller
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import assemble
@@ -36,12 +37,14 @@ from model.stability import StabilitySweep, check_speeds, sweep
 DEFAULT_MODES = 30
 
 
+@takes_bridge
 def modal_model(spec: BridgeSpec, count: int | None = None,
                 erection_gj_factor: float = 0.5) -> ModalModel:
     """Cable statics, FE assembly and modes of ``spec``."""
     return solve(assemble(spec, erection_gj_factor=erection_gj_factor), count)
 
 
+@takes_bridge
 def bridge_system(spec: BridgeSpec, n_modes: int = DEFAULT_MODES, order: str = "modal",
                   rfa: str = "rfa4", modal: ModalModel | None = None,
                   ) -> tuple[ModalModel, statespace.AeroelasticSystem]:
@@ -145,6 +148,7 @@ def critical_speed(summary) -> dict:
     return {"critical_speed_m_s": float(u), "critical_mechanism": k}
 
 
+@takes_bridge
 def flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
             order: str = "modal", rfa: str = "rfa4", speed_tol: float = 1e-3,
             sweep_method: str = "dense") -> FlutterResult:
@@ -247,6 +251,7 @@ def _stage(spec: BridgeSpec, speeds, n_modes: int) -> dict:
                 "second_flutter_status": "not_evaluated"}
 
 
+@takes_bridge
 def erection(spec: BridgeSpec, fractions, speeds, n_modes: int = DEFAULT_MODES,
              progress=None, side_spans: str | None = None, workers: int = 1) -> ErectionResult:
     """Flutter/divergence at each erected fraction [-] over a grid of wind speeds [m/s].
@@ -415,6 +420,7 @@ def _ratio_row(modal: ModalModel) -> dict:
                                    strict=True)}}
 
 
+@takes_bridge
 def frequency_ratio(spec: BridgeSpec, fractions, side_spans: str | None = None
                     ) -> FrequencyRatioResult:
     """``f(TS1)/f(VS1)`` with half and full deck GJ against erected fraction [-] (seed Fig. 2).
@@ -487,6 +493,7 @@ class ClosedLoopFlutterResult(ResultData):
                                     reference=self.open_loop.sweep)
 
 
+@takes_bridge
 def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEFAULT_MODES,
                         flap_chord_m: float | None = None,
                         sweep_method: str = "dense") -> ClosedLoopFlutterResult:
@@ -511,6 +518,7 @@ def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEF
     return ClosedLoopFlutterResult(base, ol, controller)
 
 
+@takes_bridge
 def pk_flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
                controller: Controller | None = None) -> dict:
     """Summary of the exact-Theodorsen p-k check on the same generalised coordinates as

@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from model.bridge_arg import takes_bridge
 from model.buffeting_inputs import LOADS, resolve_system
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.gust import GustField, coherence_projection, gust_field
@@ -348,6 +349,7 @@ def _check_speeds(speeds) -> np.ndarray:
     return u
 
 
+@takes_bridge
 def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance=None,
               coherence_decay=None, n_modes=16, method="spectral", *, spec=None,
               turbulence_intensity=None, deck_height_m=None, length_scale_m=None,

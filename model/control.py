@@ -257,6 +257,13 @@ class Compensator:
             Dc = np.array([[c1]])
         return Ac, Bc, Cc, Dc
 
+    def to_control(self):
+        """K(s) as a ``control.TransferFunction`` (:func:`model.control_interop.compensator_tf`;
+        python-control, the extra ``control``)."""
+        from model.control_interop import compensator_tf
+
+        return compensator_tf(self)
+
     def second_derivative_feedthrough(self) -> DerivativeFeedthrough:
         """Flap angle derivatives as linear functions of the compensator state and the pitch.
 
@@ -432,6 +439,13 @@ class Controller:
     def n_flaps(self) -> int:
         """Number of flap strips along the main span."""
         return len(self.flap_strip_positions_m)
+
+    def to_statespace(self):
+        """The controller (``pitch_flap[f]`` -> ``flap_te[f]``, ``flap_le[f]``) as a
+        ``control.StateSpace`` (:func:`model.control_interop.controller_statespace`)."""
+        from model.control_interop import controller_statespace
+
+        return controller_statespace(self)
 
     def gain_ratio(self) -> float:
         """Return ``sup_w |K(jw)| / gain_limit`` (<= 1 when the gain limit is met)."""

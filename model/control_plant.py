@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from model.assembly import rfa_parts
+from model.bridge_arg import takes_bridge
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.results import ResultData
 
@@ -164,6 +165,7 @@ def _flap_columns(system, flaps_le_te, U: float):
     return cols[:, 0::3], cols[:, 1::3], cols[:, 2::3]
 
 
+@takes_bridge
 def plant_data(spec, wind_speed: float, inputs: str = "gust", n_modes: int = 16,
                controller=None, flaps: int = 5, flap_chord_m: float | None = None,
                system=None) -> Plant:
@@ -253,6 +255,7 @@ def plant_data(spec, wind_speed: float, inputs: str = "gust", n_modes: int = 16,
                  flap_x_m=fx, flap_position_m=fpos, flap_width_m=fwidth, inputs=inputs)
 
 
+@takes_bridge
 def closed_loop_plant(spec, controller, wind_speed: float, n_modes: int = 16,
                       flap_chord_m: float | None = None) -> Plant:
     """The package's closed loop (``controller``'s K(s) fed back, :mod:`model.flaps`) with
@@ -286,13 +289,10 @@ def basis_mid(spec) -> float:
         lengths[spec.main_span_index])
 
 
+@takes_bridge
 def plant(bridge, speed: float, inputs: str = "gust", n_modes: int = 16, **options):
-    """:func:`plant_data` as a ``control.StateSpace`` (``bridge``: a spec or a built-in name).
+    """:func:`plant_data` as a ``control.StateSpace`` (``bridge``: a name, a file or a spec).
 
     ``options``: ``controller`` (its layout), ``flaps``, ``flap_chord_m``, ``system``.
     """
-    if isinstance(bridge, str):
-        from model.spec import load_bridge
-
-        bridge = load_bridge(bridge)
     return to_control(plant_data(bridge, speed, inputs, n_modes, **options))

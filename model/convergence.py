@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from model import statespace
+from model.bridge_arg import takes_bridge
 from model.errors import BridgeflapInputError
 from model.fe import assemble
 from model.modes import ModalModel, solve
@@ -199,6 +200,7 @@ class ConvergenceResult:
         return ax
 
 
+@takes_bridge
 def mode_convergence(spec: BridgeSpec, speeds, counts=DEFAULT_MODE_COUNTS,
                      tolerance_pct: float = TOLERANCE_PCT, order: str = "modal",
                      rfa: str = "rfa4") -> ConvergenceResult:
@@ -265,6 +267,7 @@ def mode_convergence(spec: BridgeSpec, speeds, counts=DEFAULT_MODE_COUNTS,
                              spec.deck.half_chord_m)
 
 
+@takes_bridge
 def truncation_error(spec: BridgeSpec, n_modes: int, speeds, reference_modes: int | None = None,
                      order: str = "modal", rfa: str = "rfa4", modal=None,
                      at_n: dict | None = None, sweep_method: str = "dense") -> dict:

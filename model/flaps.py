@@ -46,6 +46,7 @@ from model.aero import SectionLoads, flap_section_loads
 from model.assembly import OpenPieces, dynamic_matrices, open_pieces, rfa_parts
 from model.backend import is_symbolic
 from model.basis import StructuralBasis
+from model.bridge_arg import takes_bridge
 from model.control import DEFAULT_FLAP_CHORD_M, Compensator, Controller
 from model.errors import BridgeflapInputError
 from model.fe import assemble
@@ -296,6 +297,7 @@ def controller_flaps(spec, basis: StructuralBasis, controller: Controller,
                     chord, controller.leading_edge, controller.trailing_edge)
 
 
+@takes_bridge
 def closed_loop_model(spec, positions_m, width_m, n_modes: int = 16,
                       flap_chord_m: float = DEFAULT_FLAP_CHORD_M, leading_edge: bool = True,
                       trailing_edge: bool = True, modal=None) -> ClosedLoopModel:
@@ -322,6 +324,7 @@ def section_model(basis: StructuralBasis, half_chord: float, air_density: float,
     return ClosedLoopModel(system, flaps)
 
 
+@takes_bridge
 def closed_loop_system(spec, controller: Controller, n_modes: int = 16,
                        flap_chord_m: float | None = None) -> AeroelasticSystem:
     """Closed-loop system with the AeroelasticSystem interface (``A(U)``, ``B_gust(U)``, ...);
@@ -333,6 +336,7 @@ def closed_loop_system(spec, controller: Controller, n_modes: int = 16,
     return model.system(controller.compensator)
 
 
+@takes_bridge
 def closed_loop_state_space(spec, controller: Controller, speed: float, n_modes: int = 16,
                             flap_chord_m: float | None = None):
     """``(A, B, C, D, state_names, input_names, output_names)`` of the closed loop at ``speed``.

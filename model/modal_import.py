@@ -437,12 +437,11 @@ class _FEOnly:
     def __repr__(self):
         return f"<{self._what}: not defined for a modal bridge>"
 
-    def __eq__(self, other):
-        return isinstance(other, _FEOnly) and (self._bridge, self._what) == (
-            other._bridge, other._what)
+    def __eq__(self, other):  # the bridge's name is compared by the spec itself
+        return isinstance(other, _FEOnly) and self._what == other._what
 
     def __hash__(self):
-        return hash((self._bridge, self._what))
+        return hash(self._what)
 
 
 @dataclass(frozen=True)
@@ -450,7 +449,7 @@ class ModalDeck:
     """Deck of a modal bridge: only what the aerodynamics needs."""
 
     half_chord_m: float
-    bridge: str = ""
+    bridge: str = field(default="", compare=False)  # for the messages only
 
     def __post_init__(self):
         if not (isinstance(self.half_chord_m, float) and math.isfinite(self.half_chord_m)

@@ -30,6 +30,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from model import statespace
+from model.bridge_arg import takes_bridge
 from model.errors import BridgeflapError
 from model.fe import assemble
 from model.modes import ModalModel, solve
@@ -285,6 +286,7 @@ def _unwrap_deg(phase_deg: np.ndarray) -> np.ndarray:
     return out
 
 
+@takes_bridge
 def flutter_mode_shape(spec: BridgeSpec, speeds, n_modes: int,
                        order: str = "modal", rfa: str = "rfa4",
                        peak_pitch_rad: float = PEAK_PITCH_RAD) -> FlutterModeShape:

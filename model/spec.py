@@ -45,7 +45,6 @@ BUILTIN_FILES = {"humber": "humber.toml", "great-belt": "great_belt.toml",
 BUILTIN_BRIDGES = tuple(BUILTIN_FILES)
 
 
-
 @dataclass(frozen=True)
 class Span:
     """One cable span between supports (north to south).
@@ -305,6 +304,12 @@ class BridgeSpec:
         """True for every erection stage (temporary joints), False for the completed bridge."""
         return not self.joints_closed
 
+    def to_toml(self) -> str:
+        """This bridge as bridge-file text, sources kept (:func:`model.spec_writer.to_toml`)."""
+        from model.spec_writer import to_toml
+
+        return to_toml(self)
+
 
 def check_fraction(fraction: float) -> float:
     """Validate an erected fraction in (0, 1]."""
@@ -319,26 +324,12 @@ def check_fraction(fraction: float) -> float:
 
 # Parameters a designer may vary (dotted paths into BridgeSpec), used by sensitivity and DOE.
 PARAMETER_PATHS = (
-    "deck.mass_kg_per_m",
-    "deck.mass_inertia_kgm2_per_m",
-    "deck.ei_vertical_nm2",
-    "deck.ei_lateral_nm2",
-    "deck.gj_nm2",
-    "deck.half_chord_m",
-    "deck.hanger_length_midspan_m",
-    "cable.area_m2",
-    "cable.modulus_pa",
-    "cable.mass_kg_per_m",
-    "cable.spacing_m",
-    "cable.main_sag_m",
-    "damping.ratio",
-    "aero.air_density_kg_m3",
-    "aero.deck_height_m",
-    "aero.turbulence_intensity",
-    "aero.coherence_decay",
-    "aero.lift_slope_buffeting",
-    "aero.moment_slope_buffeting",
-    "mesh.element_length_m",
+    "deck.mass_kg_per_m", "deck.mass_inertia_kgm2_per_m", "deck.ei_vertical_nm2",
+    "deck.ei_lateral_nm2", "deck.gj_nm2", "deck.half_chord_m", "deck.hanger_length_midspan_m",
+    "cable.area_m2", "cable.modulus_pa", "cable.mass_kg_per_m", "cable.spacing_m",
+    "cable.main_sag_m", "damping.ratio", "aero.air_density_kg_m3", "aero.deck_height_m",
+    "aero.turbulence_intensity", "aero.coherence_decay", "aero.lift_slope_buffeting",
+    "aero.moment_slope_buffeting", "mesh.element_length_m",
 )
 
 
@@ -361,8 +352,9 @@ def _replace_path(spec: BridgeSpec, path: str, value: Any) -> BridgeSpec:
 # ----------------------------------------------------------------------------- loading
 
 
-def load_bridge(name_or_path: str | Path) -> BridgeSpec:
-    """Load a built-in bridge by name or a TOML bridge file by path.
+def load_bridge(name_or_path: str | Path | BridgeSpec) -> BridgeSpec:
+    """Load a built-in bridge by name or a TOML bridge file by path; a :class:`BridgeSpec` is
+    returned as it is (so every function that takes a bridge takes a name, a file or a spec).
 
     ``"name:variant"`` (or ``"file.toml:variant"``) applies the file's ``[variants.variant]``
     table: dotted parameter paths with ``{ value, source }``, an alternative reading of the
@@ -374,6 +366,11 @@ def load_bridge(name_or_path: str | Path) -> BridgeSpec:
         Unknown name or variant, missing file, malformed TOML, missing, unknown or
         non-physical field.
     """
+    if isinstance(name_or_path, BridgeSpec):
+        return name_or_path
+    if not isinstance(name_or_path, str | Path) or not str(name_or_path):
+        raise BridgeflapInputError("bridge", "must be a built-in name, a bridge .toml path or "
+                                             f"a BridgeSpec, got {name_or_path!r:.60}")
     base, variant = _split_variant(str(name_or_path))
     text, origin = _read_source(base)
     try:
@@ -591,8 +588,4 @@ def _apply_variant(spec: BridgeSpec, variants: dict, variant: str | None,
     return dataclasses.replace(out, name=f"{spec.name}:{variant}", sources=sources)
 
 
-class _Missing:
-    pass
-
-
-_MISSING = _Missing()
+_MISSING = object()  # a value() without default

@@ -53,6 +53,7 @@ import numpy as np
 from model.aero import strip_aero
 from model.assembly import open_pieces, rfa_parts
 from model.basis import StructuralBasis
+from model.bridge_arg import takes_bridge
 from model.control import canonical_realisation
 from model.errors import BridgeflapInputError
 from model.fe import assemble
@@ -124,6 +125,7 @@ def _projected_derivatives(spec: BridgeSpec, modal: ModalModel, n_modes: int,
     return out
 
 
+@takes_bridge
 def build_symbolic(spec: BridgeSpec, n_modes: int, rfa: RationalApprox | str = "rfa4",
                    modal: ModalModel | None = None) -> SymbolicModel:
     """Build ``A(U, p)`` (modal lag order) for ``spec`` with relative parameters ``p``.
