@@ -49,55 +49,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from model.actuator_limits import ActuatorLimits
 from model.assembly import rfa_parts
 from model.errors import BridgeflapInputError
 
-__all__ = ["ACTUATOR_DEFAULTS", "ActuatorLimits", "SaturatedLoop", "simulate"]
+__all__ = ["ActuatorLimits", "SaturatedLoop", "SimulationRecord", "simulate"]
 
-#: Engineering estimates (not a supplier's data sheet) for hydraulic deck-flap actuators: a
-#: flap of 3 m chord deflecting +-20 deg keeps its tip within ~1 m of the deck line and its
-#: loads within the thin-aerofoil (attached-flow) range of the flap theory (TR-496) used here;
-#: 40 deg/s is the order of aircraft primary-surface hydraulic actuators (40-60 deg/s) derated
-#: for the larger bridge flaps; the servo tracking bandwidth 10 rad/s (1.6 Hz) is well above
-#: the deck modes (<= 0.6 Hz) and the compensator poles (~0.3 Hz). docs/methods.md#actuator-limits.
-ACTUATOR_DEFAULTS = {"flap_angle_limit_deg": 20.0, "flap_rate_limit_deg_s": 40.0,
-                     "actuator_bandwidth_rad_s": 10.0}
-#: plausible ranges (inclusive) of the limits: far outside any flap actuator is refused
-ACTUATOR_RANGES = {"flap_angle_limit_deg": (1e-6, 90.0), "flap_rate_limit_deg_s": (1e-6, 1e4),
-                   "actuator_bandwidth_rad_s": (0.1, 1e3)}
 #: largest RK4 step in units of 1 / max|eig| of the linear closed loop (stability limit 2.78)
 RK4_STEP_FACTOR = 0.5
-
-
-def check_actuator_value(name: str, value) -> float:
-    """``value`` as float within :data:`ACTUATOR_RANGES` (``BridgeflapInputError`` naming it)."""
-    lo, hi = ACTUATOR_RANGES[name]
-    if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
-        raise BridgeflapInputError(name, f"must be a number, got {value!r}")
-    v = float(value)
-    if not (np.isfinite(v) and lo <= v <= hi):
-        raise BridgeflapInputError(name, f"must be in [{lo:g}, {hi:g}], got {value!r}")
-    return v
-
-
-@dataclass(frozen=True)
-class ActuatorLimits:
-    """Flap actuator limits: angle [deg], rate [deg/s], servo tracking bandwidth [rad/s]."""
-
-    angle_deg: float = ACTUATOR_DEFAULTS["flap_angle_limit_deg"]
-    rate_deg_s: float = ACTUATOR_DEFAULTS["flap_rate_limit_deg_s"]
-    bandwidth_rad_s: float = ACTUATOR_DEFAULTS["actuator_bandwidth_rad_s"]
-
-    def __post_init__(self):
-        for name, v in (("flap_angle_limit_deg", self.angle_deg),
-                        ("flap_rate_limit_deg_s", self.rate_deg_s),
-                        ("actuator_bandwidth_rad_s", self.bandwidth_rad_s)):
-            check_actuator_value(name, v)
-
-    def summary(self) -> dict:
-        """The limits in the JSON."""
-        return {"flap_angle_limit_deg": self.angle_deg, "flap_rate_limit_deg_s": self.rate_deg_s,
-                "actuator_bandwidth_rad_s": self.bandwidth_rad_s}
 
 
 class SaturatedLoop:
