@@ -66,7 +66,8 @@ def ar1_coherent_phasors(positions, omegas, wind_speed, decay, rng) -> np.ndarra
     return out
 
 
-def span_turbulence(positions, psd, wind_speed, decay, n_samples, h, omega_max, seed=None):
+def span_turbulence(positions, psd, wind_speed, decay, n_samples, h, omega_max, seed=None, *,
+                    n_keep=None, project=None, chunk=8):
     """Correlated Gaussian gust velocities at the strips, sampled every ``h`` seconds.
 
     Parameters
@@ -89,10 +90,16 @@ def span_turbulence(positions, psd, wind_speed, decay, n_samples, h, omega_max, 
         Highest synthesised frequency [rad/s] (below ``pi / h``).
     seed : int or numpy.random.Generator, optional
         Seed of the random phases.
+    n_keep : int, optional
+        Return only the first ``n_keep`` samples (a window of the periodic record: its
+        frequency spacing ``2 pi / (n_samples h)`` finer than the window alone gives).
+    project : array_like, shape (r, m), optional
+        Return ``project @ w`` (e.g. the generalised gust forces) instead of ``w``; the strips
+        are then synthesised ``chunk`` at a time (memory ``chunk * n_samples``).
 
     Returns
     -------
-    ndarray, shape (m, n_samples)
+    ndarray, shape (m, n_keep) or (r, n_keep)
         ``w_j(t_n)`` [m/s] at ``t_n = n h``; ``var = int_0^omega_max G d omega`` (to the
         midpoint rule) at every strip.
     """
@@ -109,7 +116,18 @@ def span_turbulence(positions, psd, wind_speed, decay, n_samples, h, omega_max, 
     coeff = np.sqrt(2.0 * g * d_omega)[:, None] * ar1_coherent_phasors(positions, omegas, U,
                                                                        decay, rng)
     # sum_k c_k exp(i (k + 1/2) d_omega n h) = exp(i pi n / N) * N * ifft(c)_n
-    spectrum = np.zeros((coeff.shape[1], n), dtype=complex)
-    spectrum[:, :omegas.size] = coeff.T
-    shift = np.exp(1j * np.pi * np.arange(n) / n)
-    return np.real(np.fft.ifft(spectrum, axis=1) * n * shift[None, :])
+    keep = n if n_keep is None else int(n_keep)
+    shift = (np.exp(1j * np.pi * np.arange(n) / n) * n)[:keep]
+    m = coeff.shape[1]
+    P = None if project is None else np.asarray(project, dtype=float)
+    out = np.zeros((m if P is None else P.shape[0], keep))
+    for j0 in range(0, m, int(chunk)):
+        j1 = min(m, j0 + int(chunk))
+        spectrum = np.zeros((j1 - j0, n), dtype=complex)
+        spectrum[:, :omegas.size] = coeff[:, j0:j1].T
+        w = np.real(np.fft.ifft(spectrum, axis=1)[:, :keep] * shift[None, :])
+        if P is None:
+            out[j0:j1] = w
+        else:
+            out += P[:, j0:j1] @ w
+    return out
