@@ -53,7 +53,7 @@ from model.actuator_limits import ActuatorLimits
 from model.assembly import rfa_parts
 from model.errors import BridgeflapInputError
 
-__all__ = ["ActuatorLimits", "SaturatedLoop", "SimulationRecord", "simulate"]
+__all__ = ["ActuatorLimits", "SaturatedLoop", "SimulationRecord", "simulate", "simulate_records"]
 
 #: deck heave or twist magnitude [m or rad] at which a record counts as diverged: the saturated
 #: loop has lost the stability the linear loop has (flaps at their limits, the bridge beyond
@@ -168,23 +168,32 @@ class SimulationRecord:
     diverged_at_s: float | None = None   # the saturated loop lost stability (no statistics)
 
 
-def _rhs(z, force, F, G, Rc, D, IDinv, rmax, amax, ib, linear):
-    c = Rc @ z
-    if linear:
-        r = IDinv @ c
-        return F @ z + G @ r + force, r, c + D @ r
-    r = np.clip(IDinv @ c, -rmax, rmax)
-    for _ in range(3):  # |D| << 1: the fixed point converges in a step or two
-        r = np.clip(c + D @ r, -rmax, rmax)
+def _rhs(z, fp, FR, G, D, IDinv, rmax, amax, ib, ip, nz):
+    """``(z', r, r_cmd)`` for the records in the columns of ``z``; ``FR = [F; Rc]`` stacked
+    (one product for both), ``fp`` the gust forces on the ``p`` rows."""
+    fc = FR @ z
+    c = fc[nz:]
+    # one fixed-point step: exact when unsaturated (IDinv = I + D IDinv), O(|D|^2) otherwise
+    r = np.minimum(np.maximum(c + D @ np.minimum(np.maximum(IDinv @ c, -rmax), rmax), -rmax),
+                   rmax)
     beta = z[ib]
-    stop = ((beta >= amax) & (r > 0)) | ((beta <= -amax) & (r < 0))
-    r = np.where(stop, 0.0, r)
-    return F @ z + G @ r + force, r, c + D @ r
+    r[((beta >= amax) & (r > 0)) | ((beta <= -amax) & (r < 0))] = 0.0
+    dz = fc[:nz] + G @ r
+    dz[ip] += fp
+    return dz, r, c + D @ r
 
 
 def simulate(loop: SaturatedLoop, wind_speed, gust, limits: ActuatorLimits, duration_s,
              seed=None, *, dt=None, transient_s=None, linear=False, omega_max=None):
-    """One Monte-Carlo record of the saturated closed loop at ``wind_speed``.
+    """One Monte-Carlo record of the saturated closed loop (:func:`simulate_records`)."""
+    out = simulate_records(loop, wind_speed, gust, limits, duration_s, [seed], dt=dt,
+                           transient_s=transient_s, linear=linear, omega_max=omega_max)
+    return None if out is None else out[0]
+
+
+def simulate_records(loop: SaturatedLoop, wind_speed, gust, limits: ActuatorLimits, duration_s,
+                     seeds, *, dt=None, transient_s=None, linear=False, omega_max=None):
+    """Monte-Carlo records of the saturated closed loop at ``wind_speed``, side by side.
 
     Parameters
     ----------
@@ -196,7 +205,8 @@ def simulate(loop: SaturatedLoop, wind_speed, gust, limits: ActuatorLimits, dura
     limits : ActuatorLimits
     duration_s : float
         Analysed length after the transient [s].
-    seed : int or numpy.random.Generator, optional
+    seeds : sequence of (int, numpy.random.Generator or None)
+        One per record (the records are integrated together, one matrix product per stage).
     dt : float, optional
         Step [s] (default: the RK4 and synthesis limits of the module docstring).
     transient_s : float, optional
@@ -208,8 +218,9 @@ def simulate(loop: SaturatedLoop, wind_speed, gust, limits: ActuatorLimits, dura
 
     Returns
     -------
-    SimulationRecord, or ``None`` when the linear closed loop is unstable at ``U``. A record
-    whose deck response passes :data:`DIVERGED_RESPONSE` stops there (``diverged_at_s``).
+    list of SimulationRecord, or ``None`` when the linear closed loop is unstable at ``U``. A
+    record whose deck response passes :data:`DIVERGED_RESPONSE` stops there
+    (``diverged_at_s``, no statistics).
     """
     from model.turbulence import span_turbulence
 
@@ -240,44 +251,59 @@ def simulate(loop: SaturatedLoop, wind_speed, gust, limits: ActuatorLimits, dura
                     MAX_SYNTHESIS_SAMPLES))
     n_syn = max(n_syn, 2 * n_steps + 1)
     g = lambda w: gust.psd(w, U) * gust.admittance_sq(w, U)  # noqa: E731
-    n, nF = loop.n, loop.nF
+    n, nF, nz, R = loop.n, loop.nF, loop.n_states, len(seeds)
     iq, ip, _, ib, _ = loop.slices()
-    force = np.zeros((loop.n_states, 2 * n_steps + 1))
-    force[ip] = span_turbulence(loop.strip_x, g, U, gust.coherence_decay, n_syn, 0.5 * h,
-                                min(omega_max, 0.9 * np.pi / (0.5 * h)), seed,
-                                n_keep=2 * n_steps + 1, project=Bp)
+    force = np.empty((2 * n_steps + 1, n, R))
+    for j, seed in enumerate(seeds):
+        force[:, :, j] = span_turbulence(
+            loop.strip_x, g, U, gust.coherence_decay, n_syn, 0.5 * h,
+            min(omega_max, 0.9 * np.pi / (0.5 * h)), seed, n_keep=2 * n_steps + 1,
+            project=Bp).T
     amax = np.deg2rad(limits.angle_deg)
     rmax = np.deg2rad(limits.rate_deg_s)
     if linear:
         amax = rmax = np.inf
-    z = np.zeros(loop.n_states)
-    beta = np.empty((nF, n_keep))
-    rate = np.empty((nF, n_keep))
-    rsat = np.empty((nF, n_keep), dtype=bool)
-    q = np.empty((n, n_keep))
-    args = (F, G, Rc, D, IDinv, rmax, amax, ib, linear)
+    z = np.zeros((nz, R))
+    beta = np.empty((n_keep, nF, R))
+    rate = np.empty((n_keep, nF, R))
+    rsat = np.empty((n_keep, nF, R), dtype=bool)
+    q = np.empty((n_keep, n, R))
+    lost = np.full(R, np.nan)
+    args = (np.vstack([F, Rc]), G, D, IDinv, rmax, amax, ib, ip, nz)
     for k in range(n_steps):
-        f0, f1, f2 = force[:, 2 * k], force[:, 2 * k + 1], force[:, 2 * k + 2]
+        f0, f1, f2 = force[2 * k], force[2 * k + 1], force[2 * k + 2]
         k1, r, rcmd = _rhs(z, f0, *args)
         if k >= n_skip:
             j = k - n_skip
-            beta[:, j], rate[:, j], q[:, j] = z[ib], r, z[iq]
-            rsat[:, j] = np.abs(rcmd) > rmax
+            beta[j], rate[j], q[j] = z[ib], r, z[iq]
+            rsat[j] = np.abs(rcmd) > rmax
         k2 = _rhs(z + 0.5 * h * k1, f1, *args)[0]
         k3 = _rhs(z + 0.5 * h * k2, f1, *args)[0]
         k4 = _rhs(z + h * k3, f2, *args)[0]
         z = z + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         if not linear:
-            z[ib] = np.clip(z[ib], -amax, amax)
-        if k % 50 == 0 and not np.max(np.abs(loop.C_strip @ z[iq]), initial=0.0) < \
-                DIVERGED_RESPONSE:  # the saturated loop lost stability: stop, say so
-            return SimulationRecord(beta=beta[:, :0], rate=rate[:, :0],
-                                    angle_saturated=np.zeros((nF, 0), bool),
-                                    rate_saturated=np.zeros((nF, 0), bool),
-                                    strip_rms=np.full(loop.C_strip.shape[0], np.nan), dt=h,
-                                    transient=n_skip * h, diverged_at_s=k * h)
-    y = loop.C_strip @ q
-    asat = np.abs(beta) >= amax * (1.0 - 1e-9)
-    return SimulationRecord(beta=beta, rate=rate, angle_saturated=asat, rate_saturated=rsat,
-                            strip_rms=np.sqrt(np.mean(y * y, axis=1)), dt=h,
-                            transient=n_skip * h)
+            z[ib] = np.minimum(np.maximum(z[ib], -amax), amax)
+        if k % 50 == 0:  # a record whose saturated loop lost stability: stopped, said so
+            big = ~(np.max(np.abs(loop.C_strip @ z[iq]), axis=0) < DIVERGED_RESPONSE)
+            new = big & np.isnan(lost)
+            lost[new] = k * h
+            z[:, big] = 0.0
+            if np.all(np.isfinite(lost)):
+                break
+    out = []
+    for j in range(R):
+        if np.isfinite(lost[j]):
+            out.append(SimulationRecord(
+                beta=np.zeros((nF, 0)), rate=np.zeros((nF, 0)),
+                angle_saturated=np.zeros((nF, 0), bool), rate_saturated=np.zeros((nF, 0), bool),
+                strip_rms=np.full(loop.C_strip.shape[0], np.nan), dt=h, transient=n_skip * h,
+                diverged_at_s=float(lost[j])))
+            continue
+        y = loop.C_strip @ q[:, :, j].T
+        b = beta[:, :, j].T
+        out.append(SimulationRecord(beta=b, rate=rate[:, :, j].T,
+                                    angle_saturated=np.abs(b) >= amax * (1.0 - 1e-9),
+                                    rate_saturated=rsat[:, :, j].T,
+                                    strip_rms=np.sqrt(np.mean(y * y, axis=1)), dt=h,
+                                    transient=n_skip * h))
+    return out

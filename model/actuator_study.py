@@ -119,7 +119,7 @@ def actuator_study(spec, controller, speeds, limits: ActuatorLimits | None = Non
     linear : bool
         Ignore the limits (the linear closed loop, same integrator).
     """
-    from model.actuator_sim import SaturatedLoop, simulate
+    from model.actuator_sim import SaturatedLoop, simulate_records
     from model.flaps import closed_loop_model
     from model.gust import gust_field
 
@@ -159,11 +159,12 @@ def actuator_study(spec, controller, speeds, limits: ActuatorLimits | None = Non
             continue
         lin_strip, lin_beta, lin_rate, lin_status = _linear_reference(loop, A, U, gust, wa)
         ms_s, ms_b, ms_r, pk_b, pk_r, f_a, f_r, lost = [], [], [], [], [], [], [], []
-        for r, stream in enumerate(streams[i].spawn(int(records))):
-            if progress is not None:
-                progress(f"actuators: U = {U:g} m/s, record {r + 1}/{records}")
-            rec = simulate(loop, U, gust, limits, duration_s, np.random.default_rng(stream),
-                           linear=linear)
+        if progress is not None:
+            progress(f"actuators: U = {U:g} m/s, {records} records")
+        recs = simulate_records(loop, U, gust, limits, duration_s,
+                                [np.random.default_rng(s) for s in streams[i].spawn(records)],
+                                linear=linear)
+        for rec in recs:
             if rec.diverged_at_s is not None:
                 lost.append(rec.diverged_at_s)
                 continue
