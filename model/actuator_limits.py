@@ -71,4 +71,4 @@ class ActuatorLimits:
         return {"flap_angle_limit_deg": self.angle_deg, "flap_rate_limit_deg_s": self.rate_deg_s,
                 "actuator_bandwidth_rad_s": self.bandwidth_rad_s,
                 "limits_source": "engineering estimate (model.actuator_limits; "
-                                 "docs/methods.md#actuator-limits-and-saturated-closed-loop)"}
+                                 "docs/methods.md#actuator-limits-and-saturated-closed-loop-in-turbulence)"}
