@@ -82,7 +82,7 @@ def cmd_actuators(args):
     lines = [f"{spec.name}: {s['modes_retained']} modes, {s['flaps']} flaps, limits "
              f"{limits.angle_deg:g} deg / {limits.rate_deg_s:g} deg/s ({source}), "
              f"{s['records']} x {s['duration_s']:g} s records, seed {s['seed']}; closed-loop "
-             f"critical speed {_g(s['closed_loop_critical_speed_m_s'], '.2f')} m/s",
+             f"critical speed {_g(s['closed_loop_critical_speed_m_s'], '.2f')}",
              f"{'U [m/s]':>8s} {'rms beta':>9s} {'peak':>7s} {'rms rate':>9s} {'peak':>7s} "
              f"{'sat ang':>8s} {'sat rate':>8s} {'rms z [m]':>10s} {'lin':>10s} "
              f"{'rms a [rad]':>11s} {'lin':>10s}  [deg, deg/s]"]
@@ -108,7 +108,9 @@ def cmd_actuators(args):
 
 
 def _g(value, spec):
-    return "n/a" if value is None or not np.isfinite(value) else format(value, spec)
+    if value is None or not np.isfinite(value):
+        return "not computed (--near-critical 0) or none below 200 m/s"
+    return format(value, spec) + " m/s"
 
 
 def arguments(sp) -> None:
