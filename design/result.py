@@ -8,6 +8,7 @@ import numpy as np
 
 from design.records import FlapCountSearch, StartRecord
 from design.settings import CRITICAL_SPEED_FIELDS, THETA_NAMES, DesignSettings
+from model.actuator_limits import ACTUATOR_DEFAULTS, ACTUATOR_FIELDS
 from model.control import Controller
 from model.results import ResultData, jsonable
 
@@ -107,7 +108,8 @@ class DesignResult(ResultData):
                               else {"minimum": None, "counts": []}),
             "wall_time_s": self.wall_time_s,
             "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"
-                         and (crit or k2 not in CRITICAL_SPEED_FIELDS)},
+                         and (crit or k2 not in CRITICAL_SPEED_FIELDS)
+                         and (k2 not in ACTUATOR_FIELDS or v != ACTUATOR_DEFAULTS[k2])},
         })
         if "robust_margin_speed_grid" in self.extras:  # a design that reached its checks
             out["robust_margin_speed_grid"] = jsonable(self.extras["robust_margin_speed_grid"])

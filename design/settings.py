@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from model.actuator_limits import ACTUATOR_DEFAULTS, ACTUATOR_FIELDS, check_actuator_value
 from model.errors import BridgeflapInputError
 
 if sys.version_info >= (3, 11):
@@ -68,6 +69,12 @@ class DesignSettings:
     (0: ``2 speed_max_m_s``, the closed-loop limits' range), bisected to
     ``critical_speed_tol_m_s``, at most ``critical_speed_evaluations`` inner designs
     (:mod:`design.critical_speed`).
+
+    ``flap_angle_limit_deg`` [deg] and ``flap_rate_limit_deg_s`` [deg/s]: the flap actuator's
+    angle and rate limits (defaults 20 deg and 40 deg/s, engineering estimates for hydraulic
+    flap actuators, :mod:`model.actuator_limits`). The design does not use them; ``bridgeflap
+    actuators --card`` simulates the designed loop with them in turbulent wind. Left out of
+    the design's JSON settings while at their defaults.
     """
 
     bridge: str = "humber"
@@ -127,11 +134,15 @@ class DesignSettings:
     critical_speed_tol_m_s: float = 1.0
     critical_speed_max_m_s: float = 0.0
     critical_speed_evaluations: int = 10
+    flap_angle_limit_deg: float = ACTUATOR_DEFAULTS["flap_angle_limit_deg"]
+    flap_rate_limit_deg_s: float = ACTUATOR_DEFAULTS["flap_rate_limit_deg_s"]
     extras: dict = field(default_factory=dict, compare=False)
 
     def __post_init__(self):
         """Validate (one field named per error)."""
         _num("gain_limit", self.gain_limit, positive=True)
+        for name in ACTUATOR_FIELDS:  # actuator limits (engineering estimates: actuator_limits)
+            check_actuator_value(name, getattr(self, name))
         for name in ("flap_width_m", "flap_chord_m", "speed_max_m_s", "design_step_m_s",
                      "check_step_m_s", "omega_min_rad_s", "omega_max_rad_s",
                      "robust_omega_min_rad_s", "robust_omega_max_rad_s"):

@@ -89,7 +89,7 @@ def test_cli_is_an_explicit_table():
     names = [c.name for c in COMMANDS]
     assert len(names) == len(set(names))
     assert {"modes", "flutter", "erection", "frequency-ratio", "section", "state-space", "rfa",
-            "derivatives", "buffeting", "optimise", "study", "robustness", "doe",
+            "derivatives", "buffeting", "optimise", "study", "robustness", "actuators", "doe",
             "sensitivity"} == set(names)
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     assert list(sub.choices) == names
