@@ -221,7 +221,7 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     Ipopt iterations on stderr (None: when stderr is a terminal); ``variants``: bridge
     variants (BridgeSpec) of a multi-model design -- every damping constraint and check on
     every variant as well."""
-    from design.pair_failure import extra_models
+    from design.pair_failure import extra_models, pair_label
 
     t0 = time.perf_counter()
     spec, model = build_model(settings, spec=spec)
@@ -300,9 +300,10 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
         design_speeds_m_s=res.design_speeds_m_s, weights_continuous=w_cont,
         nlp_active_speeds_m_s=nlp_active_speeds(res.solve, res.design_speeds_m_s,
                                                 settings.n_eig),
-        variant_checks=tuple({"meets_damping": v.meets_damping,
+        variant_checks=tuple({**pair_label(q), "meets_damping": v.meets_damping,
                               "min_damping_ratio": v.min_damping_ratio,
-                              "stable_to_m_s": v.stable_to_m_s} for v in vchecks),
+                              "stable_to_m_s": v.stable_to_m_s}
+                             for q, v in zip(prob.variants, vchecks, strict=True)),
         design_verification=ver)
 
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from design.nlp import DesignProblem
 
-__all__ = ["FailedPairProblem", "extra_models"]
+__all__ = ["FailedPairProblem", "extra_models", "pair_label"]
 
 
 class FailedPairProblem(DesignProblem):
@@ -49,3 +49,12 @@ def extra_models(settings, model, spec, variants, positions=None) -> list:
     if getattr(settings, "design_for_pair_failure", False):
         out += [FailedPairProblem(settings, model, f, spec=spec) for f in range(model.n_flaps)]
     return out
+
+
+def pair_label(problem) -> dict:
+    """``{"failed_pair", "failed_pair_position_m"}`` of a :class:`FailedPairProblem` (the
+    label of its entry in a start's ``variant_checks``), ``{}`` for a bridge variant."""
+    if not isinstance(problem, FailedPairProblem):
+        return {}
+    return {"failed_pair": problem.pair,
+            "failed_pair_position_m": float(problem.model.flaps.position_m[problem.pair])}

@@ -60,7 +60,8 @@ STATIC_BRACKET_REL = 1e-6
 #: relative half-widths of the bracket on which the real eigenvalue of ``A(U)`` at the root,
 #: continued either side (:func:`model.tracking._follow`), must stay real and change sign: the
 #: first that continues unambiguously (a complex pair that splits on the real axis just before
-#: the root needs a narrow one: ``humber:box``, a pair failed, splits 0.003 m/s before it)
+#: the root needs a narrow one: the default design on ``humber:box`` with its pair at -282 m
+#: failed splits within 0.005 m/s before it)
 DYNAMIC_BRACKET_REL = (1e-4, 1e-5, 1e-6, 1e-7)
 #: the dynamic zero crossing (Brent, xtol 1e-9 m/s) must lie this close to the static root [m/s]
 DYNAMIC_MATCH_TOL_M_S = 1e-3
