@@ -159,3 +159,17 @@ def test_cli_failures(tmp_path, capsys):
     assert main(["robustness", "--controller", str(path), "--stuck-angle-deg", "3"]) == 2
     assert main(["robustness", "--controller", str(path), "--failures",
                  "--stuck-angle-deg", "nan"]) == 2
+
+
+def test_closed_loop_flutter_reports_the_verified_static_divergence(humber):
+    from model.analysis import closed_loop_flutter
+
+    c = Controller(K5, FOUR, 56.4, flap_chord_m=5.0)
+    s = closed_loop_flutter(humber, c, U, 8, sweep_method="fast").summary()
+    assert s["divergence_static_verified_status"] == "converged"
+    assert s["divergence_static_verified_is_stability_limit"] is True
+    assert s["divergence_static_verified_speed_m_s"] == pytest.approx(
+        s["divergence_static_speed_m_s"], rel=1e-12)
+    assert abs(s["divergence_speed_m_s"] - s["divergence_static_verified_speed_m_s"]) <= 2e-3
+    off = closed_loop_flutter(humber, c, U, 8, verify_static=False).summary()
+    assert "divergence_static_verified_status" not in off
