@@ -120,7 +120,10 @@ def closed_loop_limits(settings: DesignSettings, controller: Controller, spec=No
     keys = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
             "divergence_speed_m_s", "divergence_status", "divergence_static_speed_m_s",
             "critical_speed_m_s", "critical_mechanism", "critical_participation",
-            "open_loop_flutter_speed_m_s", "open_loop_divergence_speed_m_s")
+            "open_loop_flutter_speed_m_s", "open_loop_divergence_speed_m_s",
+            "divergence_static_verified_status", "divergence_static_verified_reason",
+            "divergence_static_verified_direction",
+            "divergence_static_verified_is_stability_limit")
     out = {k: r.get(k) for k in keys if k in r}
     crit, stat = r.get("critical_speed_m_s"), r.get("divergence_static_speed_m_s")
     crit = float("nan") if crit is None else float(crit)

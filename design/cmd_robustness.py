@@ -8,6 +8,12 @@ speed below the variant's own open-loop one), the worst closed/open ratio and th
 (``no_harm``, ``harm``, or ``unresolved`` when a crossing is not verified). Exit status 0 for
 ``no_harm``, 1 otherwise (a result, but not a controller to use as it is); ``--out`` writes the
 per-variant table (CSV).
+
+``--failures [--stuck-angle-deg 5]`` judges the controller on its own bridge with each single
+flap pair failed instead (:mod:`design.failsafe`): stuck at 0, stuck at an angle (the same
+linear stability, plus its static deflection) and the controller off, each with its critical
+speed, mechanism, status and ratios to the intact and the open loop; exit 0 for
+``single_failure_safe``, 1 otherwise; ``--out`` writes the per-pair table.
 """
 
 from __future__ import annotations
@@ -30,10 +36,14 @@ def cmd_robustness(args):
         raise BridgeflapInputError("controller", "a controller .toml is required")
     if not args.speed_max > 0:
         raise BridgeflapInputError("speed-max", f"must be positive, got {args.speed_max}")
+    if args.stuck_angle_deg is not None and not args.failures:
+        raise BridgeflapInputError("stuck-angle-deg", "only with --failures")
     if args.out:
         if not str(args.out).lower().endswith(".csv"):
             raise BridgeflapInputError("out", f"expected a .csv file, got {args.out}")
         check_writable_parent("out", Path(args.out))
+    if args.failures:
+        return _failures(args)
     spec = load_bridge(args.bridge)
     controller = controller_from_args(args, spec)
     res = do_no_harm(controller, args.bridge, count=args.samples, seed=args.seed,
@@ -55,6 +65,57 @@ def cmd_robustness(args):
     return 0 if s["status"] == "no_harm" else 1
 
 
+def _failures(args) -> int:
+    """``--failures``: the single-pair failure table (:func:`design.failsafe
+    .single_pair_failures`)."""
+    import math
+
+    from design.failsafe import DEFAULT_STUCK_ANGLE_DEG, single_pair_failures
+    from model.spec import load_bridge
+
+    angle = DEFAULT_STUCK_ANGLE_DEG if args.stuck_angle_deg is None else args.stuck_angle_deg
+    if not (math.isfinite(angle) and abs(angle) <= 90.0):
+        raise BridgeflapInputError("stuck-angle-deg", f"must be in [-90, 90] deg, got {angle}")
+    spec = load_bridge(args.bridge)
+    controller = controller_from_args(args, spec)
+    res = single_pair_failures(controller, spec, n_modes=args.modes,
+                               speed_max_m_s=args.speed_max, stuck_angle_deg=float(angle),
+                               workers=args.workers, progress=log)
+    s = res.summary()
+    s["bridge"] = str(args.bridge)
+    if args.out:
+        from design.io import atomic_write_text
+
+        atomic_write_text(args.out, res.to_dataframe().to_csv(index=False))
+        s["table"] = str(args.out)
+    emit(args, s, _failure_text(res, s))
+    return 0 if s["status"] == "single_failure_safe" else 1
+
+
+def _speed(v) -> str:
+    return "beyond grid" if v is None else f"{v:.2f}"
+
+
+def _failure_text(res, s) -> str:
+    """The per-pair table and the verdict as text."""
+    from model.results import table_text
+
+    cols = ["pair", "position_m", "edges", "critical_speed_m_s", "critical_mechanism",
+            "status", "critical_speed_lower_bound_m_s", "over_intact", "over_open_loop",
+            "stuck_twist_max_abs_deg", "stuck_heave_max_abs_m"]
+    it, ol, off, w = s["intact"], s["open_loop"], s["controller_off"], s["worst_single_failure"]
+    return (f"{s['bridge']}: {s['flap_pairs']} flap pairs ({s['modes']} modes, 0.."
+            f"{s['grid_max_m_s']:g} m/s); intact {_speed(it['critical_speed_m_s'])} m/s "
+            f"({it['critical_mechanism']}), open loop {_speed(ol['critical_speed_m_s'])} m/s "
+            f"({ol['critical_mechanism']}), controller off {_speed(off['critical_speed_m_s'])} "
+            f"m/s\n{table_text(res.to_dataframe()[cols])}\n"
+            f"stuck at {s['stuck_angle_deg']:g} deg: the same stability as stuck at 0; deck "
+            f"twist/heave at {res.rows[0]['stuck_speed_m_s']:g} m/s in the last columns\n"
+            f"worst single failure: pair {w['pair']} at {_speed(w['critical_speed_m_s'])} m/s "
+            f"({w['critical_mechanism']}); {s['pairs_stable_to_design_speed']}/"
+            f"{s['flap_pairs']} stable to {s['design_speed_m_s']:g} m/s: {s['status']}")
+
+
 def arguments(sp) -> None:
     """The options of ``bridgeflap robustness``."""
     add_common(sp, erection=False)
@@ -68,4 +129,10 @@ def arguments(sp) -> None:
                     help="design speed [m/s]: 'stable to the design speed' is above it")
     sp.add_argument("--workers", type=int, default=default_workers(),
                     help="worker processes (default: min(2, CPUs))")
-    sp.add_argument("--out", default=None, help="per-variant table (.csv)")
+    sp.add_argument("--out", default=None, help="per-variant (or per-pair) table (.csv)")
+    sp.add_argument("--failures", action="store_true",
+                    help="each single flap pair failed (stuck) and the controller off, on the "
+                         "controller's bridge, instead of fresh variants")
+    sp.add_argument("--stuck-angle-deg", type=float, default=None,
+                    help="angle of a stuck pair [deg] (with --failures; default 5): its static "
+                         "deck twist and heave")

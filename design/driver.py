@@ -221,6 +221,8 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     Ipopt iterations on stderr (None: when stderr is a terminal); ``variants``: bridge
     variants (BridgeSpec) of a multi-model design -- every damping constraint and check on
     every variant as well."""
+    from design.pair_failure import extra_models, pair_label
+
     t0 = time.perf_counter()
     spec, model = build_model(settings, spec=spec)
     relaxed = settings
@@ -233,8 +235,7 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     # not 5 + the flap weights; measured: variants in the relaxed solve too took the default
     # card to 3.4 min, round 0 capped infeasible, against ~1 min)
     if not settings.optimise_placement:
-        prob.variants = [DesignProblem(settings, build_model(settings, spec=v)[1], spec=v)
-                         for v in variants]
+        prob.variants = extra_models(settings, model, spec, variants)
     bar = _progress_bar(index, progress_bar)
     if bar is not None:
         def tick(i, f, x):
@@ -257,9 +258,7 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
             fixed = DesignProblem(fixed_s, build_model(settings, positions=positions,
                                                        spec=spec)[1], spec=spec)
             fixed.on_iteration = prob.on_iteration
-            fixed.variants = [DesignProblem(fixed_s, build_model(settings, positions=positions,
-                                                                 spec=v)[1], spec=v)
-                              for v in variants]
+            fixed.variants = extra_models(fixed_s, fixed.model, spec, variants, positions)
             res = fixed.solve_with_cuts(res.theta)
             rounds += [replace(r, placement="rounded") for r in res.rounds]
             prob = fixed
@@ -301,9 +300,10 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
         design_speeds_m_s=res.design_speeds_m_s, weights_continuous=w_cont,
         nlp_active_speeds_m_s=nlp_active_speeds(res.solve, res.design_speeds_m_s,
                                                 settings.n_eig),
-        variant_checks=tuple({"meets_damping": v.meets_damping,
+        variant_checks=tuple({**pair_label(q), "meets_damping": v.meets_damping,
                               "min_damping_ratio": v.min_damping_ratio,
-                              "stable_to_m_s": v.stable_to_m_s} for v in vchecks),
+                              "stable_to_m_s": v.stable_to_m_s}
+                             for q, v in zip(prob.variants, vchecks, strict=True)),
         design_verification=ver)
 
 

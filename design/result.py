@@ -109,7 +109,9 @@ class DesignResult(ResultData):
             "wall_time_s": self.wall_time_s,
             "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"
                          and (crit or k2 not in CRITICAL_SPEED_FIELDS)
-                         and (k2 not in ACTUATOR_FIELDS or v != ACTUATOR_DEFAULTS[k2])},
+                         and (k2 not in ACTUATOR_FIELDS or v != ACTUATOR_DEFAULTS[k2])
+                         # shown when set (design.pair_failure): older records stay as they were
+                         and (k2 != "design_for_pair_failure" or v)},
         })
         if "robust_margin_speed_grid" in self.extras:  # a design that reached its checks
             out["robust_margin_speed_grid"] = jsonable(self.extras["robust_margin_speed_grid"])

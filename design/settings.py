@@ -127,6 +127,7 @@ class DesignSettings:
     variant_seed: int = 7
     variant_fixed: tuple = ("deck.half_chord_m", "aero.coherence_decay")
     variant_speeds: str = "lazy"
+    design_for_pair_failure: bool = False
     pareto_step: int = 2
     objective: str = "margin"
     margin_min: float = 0.25
@@ -187,7 +188,7 @@ class DesignSettings:
                 raise BridgeflapInputError(name, "needs at least one speed while weight_robust "
                                                  "> 0 (or set weight_robust = 0)")
         for name in ("optimise_placement", "leading_edge", "trailing_edge", "parallel",
-                     "pareto", "symmetric_layout"):
+                     "pareto", "symmetric_layout", "design_for_pair_failure"):
             if not isinstance(getattr(self, name), bool):
                 raise BridgeflapInputError(name, f"must be true or false, got "
                                                  f"{getattr(self, name)!r}")

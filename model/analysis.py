@@ -454,12 +454,16 @@ class ClosedLoopFlutterResult(ResultData):
     base: object            # model.analysis.FlutterResult of the closed loop
     open_loop: object       # model.analysis.FlutterResult without flaps
     controller: Controller
+    #: model.static_divergence.StaticDivergence of the closed loop (None: not checked)
+    static: object = field(default=None, repr=False)
 
     def summary(self) -> dict:
         """Same keys as :meth:`model.analysis.FlutterResult.summary`, plus closed-loop info.
 
         ``divergence_static_speed_m_s`` is the closed-loop static check (static flap loads of
-        ``beta = K(0) alpha``); the open-loop values are under ``open_loop_*``.
+        ``beta = K(0) alpha``), ``divergence_static_verified_*`` its verification
+        (:mod:`model.static_divergence`: status, reason, direction of the real eigenvalue,
+        whether it is the stability limit); the open-loop values are under ``open_loop_*``.
         """
         s = self.base.summary()
         ol = self.open_loop.summary()
@@ -475,6 +479,8 @@ class ClosedLoopFlutterResult(ResultData):
             "open_loop_divergence_speed_m_s": ol["divergence_speed_m_s"],
             "open_loop_divergence_status": ol["divergence_status"],
         })
+        if self.static is not None:
+            s.update(self.static.summary())
         return s
 
     def to_dataframe(self):
@@ -496,10 +502,13 @@ class ClosedLoopFlutterResult(ResultData):
 @takes_bridge
 def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEFAULT_MODES,
                         flap_chord_m: float | None = None,
-                        sweep_method: str = "dense") -> ClosedLoopFlutterResult:
+                        sweep_method: str = "dense",
+                        verify_static: bool = True) -> ClosedLoopFlutterResult:
     """Closed-loop flutter/divergence sweep (and the open-loop one for reference).
 
     ``flap_chord_m`` [m] default: the controller's own (:attr:`Controller.chord_m`).
+    ``verify_static``: the verified static divergence of the closed loop on the grid's range
+    (:func:`model.static_divergence.static_divergence`, ~0.3 s on 30 modes).
 
     ``speeds`` [m/s] is an array (strings are parsed by the CLI); ``sweep_method`` that of
     :func:`model.stability.sweep` (``"dense"``, the reference, or ``"fast"``) for both.
@@ -515,7 +524,12 @@ def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEF
                          cl.n_states)
     ol = FlutterResult(spec, sweep(system, u, method=sweep_method), int(n_modes), "modal",
                        "rfa4", system.n_states)
-    return ClosedLoopFlutterResult(base, ol, controller)
+    static = None
+    if verify_static:
+        from model.static_divergence import static_divergence
+
+        static = static_divergence(cl, float(u[-1]))
+    return ClosedLoopFlutterResult(base, ol, controller, static)
 
 
 @takes_bridge
