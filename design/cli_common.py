@@ -9,6 +9,7 @@ one line on stderr and exit status 2.
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import os
 import sys
@@ -148,19 +149,32 @@ def _short(path) -> str:
     return s if len(s) <= 120 else f"{s[:60]}...{s[-50:]}"
 
 
+#: what the file system or the OS refuses for want of room, rights or a usable name: bad
+#: input or environment (one line, exit status 2), even without a file name to show
+OS_REFUSALS = frozenset(getattr(errno, n) for n in (
+    "ENOSPC", "EDQUOT", "EROFS", "EACCES", "EPERM", "ENAMETOOLONG", "ENOENT", "ENOTDIR",
+    "EISDIR", "EEXIST", "ENOTEMPTY", "EXDEV", "EMFILE", "ENFILE", "EFBIG", "ELOOP")
+    if hasattr(errno, n))
+
+
 def os_error_as_input(exc: OSError, args=None) -> BridgeflapInputError | None:
     """A file-system refusal of a path the user gave ("File name too long", "Permission
-    denied", ...) as bad input: the option whose value the path is (or lies in, or holds)
-    named when ``args`` shows it, else ``path``; ``None`` for an OSError without a file name
-    (not about a path the user gave)."""
+    denied", "No space left on device", ...) as bad input: the option whose value the path is
+    (or lies in, or holds, or is a temporary or backup sibling of) named when ``args`` shows
+    it, else ``path``; ``None`` for an OSError that names no file and is no such refusal (not
+    about a path the user gave)."""
     if exc.filename is None:
-        return None
+        if exc.errno not in OS_REFUSALS:
+            return None
+        return BridgeflapInputError("path", exc.strerror or os.strerror(exc.errno))
     path = os.path.abspath(os.fspath(exc.filename))
     field = "path"
     for key, value in sorted(vars(args).items()) if args is not None else ():
         if isinstance(value, str | os.PathLike) and os.fspath(value) and key != "command":
             v = os.path.abspath(os.fspath(value))
-            if path == v or path.startswith(v + os.sep) or v.startswith(path + os.sep):
+            sibling = os.path.join(os.path.dirname(v), f".{os.path.basename(v)}.")
+            if (path == v or path.startswith(v + os.sep) or v.startswith(path + os.sep)
+                    or path.startswith(sibling)):
                 field = key.replace("_", "-")
                 break
     return BridgeflapInputError(field, f"{_short(exc.filename)}: {exc.strerror or exc}")

@@ -376,6 +376,7 @@ def run_batch(
         # temporary sibling swapped in at the end, so a kill leaves the previous output whole
         # and no file of another definition (or a case beyond this design) survives
         in_place = _in_place(out, digests, resume, files, definition)
+        existed = out.exists()
         dest = out if in_place else temporary_sibling(out)
         # the case files are written by one background thread: an atomic write (fsync of the
         # file and its folder, ~10 ms) then overlaps the next case instead of delaying it; all
@@ -459,8 +460,14 @@ def run_batch(
                 swap_into_place(dest, out)
         except BaseException:
             writer.shutdown(cancel_futures=True)  # no write into a folder being removed
-            if not in_place:
-                shutil.rmtree(dest, ignore_errors=True)
+            if not in_place or not existed:
+                if not in_place or not any((out / "cases").glob("*.json")):
+                    shutil.rmtree(dest, ignore_errors=True)  # no finished case to resume
+            elif not any((out / "cases").glob("*.json")):  # a folder given empty: empty again
+                for name in (OUTPUT_MARKER, "cases", *(files or {})):
+                    shutil.rmtree(out / name, ignore_errors=True)
+                    with contextlib.suppress(OSError):
+                        (out / name).unlink()
             raise
 
     if rows and not succeeded:  # nothing usable: a typed error, never an empty table

@@ -59,6 +59,7 @@ from design.analyses import ANALYSES, Outcome, RunContext
 from design.io import (
     atomic_save_netcdf,
     atomic_savez,
+    atomic_write,
     atomic_write_json,
     atomic_write_text,
     output_folder,
@@ -486,7 +487,9 @@ def _save_figures(figs: Mapping, folder: Path) -> list[str]:
 
     names = []
     for name, fig in figs.items():
-        fig.savefig(folder / f"{name}.png", dpi=110, bbox_inches="tight")
+        atomic_write(folder / f"{name}.png",
+                     lambda fh, fig=fig: fig.savefig(fh, format="png", dpi=110,
+                                                     bbox_inches="tight"))
         plt.close(fig)
         names.append(f"figures/{name}.png")
     return names
