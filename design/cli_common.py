@@ -22,8 +22,8 @@ from model.errors import BridgeflapInputError
 
 __all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",
            "controller_from_args", "controller_report", "default_bridge", "default_workers",
-           "emit", "limit_text",
-           "log", "os_error_as_input",
+           "drop_warnings", "emit", "hold_warnings", "limit_text",
+           "log", "os_error_as_input", "release_warnings",
            "save_figure", "save_plot", "spec_from_args", "speed_text"]
 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -59,17 +59,51 @@ def default_workers() -> int:
 
 
 def emit(args, payload: dict, text: str) -> None:
-    """Print ``payload`` as one JSON object with ``--json``, else ``text``."""
+    """Print ``payload`` as one JSON object with ``--json``, else ``text`` (held warnings
+    first, on stderr)."""
+    release_warnings()
     if getattr(args, "json", False):
         sys.stdout.write(json.dumps(to_jsonable(payload), allow_nan=False) + "\n")
     else:
         sys.stdout.write(text.rstrip("\n") + "\n")
 
 
+#: warning and note lines held back while a command runs (:func:`hold_warnings`)
+_HELD: dict = {"pid": None, "lines": []}
+_HELD_PREFIXES = ("bridgeflap: warning:", "bridgeflap: note:")
+
+
 def log(msg: str) -> None:
-    """One line of progress on stderr."""
+    """One line of progress on stderr. While :func:`hold_warnings` is on, a warning or note
+    line waits until the next other line (or :func:`release_warnings`): a refusal that follows
+    drops it (:func:`drop_warnings`), so a refused input prints one line only."""
+    if _HELD["pid"] == os.getpid() and msg.startswith(_HELD_PREFIXES):
+        _HELD["lines"].append(msg)
+        return
+    release_warnings()
     sys.stderr.write(msg + "\n")
     sys.stderr.flush()
+
+
+def hold_warnings() -> None:
+    """Hold warning and note lines back from now on, in this process (:func:`log`)."""
+    _HELD.update(pid=os.getpid(), lines=[])
+
+
+def release_warnings(hold: bool = True) -> None:
+    """Print the held warning lines; with ``hold=False`` also stop holding."""
+    lines, _HELD["lines"] = _HELD["lines"], []
+    if not hold:
+        _HELD["pid"] = None
+    for line in lines:
+        sys.stderr.write(line + "\n")
+    if lines:
+        sys.stderr.flush()
+
+
+def drop_warnings() -> None:
+    """Forget the held warning lines (a refusal follows: its line says what matters)."""
+    _HELD["lines"] = []
 
 
 def default_bridge(args) -> str:

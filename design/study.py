@@ -427,6 +427,13 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
                                      remote_say, False) for kind, opts in jobs}
         try:
             return {kind: fut.result() for kind, fut in futures.items()}
+        except KeyboardInterrupt:
+            # Ctrl-C: end the workers now, their analyses abandoned (cancelling the queued
+            # futures as well races the pool's own clean-up: CPython 3.11 then raises
+            # InvalidStateError in its manager thread, a traceback on stderr)
+            for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                proc.terminate()
+            raise
         except BaseException:
             for fut in futures.values():
                 fut.cancel()
