@@ -45,18 +45,34 @@ INTERRUPTED = "bridgeflap: interrupted"
 BUG_REPORT = ("this is a bug in bridgeflap, not in your input; please report it to the bridgeflap "
               "maintainers with the command line and the traceback of --debug")
 
-_STATE = {"pid": None, "interrupted": False}
+_STATE = {"pid": None, "interrupted": False, "caught": False}
 
 
 def _on_sigint(signum, frame):
-    """SIGINT while a command runs: :class:`KeyboardInterrupt` once; then end at once."""
+    """SIGINT while a command runs: :class:`KeyboardInterrupt`; during the clean-up after it
+    (once :func:`run` has caught it), end at once."""
     if os.getpid() != _STATE["pid"]:  # a forked child that kept the handler: end quietly
         os._exit(EXIT_INTERRUPTED)
-    if _STATE["interrupted"]:  # a second Ctrl-C while cleaning up
+    if _STATE["caught"]:  # a second Ctrl-C while cleaning up
         os.write(2, (INTERRUPTED + "\n").encode())
         os._exit(EXIT_INTERRUPTED)
     _STATE["interrupted"] = True
     raise KeyboardInterrupt
+
+
+def _unraisable(hook):
+    """A ``sys.unraisablehook`` that raises a lost Ctrl-C again: a KeyboardInterrupt raised
+    where Python ignores exceptions (a fork hook, a finaliser) would let the command run on."""
+
+    def unraisable(info):
+        if (issubclass(info.exc_type, KeyboardInterrupt) and os.getpid() == _STATE["pid"]
+                and not _STATE["caught"]):
+            # signalled again from another thread, so that it is raised outside this hook
+            threading.Timer(0.05, os.kill, (os.getpid(), signal.SIGINT)).start()
+            return
+        hook(info)
+
+    return unraisable
 
 
 def _child_after_fork() -> None:
@@ -77,17 +93,17 @@ def run(argv: list[str], debug: bool) -> int:
     """Parse ``argv``, run its command and return the exit status (see the module doc)."""
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, _on_sigint) if main_thread else None
-    _STATE.update(pid=os.getpid(), interrupted=False)
+    _STATE.update(pid=os.getpid(), interrupted=False, caught=False)
+    hook, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
     hold_warnings()
     try:
         return _run(argv, debug)
     except KeyboardInterrupt:  # raised again during the clean-up of an error
-        drop_warnings()
-        log(INTERRUPTED)
-        return EXIT_INTERRUPTED
+        return _interrupted()
     finally:
         release_warnings(hold=False)
         _STATE["pid"] = None
+        sys.unraisablehook = hook
         if main_thread:
             signal.signal(signal.SIGINT, previous)
 
@@ -135,6 +151,7 @@ def _end(line: str, status: int) -> int:
 
 
 def _interrupted() -> int:
+    _STATE["caught"] = True
     drop_warnings()
     log(INTERRUPTED)
     return EXIT_INTERRUPTED
