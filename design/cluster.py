@@ -27,7 +27,8 @@ from collections import deque
 
 from model.errors import BridgeflapInputError
 
-__all__ = ["CONNECT_TIMEOUT_S", "LOCAL_WORKER_CONFIG", "WORKERS_TIMEOUT_S", "cluster_client",
+__all__ = ["CONNECT_TIMEOUT_S", "LOCAL_WORKER_CONFIG", "LOCAL_WORKER_PRELOAD",
+           "WORKERS_TIMEOUT_S", "cluster_client",
            "dask_setup", "run_dask"]
 
 _POLL_S = 0.1
@@ -46,16 +47,16 @@ WORKERS_TIMEOUT_S = 30.0
 #: * the statistical profiler off: it samples the task thread's stack every 10 ms on the
 #:   worker's event-loop thread, holding the GIL; that thread's CPU during 17 cases was
 #:   0.17 s with it, 0.08 s without (2 % of the cases' 4.4 s); nothing here reads profiles.
-#: * this module preloaded (:func:`dask_setup`): the workers ignore SIGINT, so that a Ctrl-C
-#:   of the terminal (which signals the whole process group) prints no worker's traceback;
-#:   the client's process is interrupted and closes the cluster (:mod:`design.cli_run`).
 #:
 #: Workers of a remote scheduler are started by their owner, with that owner's settings.
 LOCAL_WORKER_CONFIG = {
     "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
     "distributed.worker.profile.enabled": False,
-    "distributed.worker.preload": ["design.cluster"],
 }
+#: local workers also preload this module (:func:`dask_setup`): they ignore SIGINT, so that a
+#: Ctrl-C of the terminal (which signals the whole process group) prints no worker's
+#: traceback; the client's process is interrupted and closes the cluster (design.cli_run)
+LOCAL_WORKER_PRELOAD = {"distributed.worker.preload": ["design.cluster"]}
 
 
 def dask_setup(worker=None) -> None:
@@ -90,6 +91,7 @@ def cluster_client(workers: int, scheduler: str | None):
             "distributed.scheduler.allowed-failures": 0,
             "distributed.scheduler.worker-saturation": 1.0,
             **LOCAL_WORKER_CONFIG,
+            **LOCAL_WORKER_PRELOAD,
         }
         # the nannies write their pre-spawn variables (and PYTHONHASHSEED) into os.environ
         # before each worker start; restored after the cluster closes
