@@ -41,14 +41,13 @@ from design.cli_common import (
     limit_text,
     log,
     number_text,
-    os_error_as_input,
     save_plot,
     spec_from_args,
     speed_text,
 )
 from design.io import atomic_write
 from design.options import MAX_GRID_VALUE, MAX_MODES, check_int, check_number, parse_range
-from model.errors import BatchFailedError, BridgeflapError, BridgeflapInputError
+from model.errors import BridgeflapInputError
 from model.results import table_text
 from model.spec import SIDE_SPAN_SEQUENCES, check_fraction
 
@@ -432,13 +431,6 @@ def _limit_blas_threads() -> None:
     threadpool_limits(1, user_api="blas")
 
 
-EXIT_INTERNAL = 1
-
-#: the one line printed for an internal fault (anything but a BridgeflapError)
-BUG_REPORT = ("this is a bug in bridgeflap, not in your input; please report it to the bridgeflap "
-              "maintainers with the command line and the traceback of --debug")
-
-
 #: (argument, minimum, maximum, integer) of every numeric option a command may take: checked
 #: once after parsing (:func:`_check_args`), so every command refuses them alike, naming the
 #: option and its limit, before any work
@@ -502,70 +494,23 @@ def _check_args(args) -> None:
 
 
 def main(argv=None) -> int:
-    """Entry point of the ``bridgeflap`` console script.
+    """Entry point of the ``bridgeflap`` console script (:func:`design.cli_run.run`).
 
     Exit status: 0 success; 1 a result that is not usable (the command says why), or an
     internal fault (one line saying it is a bug; the traceback only with ``--debug``);
-    2 bad input (one line ``bridgeflap: error: <field>: <reason>``, nothing written);
-    130 interrupted.
+    2 bad input (one line ``bridgeflap: error: <field>: <reason>``, nothing written; also
+    what the OS refuses, and a bare ``bridgeflap``: a short usage); 130 interrupted (Ctrl-C:
+    one line, temporaries removed).
     """
+    from design.cli_run import one_line_warning, run
+
     _limit_blas_threads()
     argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
     debug = "--debug" in argv
     with warnings.catch_warnings():
         if not debug:
-            warnings.showwarning = _one_line_warning
-        return _main(argv, debug)
-
-
-def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    """Show a warning as one line on stderr (no source line; ``--debug`` keeps Python's)."""
-    log(f"bridgeflap: warning: {category.__name__}: {_one_line(str(message))}")
-
-
-def _main(argv: list[str], debug: bool) -> int:
-    try:
-        parser = build_parser(argv)
-        args = parser.parse_args(argv)
-        if not getattr(args, "command", None):
-            parser.print_help(sys.stderr)
-            return EXIT_BAD_INPUT
-        _check_args(args)
-        rc = args.func(args)
-    except BatchFailedError as exc:  # input accepted, every case failed: no usable result
-        log(f"bridgeflap: error: {_one_line(str(exc))}")
-        return 1
-    except BridgeflapError as exc:  # BridgeflapInputError included
-        log(f"bridgeflap: error: {_one_line(str(exc))}")
-        return EXIT_BAD_INPUT
-    except OSError as exc:  # a path the user gave that the OS refuses: bad input, not a bug
-        bad = os_error_as_input(exc, locals().get("args"))
-        if bad is None:
-            return _internal(exc, debug)
-        log(f"bridgeflap: error: {_one_line(str(bad))}")
-        return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        log("bridgeflap: interrupted")
-        return 130
-    except Exception as exc:  # the last line of defence: one line, exit 1
-        return _internal(exc, debug)
-    return int(rc or 0)  # a command may report a result that is not usable (exit 1)
-
-
-def _internal(exc: BaseException, debug: bool) -> int:
-    """An internal fault: one line saying it is a bug (the traceback with ``--debug``)."""
-    if debug:
-        import traceback
-
-        traceback.print_exception(exc, file=sys.stderr)
-    log(f"bridgeflap: internal error: {type(exc).__name__}: {_one_line(str(exc))[:300]}; "
-        f"{BUG_REPORT if not debug else 'traceback above'}")
-    return EXIT_INTERNAL
-
-
-def _one_line(text: str) -> str:
-    """``text`` with its line breaks folded, so that an error stays one line."""
-    return " ".join(text.split())
+            warnings.showwarning = one_line_warning
+        return run(argv, debug)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -9,6 +9,7 @@ one line on stderr and exit status 2.
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import os
 import sys
@@ -21,8 +22,8 @@ from model.errors import BridgeflapInputError
 
 __all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",
            "controller_from_args", "controller_report", "default_bridge", "default_workers",
-           "emit", "limit_text",
-           "log", "os_error_as_input",
+           "drop_warnings", "emit", "hold_warnings", "limit_text",
+           "log", "os_error_as_input", "release_warnings",
            "save_figure", "save_plot", "spec_from_args", "speed_text"]
 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -58,17 +59,51 @@ def default_workers() -> int:
 
 
 def emit(args, payload: dict, text: str) -> None:
-    """Print ``payload`` as one JSON object with ``--json``, else ``text``."""
+    """Print ``payload`` as one JSON object with ``--json``, else ``text`` (held warnings
+    first, on stderr)."""
+    release_warnings()
     if getattr(args, "json", False):
         sys.stdout.write(json.dumps(to_jsonable(payload), allow_nan=False) + "\n")
     else:
         sys.stdout.write(text.rstrip("\n") + "\n")
 
 
+#: warning and note lines held back while a command runs (:func:`hold_warnings`)
+_HELD: dict = {"pid": None, "lines": []}
+_HELD_PREFIXES = ("bridgeflap: warning:", "bridgeflap: note:")
+
+
 def log(msg: str) -> None:
-    """One line of progress on stderr."""
+    """One line of progress on stderr. While :func:`hold_warnings` is on, a warning or note
+    line waits until the next other line (or :func:`release_warnings`): a refusal that follows
+    drops it (:func:`drop_warnings`), so a refused input prints one line only."""
+    if _HELD["pid"] == os.getpid() and msg.startswith(_HELD_PREFIXES):
+        _HELD["lines"].append(msg)
+        return
+    release_warnings()
     sys.stderr.write(msg + "\n")
     sys.stderr.flush()
+
+
+def hold_warnings() -> None:
+    """Hold warning and note lines back from now on, in this process (:func:`log`)."""
+    _HELD.update(pid=os.getpid(), lines=[])
+
+
+def release_warnings(hold: bool = True) -> None:
+    """Print the held warning lines; with ``hold=False`` also stop holding."""
+    lines, _HELD["lines"] = _HELD["lines"], []
+    if not hold:
+        _HELD["pid"] = None
+    for line in lines:
+        sys.stderr.write(line + "\n")
+    if lines:
+        sys.stderr.flush()
+
+
+def drop_warnings() -> None:
+    """Forget the held warning lines (a refusal follows: its line says what matters)."""
+    _HELD["lines"] = []
 
 
 def default_bridge(args) -> str:
@@ -148,19 +183,32 @@ def _short(path) -> str:
     return s if len(s) <= 120 else f"{s[:60]}...{s[-50:]}"
 
 
+#: what the file system or the OS refuses for want of room, rights or a usable name: bad
+#: input or environment (one line, exit status 2), even without a file name to show
+OS_REFUSALS = frozenset(getattr(errno, n) for n in (
+    "ENOSPC", "EDQUOT", "EROFS", "EACCES", "EPERM", "ENAMETOOLONG", "ENOENT", "ENOTDIR",
+    "EISDIR", "EEXIST", "ENOTEMPTY", "EXDEV", "EMFILE", "ENFILE", "EFBIG", "ELOOP")
+    if hasattr(errno, n))
+
+
 def os_error_as_input(exc: OSError, args=None) -> BridgeflapInputError | None:
     """A file-system refusal of a path the user gave ("File name too long", "Permission
-    denied", ...) as bad input: the option whose value the path is (or lies in, or holds)
-    named when ``args`` shows it, else ``path``; ``None`` for an OSError without a file name
-    (not about a path the user gave)."""
+    denied", "No space left on device", ...) as bad input: the option whose value the path is
+    (or lies in, or holds, or is a temporary or backup sibling of) named when ``args`` shows
+    it, else ``path``; ``None`` for an OSError that names no file and is no such refusal (not
+    about a path the user gave)."""
     if exc.filename is None:
-        return None
+        if exc.errno not in OS_REFUSALS:
+            return None
+        return BridgeflapInputError("path", exc.strerror or os.strerror(exc.errno))
     path = os.path.abspath(os.fspath(exc.filename))
     field = "path"
     for key, value in sorted(vars(args).items()) if args is not None else ():
         if isinstance(value, str | os.PathLike) and os.fspath(value) and key != "command":
             v = os.path.abspath(os.fspath(value))
-            if path == v or path.startswith(v + os.sep) or v.startswith(path + os.sep):
+            sibling = os.path.join(os.path.dirname(v), f".{os.path.basename(v)}.")
+            if (path == v or path.startswith(v + os.sep) or v.startswith(path + os.sep)
+                    or path.startswith(sibling)):
                 field = key.replace("_", "-")
                 break
     return BridgeflapInputError(field, f"{_short(exc.filename)}: {exc.strerror or exc}")

@@ -27,8 +27,9 @@ from collections import deque
 
 from model.errors import BridgeflapInputError
 
-__all__ = ["CONNECT_TIMEOUT_S", "LOCAL_WORKER_CONFIG", "WORKERS_TIMEOUT_S", "cluster_client",
-           "run_dask"]
+__all__ = ["CONNECT_TIMEOUT_S", "LOCAL_WORKER_CONFIG", "LOCAL_WORKER_PRELOAD",
+           "WORKERS_TIMEOUT_S", "cluster_client",
+           "dask_setup", "run_dask"]
 
 _POLL_S = 0.1
 #: connect timeout to a remote Dask scheduler [s]: a dead address fails within this
@@ -52,6 +53,19 @@ LOCAL_WORKER_CONFIG = {
     "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
     "distributed.worker.profile.enabled": False,
 }
+#: local workers also preload this module (:func:`dask_setup`): they ignore SIGINT, so that a
+#: Ctrl-C of the terminal (which signals the whole process group) prints no worker's
+#: traceback; the client's process is interrupted and closes the cluster (design.cli_run)
+LOCAL_WORKER_PRELOAD = {"distributed.worker.preload": ["design.cluster"]}
+
+
+def dask_setup(worker=None) -> None:
+    """Dask preload hook of a local worker (:data:`LOCAL_WORKER_CONFIG`): ignore SIGINT."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 @contextlib.contextmanager
@@ -77,6 +91,7 @@ def cluster_client(workers: int, scheduler: str | None):
             "distributed.scheduler.allowed-failures": 0,
             "distributed.scheduler.worker-saturation": 1.0,
             **LOCAL_WORKER_CONFIG,
+            **LOCAL_WORKER_PRELOAD,
         }
         # the nannies write their pre-spawn variables (and PYTHONHASHSEED) into os.environ
         # before each worker start; restored after the cluster closes

@@ -51,20 +51,23 @@ def cmd_optimise(args):
 def _design_and_write(args, settings, out):
     """Run the design and replace ``out`` by its complete folder (crash-safe swap)."""
     from design.driver import design
+    from design.io import atomic_write_text, naming_os_errors
     from design.outputs import swap_into_place, temporary_sibling, write_marker
     from model.controller_file import save_controller
 
     result = design(settings, progress=log)
     tmp = temporary_sibling(out)
-    tmp.mkdir()
-    write_marker(tmp, "optimise")
     try:
+        tmp.mkdir()
+        write_marker(tmp, "optimise")
         payload = result.summary()
-        (tmp / "ipopt_history.json").write_text(json.dumps(result.history(), allow_nan=False))
+        atomic_write_text(tmp / "ipopt_history.json",
+                          json.dumps(result.history(), allow_nan=False))
         ctrl_file = out / "controller.toml"
         if result.candidate is not None:
             if result.controller is not None:
-                save_controller(result.controller, tmp / "controller.toml")
+                with naming_os_errors(tmp / "controller.toml"):  # e.g. no space left
+                    save_controller(result.controller, tmp / "controller.toml")
             import matplotlib
 
             matplotlib.use("Agg")

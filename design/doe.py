@@ -21,7 +21,9 @@ Output layout of ``run_batch(..., out_dir)``::
                              error
       batch.json             summary: {cases, succeeded, failed, timed_out, reused, table, ...}
 
-All three are written atomically (:mod:`design.io`). Non-finite numbers are stored as JSON
+All three are written atomically (:mod:`design.io`); over a previous output of another run
+the folder is written aside and swapped in when complete (:func:`run_batch`, "Where the files
+go"). Non-finite numbers are stored as JSON
 ``null`` and as empty CSV cells.
 
 Integrity (:mod:`design.outputs`): a non-empty ``out_dir`` without the bridgeflap marker is refused
@@ -36,11 +38,10 @@ written before the Dask scheduler is reachable
 from __future__ import annotations
 
 import contextlib
-import csv
 import hashlib
-import io
 import json
 import os
+import shutil
 import signal
 import sys
 import threading
@@ -50,14 +51,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from design.batch_table import flat_case_rows, table_text, with_branch_flags
 from design.cluster import cluster_client, run_dask
 from design.designs import CASE_ID_KEY
 from design.io import atomic_write_json, atomic_write_text, ensure_writable_dir, to_jsonable
 from design.outputs import (
+    OUTPUT_MARKER,
     check_replaceable,
     claim_output,
     is_marked_output,
     remove_stale_file_temporaries,
+    swap_into_place,
+    temporary_sibling,
     write_marker,
 )
 from model.errors import BridgeflapInputError
@@ -107,23 +112,6 @@ class BatchResult(ResultData):
 
     def _rows(self) -> list[dict]:
         return flat_case_rows(self.rows)
-
-
-def flat_case_rows(rows) -> list[dict]:
-    """One flat dict per case record: ``case_id``, ``status``, the parameters and the scalar
-    results (``critical_speed_m_s``, ...; nested keys ``a.b``; a result key already taken by a
-    parameter is prefixed ``result.``), ``elapsed_s`` and ``error`` (the ``table.csv`` row)."""
-    out = []
-    for row in rows:
-        p: dict = {}
-        _flatten(row.get("params") or {}, "", p)
-        r: dict = {}
-        _flatten(row.get("result") or {}, "", r)
-        taken = {"case_id", "status", "elapsed_s", "error"} | set(p)
-        out.append({"case_id": row["case_id"], "status": row["status"], **p,
-                    **{(f"result.{k}" if k in taken else k): v for k, v in r.items()},
-                    "elapsed_s": row.get("elapsed_s"), "error": row.get("error")})
-    return out
 
 
 def _one_line(text: str, limit: int = 500) -> str:
@@ -254,84 +242,6 @@ def _load_reusable(path: Path, params: dict, digest: str) -> tuple[dict | None, 
     return stored, False
 
 
-def _flatten(value: Any, prefix: str, out: dict) -> None:
-    """Scalar leaves of nested dicts as ``a.b.c`` keys; lists are not table cells and skipped."""
-    if isinstance(value, Mapping):
-        for key, item in value.items():
-            _flatten(item, f"{prefix}.{key}" if prefix else str(key), out)
-    elif value is None or isinstance(value, (bool, int, float, str)):
-        out[prefix] = value
-
-
-def _with_branch_flags(rows: tuple[dict, ...]) -> tuple[dict, ...]:
-    """Rows of a stability DOE with ``branch_switch_neighbour`` and ``neighbour_branches``.
-
-    A row whose parameter-space neighbours have another critical branch is flagged
-    (:func:`design.branch_flags.flag_branch_neighbours`): a response surface or a derivative
-    across it spans a branch switch. Only the table and the returned rows carry the flags; the
-    per-case files (the ``--resume`` records) stay as computed.
-    """
-    from design.branch_flags import flag_branch_neighbours
-
-    ok = [i for i, r in enumerate(rows)
-          if r["status"] == STATUS_OK and isinstance(r.get("result"), Mapping)
-          and "critical_branch_label" in r["result"]]
-    keys = sorted({k for i in ok for k, v in rows[i]["params"].items()
-                   if isinstance(v, int | float) and not isinstance(v, bool)})
-    if len(ok) < 2 or not keys:
-        return rows
-    flat = [{**{k: rows[i]["params"][k] for k in keys},
-             "critical_branch_label": rows[i]["result"]["critical_branch_label"] or ""}
-            for i in ok]
-    flags = flag_branch_neighbours(flat, keys)
-    out = list(rows)
-    for i, f in zip(ok, flags, strict=True):
-        out[i] = {**rows[i], "result": {**rows[i]["result"],
-                                        "branch_switch_neighbour": f["branch_switch_neighbour"],
-                                        "neighbour_branches": ";".join(f["neighbour_branches"])}}
-    return tuple(out)
-
-
-def _table_text(rows: Sequence[dict]) -> str:
-    """CSV text: case_id, status, params..., flattened scalar results..., elapsed_s, error.
-
-    A result column whose name is already taken (a parameter or a fixed column) is prefixed
-    with ``result.``.
-    """
-    fixed = {"case_id", "status", "elapsed_s", "error"}
-    param_cols: dict[str, None] = {}
-    flat_params, flat_results = [], []
-    for row in rows:
-        p: dict = {}
-        _flatten(row.get("params") or {}, "", p)
-        flat_params.append(p)
-        param_cols.update(dict.fromkeys(p))
-    taken = fixed | set(param_cols)
-    result_cols: dict[str, None] = {}
-    for row in rows:
-        r: dict = {}
-        _flatten(row.get("result") or {}, "", r)
-        r = {(f"result.{k}" if k in taken else k): v for k, v in r.items()}
-        flat_results.append(r)
-        result_cols.update(dict.fromkeys(r))
-    header = ["case_id", "status", *param_cols, *result_cols, "elapsed_s", "error"]
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=header, lineterminator="\n")
-    writer.writeheader()
-    for row, p, r in zip(rows, flat_params, flat_results, strict=True):
-        writer.writerow(
-            {
-                "case_id": row["case_id"],
-                "status": row["status"],
-                **p,
-                **r,
-                "elapsed_s": row.get("elapsed_s"),
-                "error": row.get("error") or "",
-            }
-        )
-    return buffer.getvalue()
-
-
 def run_batch(
     fn: Callable[[dict], Mapping],
     cases: Sequence[Mapping],
@@ -345,6 +255,7 @@ def run_batch(
     fingerprint: str | None = None,
     files: Mapping[str, Any] | None = None,
     kind: str = "batch",
+    definition: str | None = None,
 ) -> BatchResult:
     """Run ``fn`` on every case in separate worker processes; never abort on a failed case.
 
@@ -383,6 +294,24 @@ def run_batch(
         killed) before it is recorded as failed. One retry by default: it also rescues a case
         that was merely queued on a worker when another case crashed it. Exceptions raised
         by ``fn`` are never retried: they are deterministic.
+    fingerprint : str, optional
+        What besides a case's parameters determines its result (the ``case_hash`` key).
+    files : mapping, optional
+        Extra JSON files written into the folder (name -> content), e.g. ``doe.json``.
+    kind : str, optional
+        The output kind in the folder's marker (:func:`design.outputs.check_replaceable`).
+    definition : str, optional
+        The name in ``files`` that defines the run (``doe.json``): a resume writes into the
+        stored folder in place only if that file is as stored (see "Where the files go").
+
+    Where the files go: into ``out_dir`` itself when it is missing or empty, or, with
+    ``resume``, when it holds this same run (every stored case file a case of this design
+    with this run's ``case_hash``; ``definition`` unchanged): the finished case files of an
+    interrupted run are then where the next ``resume`` finds them. Otherwise (a previous
+    output of any other run, or any run without ``resume``) into a temporary sibling folder
+    that replaces ``out_dir`` only when complete (:func:`design.outputs.swap_into_place`), the
+    reused case files copied over: a killed or interrupted run leaves the previous output as
+    it was, and no file of another definition nor a case beyond this design survives.
 
     Returns
     -------
@@ -448,75 +377,105 @@ def run_batch(
         if pending and client is None and scheduler is None:
             client = stack.enter_context(cluster_client(workers, None))
 
-        ensure_writable_dir(out)
-        if not is_marked_output(out):
-            write_marker(out, kind)
-        for folder in (out, out / "cases"):  # half-written files of a killed run
-            remove_stale_file_temporaries(folder)
-        for name, content in (files or {}).items():
-            atomic_write_json(out / name, content)
-        case_dir = ensure_writable_dir(out / "cases")
-
-        from tqdm.auto import tqdm
-
-        bar = tqdm(
-            total=len(normalised),
-            initial=reused,
-            desc="cases",
-            unit="case",
-            file=sys.stderr,
-            disable=not progress,
-            dynamic_ncols=True,
-        )
-
+        # where the files go: straight into ``out`` only when it holds nothing or, resumed,
+        # this very run's cases (its interrupted case files are what a resume reuses); else a
+        # temporary sibling swapped in at the end, so a kill leaves the previous output whole
+        # and no file of another definition (or a case beyond this design) survives
+        in_place = _in_place(out, digests, resume, files, definition)
+        existed = out.exists()
+        dest = out if in_place else temporary_sibling(out)
         # the case files are written by one background thread: an atomic write (fsync of the
         # file and its folder, ~10 ms) then overlaps the next case instead of delaying it; all
         # are on disk (or their error raised) before the table is written
         from concurrent.futures import ThreadPoolExecutor
 
-        writer = stack.enter_context(ThreadPoolExecutor(1, thread_name_prefix="case-writer"))
-        writes = []
-
-        def finish(record: dict) -> None:
-            record = {**record, "case_hash": digests[record["case_id"]]}
-            writes.append(writer.submit(atomic_write_json,
-                                        case_dir / f"{record['case_id']}.json", record))
-            records[record["case_id"]] = record
-            bar.update(1)
-            if record["status"] != STATUS_OK:
-                bar.set_postfix_str(f"{record['case_id']}: {record['status']}", refresh=False)
-
+        writer = ThreadPoolExecutor(1, thread_name_prefix="case-writer")
         try:
-            if pending:
-                if scheduler == "serial":
-                    _run_serial(fn, pending, timeout_s, finish)
-                else:
-                    run_dask(client, fn, pending, workers, scheduler, timeout_s, retries,
-                             finish)
-        finally:
-            bar.close()
-            for done in writes:  # every finished case is on disk, even when interrupted
-                done.result()
+            if in_place:
+                ensure_writable_dir(out)
+                if not is_marked_output(out):
+                    write_marker(out, kind)
+                for folder in (out, out / "cases"):  # half-written files of a killed run
+                    remove_stale_file_temporaries(folder)
+            else:
+                dest.mkdir()
+                write_marker(dest, kind)
+            for name, content in (files or {}).items():
+                atomic_write_json(dest / name, content)
+            case_dir = ensure_writable_dir(dest / "cases")
+            if not in_place:  # the reused cases move into the new folder as they are
+                for case_id in records:
+                    shutil.copyfile(out / "cases" / f"{case_id}.json",
+                                    case_dir / f"{case_id}.json")
 
-        rows = _with_branch_flags(tuple(records[case_id] for case_id, _ in normalised))
-        table_path = out / "table.csv"
-        atomic_write_text(table_path, _table_text(rows))
-        succeeded = sum(row["status"] == STATUS_OK for row in rows)
-        timed_out = sum(row["status"] == STATUS_TIMEOUT for row in rows)
-        atomic_write_json(
-            out / "batch.json",
-            {
-                "cases": len(rows),
-                "succeeded": succeeded,
-                "failed": len(rows) - succeeded,
-                "timed_out": timed_out,
-                "reused": reused,
-                "recomputed_stale": len(stale),
-                "table": table_path.name,
-                "case_dir": case_dir.name,
-                "statuses": {row["case_id"]: row["status"] for row in rows},
-            },
-        )
+            from tqdm.auto import tqdm
+
+            bar = tqdm(
+                total=len(normalised),
+                initial=reused,
+                desc="cases",
+                unit="case",
+                file=sys.stderr,
+                disable=not progress,
+                dynamic_ncols=True,
+            )
+            writes = []
+
+            def finish(record: dict) -> None:
+                record = {**record, "case_hash": digests[record["case_id"]]}
+                writes.append(writer.submit(atomic_write_json,
+                                            case_dir / f"{record['case_id']}.json", record))
+                records[record["case_id"]] = record
+                bar.update(1)
+                if record["status"] != STATUS_OK:
+                    bar.set_postfix_str(f"{record['case_id']}: {record['status']}", refresh=False)
+
+            try:
+                if pending:
+                    if scheduler == "serial":
+                        _run_serial(fn, pending, timeout_s, finish)
+                    else:
+                        run_dask(client, fn, pending, workers, scheduler, timeout_s, retries,
+                                 finish)
+            finally:
+                bar.close()
+                for done in writes:  # every finished case is on disk, even when interrupted
+                    done.result()
+
+            rows = with_branch_flags(tuple(records[case_id] for case_id, _ in normalised))
+            table_path = out / "table.csv"
+            atomic_write_text(dest / table_path.name, table_text(rows))
+            succeeded = sum(row["status"] == STATUS_OK for row in rows)
+            timed_out = sum(row["status"] == STATUS_TIMEOUT for row in rows)
+            atomic_write_json(
+                dest / "batch.json",
+                {
+                    "cases": len(rows),
+                    "succeeded": succeeded,
+                    "failed": len(rows) - succeeded,
+                    "timed_out": timed_out,
+                    "reused": reused,
+                    "recomputed_stale": len(stale),
+                    "table": table_path.name,
+                    "case_dir": case_dir.name,
+                    "statuses": {row["case_id"]: row["status"] for row in rows},
+                },
+            )
+            writer.shutdown()
+            if not in_place:
+                swap_into_place(dest, out)
+        except BaseException:
+            writer.shutdown(cancel_futures=True)  # no write into a folder being removed
+            if not in_place or not existed:
+                if not in_place or not any((out / "cases").glob("*.json")):
+                    shutil.rmtree(dest, ignore_errors=True)  # no finished case to resume
+            elif not any((out / "cases").glob("*.json")):  # a folder given empty: empty again
+                for name in (OUTPUT_MARKER, "cases", *(files or {})):
+                    shutil.rmtree(out / name, ignore_errors=True)
+                    with contextlib.suppress(OSError):
+                        (out / name).unlink()
+            raise
+
     if rows and not succeeded:  # nothing usable: a typed error, never an empty table
         from model.errors import BatchFailedError
 
@@ -531,6 +490,38 @@ def run_batch(
         reused=reused,
         stale=len(stale),
     )
+
+
+def _read_json(path: Path) -> Any:
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def _in_place(out: Path, digests: Mapping[str, str], resume: bool,
+              files: Mapping[str, Any] | None, definition: str | None) -> bool:
+    """Whether a batch writes straight into ``out``: a missing or empty folder (or one holding
+    just the marker), or, with ``resume``, a folder of this same run -- every stored case file
+    one of this design's cases with this run's ``case_hash``, and the ``definition`` file (a
+    name in ``files``, e.g. ``doe.json``) as stored. Anything else is written elsewhere and
+    swapped in (:func:`run_batch`)."""
+    try:
+        names = {p.name for p in out.iterdir()}
+    except FileNotFoundError:
+        return True
+    if not names - {OUTPUT_MARKER}:
+        return True
+    if not resume:
+        return False
+    if definition is not None and _read_json(out / definition) != json.loads(
+            json.dumps(to_jsonable((files or {}).get(definition)), allow_nan=False)):
+        return False
+    for path in (out / "cases").glob("*.json"):
+        stored = _read_json(path)
+        if not isinstance(stored, dict) or stored.get("case_hash") != digests.get(path.stem):
+            return False
+    return True
 
 
 def _one_line_error(text: str, limit: int = 300) -> str:

@@ -364,7 +364,7 @@ def run_doe(config: DoeConfig | str | os.PathLike, out: str | os.PathLike | None
     files = {"doe.json": config.as_dict(), "manifest.json": build_manifest(config.as_dict())}
     batch = run_batch(config.case_function(), cases, target, workers=workers,
                       scheduler=scheduler, resume=resume, progress=progress,
-                      fingerprint=fingerprint, files=files, kind="doe")
+                      fingerprint=fingerprint, files=files, kind="doe", definition="doe.json")
     return DoeResult(config=config, out_dir=target, cases=batch.cases,
                      succeeded=batch.succeeded, failed=batch.failed, reused=batch.reused,
                      table=batch.table_path, rows=batch.rows)

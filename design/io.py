@@ -38,6 +38,7 @@ __all__ = [
     "atomic_write_text",
     "default_out_dir",
     "ensure_writable_dir",
+    "naming_os_errors",
     "new_sibling",
     "output_folder",
     "stdout_to_stderr",
@@ -97,21 +98,38 @@ def atomic_write(path: str | os.PathLike, write: Callable[[BinaryIO], None]) -> 
     # os.open with mode 0o666 lets the process umask set the permissions, as for open(); a
     # random suffix and O_EXCL keep concurrent writers of the same target apart.
     tmp_name = folder / f".{target.name}.{uuid.uuid4().hex[:12]}.tmp"
-    fd = os.open(tmp_name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            write(handle)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp_name, target)
-    except BaseException:
+    with naming_os_errors(target):
+        fd = os.open(tmp_name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0),
+                     0o666)
         try:
-            os.unlink(tmp_name)
-        except OSError:
-            pass
-        raise
+            with os.fdopen(fd, "wb") as handle:
+                write(handle)
+                handle.flush()
+                os.fsync(handle.fileno())
+            os.replace(tmp_name, target)
+        except BaseException:
+            try:
+                os.unlink(tmp_name)
+            except OSError:
+                pass
+            raise
     _fsync_dir(folder)
     return target
+
+
+@contextlib.contextmanager
+def naming_os_errors(path: str | os.PathLike):
+    """Meanwhile, an :class:`OSError` from the OS ("No space left on device", "Permission
+    denied", "File name too long", ...) is raised again naming ``path`` (a write's ``ENOSPC``
+    names no file, a temporary's error its temporary name), so that the CLI reports it as one
+    line naming the file and the reason (:func:`design.cli_common.os_error_as_input`)."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.errno is None:
+            raise
+        raise OSError(exc.errno, exc.strerror or os.strerror(exc.errno),
+                      os.fspath(path)) from exc
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:

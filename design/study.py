@@ -60,6 +60,7 @@ from design.analyses import ANALYSES, Outcome, RunContext
 from design.io import (
     atomic_save_netcdf,
     atomic_savez,
+    atomic_write,
     atomic_write_json,
     atomic_write_text,
     output_folder,
@@ -434,6 +435,13 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
                                      remote_say, False) for kind, opts in jobs}
         try:
             return {kind: fut.result() for kind, fut in futures.items()}
+        except KeyboardInterrupt:
+            # Ctrl-C: end the workers now, their analyses abandoned (cancelling the queued
+            # futures as well races the pool's own clean-up: CPython 3.11 then raises
+            # InvalidStateError in its manager thread, a traceback on stderr)
+            for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                proc.terminate()
+            raise
         except BaseException:
             for fut in futures.values():
                 fut.cancel()
@@ -494,7 +502,9 @@ def _save_figures(figs: Mapping, folder: Path) -> list[str]:
 
     names = []
     for name, fig in figs.items():
-        fig.savefig(folder / f"{name}.png", dpi=110, bbox_inches="tight")
+        atomic_write(folder / f"{name}.png",
+                     lambda fh, fig=fig: fig.savefig(fh, format="png", dpi=110,
+                                                     bbox_inches="tight"))
         plt.close(fig)
         names.append(f"figures/{name}.png")
     return names
