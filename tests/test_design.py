@@ -503,7 +503,10 @@ def test_peak_tracking_margin_matches_verified_within_one_percent(small_box):
     # Frobenius norm >= sigma_max, so 1/gamma_T <= the true margin; near a resonance T is
     # nearly rank one and the two meet -- the 1 % is the issue's acceptance tolerance.
     s, model = small_box
-    s2 = replace(s, max_iter=60, resolve_max_iter=60, cutting_plane_rounds=5,
+    # the default card's re-solve budget (8 rounds of 150 iterations): with 5 x 60, since issue
+    # 27's model updating, rounds 3-5 end 0.02 % over the gain limit and the kept round's bound
+    # does not hold (measured); with 8 x 150 round 4 converges, 0.6045 against 0.6035
+    s2 = replace(s, max_iter=60, resolve_max_iter=150, cutting_plane_rounds=8,
                  design_step_m_s=10.0)
     prob = DesignProblem(s2, model)
     res = prob.solve_with_cuts(THETA)

@@ -323,9 +323,11 @@ def test_multi_model_design_in_two_processes_reports_every_variant(small_box_fre
     from design.driver import design, fresh_variant_check, sample_variants
     from model.spec import load_bridge
 
+    # 3 rounds of 60 iterations: since issue 27's model updating 1 x 30 ends infeasible (max
+    # gain 58.5) and leaves no candidate to check; 3 x 60 converges (measured, gain 15.00)
     s = replace(small_box_fresh, starts=1, parallel=True, variants=2, fresh_variants=3,
-                design_step_m_s=10.0, cutting_plane_rounds=1, max_iter=30,
-                resolve_max_iter=30, weight_buffeting=0.0, min_flap_counts=(5,))
+                design_step_m_s=10.0, cutting_plane_rounds=3, max_iter=60,
+                resolve_max_iter=60, weight_buffeting=0.0, min_flap_counts=(5,))
     res = design(s, progress_bar=False)
     assert res.best is not None and len(res.best.variant_checks) == 2
     fv = res.extras["fresh_variants"]
