@@ -391,6 +391,16 @@ COMMANDS: tuple[Command, ...] = (
 )
 
 
+def _version_text() -> str:
+    """``bridgeflap <version>`` of the installed distribution (a checkout: ``not installed``)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return f"bridgeflap {version('bridgeflap')}"
+    except PackageNotFoundError:
+        return "bridgeflap (not installed: a source checkout)"
+
+
 def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     """The argument parser of :data:`COMMANDS` (also used for the README's command list).
 
@@ -404,6 +414,8 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     p = Parser(prog="bridgeflap", description=__doc__.splitlines()[0])
     p.add_argument("--debug", action="store_true",
                    help="on an internal fault, print the traceback (also after the command)")
+    p.add_argument("--version", action="version", version=_version_text(),
+                   help="print the package version and exit")
     sub = p.add_subparsers(dest="command", parser_class=Parser)
     for command in COMMANDS:
         sp = sub.add_parser(command.name, help=command.help)

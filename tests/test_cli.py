@@ -256,3 +256,12 @@ def test_flutter_pk_check_agrees_with_the_rfa_state_space(capsys):
     assert r["flutter_status"] == r["pk_flutter_status"] == "converged"
     assert abs(r["pk_flutter_speed_m_s"] / r["flutter_speed_m_s"] - 1) < 0.01
     assert "truncation_status" not in r
+
+
+def test_version_flag(capsys):
+    """``bridgeflap --version``: one line naming the package, exit 0 (issue 29 item 5)."""
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out.strip().splitlines()
+    assert len(out) == 1 and out[0].startswith("bridgeflap ")
