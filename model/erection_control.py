@@ -50,6 +50,10 @@ def _stage(spec, controller, speeds, n_modes, fraction):
         row[f"open_loop_{k}"] = ol.get(k)
         row[f"closed_loop_{k}"] = cl.get(k)
     row["loop"] = "closed" if kept else "open (no flap on the erected deck)"
+    # no crossing of either kind on the grid: stable to its end (no critical speed to report)
+    row["closed_loop_stable_over_grid_to_m_s"] = (
+        float(speeds[-1]) if cl.get("flutter_status") == cl.get("divergence_status")
+        == "no_crossing_in_range" else None)
     o, c = ol.get("critical_speed_m_s"), cl.get("critical_speed_m_s")
     ok = all(isinstance(v, float) and np.isfinite(v) for v in (o, c))
     row["closed_over_open"] = c / o if ok else float("nan")
@@ -68,10 +72,12 @@ class ErectionControlResult:
     @property
     def status(self) -> str:
         """``ok`` when every stage's closed-loop critical speed converged."""
-        bad = [r for r in self.rows if r["closed_loop_critical_mechanism"] in (None, "none")
-               or not np.isfinite(r["closed_loop_critical_speed_m_s"] or np.nan)]
-        return "ok" if not bad else f"{len(bad)} of {len(self.rows)} stages without a " \
-                                    "converged closed-loop critical speed"
+        ok = ("converged", "no_crossing_in_range")
+        bad = [r for r in self.rows
+               if r["closed_loop_flutter_status"] not in ok
+               or r["closed_loop_divergence_status"] not in ok]
+        return "ok" if not bad else f"{len(bad)} of {len(self.rows)} stages with an " \
+                                    "unconverged closed-loop crossing"
 
     def summary(self) -> dict:
         """JSON-ready: the stages and the worst one (lowest closed-loop critical speed)."""

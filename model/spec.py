@@ -377,7 +377,13 @@ def load_bridge(name_or_path: str | Path | BridgeSpec) -> BridgeSpec:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise BridgeflapInputError("bridge", f"malformed TOML in {origin}: {exc}") from None
-    return spec_from_dict(data, origin, variant=variant)
+    spec = spec_from_dict(data, origin, variant=variant)
+    loads = spec.derivatives
+    if loads is not None and hasattr(loads, "table"):
+        # the derivative table is read (and checked: finite, increasing) at load, so that a
+        # study or DOE on a bridge with a bad table is refused before it writes (issue 30)
+        loads.table(2.0 * spec.deck.half_chord_m)
+    return spec
 
 
 def _split_variant(s: str) -> tuple[str, str | None]:
