@@ -45,7 +45,7 @@ INTERRUPTED = "bridgeflap: interrupted"
 BUG_REPORT = ("this is a bug in bridgeflap, not in your input; please report it to the bridgeflap "
               "maintainers with the command line and the traceback of --debug")
 
-_STATE = {"pid": None, "interrupted": False, "caught": False}
+_STATE = {"pid": None, "interrupted": False, "caught": False, "timers": []}
 
 
 def _on_sigint(signum, frame):
@@ -68,11 +68,21 @@ def _unraisable(hook):
         if (issubclass(info.exc_type, KeyboardInterrupt) and os.getpid() == _STATE["pid"]
                 and not _STATE["caught"]):
             # signalled again from another thread, so that it is raised outside this hook
-            threading.Timer(0.05, os.kill, (os.getpid(), signal.SIGINT)).start()
+            timer = threading.Timer(0.05, _signal_again)
+            timer.daemon = True
+            _STATE["timers"].append(timer)
+            timer.start()
             return
         hook(info)
 
     return unraisable
+
+
+def _signal_again() -> None:
+    """SIGINT to this process again, unless the command has ended or been caught (a late
+    signal would meet the interpreter's shutdown: "Exception ignored in threading")."""
+    if _STATE["pid"] == os.getpid() and not _STATE["caught"]:
+        os.kill(os.getpid(), signal.SIGINT)
 
 
 def _child_after_fork() -> None:
@@ -103,6 +113,9 @@ def run(argv: list[str], debug: bool) -> int:
     finally:
         release_warnings(hold=False)
         _STATE["pid"] = None
+        for timer in _STATE["timers"]:  # a pending re-signal of a lost Ctrl-C: not any more
+            timer.cancel()
+        _STATE["timers"].clear()
         sys.unraisablehook = hook
         if main_thread:
             signal.signal(signal.SIGINT, previous)

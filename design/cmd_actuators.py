@@ -50,9 +50,9 @@ def _limits(args):
 
 def cmd_actuators(args):
     """Run the saturated closed loop in turbulence and report it."""
+    from design.actuator_study import actuator_study
     from design.cli_common import check_writable_parent, spec_from_args
     from design.options import parse_range
-    from model.actuator_study import actuator_study
 
     if not args.controller:
         raise BridgeflapInputError("controller", "a controller .toml is required")

@@ -1,6 +1,6 @@
 """``bridgeflap erection``: flutter/divergence against the erected fraction (seed Fig. 3
 right), and with ``--controller`` the closed loop of each stage with the flaps on its deck
-(issue 27 item 4, :mod:`model.erection_control`)."""
+(issue 27 item 4, :mod:`design.erection_control`)."""
 
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ def cmd_erection(args):
 
 
 def _closed_loop(args, spec):
-    from model.erection_control import erection_closed_loop
+    from design.erection_control import erection_closed_loop
 
     if args.plot:
         from model.errors import BridgeflapInputError

@@ -1,5 +1,5 @@
 """Erection with flaps (issue 27 item 4): each stage's closed loop with the controller's flap
-strips that lie on its erected deck (model/erection_control.py, `bridgeflap erection
+strips that lie on its erected deck (design/erection_control.py, `bridgeflap erection
 --controller`)."""
 
 from __future__ import annotations
@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from design.cli import main
+from design.erection_control import erection_closed_loop, flaps_on_deck
 from design.io import to_jsonable
 from model.analysis import closed_loop_flutter
 from model.control import Compensator, Controller
 from model.controller_file import save_controller
-from model.erection_control import erection_closed_loop, flaps_on_deck
 from model.spec import load_bridge
 
 #: the default card's K (tests/test_harm.py) on its 18 placed strips (+-225.6 .. 676.8 m)

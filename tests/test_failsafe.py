@@ -1,7 +1,8 @@
 """Fail-safe flaps and the verified static closed-loop divergence (issue 28 items 2 and 4).
 
 Can fail: a failed pair must be able to lower the critical speed (the 5 m flap design on four
-pairs of Humber: 74.35 -> 73.13 m/s with an inner pair failed, 8 modes); the controller off must
+pairs of Humber with the stiffnesses before issue 27's model updating: 74.35 -> 73.13 m/s with
+an inner pair failed, 8 modes); the controller off must
 be the open loop (to 1e-6 relative, with its own weights-0 state space); the stuck pair's static
 deflection must be linear in the angle (1e-9). The static divergence of a closed loop must match
 the eigenvalue sweep's divergence where that converges, and explain it where it does not (the
@@ -39,11 +40,15 @@ FOUR = (-338.4, -112.8, 112.8, 338.4)
 K_DEFAULT = Compensator(-1.0852, 0.2781, -3.8118, 0.3097, 0.0242)
 TEN = tuple(s * x for x in (112.8, 169.2, 225.6, 282.0, 338.4) for s in (-1, 1))
 U = np.arange(0.0, 127.5 + 1e-9, 0.5)
+#: the stiffnesses of the built-in file before issue 27's model updating (the unweighted Table 1
+#: fit): the cases below were built on that bridge, where divergence comes first and the
+#: designs above govern by it; the checks are of the method, not of the current headline
+OLD_STIFFNESS = {"deck.gj_nm2": 4.743e11, "deck.ei_vertical_nm2": 1.980e12}
 
 
 @pytest.fixture(scope="module")
 def humber():
-    return load_bridge("humber")
+    return load_bridge("humber").replace(**OLD_STIFFNESS)
 
 
 @pytest.fixture(scope="module")
@@ -129,7 +134,7 @@ def test_default_design_divergence_is_verified_statically():
     114.5..115 m/s): there the flutter pair, unstable since ~102 m/s, turns into two real
     eigenvalues in the right half-plane (no static root in the bracket); the static root above
     it is verified, and is a real eigenvalue *returning* to the left half-plane."""
-    spec = load_bridge("humber:box")
+    spec = load_bridge("humber:box").replace(**OLD_STIFFNESS)
     cl = closed_loop_model(spec, TEN, 56.4, 8, 3.0).system(K_DEFAULT)
     sw = sweep(cl, U, method="fast").summary()
     assert sw["flutter_status"] == "converged" and 101.0 < sw["flutter_speed_m_s"] < 103.0

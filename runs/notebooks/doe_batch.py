@@ -34,7 +34,7 @@ OPTIONS = {"speeds": "0:120:2", "modes": 6, "truncation_check": False}
 config = doe_from_dict({
     "name": "gj_sag", "bridge": "humber", "analysis": "flutter", "options": OPTIONS,
     "design": {"kind": "full-factorial", "levels": 2},
-    "parameters": {"deck.gj_nm2": [3.8e11, 5.7e11], "cable.main_sag_m": [110.0, 125.0]}})
+    "parameters": {"deck.gj_nm2": [4.7e11, 7.1e11], "cable.main_sag_m": [110.0, 125.0]}})
 out = Path(tempfile.mkdtemp()) / "gj_sag"
 doe = run_doe(config, out=out, progress=False)
 print(doe.summary()["statuses"])
@@ -61,7 +61,7 @@ ax = doe.plot(output="divergence_speed_m_s")
 
 # %%
 assert doe.succeeded == doe.cases == 4 and doe.failed == 0
-row = next(r for r in doe.rows if r["params"]["deck.gj_nm2"] == 5.7e11
+row = next(r for r in doe.rows if r["params"]["deck.gj_nm2"] == 7.1e11
            and r["params"]["cable.main_sag_m"] == 110.0)
 spec = load_bridge("humber").replace(**row["params"])
 direct = flutter(spec, np.arange(0.0, 120.0 + 1e-9, 2.0), 6, sweep_method="fast").summary()
@@ -70,5 +70,5 @@ for key in ("flutter_speed_m_s", "divergence_speed_m_s"):
 by = {(r["params"]["deck.gj_nm2"], r["params"]["cable.main_sag_m"]):
       r["result"]["divergence_speed_m_s"] for r in doe.rows}
 for sag in (110.0, 125.0):
-    assert by[(5.7e11, sag)] > by[(3.8e11, sag)]
+    assert by[(7.1e11, sag)] > by[(4.7e11, sag)]
 print("batch = API; divergence rises with GJ:", by)
