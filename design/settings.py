@@ -300,7 +300,13 @@ def load_settings(path=None, **overrides) -> DesignSettings:
     flat.update(overrides)
     unknown = sorted(set(flat) - _TOML_KEYS)
     if unknown:
-        raise BridgeflapInputError(unknown[0], "unknown design setting")
+        import difflib
+
+        close = difflib.get_close_matches(unknown[0], sorted(_TOML_KEYS), n=3)
+        raise BridgeflapInputError(unknown[0], "unknown design setting" + (
+            f" (did you mean {', '.join(close)}?)" if close else
+            f" (the {len(_TOML_KEYS)} known ones: design.settings.DesignSettings, "
+            "documented in runs/humber_flaps.toml)"))
     for key in ("a2_bounds", "a1_bounds", "min_flap_counts", "robust_speeds_m_s", "variant_fixed",
                 "robust_design_speeds_m_s", "buffeting_speeds_m_s"):
         if key in flat:

@@ -36,5 +36,5 @@ def test_card_overrides_and_errors():
     assert packaged_card("default") == DEFAULT_CARD
     with pytest.raises(BridgeflapInputError, match="card"):
         packaged_card("no_such_card")
-    with pytest.raises(BridgeflapInputError, match="unknown design setting"):
+    with pytest.raises(BridgeflapInputError, match="unknown design setting.*did you mean starts"):
         design_settings({"card": "default", "stars": 1}, "humber")
