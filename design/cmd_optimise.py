@@ -98,7 +98,8 @@ def _design_and_write(args, settings, out):
 
     lines = [f"status {payload['status']}; K(s) coefficients {payload['coefficients']}",
              f"flaps {payload['flap_count']}, max gain {g(payload['max_gain'], '.3g')} "
-             f"(limit {settings.gain_limit}), robust margin {g(payload['robust_margin'], '.3g')}, "
+             f"(limit {settings.gain_limit}), robust margin {g(payload['robust_margin'], '.4g')} "
+             f"(worst at {g(payload['robust_margin_worst_speed_m_s'], '.4g')} m/s), "
              f"stable to {payload['closed_loop_stable_to_m_s']} m/s on the "
              f"{payload['design_modes']}-mode design model",
              f"verification ({payload['verification'].get('modes')} modes, "

@@ -340,9 +340,20 @@ def critical_speed_design(settings: DesignSettings, progress=None, spec=None, wa
     lim = res.extras.get("closed_loop_limits", {})
     status = srch.status if srch.status != "converged" or res.status == "converged" \
         else res.status
+    # issue 32 item 2: the margin constraint is checked over the whole speed range too (the
+    # inner designs check it at the robust speeds only)
+    grid = res.margin_grid()
+    grid_ok = (bool(grid["margin"] >= settings.margin_min * (1.0 - settings.robust_cut_tol))
+               if grid else None)
+    reason = srch.reason
+    if status == "converged" and grid_ok is False:
+        status = "unverified"
+        reason = (f"{reason}; robust margin {grid['margin']:.4g} at "
+                  f"{grid['worst_speed_m_s']:.4g} m/s on the speed grid < margin_min "
+                  f"{settings.margin_min:g}")
     hi = srch.not_feasible
     block = {
-        "status": status, "reason": srch.reason,
+        "status": status, "reason": reason,
         "objective": "maximise the closed-loop critical speed (lower of flutter and "
                      "divergence) subject to robust margin >= margin_min: the largest design "
                      "speed whose max-margin design verifies with that margin",
@@ -364,14 +375,18 @@ def critical_speed_design(settings: DesignSettings, progress=None, spec=None, wa
         "divergence_speed_m_s": lim.get("divergence_speed_m_s"),
         "divergence_static_speed_m_s": lim.get("divergence_static_speed_m_s"),
         "limits_modes": lim.get("modes"),
-        "robust_margin": res.best.robust_margin if res.best is not None else None,
+        "robust_margin": (grid["margin"] if grid else res.best.robust_margin
+                          if res.best is not None else None),
+        "robust_margin_at_robust_speeds": (res.best.robust_margin if res.best is not None
+                                           else None),
+        "margin_min_holds_on_speed_grid": grid_ok,
         "max_gain": res.best.max_gain if res.best is not None else None,
         "gain_limit": settings.gain_limit,
         "evaluations": [e.to_dict() for e in srch.evaluations],
         "inner_solves": len(srch.evaluations),
         "search_time_s": time.perf_counter() - t0,
     }
-    log(f"critical speed: {status} ({srch.reason}); design speed "
+    log(f"critical speed: {status} ({reason}); design speed "
         f"{block['design_speed_m_s']} m/s, closed-loop critical speed "
         f"{block['critical_speed_m_s']} m/s ({block['critical_mechanism']})")
     extras = dict(res.extras)

@@ -48,6 +48,7 @@ from design.checks import (  # noqa: F401 - re-exported (tests, API)
     fresh_variant_check,
     fresh_variant_rows,
     fresh_variant_summary,
+    limits_text,
     margin_on_speed_grid,
     nlp_active_speeds,
     sample_variants,
@@ -292,7 +293,7 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
         # verified: every a posteriori check holds, whatever Ipopt's exit status
         verified=bool(ver.meets_damping and gain_ok and ver16.stable_everywhere
                       and variants_ok),
-        gamma_T_frobenius=res.solve.gamma_T,
+        gamma_T_frobenius=res.solve.gamma_T, objective=float(res.solve.objective),
         dense_t_peak_check_speeds=res.robust.peak if res.robust is not None else float("nan"),
         robust_bound_holds=res.robust_bound_holds, robust=rob, verification=ver16,
         robust_cuts=res.robust_cuts, gain_cuts=res.gain_cuts,
@@ -346,22 +347,6 @@ def buffeting_comparison(settings: DesignSettings, controller: Controller, speed
         closed_loop_rms_torsion_rad=tuple(cl.rms_torsion.tolist()))
 
 
-def _limits_text(lim) -> str:
-    """One log line of :func:`closed_loop_limits` (a limit not found within the searched
-    range as such, never "nan m/s")."""
-    from design.cli_common import speed_text
-
-    def sp(k):
-        status = lim.get(k.replace("_speed_m_s", "_status"), "no_crossing_in_range")
-        return speed_text(lim.get(k), none=(
-            f"none below {lim.get('searched_to_m_s', 0):g} m/s"
-            if status in (None, "no_crossing_in_range") else "not determined"))
-    return (f"closed loop: flutter {sp('flutter_speed_m_s')} ({lim.get('flutter_status')}), "
-            f"divergence {sp('divergence_speed_m_s')} ({lim.get('divergence_status')}; static "
-            f"{sp('divergence_static_speed_m_s')}), governing {sp('governing_speed_m_s')} "
-            f"{lim.get('governing_mechanism') or ''}").rstrip()
-
-
 def _timed(fun, *args, **kw):
     """``(fun(*args, **kw), seconds)`` (a worker task of :func:`design`)."""
     t0 = time.perf_counter()
@@ -385,17 +370,19 @@ def _done(job, phases, name):
 def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
     """Chosen start and design status from the per-start records of :func:`run_start`.
 
-    ``converged``: the best *verified* start (damping on the design model's dense grid,
-    true peak gain ``max_gain <= gain_limit`` -- no tolerance, the NLP backs off by
-    ``GAIN_BACKOFF`` --, stable on the verification model), by the true dense robust margin,
-    whatever its Ipopt exit status; ``unverified``: feasible on the design model only;
-    ``infeasible``: no start meets the damping and the gain limit (the least violating is
-    reported, never as converged); ``failed``: no start produced a design.
+    ``converged``: the *verified* start (damping on the design model's dense grid, true peak
+    gain ``max_gain <= gain_limit`` -- no tolerance, the NLP backs off by ``GAIN_BACKOFF`` --,
+    stable on the verification model) with the lowest NLP objective (the design's own
+    objective, issue 32 item 4; ties and a NaN objective: the larger margin), whatever its
+    Ipopt exit status; ``unverified``: feasible on the design model only; ``infeasible``: no
+    start meets the damping and the gain limit (the least violating is reported, never as
+    converged); ``failed``: no start produced a design.
     """
     feasible = [r for r in records if r.meets_damping and r.max_gain <= gain_limit]
     verified = [r for r in feasible if r.verified]
     if verified:
-        return max(verified, key=lambda r: r.robust_margin), "converged"
+        return min(verified, key=lambda r: (r.objective if np.isfinite(r.objective)
+                                            else np.inf, -r.robust_margin)), "converged"
     if feasible:
         return max(feasible, key=lambda r: r.verification.stable_to_m_s), "unverified"
     cands = [r for r in records if not r.failed]
@@ -522,7 +509,8 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
             pool = ProcessPoolExecutor(max_workers=2)
         try:
             lim_job = _job(pool, closed_loop_limits, settings, controller, spec=spec)
-            grid_job = _job(pool, margin_on_speed_grid, settings, controller, spec=spec)
+            grid_job = _job(pool, margin_on_speed_grid, settings, controller, spec=spec,
+                            gamma_T=best.gamma_T_frobenius)
             buf_job = _job(pool, buffeting_comparison, settings, controller, spec=spec) if ok \
                 else None
             fresh_jobs = []         # the fresh variants in two halves, in the workers too
@@ -563,11 +551,14 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
                 mark("flap-count check (same K)")
             try:
                 lim = _done(lim_job, phases, "closed-loop limits")
-                log(_limits_text(lim))
+                log(limits_text(lim))
             except Exception as exc:  # noqa: BLE001 - a report item, not the design
                 lim = {"status": f"failed: {exc}"}
             extras["closed_loop_limits"] = lim
-            extras["robust_margin_speed_grid"] = _done(grid_job, phases, "margin speed grid")
+            try:
+                extras["robust_margin_speed_grid"] = _done(grid_job, phases, "margin grid")
+            except Exception as exc:  # noqa: BLE001 - the headline falls back, said so
+                extras["robust_margin_speed_grid"] = {"status": f"failed: {exc}"}
             mark("closed-loop limits" + (" (wait)" if pool else ""))
             if fresh_jobs:
                 rows = [r for k, j in enumerate(fresh_jobs)

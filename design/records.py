@@ -233,6 +233,9 @@ class StartRecord:
         ``verified``: every a posteriori check holds, also on the verification model.
     gamma_T_frobenius : float
         Optimiser's epigraph value [-].
+    objective : float
+        The NLP objective at the chosen round's solution [-] (the design's own objective: the
+        starts are ranked by it, issue 32 item 4).
     dense_t_peak_check_speeds : float
         Dense ``sigma_max(T)`` peak at the robust check speeds [-].
     robust : RobustMargin
@@ -260,6 +263,7 @@ class StartRecord:
     gain_ok: bool = False
     verified: bool = False
     gamma_T_frobenius: float = NAN
+    objective: float = NAN
     dense_t_peak_check_speeds: float = NAN
     robust_bound_holds: bool | None = None
     robust: RobustMargin | None = None
@@ -309,6 +313,7 @@ class StartRecord:
             "stable_everywhere": self.stable_everywhere, "max_gain": self.max_gain,
             "meets_damping": self.meets_damping, "gain_ok": self.gain_ok,
             "verified": self.verified, "gamma_T_frobenius": self.gamma_T_frobenius,
+            "objective": self.objective,
             "dense_T_peak_check_speeds": self.dense_t_peak_check_speeds,
             "robust_bound_holds": self.robust_bound_holds, "robust_margin": self.robust_margin,
             "robust_T_inf_by_speed": self.t_inf_by_speed(),
@@ -328,11 +333,17 @@ class StartRecord:
                                                   strict=True)}
 
     def table_row(self, chosen: bool) -> dict:
-        """One row of ``start_table``."""
+        """One row of ``start_table``: the start's own optimum (its K, flap count, objective,
+        margin at the robust speeds, checks) and whether it was chosen."""
         return {"start": self.start, "status": self.ipopt_status,
                 "iterations": self.iterations, "cut_rounds": self.cut_rounds,
-                "time_s": self.time_s, "robust_margin": self.robust_margin,
+                "time_s": self.time_s, "objective": self.objective,
+                "theta": list(self.theta) if self.theta is not None else None,
+                "flap_count": len(self.flap_positions_m),
+                "robust_margin": self.robust_margin,
                 "gamma_T_frobenius": self.gamma_T_frobenius, "max_gain": self.max_gain,
+                "meets_damping": bool(self.meets_damping),
+                "stable_to_m_s": self.stable_to_m_s,
                 "verified": bool(self.verified), "chosen": bool(chosen)}
 
 

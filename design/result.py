@@ -65,7 +65,8 @@ class DesignResult(ResultData):
         coeffs = ({n: getattr(k, n) for n in THETA_NAMES} if k else
                   {n: NAN for n in THETA_NAMES})
         b = self.best
-        margin = b.robust_margin if b is not None else NAN
+        grid = self.margin_grid()
+        margin = (grid["margin"] if grid else b.robust_margin if b is not None else NAN)
         crit = self.settings.objective == "critical_speed"
         out = jsonable({
             "status": self.status,
@@ -75,9 +76,15 @@ class DesignResult(ResultData):
             "max_gain": b.max_gain if b is not None else NAN,
             "gain_limit": self.settings.gain_limit,
             "robust_margin": margin,
-            "robust_margin_definition": "1 / max over robust_speeds_m_s and a dense frequency "
-                                        "grid of sigma_max(T(jw)), T the input complementary "
-                                        "sensitivity of the flap loop (small-gain theorem)",
+            "robust_margin_definition": "1 / max over the speed grid (0.5 m/s to speed_max_m_s, "
+                                        "the worst speed refined) and a dense frequency grid "
+                                        "of sigma_max(T(jw)), T the input complementary "
+                                        "sensitivity of the flap loop (small-gain theorem), on "
+                                        "the design model",
+            "robust_margin_basis": "speed_grid" if grid else "robust_speeds",
+            "robust_margin_worst_speed_m_s": grid["worst_speed_m_s"] if grid else NAN,
+            # the margin the optimiser's cuts check (robust_speeds_m_s only)
+            "robust_margin_at_robust_speeds": b.robust_margin if b is not None else NAN,
             "robust_T_inf_by_speed": b.t_inf_by_speed() if b is not None else {},
             "gamma_T_frobenius": b.gamma_T_frobenius if b is not None else NAN,
             # the optimiser's own margin 1/gamma_T against the verified one (peak tracking)
@@ -101,6 +108,9 @@ class DesignResult(ResultData):
             "chosen_start": b.start if b is not None else None,
             "start_table": [s.table_row(b is not None and s.start == b.start)
                             for s in self.starts],
+            "start_selection": "verified starts (damping, gain limit, verification model) "
+                               "ranked by the NLP objective, lowest first (design.driver."
+                               "select_start); each row is that start's own optimum",
             "dense_T_peak": 1.0 / margin if margin else NAN,
             "robust_bound_holds": b.robust_bound_holds if b is not None else None,
             "starts": [s.to_dict() for s in self.starts],
@@ -120,6 +130,12 @@ class DesignResult(ResultData):
         if crit:    # the critical-speed search (design.critical_speed), only when it ran
             out["critical_speed"] = jsonable(self.extras.get("critical_speed", {}))
         return out
+
+    def margin_grid(self) -> dict:
+        """The chosen design's margin check over the whole speed range
+        (:func:`design.checks.margin_on_speed_grid`), or ``{}`` when it did not run."""
+        grid = self.extras.get("robust_margin_speed_grid") or {}
+        return grid if isinstance(grid.get("margin"), float) else {}
 
     def best_achievable(self) -> dict:
         """The best design found when none is usable (issue 32 item 3): its K, layout and

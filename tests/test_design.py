@@ -224,7 +224,7 @@ def test_refine_peaks_finds_resonance_between_grid_points():
     assert pk[0][0] == pytest.approx(w0 * np.sqrt(1 - 2 * zeta**2), rel=1e-8)
 
 
-def _rec(start, viol, gain, verified, margin, stable_to=85.0):
+def _rec(start, viol, gain, verified, margin, stable_to=85.0, objective=float("nan")):
     ver = Verification(speeds_m_s=np.zeros(1), abscissa_1_s=np.zeros(1),
                        violation_1_s=np.zeros(1), max_violation_1_s=viol,
                        stable_everywhere=True, stable_to_m_s=stable_to, max_gain=gain, modes=16,
@@ -234,7 +234,7 @@ def _rec(start, viol, gain, verified, margin, stable_to=85.0):
     return StartRecord(start=start, theta0=(0.0,) * 5, ipopt_status="Solve_Succeeded",
                        success=True, time_s=1.0, theta=(0.0,) * 5, max_violation_1_s=viol,
                        max_gain=gain, meets_damping=viol <= 1e-6, gain_ok=gain <= 15.0,
-                       verified=verified, robust=rob, verification=ver)
+                       verified=verified, robust=rob, verification=ver, objective=objective)
 
 
 def test_select_start_best_verified_and_gain_never_converged():
@@ -249,6 +249,20 @@ def test_select_start_best_verified_and_gain_never_converged():
     failed = StartRecord(start=0, theta0=(0.0,) * 5, ipopt_status="failed: x", success=False,
                          time_s=0.0)
     assert select_start([failed], 15.0) == (None, "failed")
+
+
+def test_select_start_ranks_verified_starts_by_objective():
+    # issue 32 item 4: the design's own objective decides, not the margin (start 1 has the
+    # larger margin but the worse objective); an unverified start never wins on objective
+    recs = [_rec(0, -1e-5, 4.0, True, 0.40, objective=2.0),
+            _rec(1, -1e-5, 3.0, True, 0.45, objective=2.5),
+            _rec(2, -1e-5, 3.0, False, 0.60, objective=1.0)]
+    best, status = select_start(recs, 15.0)
+    assert status == "converged" and best.start == 0
+    # a NaN objective ranks last; equal objectives fall back to the margin
+    recs = [_rec(0, -1e-5, 4.0, True, 0.50), _rec(1, -1e-5, 4.0, True, 0.40, objective=3.0),
+            _rec(2, -1e-5, 4.0, True, 0.45, objective=3.0)]
+    assert select_start(recs, 15.0)[0].start == 2
 
 
 def test_gain_cuts_enforce_true_peak(small):

@@ -4,9 +4,9 @@ import math
 
 import pytest
 
+from design.checks import limits_text as _limits_text
 from design.cli import main
 from design.cli_common import number_text, speed_text
-from design.driver import _limits_text
 
 
 @pytest.mark.parametrize("missing", [None, math.nan])
