@@ -19,7 +19,18 @@ import numpy as np
 from model.control import Controller
 from model.spec import BridgeSpec
 
-__all__ = ["ErectionControlResult", "erection_closed_loop", "flaps_on_deck"]
+__all__ = ["STAGE_DESIGN", "ErectionControlResult", "design_for_stage", "erection_closed_loop",
+           "flaps_on_deck", "stage_flap_count"]
+
+#: Card overrides of a design for one erection stage (:func:`design_for_stage`): the largest
+#: closed-loop critical speed subject to the card's robust margin (``objective =
+#: "critical_speed"``, :mod:`design.critical_speed`), the search from 40 m/s in 5 m/s steps
+#: (a stage's open-loop critical speed lies at 32-52 m/s, seed Fig. 3 right and
+#: ``bridgeflap erection``) to 1 m/s, on a fixed layout of touching strips on the erected
+#: deck (a handful of candidates: no placement), one start.
+STAGE_DESIGN = {"objective": "critical_speed", "speed_max_m_s": 40.0,
+                "critical_speed_step_m_s": 5.0, "critical_speed_tol_m_s": 1.0,
+                "optimise_placement": False, "starts": 1}
 
 _KEYS = ("flutter_speed_m_s", "flutter_status", "divergence_speed_m_s", "divergence_status",
          "critical_speed_m_s", "critical_mechanism")
@@ -121,3 +132,33 @@ def erection_closed_loop(spec: BridgeSpec, controller: Controller, fractions, sp
     rows.append(done)
     side = spec.erected(1.0, side_spans=side_spans).side_span_decks
     return ErectionControlResult(spec.name, tuple(rows), side)
+
+
+def stage_flap_count(spec: BridgeSpec, fraction: float, flap_width_m: float) -> int:
+    """Touching strips of ``flap_width_m`` [m] that fit on a main-span deck erected over
+    ``fraction`` [-] from mid-span (the evenly spaced layout of the card's width)."""
+    return int(np.floor(float(fraction) * spec.main_span.length_m / float(flap_width_m)
+                        + 1e-9))
+
+
+def design_for_stage(spec: BridgeSpec, fraction: float, card=None, progress=None,
+                     side_spans: str | None = None, **overrides):
+    """A controller designed for one erection stage (issue 27 item 4): the card's flaps and
+    limits (gain, chord, damping, margin_min), the strips that fit on the erected deck as the
+    layout, and :data:`STAGE_DESIGN` (maximise the closed-loop critical speed); ``overrides``
+    are further card keys. Returns the :class:`design.result.DesignResult` (its status as the
+    design reports it: ``converged`` only when the critical-speed search is bracketed and the
+    chosen design verifies)."""
+    from design.driver import design
+    from design.settings import DEFAULT_CARD, load_settings
+    from model.errors import BridgeflapInputError
+
+    card = DEFAULT_CARD if card is None else card
+    base = load_settings(card)
+    n = stage_flap_count(spec, fraction, base.flap_width_m)
+    if n < 1:
+        raise BridgeflapInputError("fraction", f"{fraction:g}: no {base.flap_width_m:g} m flap "
+                                   "strip fits on the erected deck")
+    settings = load_settings(card, **({"flap_count": n} | STAGE_DESIGN | overrides))
+    stage = spec.erected(float(fraction), side_spans=side_spans)
+    return design(settings, progress=progress, spec=stage, progress_bar=False)

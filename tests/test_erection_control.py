@@ -67,3 +67,38 @@ def test_cli_erection_with_controller(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert [r["erected_fraction"] for r in out["stages"]] == [0.6, 1.0]
     assert out["stages"][0]["flap_strips_on_deck"] == 8
+
+
+def test_stage_flap_count_is_the_strips_that_fit(humber):
+    from design.erection_control import stage_flap_count
+
+    # 20 % of 1410 m = 282 m = 5 x 56.4 m exactly (the edge case: 1e-9 slack); 10 %: 2.5 -> 2
+    assert stage_flap_count(humber, 0.2, 56.4) == 5
+    assert stage_flap_count(humber, 0.1, 56.4) == 2
+    assert stage_flap_count(humber, 0.03, 56.4) == 0
+    c = Controller(K, tuple((np.arange(5) - 2.0) * 56.4), 56.4, flap_chord_m=3.0)
+    assert len(flaps_on_deck(c, humber, 0.2)) == 5  # the stage layout lies on its deck
+
+
+def test_design_stage_bad_input_is_one_line(capsys):
+    assert main(["erection", "--design-stage", "early", "--json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--design-stage" in err[0] and "worst" in err[0]
+    assert main(["erection", "--design-stage", "0.03"]) == 2  # no strip fits on 42 m
+    assert "no 56.4 m flap strip fits" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_stage_design_lifts_its_stage(humber):
+    # the 20 % stage (open loop 32.6 m/s on 30 modes) on a 6-mode model: the stage design's
+    # closed-loop critical speed lies above the stage's open-loop one (measured 30 modes:
+    # 55 m/s against 32.6 m/s, README)
+    from design.erection_control import design_for_stage
+
+    res = design_for_stage(humber, 0.2, n_modes=6, verification_modes=6,
+                           fresh_variant_modes=6)
+    assert res.status == "converged" and res.controller is not None
+    assert len(res.controller.flap_strip_positions_m) == 5
+    lim = res.extras["closed_loop_limits"]
+    ol = min(lim["open_loop_flutter_speed_m_s"], lim["open_loop_divergence_speed_m_s"])
+    assert lim["governing_speed_m_s"] > 1.2 * ol  # 20 %: a lift far above the RFA/grid noise
