@@ -64,6 +64,8 @@ from design.records import (
 from design.result import DesignResult
 from design.settings import DesignSettings
 from model.control import Compensator, Controller
+from model.spec import load_bridge
+from model.vocabulary import renamed
 
 NAN = float("nan")
 #: Nominal first start (b2, b1, b0, a2, a1): static gain -1 (flap against pitch), mild rate.
@@ -419,7 +421,8 @@ def warm_start_theta(warm_start) -> np.ndarray:
     return th
 
 
-def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
+@renamed
+def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None,
            progress_bar=None, records=None) -> DesignResult:
     """Multistart design with cutting planes, 16-mode verification and flap-count search.
 
@@ -433,9 +436,8 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
     settings : DesignSettings
     progress : callable, optional
         ``str -> None``, called with one line per start and step.
-    spec : model.spec.BridgeSpec, name or bridge TOML path, optional
-        The bridge, e.g. a modified built-in one or a variant (default:
-        ``load_bridge(settings.bridge)``); every model of the design is built on it.
+    bridge : model.spec.BridgeSpec, name or bridge TOML path, optional
+        The bridge (default ``settings.bridge``), e.g. a variant; every model is built on it.
     warm_start : Controller, Compensator or array_like, optional
         Start 0 from this compensator instead of :data:`NOMINAL_START` (e.g. a design of a
         neighbouring bridge); the other starts are Sobol points as usual.
@@ -447,9 +449,7 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
         :func:`design.critical_speed.critical_speed_design`, which calls this with its
         chosen inner design.
     """
-    from model.spec import load_bridge
-
-    spec = None if spec is None else load_bridge(spec)  # a name, a file or a BridgeSpec
+    spec = None if bridge is None else load_bridge(bridge)  # a name, a file or a BridgeSpec
     if records is None and settings.objective == "critical_speed":
         from design.critical_speed import critical_speed_design
 

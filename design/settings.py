@@ -7,6 +7,7 @@ Every TOML key is a field of :class:`DesignSettings` (``[tables]`` only group th
 from __future__ import annotations
 
 import math
+import os
 import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -271,8 +272,12 @@ class DesignSettings:
 _TOML_KEYS = {f for f in DesignSettings.__dataclass_fields__ if f != "extras"}
 
 
-def load_settings(path=None, **overrides) -> DesignSettings:
-    """Defaults (embedded here) overridden by a TOML file and keyword arguments.
+def load_settings(path: str | os.PathLike | None = "default", **overrides) -> DesignSettings:
+    """A design card (TOML) overridden by keyword arguments.
+
+    ``path``: a card file; ``"default"`` (the default) is :data:`DEFAULT_CARD`, the card
+    ``bridgeflap optimise`` runs without ``--definition``; ``None`` starts from the embedded
+    :class:`DesignSettings` defaults alone (docs/api_vocabulary.md).
 
     Raises
     ------
@@ -280,6 +285,8 @@ def load_settings(path=None, **overrides) -> DesignSettings:
         Unknown key, bad value, missing or unreadable file.
     """
     data = {}
+    if isinstance(path, str) and path == "default":
+        path = DEFAULT_CARD
     if path is not None:
         p = Path(path)
         try:

@@ -20,7 +20,7 @@ from model.control import Compensator, Controller
 
 
 def test_grid_margin_is_a_minimum_over_a_superset():
-    s = replace(load_settings(), n_modes=6, robust_speeds_m_s=(40.0, 45.0))
+    s = replace(load_settings(None), n_modes=6, robust_speeds_m_s=(40.0, 45.0))
     k = Compensator(-1.0859638829912959, 0.2788037579824468, -3.81201891826737,
                     0.30972896300877334, 0.024003664942915056)
     pos = (-338.4, -282.0, -225.6, 225.6, 282.0, 338.4)
