@@ -174,19 +174,17 @@ def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,
                          numeric=True).verify(theta, refined=refined)
 
 
-def _progress_bar(index: int, show):
-    """tqdm bar on stderr counting one start's Ipopt iterations (None when not shown:
-    ``show`` None means "stderr is a terminal")."""
+def _progress_bar(index: int, show, total: int):
+    """tqdm bar on stderr of one start's Ipopt iterations out of ``total``, their cap (None
+    when not shown: ``show`` None means "stderr is a terminal")."""
     import sys
 
-    if show is None:
-        show = sys.stderr.isatty()
-    if not show:
+    if not (sys.stderr.isatty() if show is None else show):
         return None
     from tqdm import tqdm
 
     return tqdm(desc=f"start {index} Ipopt", unit="it", file=sys.stderr, leave=False,
-                position=index)
+                position=index, total=total)
 
 
 def round_layout(S, z, budget=0) -> np.ndarray:
@@ -238,7 +236,7 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     # card to 3.4 min, round 0 capped infeasible, against ~1 min)
     if not settings.optimise_placement:
         prob.variants = extra_models(settings, model, spec, variants)
-    bar = _progress_bar(index, progress_bar)
+    bar = _progress_bar(index, progress_bar, settings.iteration_cap())
     if bar is not None:
         def tick(i, f, x):
             bar.update(1)
@@ -473,6 +471,8 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
         tp[0] = now
 
     mark("screening starts")
+    if not given:  # minutes of Ipopt before the next line: say what runs (issue 29 item 5)
+        log(f"{n} start(s), each at most {settings.iteration_cap()} Ipopt iterations ...")
     if given:
         records = list(records)
     elif settings.parallel and settings.starts > 1:

@@ -262,6 +262,13 @@ class DesignSettings:
         return np.unique(np.append(np.linspace(0.0, n * self.design_step_m_s, n + 1),
                                    self.speed_max_m_s))
 
+    def iteration_cap(self) -> int:
+        """Most Ipopt iterations of one start (the total of its progress bar): phase 1 and
+        round 0 (``max_iter`` each) and the cut re-solves (``resolve_max_iter`` each); twice
+        that with ``optimise_placement`` (the rounded layout is solved again)."""
+        once = 2 * self.max_iter + self.cutting_plane_rounds * self.resolve_max_iter
+        return once * (2 if self.optimise_placement else 1)
+
     def check_speeds(self) -> np.ndarray:
         """Dense verification grid [m/s]."""
         n = int(round(self.speed_max_m_s / self.check_step_m_s))
