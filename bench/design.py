@@ -43,7 +43,7 @@ def run(modes=(8, 12, 16), steps=(10.0, 5.0)) -> list[dict]:
     th = np.array([0.0, 0.5, -1.0, 0.05, 0.5])
     for nm in modes:
         for step in steps:
-            s = load_settings(n_modes=nm, design_step_m_s=step, starts=1)
+            s = load_settings(None, n_modes=nm, design_step_m_s=step, starts=1)
             t0 = time.perf_counter()
             _, model = build_model(s)
             prob = DesignProblem(s, model)

@@ -29,6 +29,7 @@ _PUBLIC = {
     "run_batch": "design.doe", "make_design": "design.designs",
     "main": "design.cli",
 }
-from model.lazy import public_face  # noqa: E402 - after the table it serves
+from model.lazy import keep_public_names, public_face  # noqa: E402 - after the table it serves
 
 __all__, __getattr__, __dir__ = public_face("design", _PUBLIC)
+keep_public_names(__name__)  # design.<function> is never shadowed by a submodule

@@ -416,7 +416,7 @@ def design_settings(opts: Mapping, bridge: str | None):
     opts = dict(opts)
     card = opts.pop("card", None)
     if card is None:
-        return load_settings(**({"bridge": bridge} if bridge else {}), **opts)
+        return load_settings(None, **({"bridge": bridge} if bridge else {}), **opts)
     if not isinstance(card, str) or not card:
         raise BridgeflapInputError("card", f"must be a card name or path, got {card!r}")
     return load_settings(packaged_card(card), **opts)
@@ -437,7 +437,7 @@ def _run_design(spec, opts, context) -> Outcome:
     if context.quick:
         settings = quick_settings(settings)
     res = design(settings, progress=lambda msg: context.say(f"  design: {msg}"),
-                 spec=context.bridge if mem else None)
+                 bridge=context.bridge if mem else None)
     s = res.summary()
     figs = {}
     if context.figures and res.controller is not None:

@@ -32,6 +32,7 @@ from design.analyses import ANALYSES, DEFAULT_MODES, RunContext
 from design.cli_common import (
     Parser,
     add_common,
+    add_verbosity,
     check_plot_target,
     check_writable_parent,
     controller_from_args,
@@ -45,6 +46,7 @@ from design.cli_common import (
     spec_from_args,
     speed_text,
 )
+from design.cli_help import finish
 from design.io import atomic_write
 from design.options import MAX_GRID_VALUE, MAX_MODES, check_int, check_number, parse_range
 from model.errors import BridgeflapInputError
@@ -411,18 +413,20 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     if argv is not None:
         names = {c.name for c in COMMANDS}
         chosen = next((a for a in argv if a in names), "")
-    p = Parser(prog="bridgeflap", description=__doc__.splitlines()[0])
+    p = Parser(prog="bridgeflap", description="Aeroelastic design of long-span suspension bridges "
+                                               "with active deck flaps (see the README)")
     p.add_argument("--debug", action="store_true",
                    help="on an internal fault, print the traceback (also after the command)")
     p.add_argument("--version", action="version", version=_version_text(),
                    help="print the package version and exit")
+    add_verbosity(p)
     sub = p.add_subparsers(dest="command", parser_class=Parser)
     for command in COMMANDS:
         sp = sub.add_parser(command.name, help=command.help)
         if chosen is None or command.name == chosen:
             command.arguments(sp)
         sp.set_defaults(func=command.run)
-    return p
+    return finish(p)  # design.cli_help: each option's form, no docstring markup
 
 
 def _limit_blas_threads() -> None:

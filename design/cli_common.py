@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import errno
 import json
+import logging
 import os
 import sys
 from pathlib import Path
@@ -23,7 +24,7 @@ from model.errors import BridgeflapInputError
 __all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",
            "controller_from_args", "controller_report", "default_bridge", "default_workers",
            "drop_warnings", "emit", "hold_warnings", "limit_text",
-           "log", "os_error_as_input", "release_warnings",
+           "log", "LOGGER", "os_error_as_input", "release_warnings", "set_verbosity",
            "save_figure", "save_plot", "spec_from_args", "speed_text"]
 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -50,6 +51,15 @@ def add_common(sp: argparse.ArgumentParser, bridge: bool = True, erection: bool 
     if erection:
         sp.add_argument("--erection", type=float, default=None,
                         help="erected fraction of the main span in (0, 1]")
+    add_verbosity(sp, argparse.SUPPRESS)
+
+
+def add_verbosity(parser: argparse.ArgumentParser, default=False) -> None:
+    """``--quiet`` / ``--verbose`` (before or after the command, as ``--debug``)."""
+    parser.add_argument("--quiet", action="store_true", default=default,
+                        help="no progress lines on stderr (warnings and errors still shown)")
+    parser.add_argument("--verbose", action="store_true", default=default,
+                        help="also the debug lines of the 'bridgeflap' logger on stderr")
 
 
 def default_workers() -> int:
@@ -73,16 +83,48 @@ _HELD: dict = {"pid": None, "lines": []}
 _HELD_PREFIXES = ("bridgeflap: warning:", "bridgeflap: note:")
 
 
+#: the command line's logger: progress lines at INFO, warning and note lines at WARNING, each
+#: written as it is to stderr (:func:`log`; ``--quiet`` / ``--verbose``, :func:`set_verbosity`)
+LOGGER = logging.getLogger("bridgeflap")
+
+
+class _StderrHandler(logging.Handler):
+    """Each record's message, one line, on the current ``sys.stderr`` (looked up per line, so a
+    redirected stderr, e.g. pytest's capture, receives it)."""
+
+    def emit(self, record):  # noqa: D102 - logging API
+        sys.stderr.write(record.getMessage() + "\n")
+        sys.stderr.flush()
+
+
+def _logger() -> logging.Logger:
+    if not any(isinstance(h, _StderrHandler) for h in LOGGER.handlers):
+        LOGGER.addHandler(_StderrHandler())
+        LOGGER.propagate = False
+        if LOGGER.level == logging.NOTSET:
+            LOGGER.setLevel(logging.INFO)
+    return LOGGER
+
+
+def set_verbosity(quiet: bool = False, verbose: bool = False) -> None:
+    """``--quiet``: warnings and errors only; ``--verbose``: debug lines too; else progress."""
+    _logger().setLevel(logging.WARNING if quiet else logging.DEBUG if verbose else logging.INFO)
+
+
+def _level(msg: str) -> int:
+    return logging.WARNING if msg.startswith(_HELD_PREFIXES) else logging.INFO
+
+
 def log(msg: str) -> None:
-    """One line of progress on stderr. While :func:`hold_warnings` is on, a warning or note
-    line waits until the next other line (or :func:`release_warnings`): a refusal that follows
-    drops it (:func:`drop_warnings`), so a refused input prints one line only."""
+    """One line of progress on stderr (the ``bridgeflap`` logger). While :func:`hold_warnings`
+    is on, a warning or note line waits until the next other line (or
+    :func:`release_warnings`): a refusal that follows drops it (:func:`drop_warnings`), so a
+    refused input prints one line only."""
     if _HELD["pid"] == os.getpid() and msg.startswith(_HELD_PREFIXES):
         _HELD["lines"].append(msg)
         return
     release_warnings()
-    sys.stderr.write(msg + "\n")
-    sys.stderr.flush()
+    _logger().log(_level(msg), msg)
 
 
 def hold_warnings() -> None:
@@ -96,9 +138,7 @@ def release_warnings(hold: bool = True) -> None:
     if not hold:
         _HELD["pid"] = None
     for line in lines:
-        sys.stderr.write(line + "\n")
-    if lines:
-        sys.stderr.flush()
+        _logger().log(_level(line), line)
 
 
 def drop_warnings() -> None:

@@ -31,6 +31,7 @@ from design.cli_common import (
     log,
     os_error_as_input,
     release_warnings,
+    set_verbosity,
 )
 from model.errors import BatchFailedError, BridgeflapError
 
@@ -132,6 +133,7 @@ def _run(argv: list[str], debug: bool) -> int:
             drop_warnings()
             sys.stderr.write(short_usage())
             return EXIT_BAD_INPUT
+        set_verbosity(getattr(args, "quiet", False), getattr(args, "verbose", False))
         cli._check_args(args)
         rc = args.func(args)
     except KeyboardInterrupt:

@@ -37,7 +37,7 @@ def cmd_study(args):
     from design.study import load_study, run_study
 
     config = load_study(args.file, quick=args.quick)
-    res = run_study(config, out=args.out, progress=log, workers=args.workers)
+    res = run_study(config, out_dir=args.out, progress=log, workers=args.workers)
     s = res.summary()
     r = s["results"]
 
@@ -57,7 +57,7 @@ def cmd_doe(args):
     if args.workers < 1:
         raise BridgeflapInputError("workers", f"must be at least 1, got {args.workers}")
     config = load_doe(args.file, quick=args.quick)
-    res = run_doe(config, out=args.out, workers=args.workers, scheduler=args.scheduler,
+    res = run_doe(config, out_dir=args.out, workers=args.workers, scheduler=args.scheduler,
                   resume=args.resume, progress=not args.json)
     s = res.summary()
     text = (f"doe {s['name']} ({s['analysis']}): {s['cases']} cases, {s['succeeded']} ok, "

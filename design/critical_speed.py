@@ -335,7 +335,7 @@ def critical_speed_design(settings: DesignSettings, progress=None, spec=None, wa
         chosen = next((e for e in srch.evaluations if e.record is not None),
                       srch.evaluations[0])
     s_ch = chosen.settings or settings_at(settings, chosen.design_speed_m_s)
-    res = design(s_ch, progress=progress, spec=spec, progress_bar=progress_bar,
+    res = design(s_ch, progress=progress, bridge=spec, progress_bar=progress_bar,
                  records=[chosen.record] if chosen.record is not None else [])
     lim = res.extras.get("closed_loop_limits", {})
     status = srch.status if srch.status != "converged" or res.status == "converged" \

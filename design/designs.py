@@ -229,6 +229,10 @@ def make_design(kind: str, **options: Any) -> list[dict]:
     """
     if kind not in DESIGN_KINDS:
         known = ", ".join(sorted(DESIGN_KINDS))
+        canonical = str(kind).replace("-", "_") if isinstance(kind, str) else None
+        if canonical in DESIGN_KINDS:  # the spelling of DOE files before issue 29
+            raise BridgeflapInputError("kind", f"{kind!r} is spelled {canonical!r} "
+                                               "(docs/api_vocabulary.md)")
         raise BridgeflapInputError("kind", f"unknown design kind {kind!r} (known: {known})")
     func = DESIGN_KINDS[kind]
     params = inspect.signature(func).parameters

@@ -65,6 +65,8 @@ from design.records import (
 from design.result import DesignResult
 from design.settings import DesignSettings
 from model.control import Compensator, Controller
+from model.spec import load_bridge
+from model.vocabulary import renamed
 
 NAN = float("nan")
 #: Nominal first start (b2, b1, b0, a2, a1): static gain -1 (flap against pitch), mild rate.
@@ -173,19 +175,17 @@ def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,
                          numeric=True).verify(theta, refined=refined)
 
 
-def _progress_bar(index: int, show):
-    """tqdm bar on stderr counting one start's Ipopt iterations (None when not shown:
-    ``show`` None means "stderr is a terminal")."""
+def _progress_bar(index: int, show, total: int):
+    """tqdm bar on stderr of one start's Ipopt iterations out of ``total``, their cap (None
+    when not shown: ``show`` None means "stderr is a terminal")."""
     import sys
 
-    if show is None:
-        show = sys.stderr.isatty()
-    if not show:
+    if not (sys.stderr.isatty() if show is None else show):
         return None
     from tqdm import tqdm
 
     return tqdm(desc=f"start {index} Ipopt", unit="it", file=sys.stderr, leave=False,
-                position=index)
+                position=index, total=total)
 
 
 def round_layout(S, z, budget=0) -> np.ndarray:
@@ -237,7 +237,7 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     # card to 3.4 min, round 0 capped infeasible, against ~1 min)
     if not settings.optimise_placement:
         prob.variants = extra_models(settings, model, spec, variants)
-    bar = _progress_bar(index, progress_bar)
+    bar = _progress_bar(index, progress_bar, settings.iteration_cap())
     if bar is not None:
         def tick(i, f, x):
             bar.update(1)
@@ -406,7 +406,8 @@ def warm_start_theta(warm_start) -> np.ndarray:
     return th
 
 
-def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
+@renamed
+def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None,
            progress_bar=None, records=None) -> DesignResult:
     """Multistart design with cutting planes, 16-mode verification and flap-count search.
 
@@ -420,9 +421,8 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
     settings : DesignSettings
     progress : callable, optional
         ``str -> None``, called with one line per start and step.
-    spec : model.spec.BridgeSpec, name or bridge TOML path, optional
-        The bridge, e.g. a modified built-in one or a variant (default:
-        ``load_bridge(settings.bridge)``); every model of the design is built on it.
+    bridge : model.spec.BridgeSpec, name or bridge TOML path, optional
+        The bridge (default ``settings.bridge``), e.g. a variant; every model is built on it.
     warm_start : Controller, Compensator or array_like, optional
         Start 0 from this compensator instead of :data:`NOMINAL_START` (e.g. a design of a
         neighbouring bridge); the other starts are Sobol points as usual.
@@ -434,9 +434,7 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
         :func:`design.critical_speed.critical_speed_design`, which calls this with its
         chosen inner design.
     """
-    from model.spec import load_bridge
-
-    spec = None if spec is None else load_bridge(spec)  # a name, a file or a BridgeSpec
+    spec = None if bridge is None else load_bridge(bridge)  # a name, a file or a BridgeSpec
     if records is None and settings.objective == "critical_speed":
         from design.critical_speed import critical_speed_design
 
@@ -460,6 +458,8 @@ def design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
         tp[0] = now
 
     mark("screening starts")
+    if not given:  # minutes of Ipopt before the next line: say what runs (issue 29 item 5)
+        log(f"{n} start(s), each at most {settings.iteration_cap()} Ipopt iterations ...")
     if given:
         records = list(records)
     elif settings.parallel and settings.starts > 1:

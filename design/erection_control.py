@@ -161,4 +161,4 @@ def design_for_stage(spec: BridgeSpec, fraction: float, card=None, progress=None
                                    "strip fits on the erected deck")
     settings = load_settings(card, **({"flap_count": n} | STAGE_DESIGN | overrides))
     stage = spec.erected(float(fraction), side_spans=side_spans)
-    return design(settings, progress=progress, spec=stage, progress_bar=False)
+    return design(settings, progress=progress, bridge=stage, progress_bar=False)

@@ -28,7 +28,7 @@ import math
 import os
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -49,6 +49,7 @@ from design.options import (
 from model.errors import BridgeflapInputError
 from model.results import ResultData
 from model.spec import PARAMETER_PATHS
+from model.vocabulary import renamed
 
 __all__ = ["DOE_ANALYSES", "MAX_DOE_CASES", "DoeConfig", "DoeParameter", "DoeResult",
            "doe_fingerprint", "doe_from_dict", "load_doe", "run_doe"]
@@ -60,9 +61,12 @@ __all__ = ["DOE_ANALYSES", "MAX_DOE_CASES", "DoeConfig", "DoeParameter", "DoeRes
 #: registered analyses with a DOE case row
 DOE_ANALYSES = tuple(name for name, entry in ANALYSES.items() if entry.case is not None)
 
-_DESIGN_ALIASES = {"full-factorial": "full_factorial", "full_factorial": "full_factorial",
-                   "latin-hypercube": "latin_hypercube", "latin_hypercube": "latin_hypercube",
-                   "lhs": "latin_hypercube", "sobol": "sobol"}
+#: a DOE file's ``[design] kind``: the canonical names (those of :func:`design.make_design`)
+#: and, read as them, the spellings of files written before issue 29 (a published format:
+#: runs/doe_gj_sag/doe.toml and users' files; the fingerprint is of the canonical name)
+_DESIGN_ALIASES = {"full_factorial": "full_factorial", "latin_hypercube": "latin_hypercube",
+                   "sobol": "sobol", "full-factorial": "full_factorial",
+                   "latin-hypercube": "latin_hypercube", "lhs": "latin_hypercube"}
 _DOE_KEYS = {"name", "bridge", "analysis", "options", "design", "parameters", "quick",
              "description"}
 
@@ -144,7 +148,7 @@ def load_doe(path: str | os.PathLike, quick: bool = False, bridge: Any = None) -
         speeds = "0:120:1"
         modes = 10                            # (default: the registry's, as `bridgeflap flutter`)
         [design]
-        kind = "full-factorial"               # | "latin-hypercube" | "sobol"
+        kind = "full_factorial"               # | "latin_hypercube" | "sobol"
         levels = 3                            # full factorial: points per range
         n = 16                                # latin hypercube / sobol: cases
         seed = 1
@@ -189,10 +193,10 @@ def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
     if set(design) - {"kind", "levels", "n", "seed"}:
         bad = sorted(set(design) - {"kind", "levels", "n", "seed"})[0]
         raise BridgeflapInputError(f"design.{bad}", "unknown design option")
-    kind = _DESIGN_ALIASES.get(design.get("kind", "full-factorial"))
+    kind = _DESIGN_ALIASES.get(design.get("kind", "full_factorial"))
     if kind is None:
         raise BridgeflapInputError("design.kind", f"unknown design {design.get('kind')!r} "
-                                                  "(full-factorial, latin-hypercube, sobol)")
+                                                  "(full_factorial, latin_hypercube, sobol)")
     levels = check_int(design.get("levels", 3), "design.levels", 1, MAX_DOE_CASES)
     n = check_int(design.get("n", 16), "design.n", 1, MAX_DOE_CASES)
     seed = check_int(design.get("seed", 1), "design.seed", 0)
@@ -213,7 +217,7 @@ def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
                        and np.isfinite(v) for v in vals):
                 raise BridgeflapInputError(fld, "values must be finite numbers")
             if kind != "full_factorial":
-                raise BridgeflapInputError(fld, f"explicit values need a full-factorial design, "
+                raise BridgeflapInputError(fld, f"explicit values need a full_factorial design, "
                                                 f"not {kind}")
             params[path] = DoeParameter(values=tuple(float(v) for v in vals))
             continue
@@ -264,14 +268,14 @@ class DoeResult(ResultData):
     succeeded: int
     failed: int
     reused: int
-    table: Path = field()  # the table.csv path (shadows ResultData.table: no default)
+    table_path: Path  # the table.csv (``table()`` is the table as text, ResultData)
     rows: tuple
 
     def summary(self) -> dict:
         """The ``bridgeflap doe --json`` contract."""
         return {"name": self.config.name, "analysis": self.config.analysis,
                 "cases": self.cases, "succeeded": self.succeeded, "failed": self.failed,
-                "reused": self.reused, "table": str(self.table), "out_dir": str(self.out_dir),
+                "reused": self.reused, "table": str(self.table_path), "out_dir": str(self.out_dir),
                 "statuses": {r["case_id"]: r["status"] for r in self.rows}}
 
     def _rows(self) -> list[dict]:
@@ -333,12 +337,15 @@ def doe_fingerprint(config: DoeConfig) -> str:
     return json.dumps(payload, sort_keys=True, default=repr)
 
 
-def run_doe(config: DoeConfig | str | os.PathLike, out: str | os.PathLike | None = None,
+@renamed
+def run_doe(config: DoeConfig | str | os.PathLike,
+            out_dir: str | os.PathLike | None = None,
             workers: int = 1, scheduler: str | None = None, resume: bool = False,
             quick: bool = False, progress: bool = True, bridge: Any = None) -> DoeResult:
     """Run a DOE through :func:`design.doe.run_batch` (per-case files; resumable).
 
-    ``config``: a :class:`DoeConfig` or a DOE file path; ``bridge`` (a name, a bridge TOML
+    ``config``: a :class:`DoeConfig` or a DOE file path; ``out_dir``: the output folder
+    (``bridgeflap doe --out``; default ``runs/<name>/output``); ``bridge`` (a name, a bridge TOML
     path or a :class:`~model.spec.BridgeSpec`) replaces the file's bridge (a path only; for a
     loaded config use ``load_doe(path, bridge=...)``).
 
@@ -359,7 +366,7 @@ def run_doe(config: DoeConfig | str | os.PathLike, out: str | os.PathLike | None
     _check_size(config.kind, config.parameters, config.levels, config.n)
     ANALYSES[config.analysis].resolve(config.options, what="options")
     cases = config.cases()
-    target = output_folder(out, config.name)
+    target = output_folder(out_dir, config.name)
     fingerprint = doe_fingerprint(config)
     files = {"doe.json": config.as_dict(), "manifest.json": build_manifest(config.as_dict())}
     batch = run_batch(config.case_function(), cases, target, workers=workers,
@@ -367,4 +374,4 @@ def run_doe(config: DoeConfig | str | os.PathLike, out: str | os.PathLike | None
                       fingerprint=fingerprint, files=files, kind="doe", definition="doe.json")
     return DoeResult(config=config, out_dir=target, cases=batch.cases,
                      succeeded=batch.succeeded, failed=batch.failed, reused=batch.reused,
-                     table=batch.table_path, rows=batch.rows)
+                     table_path=batch.table_path, rows=batch.rows)

@@ -2,7 +2,8 @@
 
 The command line, study files and DOE files give wind-speed grids and erected fractions as text
 (``start:stop:step`` or a comma list) and options as TOML values. This module turns them into
-arrays and checked values; :mod:`model` only ever sees arrays.
+arrays and checked values; the grid reader itself is :mod:`model.grid` (re-exported here), the
+one that every ``speeds`` argument of :mod:`model` goes through too.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from model.errors import BridgeflapInputError
+from model.grid import MAX_GRID_POINTS, MAX_GRID_VALUE, grid, parse_range
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -27,13 +29,6 @@ __all__ = ["MAX_DOE_CASES", "MAX_GRID_POINTS", "MAX_GRID_VALUE", "MAX_MODES", "c
            "parse_range", "plain_name", "read_definition", "read_toml", "resolve_bridge",
            "table"]
 
-#: most points of one grid: a flutter sweep costs about 1 ms per point at 16 modes (an
-#: eigenvalue problem of 96 states), so 20000 points is already half a minute
-MAX_GRID_POINTS = 20000
-_MAX_POINTS = MAX_GRID_POINTS  # former name
-#: largest grid value: no wind speed [m/s] (and no fraction) comes near it; far below the
-#: overflow of U^2 terms
-MAX_GRID_VALUE = 1.0e4
 #: most retained vertical + torsional modes: the state grows by 6 per mode (2 structural and
 #: 4 aerodynamic lags), and one eigenvalue problem at 100 modes (about 600 states) takes 0.1 s,
 #: so a 171-point sweep about 20 s; the truncation study (bench/stability.py) converged at 16-24
@@ -41,97 +36,6 @@ MAX_MODES = 100
 #: most cases of one DOE (a full factorial grows as levels^parameters): a case takes about a
 #: second, so 100000 cases is already a day on one core
 MAX_DOE_CASES = 100000
-
-
-def parse_range(text: str, field: str, minimum: float | None = None,
-                maximum: float | None = MAX_GRID_VALUE) -> np.ndarray:
-    """Parse ``start:stop:step`` (inclusive of ``stop``) or a comma list into an array.
-
-    Parameters
-    ----------
-    text : str
-        ``"0:85:0.5"`` (start, stop, step; ``stop`` included when on the grid) or ``"1,2,5"``.
-    field : str
-        Name of the input, used in the error message.
-    minimum : float, optional
-        Smallest allowed value.
-    maximum : float, optional
-        Largest allowed value (default :data:`MAX_GRID_VALUE`).
-
-    Returns
-    -------
-    numpy.ndarray
-        The values, ``start + step * arange(n)`` for a range.
-
-    Raises
-    ------
-    BridgeflapInputError
-        Not a number grid, an empty grid or one of more than :data:`MAX_GRID_POINTS`
-        points, non-finite values or values outside ``[minimum, maximum]``.
-    """
-    if not isinstance(text, str):
-        raise BridgeflapInputError(field, f"must be grid text such as '0:85:0.5' or '1,2,5', "
-                                          f"got {text!r}")
-    if len(text) > 20 * MAX_GRID_POINTS:
-        raise BridgeflapInputError(field, f"grid text too long (at most {MAX_GRID_POINTS} "
-                                          "points)")
-    try:
-        if ":" in text:
-            parts = [float(p) for p in text.split(":")]
-            if len(parts) != 3:
-                raise ValueError
-            start, stop, step = parts
-            if not all(np.isfinite(parts)):
-                raise BridgeflapInputError(field, f"start, stop and step must be finite, "
-                                                  f"got {text!r}")
-            if not step > 0 or stop < start:
-                raise BridgeflapInputError(
-                    field, f"empty grid {text!r} (need start <= stop, step > 0)")
-            n = (stop - start) / step + 1e-9
-            if not n < MAX_GRID_POINTS:  # also catches an overflow to inf
-                raise BridgeflapInputError(field, f"grid {text!r} has more than the limit of "
-                                                  f"{MAX_GRID_POINTS} points")
-            values = start + step * np.arange(int(np.floor(n)) + 1)
-        else:
-            values = np.array([float(p) for p in text.split(",") if p.strip()])
-    except BridgeflapInputError:
-        raise
-    except ValueError:
-        raise BridgeflapInputError(field, f"not a number grid: {text!r}") from None
-    return _check_values(values, field, minimum, maximum)
-
-
-def _check_values(values: np.ndarray, field: str, minimum, maximum) -> np.ndarray:
-    if values.size == 0:
-        raise BridgeflapInputError(field, "empty grid")
-    if values.size > MAX_GRID_POINTS:
-        raise BridgeflapInputError(field, f"{values.size} points, more than the limit of "
-                                          f"{MAX_GRID_POINTS}")
-    if not np.all(np.isfinite(values)):
-        raise BridgeflapInputError(field, "values must be finite")
-    if minimum is not None and np.any(values < minimum):
-        raise BridgeflapInputError(field, f"values must be >= {minimum} (got {values.min()})")
-    if maximum is not None and np.any(values > maximum):
-        raise BridgeflapInputError(field, f"values must be <= {maximum:g} (got "
-                                          f"{values.max():g})")
-    return values
-
-
-def grid(value: Any, field: str, minimum: float | None = None,
-         maximum: float | None = MAX_GRID_VALUE) -> np.ndarray:
-    """An array from grid text (:func:`parse_range`) or from a list of numbers (checked alike)."""
-    if isinstance(value, str):
-        return parse_range(value, field, minimum, maximum)
-    if isinstance(value, np.ndarray) and value.dtype.kind in "fiu":
-        values = value.astype(float).ravel()
-    elif isinstance(value, list | tuple) and all(
-            isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool)
-            for v in value):
-        values = np.asarray(value, dtype=float).ravel()
-    else:
-        raise BridgeflapInputError(field, f"must be grid text such as '0:85:0.5' or a list of "
-                                          f"numbers, got {value!r}")
-    return _check_values(values, field, minimum, maximum)
 
 
 def check_int(value: Any, field: str, minimum: int = 1, maximum: int | None = None) -> int:

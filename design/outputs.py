@@ -10,8 +10,9 @@ Output *folders* (``study``, ``doe``, batch folders) follow four rules, all here
   (:func:`check_replaceable`).
 * **One run at a time.** :func:`claim_output` takes a non-blocking :mod:`filelock` lock on
   ``.<name>.lock`` *next to* the folder (never inside the folder being replaced); a second run
-  into the same folder is refused at once. The lock file is left in place after the run (on
-  POSIX, deleting a lock file while others may open it would let two runs hold "the" lock).
+  into the same folder is refused at once. On POSIX the lock file is removed, still locked,
+  when the run ends (:class:`_RunLock` checks after locking that the path still names the file
+  it locked, so two runs never hold "the" lock); no ``.<name>.lock`` is left behind.
 * **Crash-safe replace.** :func:`swap_into_place` renames the previous folder to a backup
   ``.<name>.old-<pid>-<random>``, renames the complete new folder to the target, then deletes
   the backup. A kill between the two renames leaves no target but a complete, marked backup:

@@ -60,12 +60,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
-from design.options import parse_range
 from model import statespace
 from model.analysis import DEFAULT_MODES, bridge_system, modal_model
-from model.bridge_arg import takes_bridge
+from model.bridge_arg import BridgeArg, takes_bridge
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import assemble
+from model.grid import speed_grid
 from model.modes import ModalModel
 from model.results import ResultData, jsonable, table_text
 from model.ritz import chosen_modes, ritz_basis
@@ -368,7 +368,7 @@ def _unit_key(key: str) -> str:
 
 
 @takes_bridge
-def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARAMETERS,
+def local_sensitivity(bridge: BridgeArg, parameters: Sequence[str] = DEFAULT_PARAMETERS,
                       speeds="0:120:1", n_modes: int = DEFAULT_MODES, rfa: str = "rfa4",
                       order: str = "modal", check: bool = True,
                       rel_step: float = _REL_STEP_A, fd_step: float = _REL_STEP_FD,
@@ -377,7 +377,7 @@ def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARA
 
     Parameters
     ----------
-    spec : BridgeSpec
+    bridge : str, os.PathLike or BridgeSpec
     parameters : sequence of str
         Dotted paths from :data:`model.spec.PARAMETER_PATHS`, or modal data
         ``mode.<label>.<quantity>`` only (:mod:`design.modal_sensitivity`).
@@ -395,8 +395,9 @@ def local_sensitivity(spec: BridgeSpec, parameters: Sequence[str] = DEFAULT_PARA
     fd_step : float
         Relative step of the finite-difference checks of ``U`` itself.
     """
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     parameters = check_parameters(parameters)
-    u = parse_range(speeds, "speeds", 0.0) if isinstance(speeds, str) else np.asarray(speeds)
+    u = speed_grid(speeds)  # "lo:hi:step" text or numbers [m/s]
     if any(p.startswith("mode.") for p in parameters):  # imported modal data (issue 13)
         from design.modal_sensitivity import modal_sensitivity
 

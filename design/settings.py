@@ -7,6 +7,7 @@ Every TOML key is a field of :class:`DesignSettings` (``[tables]`` only group th
 from __future__ import annotations
 
 import math
+import os
 import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -261,6 +262,13 @@ class DesignSettings:
         return np.unique(np.append(np.linspace(0.0, n * self.design_step_m_s, n + 1),
                                    self.speed_max_m_s))
 
+    def iteration_cap(self) -> int:
+        """Most Ipopt iterations of one start (the total of its progress bar): phase 1 and
+        round 0 (``max_iter`` each) and the cut re-solves (``resolve_max_iter`` each); twice
+        that with ``optimise_placement`` (the rounded layout is solved again)."""
+        once = 2 * self.max_iter + self.cutting_plane_rounds * self.resolve_max_iter
+        return once * (2 if self.optimise_placement else 1)
+
     def check_speeds(self) -> np.ndarray:
         """Dense verification grid [m/s]."""
         n = int(round(self.speed_max_m_s / self.check_step_m_s))
@@ -271,8 +279,12 @@ class DesignSettings:
 _TOML_KEYS = {f for f in DesignSettings.__dataclass_fields__ if f != "extras"}
 
 
-def load_settings(path=None, **overrides) -> DesignSettings:
-    """Defaults (embedded here) overridden by a TOML file and keyword arguments.
+def load_settings(path: str | os.PathLike | None = "default", **overrides) -> DesignSettings:
+    """A design card (TOML) overridden by keyword arguments.
+
+    ``path``: a card file; ``"default"`` (the default) is :data:`DEFAULT_CARD`, the card
+    ``bridgeflap optimise`` runs without ``--definition``; ``None`` starts from the embedded
+    :class:`DesignSettings` defaults alone (docs/api_vocabulary.md).
 
     Raises
     ------
@@ -280,6 +292,8 @@ def load_settings(path=None, **overrides) -> DesignSettings:
         Unknown key, bad value, missing or unreadable file.
     """
     data = {}
+    if isinstance(path, str) and path == "default":
+        path = DEFAULT_CARD
     if path is not None:
         p = Path(path)
         try:

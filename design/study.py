@@ -76,6 +76,7 @@ from design.outputs import (
 )
 from design.report import PAPER, study_report, study_report_html
 from model.errors import BridgeflapError, BridgeflapInputError
+from model.vocabulary import renamed
 
 __all__ = [
     "StudyConfig",
@@ -313,8 +314,9 @@ def _write_outcome(kind: str, outcome: Outcome, folder: Path) -> tuple[dict, lis
     return summary, _save_figures(outcome.figures, folder / "figures")
 
 
+@renamed
 def run_study(config: StudyConfig | str | os.PathLike | None = None,
-              out: str | os.PathLike | None = None, quick: bool = False,
+              out_dir: str | os.PathLike | None = None, quick: bool = False,
               progress: Callable[[str], None] | None = None, workers: int = 1) -> StudyResult:
     """Run every analysis of a study and write the self-describing output folder.
 
@@ -322,8 +324,9 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
     ----------
     config : StudyConfig, path or None
         A loaded study, a study TOML path, or ``None`` for the built-in default.
-    out : path, optional
-        Output folder (default ``runs/<name>/output`` relative to the current directory).
+    out_dir : path, optional
+        Output folder (``bridgeflap study --out``; default ``runs/<name>/output`` relative to
+        the current directory).
     quick : bool
         Apply the quick settings (only when ``config`` is a path or ``None``).
     progress : callable, optional
@@ -339,7 +342,7 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
     say = progress or (lambda msg: None)
     validate_study(config)
     spec = config.spec()
-    target = check_replaceable(output_folder(out, config.name), "out", "study")  # typed folder
+    target = check_replaceable(output_folder(out_dir, config.name), "out", "study")  # typed folder
     with claim_output(target, "out", say=progress, kind="study"):  # notes: progress/stderr
         tmp = temporary_sibling(target)
         start = time.perf_counter()

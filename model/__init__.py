@@ -42,6 +42,7 @@ _PUBLIC = {
     "build_symbolic": "model.symbolic", "closed_loop_functions": "model.symbolic",
     "section_basis": "model.section", "typical_section": "model.section",
 }
-from model.lazy import public_face  # noqa: E402 - after the table it serves
+from model.lazy import keep_public_names, public_face  # noqa: E402 - after the table it serves
 
 __all__, __getattr__, __dir__ = public_face("model", _PUBLIC)
+keep_public_names(__name__)  # model.<function> is never shadowed by a submodule

@@ -1,8 +1,9 @@
 """High-level analyses on a bridge definition: modes, flutter, erection, frequency ratio.
 
-Plain functions of a :class:`~model.spec.BridgeSpec` and numeric grids (arrays of wind speeds
-[m/s] and erected fractions [-]); reading grid text and the default grids belong to
-:mod:`design` (:mod:`design.options`, :mod:`design.analyses`). Each returns a frozen result
+Plain functions of a ``bridge`` (a name, a file or a :class:`~model.spec.BridgeSpec`) and grids
+of wind speeds [m/s] and erected fractions [-] (``"0:85:0.5"`` text or numbers,
+:func:`model.grid.speed_grid`); the default grids belong to :mod:`design.analyses`; the argument
+names are those of docs/api_vocabulary.md. Each returns a frozen result
 object with ``summary()`` (JSON-ready numbers with units in the key names and statuses) and
 ``plot()``. Conventions: see :mod:`model`.
 
@@ -18,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from model import statespace
-from model.bridge_arg import takes_bridge
+from model.bridge_arg import BridgeArg, takes_bridge
 from model.control import Controller
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import assemble
@@ -27,28 +28,28 @@ from model.modes import ModalModel, solve
 from model.results import ResultData
 from model.spec import BridgeSpec, check_fraction
 from model.stability import StabilitySweep, check_speeds, sweep
-
-#: retained vertical + torsional modes of every analysis unless told otherwise
-#: (vertical and torsional together). Criterion (model.convergence.mode_convergence): the count at
-#: which flutter and divergence speeds, and those of every larger count, are within 0.05 % of
-#: 40 modes. Measured by runs/mode_convergence on humber, humber:box and the 64 corners of the
-#: estimated-input ranges: 30 modes converge in all 66 cases (largest flutter error 0.0013 %);
-#: 16 modes converge in 43 (largest 0.70 %), 24 in 65 (0.062 %). Cost: 180 instead of 96 states.
-DEFAULT_MODES = 30
+from model.vocabulary import DEFAULT_MODES
 
 
 @takes_bridge
-def modal_model(spec: BridgeSpec, count: int | None = None,
+def modal_model(bridge: BridgeArg, modes_per_family: int | None = None,
                 erection_gj_factor: float = 0.5) -> ModalModel:
-    """Cable statics, FE assembly and modes of ``spec``."""
-    return solve(assemble(spec, erection_gj_factor=erection_gj_factor), count)
+    """Cable statics, FE assembly and modes of ``bridge``.
+
+    ``modes_per_family``: the lowest modes kept of each family (vertical, torsional, lateral;
+    all when omitted), not the vertical + torsional ``n_modes`` of an aeroelastic model
+    (docs/api_vocabulary.md).
+    """
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
+    return solve(assemble(spec, erection_gj_factor=erection_gj_factor), modes_per_family)
 
 
 @takes_bridge
-def bridge_system(spec: BridgeSpec, n_modes: int = DEFAULT_MODES, order: str = "modal",
+def bridge_system(bridge: BridgeArg, n_modes: int = DEFAULT_MODES, order: str = "modal",
                   rfa: str = "rfa4", modal: ModalModel | None = None,
                   ) -> tuple[ModalModel, statespace.AeroelasticSystem]:
-    """Modal model and aeroelastic state space of ``spec``."""
+    """Modal model and aeroelastic state space of ``bridge``."""
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     if int(n_modes) < 1:
         raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")
     modal = modal_model(spec) if modal is None else modal
@@ -149,15 +150,16 @@ def critical_speed(summary) -> dict:
 
 
 @takes_bridge
-def flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
+def flutter(bridge: BridgeArg, speeds, n_modes: int = DEFAULT_MODES,
             order: str = "modal", rfa: str = "rfa4", speed_tol: float = 1e-3,
             sweep_method: str = "dense") -> FlutterResult:
-    """Flutter and torsional divergence of ``spec`` over a grid of wind speeds [m/s].
+    """Flutter and torsional divergence of ``bridge`` over a grid of wind speeds [m/s].
 
     ``speed_tol`` [m/s] is the width to which each crossing is refined and ``sweep_method``
     (``"dense"``, the reference, or ``"fast"``, the CLI's default) the method of
     :func:`model.stability.sweep`.
     """
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     u = check_speeds(speeds)
     tol = float(speed_tol)
     if not (np.isfinite(tol) and tol > 0):
@@ -252,7 +254,7 @@ def _stage(spec: BridgeSpec, speeds, n_modes: int) -> dict:
 
 
 @takes_bridge
-def erection(spec: BridgeSpec, fractions, speeds, n_modes: int = DEFAULT_MODES,
+def erection(bridge: BridgeArg, fractions, speeds, n_modes: int = DEFAULT_MODES,
              progress=None, side_spans: str | None = None, workers: int = 1) -> ErectionResult:
     """Flutter/divergence at each erected fraction [-] over a grid of wind speeds [m/s].
 
@@ -266,6 +268,7 @@ def erection(spec: BridgeSpec, fractions, speeds, n_modes: int = DEFAULT_MODES,
     calls); inside a daemonic process (a Dask worker), which may not start children, the stages
     run one after another.
     """
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     fr = _fractions(fractions)
     speeds = check_speeds(speeds)
     specs = [spec.erected(float(f), side_spans=side_spans) for f in fr] + [spec.completed()]
@@ -421,12 +424,13 @@ def _ratio_row(modal: ModalModel) -> dict:
 
 
 @takes_bridge
-def frequency_ratio(spec: BridgeSpec, fractions, side_spans: str | None = None
+def frequency_ratio(bridge: BridgeArg, fractions, side_spans: str | None = None
                     ) -> FrequencyRatioResult:
     """``f(TS1)/f(VS1)`` with half and full deck GJ against erected fraction [-] (seed Fig. 2).
 
     Modes by :func:`first_symmetric_deck_mode`; the completed bridge reported separately.
     """
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     fr = _fractions(fractions)
     stages = []
     for f in fr:
@@ -500,7 +504,8 @@ class ClosedLoopFlutterResult(ResultData):
 
 
 @takes_bridge
-def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEFAULT_MODES,
+def closed_loop_flutter(bridge: BridgeArg, controller: Controller, speeds,
+                        n_modes: int = DEFAULT_MODES,
                         flap_chord_m: float | None = None,
                         sweep_method: str = "dense",
                         verify_static: bool = True) -> ClosedLoopFlutterResult:
@@ -510,9 +515,10 @@ def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEF
     ``verify_static``: the verified static divergence of the closed loop on the grid's range
     (:func:`model.static_divergence.static_divergence`, ~0.3 s on 30 modes).
 
-    ``speeds`` [m/s] is an array (strings are parsed by the CLI); ``sweep_method`` that of
+    ``speeds`` [m/s]: any form of :func:`model.grid.speed_grid`; ``sweep_method`` that of
     :func:`model.stability.sweep` (``"dense"``, the reference, or ``"fast"``) for both.
     """
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     u = check_speeds(speeds)
     chord = controller.chord_m if flap_chord_m is None else flap_chord_m
     model = closed_loop_model(spec, controller.flap_strip_positions_m, controller.flap_width_m,
@@ -533,11 +539,12 @@ def closed_loop_flutter(spec, controller: Controller, speeds, n_modes: int = DEF
 
 
 @takes_bridge
-def pk_flutter(spec: BridgeSpec, speeds, n_modes: int = DEFAULT_MODES,
+def pk_flutter(bridge: BridgeArg, speeds, n_modes: int = DEFAULT_MODES,
                controller: Controller | None = None) -> dict:
     """Summary of the exact-Theodorsen p-k check on the same generalised coordinates as
     :func:`flutter` (closed loop with the controller's exact ``K(p)`` when given):
     :func:`model.stability.pk_sweep`."""
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     from model.stability import pk_sweep
 
     u = check_speeds(speeds)

@@ -5,6 +5,8 @@ built-in name (``"humber"``, ``"humber:box"``), a bridge TOML path (``str`` or
 :class:`os.PathLike`) is loaded with :func:`model.spec.load_bridge`; anything else (a spec, an
 erection stage, an aeroelastic system where the function also takes one) is passed on as it is.
 The bad-input contract is :func:`~model.spec.load_bridge`'s: one line naming ``bridge``.
+A keyword the API no longer uses (``spec=``, ``count=``, ``wind_speed=``) raises naming its new
+name (:func:`model.vocabulary.check_renamed`).
 """
 
 from __future__ import annotations
@@ -12,8 +14,17 @@ from __future__ import annotations
 import functools
 import inspect
 import os
+from typing import TYPE_CHECKING, Union
 
-__all__ = ["as_bridge", "takes_bridge"]
+from model.vocabulary import check_renamed
+
+if TYPE_CHECKING:
+    from model.spec import BridgeSpec
+
+__all__ = ["BridgeArg", "as_bridge", "takes_bridge"]
+
+#: what a ``bridge`` argument may be: a built-in name, a bridge TOML path or a spec
+BridgeArg = Union[str, os.PathLike, "BridgeSpec"]  # noqa: UP007 - a forward reference
 
 
 def as_bridge(bridge):
@@ -27,14 +38,17 @@ def as_bridge(bridge):
 
 def takes_bridge(fn):
     """Decorate ``fn`` so that its first parameter accepts a name, a file or a spec."""
-    first = next(iter(inspect.signature(fn).parameters))
+    parameters = tuple(inspect.signature(fn).parameters)
+    first = parameters[0]
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
+        check_renamed(fn.__name__, parameters, kwargs)
         if args:
             args = (as_bridge(args[0]), *args[1:])
         elif first in kwargs:
             kwargs[first] = as_bridge(kwargs[first])
         return fn(*args, **kwargs)
 
+    wrapper.takes_bridge = True  # read by tests/test_vocabulary.py
     return wrapper

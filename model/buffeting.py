@@ -39,6 +39,7 @@ import numpy as np
 from model.bridge_arg import takes_bridge
 from model.buffeting_inputs import LOADS, resolve_system
 from model.errors import BridgeflapError, BridgeflapInputError
+from model.grid import speed_grid
 from model.gust import GustField, coherence_projection, gust_field
 from model.results import ResultData
 from model.simulation import simulate_monte_carlo
@@ -49,6 +50,7 @@ from model.spectral import (
     trapezoid_weights,
 )
 from model.spectrum import spectral_abscissa
+from model.vocabulary import DEFAULT_MODES
 
 __all__ = [
     "LOADS",
@@ -343,15 +345,13 @@ def _main_span_mask(spec, strip_x):
 
 
 def _check_speeds(speeds) -> np.ndarray:
-    u = np.atleast_1d(np.asarray(speeds, dtype=float)).ravel()
-    if u.size == 0 or not np.all(np.isfinite(u)) or np.any(u <= 0):
-        raise BridgeflapInputError("speeds", "need finite mean wind speeds > 0 [m/s]")
-    return u
+    """``speeds`` [m/s] in any form of :func:`model.grid.speed_grid`, each > 0."""
+    return speed_grid(speeds, positive=True)
 
 
 @takes_bridge
-def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance=None,
-              coherence_decay=None, n_modes=16, method="spectral", *, spec=None,
+def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
+              coherence_decay=None, n_modes=DEFAULT_MODES, method="spectral", *, spec=None,
               turbulence_intensity=None, deck_height_m=None, length_scale_m=None,
               half_chord_m=None, controller=None, allow_unstable=True, omega_max=None,
               n_base=120, peaks_per_mode=41, half_widths=30.0,
@@ -361,12 +361,14 @@ def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance=None
 
     Parameters
     ----------
-    spec_or_system : BridgeSpec or AeroelasticSystem
-        Bridge definition (the modal state space is built with ``n_modes``), or a built system
+    bridge : str, os.PathLike, BridgeSpec or AeroelasticSystem
+        Bridge name, file or definition (the modal state space is built with ``n_modes``), or a
+        built system
         with ``A(U)``, ``B_gust(U)``, ``C_out`` and ``basis`` (then ``spec`` gives the wind
         defaults and the main span; without it every strip counts as main span).
-    speeds : array_like
-        Mean wind speeds at deck height [m/s], > 0.
+    speeds : str or array_like
+        Mean wind speeds at deck height [m/s], > 0: ``"lo:hi:step"`` or ``"10,20"`` text or
+        numbers (:func:`model.grid.speed_grid`).
     spectrum : {"busch-panofsky", "von-karman", "kaimal"} or callable
         Vertical turbulence spectrum (seed Eq. (15) is Busch-Panofsky).
     admittance : {"liepmann", "sears", "unit"} or callable, optional
@@ -375,12 +377,12 @@ def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance=None
     coherence_decay : float, optional
         Davenport ``c`` [-] (seed Eq. (16)); ``spec.aero.coherence_decay`` when omitted.
     n_modes : int, optional
-        Retained vertical + torsional modes.
+        Retained vertical + torsional modes (default :data:`model.DEFAULT_MODES`).
     method : {"spectral", "monte-carlo"}
         Frequency-domain quadrature, or time-domain simulation
         (:func:`model.simulation.simulate_monte_carlo`) as an independent check.
     spec : BridgeSpec, optional
-        Wind defaults and main span when ``spec_or_system`` is a system.
+        Wind defaults and main span when ``bridge`` is a system.
     turbulence_intensity, deck_height_m, length_scale_m, half_chord_m : float, optional
         Overrides of ``sigma_w/U`` [-], ``z`` [m], von Karman ``L_w`` [m] and ``b`` [m].
     controller : object, optional
@@ -415,7 +417,7 @@ def buffeting(spec_or_system, speeds, spectrum="busch-panofsky", admittance=None
     if not (isinstance(n_modes, int | np.integer) and n_modes >= 1):
         raise BridgeflapInputError("modes", f"must be an integer >= 1, got {n_modes!r}")
     u = _check_speeds(speeds)
-    spec, system, basis, loads = resolve_system(spec_or_system, int(n_modes), controller,
+    spec, system, basis, loads = resolve_system(bridge, int(n_modes), controller,
                                                  spec, loads)
     if admittance is None:
         admittance = "unit" if loads == "quasi-steady" else "liepmann"

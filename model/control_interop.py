@@ -25,6 +25,8 @@ import numpy as np
 
 from model.bridge_arg import takes_bridge
 from model.errors import BridgeflapError, BridgeflapInputError
+from model.grid import speed_grid
+from model.vocabulary import DEFAULT_MODES
 
 __all__ = ["closed_loop", "compensator_tf", "controller_statespace", "plant_family"]
 
@@ -70,7 +72,7 @@ def controller_statespace(controller):
 
 
 @takes_bridge
-def closed_loop(bridge, speed: float, controller, n_modes: int = 16,
+def closed_loop(bridge, speed: float, controller, n_modes: int = DEFAULT_MODES,
                 flap_chord_m: float | None = None):
     """The package's closed loop at ``speed`` [m/s] as a named ``control.StateSpace``.
 
@@ -92,7 +94,8 @@ def closed_loop(bridge, speed: float, controller, n_modes: int = 16,
 
 
 @takes_bridge
-def plant_family(bridge, speeds, inputs: str = "gust", n_modes: int = 16, **options) -> dict:
+def plant_family(bridge, speeds, inputs: str = "gust", n_modes: int = DEFAULT_MODES,
+                 **options) -> dict:
     """``{speed [m/s]: control.StateSpace}``: :func:`model.plant` at each of ``speeds``.
 
     The modal model and the aeroelastic system are built once (the speeds change only
@@ -104,12 +107,7 @@ def plant_family(bridge, speeds, inputs: str = "gust", n_modes: int = 16, **opti
     from model.fe import assemble
     from model.modes import solve
 
-    try:
-        u = np.atleast_1d(np.asarray(speeds, dtype=float)).ravel()
-    except (TypeError, ValueError):
-        raise BridgeflapInputError("speeds", f"not a list of numbers: {speeds!r:.60}") from None
-    if u.size == 0 or not np.all(np.isfinite(u)) or np.any(u < 0):
-        raise BridgeflapInputError("speeds", "must be a non-empty list of non-negative numbers")
+    u = speed_grid(speeds)  # "lo:hi:step" text or numbers [m/s], >= 0
     if options.get("system") is None:  # the system of plant_data, built once
         if int(n_modes) < 1:
             raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")

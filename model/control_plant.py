@@ -40,6 +40,7 @@ from model.assembly import rfa_parts
 from model.bridge_arg import takes_bridge
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.results import ResultData
+from model.vocabulary import DEFAULT_MODES
 
 __all__ = ["INPUTS", "Plant", "closed_loop_plant", "even_flap_layout", "plant", "plant_data",
            "to_control"]
@@ -166,19 +167,19 @@ def _flap_columns(system, flaps_le_te, U: float):
 
 
 @takes_bridge
-def plant_data(spec, wind_speed: float, inputs: str = "gust", n_modes: int = 16,
+def plant_data(bridge, speed: float, inputs: str = "gust", n_modes: int = DEFAULT_MODES,
                controller=None, flaps: int = 5, flap_chord_m: float | None = None,
                system=None) -> Plant:
-    """The open-loop plant of a bridge at ``wind_speed`` [m/s] (module docstring).
+    """The open-loop plant of a bridge at ``speed`` [m/s] (module docstring).
 
     Parameters
     ----------
-    spec : model.spec.BridgeSpec
-    wind_speed : float
+    bridge : str, os.PathLike or BridgeSpec
+    speed : float
         ``U`` [m/s], ``>= 0``.
     inputs : {"gust", "flaps", "both"}
     n_modes : int
-        Vertical and torsional modes retained.
+        Vertical and torsional modes retained (default :data:`model.DEFAULT_MODES`).
     controller : model.control.Controller, optional
         Its flap layout (positions, width, fitted edges) is used; its K(s) is **not** closed.
     flaps : int
@@ -188,8 +189,9 @@ def plant_data(spec, wind_speed: float, inputs: str = "gust", n_modes: int = 16,
         Chordwise flap size [m] (default: the controller's own,
         :attr:`model.control.Controller.chord_m`, else :data:`model.flaps.DEFAULT_FLAP_CHORD_M`).
     system : AeroelasticSystem, optional
-        A prebuilt open-loop system of ``spec`` (else built from ``n_modes`` modes).
+        A prebuilt open-loop system of ``bridge`` (else built from ``n_modes`` modes).
     """
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     from model import statespace
     from model.fe import assemble
     from model.flaps import DEFAULT_FLAP_CHORD_M, flap_set
@@ -197,9 +199,9 @@ def plant_data(spec, wind_speed: float, inputs: str = "gust", n_modes: int = 16,
 
     if inputs not in INPUTS:
         raise BridgeflapInputError("inputs", f"must be one of {INPUTS}, got {inputs!r}")
-    U = float(wind_speed)
+    U = float(speed)
     if not (np.isfinite(U) and U >= 0):
-        raise BridgeflapInputError("speed", f"must be a non-negative number, got {wind_speed}")
+        raise BridgeflapInputError("speed", f"must be a non-negative number, got {speed}")
     if system is None:
         if int(n_modes) < 1:
             raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")
@@ -256,14 +258,14 @@ def plant_data(spec, wind_speed: float, inputs: str = "gust", n_modes: int = 16,
 
 
 @takes_bridge
-def closed_loop_plant(spec, controller, wind_speed: float, n_modes: int = 16,
+def closed_loop_plant(spec, controller, speed: float, n_modes: int = DEFAULT_MODES,
                       flap_chord_m: float | None = None) -> Plant:
     """The package's closed loop (``controller``'s K(s) fed back, :mod:`model.flaps`) with
     gust inputs ``gust[i]``; outputs ``heave[i]``, ``pitch[i]`` and each flap's drive angle
     ``beta[f]`` [rad] (TE flap TE-down; the LE flap is at ``-beta``, LE-down)."""
     from model.flaps import closed_loop_system
 
-    U = float(wind_speed)
+    U = float(speed)
     chord = controller.chord_m if flap_chord_m is None else float(flap_chord_m)
     cl = closed_loop_system(spec, controller, int(n_modes), chord)
     ns = cl.basis.n_strip
@@ -290,7 +292,8 @@ def basis_mid(spec) -> float:
 
 
 @takes_bridge
-def plant(bridge, speed: float, inputs: str = "gust", n_modes: int = 16, **options):
+def plant(bridge, speed: float, inputs: str = "gust", n_modes: int = DEFAULT_MODES,
+          **options):
     """:func:`plant_data` as a ``control.StateSpace`` (``bridge``: a name, a file or a spec).
 
     ``options``: ``controller`` (its layout), ``flaps``, ``flap_chord_m``, ``system``.

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from model import statespace
-from model.bridge_arg import takes_bridge
+from model.bridge_arg import BridgeArg, takes_bridge
 from model.errors import BridgeflapInputError
 from model.fe import assemble
 from model.modes import ModalModel, solve
@@ -201,14 +201,14 @@ class ConvergenceResult:
 
 
 @takes_bridge
-def mode_convergence(spec: BridgeSpec, speeds, counts=DEFAULT_MODE_COUNTS,
+def mode_convergence(bridge: BridgeArg, speeds, counts=DEFAULT_MODE_COUNTS,
                      tolerance_pct: float = TOLERANCE_PCT, order: str = "modal",
                      rfa: str = "rfa4") -> ConvergenceResult:
     """Flutter and divergence speeds of ``spec`` on a ladder of retained mode counts.
 
     Parameters
     ----------
-    spec : BridgeSpec
+    bridge : str, os.PathLike or BridgeSpec
     speeds : array_like
         Wind-speed grid [m/s] of every sweep (crossings refined to 1e-3 m/s).
     counts : sequence of int
@@ -219,6 +219,7 @@ def mode_convergence(spec: BridgeSpec, speeds, counts=DEFAULT_MODE_COUNTS,
     order, rfa : str
         As :func:`model.analysis.bridge_system` (``"modal"``/``"full"``; ``"rfa4"``/``"jones"``).
     """
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     u = check_speeds(speeds)
     counts = _counts(counts)
     if not (np.isfinite(tolerance_pct) and tolerance_pct > 0):
@@ -268,7 +269,7 @@ def mode_convergence(spec: BridgeSpec, speeds, counts=DEFAULT_MODE_COUNTS,
 
 
 @takes_bridge
-def truncation_error(spec: BridgeSpec, n_modes: int, speeds, reference_modes: int | None = None,
+def truncation_error(bridge: BridgeArg, n_modes: int, speeds, reference_modes: int | None = None,
                      order: str = "modal", rfa: str = "rfa4", modal=None,
                      at_n: dict | None = None, sweep_method: str = "dense") -> dict:
     """Truncation-error estimate of the flutter and divergence speeds at ``n_modes`` modes.
@@ -289,6 +290,7 @@ def truncation_error(spec: BridgeSpec, n_modes: int, speeds, reference_modes: in
         at both counts; otherwise the failing mechanism's statuses and NaN for its error
         (a mechanism with no crossing at either count gives NaN and says so).
     """
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     n = int(n_modes)
     if n < 1:
         raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")

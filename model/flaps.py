@@ -54,6 +54,7 @@ from model.modes import solve
 from model.spectrum import polynomial_abscissa
 from model.stability import pk_sweep
 from model.statespace import AeroelasticSystem, StateIndex
+from model.vocabulary import DEFAULT_MODES
 
 __all__ = [
     "DEFAULT_FLAP_CHORD_M",
@@ -298,10 +299,11 @@ def controller_flaps(spec, basis: StructuralBasis, controller: Controller,
 
 
 @takes_bridge
-def closed_loop_model(spec, positions_m, width_m, n_modes: int = 16,
+def closed_loop_model(bridge, positions_m, width_m, n_modes: int = DEFAULT_MODES,
                       flap_chord_m: float = DEFAULT_FLAP_CHORD_M, leading_edge: bool = True,
                       trailing_edge: bool = True, modal=None) -> ClosedLoopModel:
     """Open-loop bridge system plus a flap layout (compensator chosen later)."""
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     modal = solve(assemble(spec)) if modal is None else modal
     system = statespace.spec_system(spec, modal.structural_basis(int(n_modes)))
     flaps = flap_set(spec, system.basis, positions_m, width_m, flap_chord_m, leading_edge,
@@ -325,7 +327,7 @@ def section_model(basis: StructuralBasis, half_chord: float, air_density: float,
 
 
 @takes_bridge
-def closed_loop_system(spec, controller: Controller, n_modes: int = 16,
+def closed_loop_system(spec, controller: Controller, n_modes: int = DEFAULT_MODES,
                        flap_chord_m: float | None = None) -> AeroelasticSystem:
     """Closed-loop system with the AeroelasticSystem interface (``A(U)``, ``B_gust(U)``, ...);
     ``flap_chord_m`` default: the controller's own (:attr:`~model.control.Controller.chord_m`)."""
@@ -337,13 +339,15 @@ def closed_loop_system(spec, controller: Controller, n_modes: int = 16,
 
 
 @takes_bridge
-def closed_loop_state_space(spec, controller: Controller, speed: float, n_modes: int = 16,
+def closed_loop_state_space(bridge, controller: Controller, speed: float,
+                            n_modes: int = DEFAULT_MODES,
                             flap_chord_m: float | None = None):
     """``(A, B, C, D, state_names, input_names, output_names)`` of the closed loop at ``speed``.
 
     Inputs: strip gust velocities [m/s] (up, before admittance). Outputs: strip heave [m],
     strip pitch [rad], then each flap's drive angle ``beta = K alpha`` [rad].
     """
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     sys_cl = closed_loop_system(spec, controller, n_modes, flap_chord_m)
     U = float(speed)
     A, B = sys_cl.A(U), sys_cl.B_gust(U)

@@ -7,6 +7,8 @@ script can still write ``from model import load_bridge, flutter``.
 from __future__ import annotations
 
 import importlib
+import sys
+import types
 
 
 def public_face(package: str, names: dict):
@@ -22,3 +24,30 @@ def public_face(package: str, names: dict):
         return public
 
     return public, __getattr__, __dir__
+
+
+class _PublicModule(types.ModuleType):
+    """A package whose public functions are not replaced by submodules of the same name.
+
+    Importing ``model.buffeting`` (the module) sets the attribute ``buffeting`` of ``model``;
+    here that assignment is dropped when ``buffeting`` is a public name of another module, so
+    ``model.buffeting`` stays the function the docs promise (resolved by ``__getattr__``). The
+    submodule stays in :data:`sys.modules`: ``from model.buffeting import BuffetingResult`` and
+    :func:`importlib.import_module` work as before.
+    """
+
+    def __setattr__(self, name, value):
+        names = self.__dict__.get("_PUBLIC", {})
+        if (isinstance(value, types.ModuleType) and name in names
+                and value.__name__ == f"{self.__name__}.{name}"):
+            return
+        super().__setattr__(name, value)
+
+
+def keep_public_names(package: str) -> None:
+    """Make ``package`` (its ``_PUBLIC`` table) a :class:`_PublicModule`; see its docstring."""
+    module = sys.modules[package]
+    for name in module._PUBLIC:  # a submodule imported already
+        if isinstance(module.__dict__.get(name), types.ModuleType):
+            del module.__dict__[name]
+    module.__class__ = _PublicModule

@@ -30,7 +30,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from model import statespace
-from model.bridge_arg import takes_bridge
+from model.bridge_arg import BridgeArg, takes_bridge
 from model.errors import BridgeflapError
 from model.fe import assemble
 from model.modes import ModalModel, solve
@@ -287,14 +287,14 @@ def _unwrap_deg(phase_deg: np.ndarray) -> np.ndarray:
 
 
 @takes_bridge
-def flutter_mode_shape(spec: BridgeSpec, speeds, n_modes: int,
+def flutter_mode_shape(bridge: BridgeArg, speeds, n_modes: int,
                        order: str = "modal", rfa: str = "rfa4",
                        peak_pitch_rad: float = PEAK_PITCH_RAD) -> FlutterModeShape:
     """The flutter mode of ``spec`` along the span (module docstring).
 
     Parameters
     ----------
-    spec : BridgeSpec
+    bridge : str, os.PathLike or BridgeSpec
     speeds : array_like
         Wind-speed grid [m/s] of the sweep that finds the flutter speed.
     n_modes : int
@@ -310,6 +310,7 @@ def flutter_mode_shape(spec: BridgeSpec, speeds, n_modes: int,
     BridgeflapError
         When the sweep finds no converged flutter speed (its status is in the message).
     """
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     u = check_speeds(speeds)
     modal = solve(assemble(spec))
     system = statespace.spec_system(spec, modal.structural_basis(int(n_modes)), order, rfa)

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import tomli_w
 
+from model.bridge_arg import takes_bridge
 from model.errors import BridgeflapInputError
 
 __all__ = ["save_bridge", "to_toml"]
@@ -232,8 +233,10 @@ def to_toml(spec) -> str:
     return _modal(spec) if getattr(spec, "structure", None) is not None else _fe(spec)
 
 
-def save_bridge(spec, path: str | os.PathLike) -> Path:
-    """Write ``spec`` as a bridge TOML file (:func:`to_toml`) at ``path`` (``.toml``).
+@takes_bridge
+def save_bridge(bridge, path: str | os.PathLike) -> Path:
+    """Write ``bridge`` (a name, a file or a spec) as a bridge TOML file (:func:`to_toml`) at
+    ``path`` (``.toml``).
 
     Returns the path written. Raises :class:`~model.errors.BridgeflapInputError` naming
     ``path`` for another suffix or an unwritable place.
@@ -241,7 +244,7 @@ def save_bridge(spec, path: str | os.PathLike) -> Path:
     p = Path(path)
     if p.suffix.lower() != ".toml":
         raise BridgeflapInputError("path", f"a bridge file ends in .toml, got {p.name!r}")
-    text = to_toml(spec)
+    text = to_toml(bridge)
     try:
         p.write_text(text, encoding="utf-8")
     except OSError as exc:

@@ -53,7 +53,7 @@ import numpy as np
 from model.aero import strip_aero
 from model.assembly import open_pieces, rfa_parts
 from model.basis import StructuralBasis
-from model.bridge_arg import takes_bridge
+from model.bridge_arg import BridgeArg, takes_bridge
 from model.control import canonical_realisation
 from model.errors import BridgeflapInputError
 from model.fe import assemble
@@ -126,13 +126,13 @@ def _projected_derivatives(spec: BridgeSpec, modal: ModalModel, n_modes: int,
 
 
 @takes_bridge
-def build_symbolic(spec: BridgeSpec, n_modes: int, rfa: RationalApprox | str = "rfa4",
+def build_symbolic(bridge: BridgeArg, n_modes: int, rfa: RationalApprox | str = "rfa4",
                    modal: ModalModel | None = None) -> SymbolicModel:
     """Build ``A(U, p)`` (modal lag order) for ``spec`` with relative parameters ``p``.
 
     Parameters
     ----------
-    spec : BridgeSpec
+    bridge : str, os.PathLike or BridgeSpec
     n_modes : int
         Retained vertical and torsional modes.
     rfa : RationalApprox or str
@@ -140,6 +140,7 @@ def build_symbolic(spec: BridgeSpec, n_modes: int, rfa: RationalApprox | str = "
     modal : ModalModel, optional
         Nominal modes (solved from ``spec`` when omitted).
     """
+    spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     modal = solve(assemble(spec)) if modal is None else modal
     rfa = get_rfa(rfa) if isinstance(rfa, str) else rfa
     nominal = modal.structural_basis(n_modes)

@@ -18,7 +18,7 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import linear_sum_assignment
 
-from model.errors import BridgeflapInputError
+from model.grid import speed_grid
 from model.statespace import AeroelasticSystem
 
 CONVERGED = "converged"
@@ -55,20 +55,11 @@ HARD_ONSET_DAMPING_SLOPE_S_PER_M = 1e-3
 
 
 def check_speeds(speeds) -> np.ndarray:
-    """Validate a wind-speed grid [m/s]: finite, non-negative, increasing, at least 2 points."""
-    try:
-        u = np.asarray(speeds, dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise BridgeflapInputError("speeds", "not numeric") from None
-    if u.size < 2:
-        raise BridgeflapInputError("speeds", "the grid needs at least two speeds")
-    if not np.all(np.isfinite(u)):
-        raise BridgeflapInputError("speeds", "must be finite")
-    if np.any(u < 0):
-        raise BridgeflapInputError("speeds", f"must not be negative (min {u.min()})")
-    if np.any(np.diff(u) <= 0):
-        raise BridgeflapInputError("speeds", "must be strictly increasing")
-    return u
+    """Validate a wind-speed grid [m/s]: finite, non-negative, increasing, at least 2 points.
+
+    ``speeds``: any form of :func:`model.grid.speed_grid` (``"0:85:0.5"`` text included).
+    """
+    return speed_grid(speeds, min_points=2, increasing=True)
 
 
 @dataclass(frozen=True)

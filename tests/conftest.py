@@ -40,7 +40,7 @@ def buffeting_problem():
     from design.driver import build_model
     from design.settings import load_settings
 
-    s = load_settings(n_modes=6, verification_modes=6, flap_count=5,
+    s = load_settings(None, n_modes=6, verification_modes=6, flap_count=5,
                       robust_design_speeds_m_s=(30.0, 60.0), n_robust_omega=8,
                       buffeting_speeds_m_s=(10.0, 20.0))
     spec, model = build_model(s)

@@ -51,7 +51,7 @@ def test_card_keys_default_and_refusals():
                       ("flap_rate_limit_deg_s", -40.0), ("flap_rate_limit_deg_s", "fast"),
                       ("flap_rate_limit_deg_s", float("inf")), ("flap_angle_limit_deg", True)):
         with pytest.raises(BridgeflapInputError) as exc:
-            load_settings(**{name: bad})
+            load_settings(None, **{name: bad})
         assert exc.value.field == name
     with pytest.raises(BridgeflapInputError) as exc:
         ActuatorLimits(bandwidth_rad_s=0.0)
@@ -67,7 +67,7 @@ def test_design_json_leaves_default_limits_out():
     from design.result import ACTUATOR_FIELDS
     from design.settings import load_settings
 
-    s = load_settings(flap_rate_limit_deg_s=30.0)
+    s = load_settings(None, flap_rate_limit_deg_s=30.0)
     kept = {k for k, v in asdict(s).items()
             if k not in ACTUATOR_FIELDS or v != ACTUATOR_DEFAULTS[k]}
     assert "flap_rate_limit_deg_s" in kept and "flap_angle_limit_deg" not in kept

@@ -13,7 +13,7 @@ def test_infeasible_design_reports_its_best_candidate_and_why():
     # humber:box on 6 modes, 5 flap pairs, one start, coarse grids; a gain limit of 0.05
     # cannot hold zeta_min at every design speed (the open-loop damping is below 0.5 % near
     # flutter), so no start is feasible
-    s = load_settings(bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
+    s = load_settings(None, bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
                       starts=1, parallel=False, gain_limit=0.05, b_bound=0.05,
                       robust_design_speeds_m_s=(30.0,), robust_speeds_m_s=(30.0,),
                       n_robust_omega=8, design_step_m_s=10.0, check_step_m_s=1.0,

@@ -67,12 +67,12 @@ def test_doe_on_an_in_memory_spec(tmp_path, base, stiffer):
     cfg = design.doe_from_dict(data)
     assert cfg.bridge is stiffer
     assert doe_fingerprint(cfg) != doe_fingerprint(design.doe_from_dict({**data, "bridge": base}))
-    res = design.run_doe(cfg, out=tmp_path / "doe", scheduler="serial", progress=False)
+    res = design.run_doe(cfg, out_dir=tmp_path / "doe", scheduler="serial", progress=False)
     assert (res.cases, res.succeeded) == (2, 2)
     doe_json = json.loads((tmp_path / "doe" / "doe.json").read_text())
     assert doe_json["bridge"] == "<in-memory BridgeSpec 'humber'>"
     assert len(doe_json["bridge_spec_sha256"]) == 64
-    again = design.run_doe(cfg, out=tmp_path / "doe", scheduler="serial", progress=False,
+    again = design.run_doe(cfg, out_dir=tmp_path / "doe", scheduler="serial", progress=False,
                            resume=True)
     assert again.reused == 2  # the same spec: its cases are reused
 
@@ -87,7 +87,7 @@ def test_load_doe_bridge_override(tmp_path, stiffer):
         design.load_doe(path, bridge=3)
     assert e.value.field == "bridge"
     with pytest.raises(BridgeflapInputError) as e:  # a loaded config already has its bridge
-        design.run_doe(design.load_doe(path), out=tmp_path / "x", bridge=stiffer)
+        design.run_doe(design.load_doe(path), out_dir=tmp_path / "x", bridge=stiffer)
     assert e.value.field == "bridge"
     with pytest.raises(BridgeflapInputError) as e:  # bad input stops before any case runs
         design.global_sensitivity(3.0, {"cable.main_sag_m": (112.0, 118.0)},
@@ -116,7 +116,7 @@ def test_model_functions_take_a_name_a_file_or_a_spec(tmp_path, base):
     a = model.plant_data(str(path), 30.0, n_modes=4).A
     np.testing.assert_array_equal(a, model.plant_data(base, 30.0, n_modes=4).A)
     # keyword use too, and one line naming the field for a bad bridge
-    assert model.flutter(spec=base, speeds=speeds, n_modes=8).summary()[
+    assert model.flutter(bridge=base, speeds=speeds, n_modes=8).summary()[
         "flutter_speed_m_s"] == u[0]
     with pytest.raises(BridgeflapInputError) as e:
         model.flutter("no-such-bridge", speeds)
@@ -127,7 +127,7 @@ def test_study_on_an_in_memory_spec(tmp_path, stiffer):
     cfg = design.study_from_dict({"name": "mem", "bridge": stiffer, "analyses": ["modes"],
                            "modes": {"count": 6}})
     assert cfg.bridge is stiffer and cfg.spec() == stiffer
-    res = design.run_study(cfg, out=tmp_path / "study")
+    res = design.run_study(cfg, out_dir=tmp_path / "study")
     assert res.statuses["modes"] == "ok"
     written = json.loads((tmp_path / "study" / "config.json").read_text())
     assert written["bridge"] == "<in-memory BridgeSpec 'humber'>"

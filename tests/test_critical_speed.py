@@ -35,7 +35,7 @@ CARD = Path(__file__).resolve().parents[1] / "design" / "studies" / "humber_flap
 ])
 def test_bad_settings_name_the_field(over, field):
     with pytest.raises(BridgeflapInputError) as exc:
-        load_settings(**over)
+        load_settings(None, **over)
     assert exc.value.field == field
 
 
@@ -157,7 +157,7 @@ def test_end_to_end_design_speed_is_verified_and_the_next_is_not():
     # evaluated speed above it is reported not feasible with a reason
     from design.driver import design, verify_layout
 
-    s = load_settings(bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
+    s = load_settings(None, bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
                       robust_design_speeds_m_s=(30.0, 60.0), n_robust_omega=8,
                       check_step_m_s=1.0, design_step_m_s=10.0, cutting_plane_rounds=2,
                       max_iter=60, resolve_max_iter=60, starts=1, parallel=False,

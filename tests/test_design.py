@@ -23,7 +23,7 @@ THETA = np.array([0.3, 0.25, -1.5, 0.08, 0.5])
 @pytest.fixture(scope="module")
 def small():
     # Humber, 6 modes, 5 flap pairs: the same code paths as the full design, small matrices
-    s = load_settings(n_modes=6, flap_count=5, robust_design_speeds_m_s=(30.0, 60.0),
+    s = load_settings(None, n_modes=6, flap_count=5, robust_design_speeds_m_s=(30.0, 60.0),
                       n_robust_omega=8)
     spec, model = build_model(s)
     return s, model
@@ -32,7 +32,7 @@ def small():
 @pytest.fixture(scope="module")
 def small_box():
     # humber:box (b = 11 m, where a design exists), 6 modes, 5 flap pairs
-    s = load_settings(bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
+    s = load_settings(None, bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
                       robust_design_speeds_m_s=(30.0, 60.0), n_robust_omega=8)
     spec, model = build_model(s)
     return s, model
@@ -415,7 +415,7 @@ def test_failed_design_summary_keeps_the_optimise_contract():
 
     from design.result import DesignResult
 
-    s = load_settings()
+    s = load_settings(None)
     failed = StartRecord(start=0, theta0=(0.0,) * 5, ipopt_status="failed: x", success=False,
                          time_s=0.5)
     with pytest.raises(FrozenInstanceError):

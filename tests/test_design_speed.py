@@ -15,7 +15,7 @@ THETA = np.array([0.3, 0.25, -1.5, 0.08, 0.5])
 
 @pytest.fixture(scope="module")
 def small():
-    s = load_settings(n_modes=6, flap_count=5, robust_design_speeds_m_s=(30.0, 60.0),
+    s = load_settings(None, n_modes=6, flap_count=5, robust_design_speeds_m_s=(30.0, 60.0),
                       n_robust_omega=8)
     return s, build_model(s)[1]
 
@@ -23,7 +23,7 @@ def small():
 @pytest.fixture(scope="module")
 def small_box_fresh():
     # humber:box, 6 modes, 5 flap pairs; fresh variants checked on 6 modes, 1 m/s grid
-    return load_settings(bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
+    return load_settings(None, bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
                          fresh_variant_modes=6, check_step_m_s=1.0)
 
 
@@ -204,7 +204,8 @@ def test_compensator_reduction_keeps_every_constraint_and_derivative(small, plac
     from design.plant import compensator_reduction
 
     s, model = small
-    s = s if not placement else load_settings(n_modes=6, flap_count=5, optimise_placement=True,
+    s = s if not placement else load_settings(None, n_modes=6, flap_count=5,
+                                              optimise_placement=True,
                                               robust_design_speeds_m_s=(30.0, 60.0),
                                               n_robust_omega=8)
     red = compensator_reduction(model, model.casadi_functions()["A_cl"].size1_out(0))

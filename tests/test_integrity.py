@@ -115,11 +115,11 @@ def test_empty_folder_is_used_and_a_marked_folder_replaced(tmp_path):
     study = _study(tmp_path)
     out = tmp_path / "out"
     out.mkdir()
-    run_study(study, out=out, quick=True)
+    run_study(study, out_dir=out, quick=True)
     tag = json.loads((out / OUTPUT_MARKER).read_text())
     assert tag["tool"] == "bridgeflap" and tag["kind"] == "study"
     (out / "results" / "extra.txt").write_text("stale")  # a marked folder is ours: replaced
-    run_study(study, out=out, quick=True)
+    run_study(study, out_dir=out, quick=True)
     assert not (out / "results" / "extra.txt").exists()
     assert _leftovers(tmp_path, "out") == []
 
@@ -138,7 +138,7 @@ def test_optimise_refuses_a_user_folder_before_designing(tmp_path, capsys):
 
 def test_doe_does_not_write_into_a_study_folder(tmp_path):
     out = tmp_path / "out"
-    run_study(_study(tmp_path), out=out, quick=True)
+    run_study(_study(tmp_path), out_dir=out, quick=True)
     before = _tree(out)
     doe = tmp_path / "doe.toml"
     doe.write_text(DOE.format(bridge="humber", count=4))
@@ -188,7 +188,7 @@ def test_stale_temporaries_of_dead_runs_are_cleaned_and_nothing_else(tmp_path):
     for folder, pid in ((dead, gone), (alive, os.getpid())):
         tag = json.loads((folder / OUTPUT_MARKER).read_text())
         (folder / OUTPUT_MARKER).write_text(json.dumps({**tag, "pid": pid}))
-    run_study(study, out=out, quick=True)
+    run_study(study, out_dir=out, quick=True)
     assert not dead.exists()  # marked, its process is gone
     assert not unmarked_dead.exists()  # killed before its marker: the pid in its name
     assert alive.is_dir() and foreign.is_dir()  # a live writer's, and one that is not ours

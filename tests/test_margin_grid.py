@@ -21,7 +21,7 @@ from model.control import Compensator, Controller
 
 
 def test_grid_margin_is_the_minimum_over_the_whole_speed_range():
-    s = replace(load_settings(), n_modes=6, verification_modes=6, speed_max_m_s=50.0,
+    s = replace(load_settings(None), n_modes=6, verification_modes=6, speed_max_m_s=50.0,
                 robust_speeds_m_s=(40.0, 45.0))
     k = Compensator(-1.0859638829912959, 0.2788037579824468, -3.81201891826737,
                     0.30972896300877334, 0.024003664942915056)

@@ -24,7 +24,7 @@ THETA = np.array([0.3, 0.25, -1.5, 0.08, 0.5])
 
 @pytest.fixture(scope="module")
 def small_box():
-    s = load_settings(bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
+    s = load_settings(None, bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
                       robust_design_speeds_m_s=(30.0, 60.0), n_robust_omega=8)
     spec, model = build_model(s)
     return s, spec, model
@@ -58,7 +58,7 @@ def test_extra_models_only_with_the_card_key(small_box, tmp_path):
     from model.errors import BridgeflapInputError
 
     with pytest.raises(BridgeflapInputError, match="design_for_pair_failure"):
-        load_settings(design_for_pair_failure="yes")
+        load_settings(None, design_for_pair_failure="yes")
 
 
 @pytest.mark.slow

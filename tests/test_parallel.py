@@ -75,8 +75,8 @@ def test_erection_stages_in_two_processes_match_serial():
 def test_study_with_two_workers_writes_the_serial_results(tmp_path):
     f = tmp_path / "study.toml"
     f.write_text(SMALL_STUDY)
-    serial = run_study(f, out=tmp_path / "serial", quick=True, workers=1)
-    parallel = run_study(f, out=tmp_path / "parallel", quick=True, workers=2)
+    serial = run_study(f, out_dir=tmp_path / "serial", quick=True, workers=1)
+    parallel = run_study(f, out_dir=tmp_path / "parallel", quick=True, workers=2)
     assert list(parallel.statuses) == ["modes", "flutter", "erection", "frequency_ratio"]
     assert dict(parallel.statuses) == dict(serial.statuses)
     files = sorted(p.relative_to(serial.out_dir) for p in (serial.out_dir / "results").iterdir())
@@ -96,7 +96,7 @@ def test_study_refuses_a_bad_worker_count(tmp_path):
     from model.errors import BridgeflapInputError
 
     with pytest.raises(BridgeflapInputError, match="workers"):
-        run_study(None, out=tmp_path / "x", quick=True, workers=0)
+        run_study(None, out_dir=tmp_path / "x", quick=True, workers=0)
     assert not (tmp_path / "x").exists()
 
 

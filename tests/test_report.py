@@ -77,7 +77,7 @@ def study(tmp_path_factory):
     keep = ("modes", "flutter", "sensitivity")
     cfg = replace(cfg, analyses=tuple(a for a in cfg.analyses if a[0] in keep))
     out = tmp_path_factory.mktemp("report") / "out"
-    run_study(cfg, out=out)
+    run_study(cfg, out_dir=out)
     return out
 
 

@@ -106,7 +106,7 @@ def test_study_writes_a_self_describing_folder(small, tmp_path, capsys):
 
 def test_earlier_output_survives_a_failed_run(small, tmp_path, monkeypatch):
     out = tmp_path / "out"
-    run_study(small, out=out, quick=True)
+    run_study(small, out_dir=out, quick=True)
     before = _tree(out)
 
     def broken(*args, **kwargs):
@@ -114,7 +114,7 @@ def test_earlier_output_survives_a_failed_run(small, tmp_path, monkeypatch):
 
     monkeypatch.setattr(study_mod, "study_report", broken)
     with pytest.raises(RuntimeError):
-        run_study(small, out=out, quick=True)
+        run_study(small, out_dir=out, quick=True)
     assert _tree(out) == before
     # nothing left beside the folder, the run lock file neither (removed on release)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "study.toml"]
@@ -122,7 +122,7 @@ def test_earlier_output_survives_a_failed_run(small, tmp_path, monkeypatch):
 
 def test_killed_study_never_leaves_half_written_results(small, tmp_path):
     out = tmp_path / "out"
-    run_study(small, out=out, quick=True)
+    run_study(small, out_dir=out, quick=True)
     before = _tree(out)
     proc = subprocess.Popen([*CLI, "study", str(small), "--out", str(out)], env=_env(),
                             stderr=subprocess.DEVNULL)
@@ -135,7 +135,7 @@ def test_killed_study_never_leaves_half_written_results(small, tmp_path):
     proc.wait()
     assert _tree(out) == before  # the target is the earlier complete folder, untouched
     # the killed run's temporary folder is deleted by the next run into the same folder
-    run_study(small, out=out, quick=True)
+    run_study(small, out_dir=out, quick=True)
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out.tmp")]
 
 

@@ -33,17 +33,17 @@ from model.spec import load_bridge  # noqa: E402
 OPTIONS = {"speeds": "0:120:2", "modes": 6, "truncation_check": False}
 config = doe_from_dict({
     "name": "gj_sag", "bridge": "humber", "analysis": "flutter", "options": OPTIONS,
-    "design": {"kind": "full-factorial", "levels": 2},
+    "design": {"kind": "full_factorial", "levels": 2},
     "parameters": {"deck.gj_nm2": [4.7e11, 7.1e11], "cable.main_sag_m": [110.0, 125.0]}})
 out = Path(tempfile.mkdtemp()) / "gj_sag"
-doe = run_doe(config, out=out, progress=False)
+doe = run_doe(config, out_dir=out, progress=False)
 print(doe.summary()["statuses"])
 
 # %% [markdown]
 # The batch table, one flat row per case (parameters and results):
 
 # %%
-table = pd.read_csv(doe.table)
+table = pd.read_csv(doe.table_path)
 cols = [c for c in table.columns if c.endswith(("gj_nm2", "main_sag_m"))
         or c in ("status", "flutter_speed_m_s", "divergence_speed_m_s")]
 print(table[cols].to_string(index=False))

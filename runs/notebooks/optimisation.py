@@ -37,10 +37,10 @@ from model.spec import load_bridge  # noqa: E402
 base = load_bridge("humber:box")
 spec = base.replace(**{"mesh.element_length_m": 70.0,
                        "deck.gj_nm2": 1.1 * base.deck.gj_nm2})
-settings = load_settings(
+settings = load_settings(None, 
     bridge="humber:box", n_modes=8, verification_modes=8, flap_count=9, flap_width_m=150.0,
     starts=1, cutting_plane_rounds=3, design_step_m_s=10.0, check_step_m_s=0.5)
-result = design(settings, spec=spec, progress=print)
+result = design(settings, bridge=spec, progress=print)
 summary = result.summary()
 print(summary["status"], summary["coefficients"])
 

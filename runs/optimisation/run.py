@@ -49,7 +49,7 @@ def main(argv=None) -> int:
     atomic_write_json(out / "manifest.json", build_manifest(
         {"quick": quick, "definition": str(DEFINITION), "bridge": settings.bridge,
          "spec_changes": changes, "starts": settings.starts}))
-    result = design(settings, spec=spec,
+    result = design(settings, bridge=spec,
                     progress=lambda msg: print(msg, file=sys.stderr, flush=True))
     summary = result.summary()
     atomic_write_json(out / "result.json", summary)
