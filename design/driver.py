@@ -293,7 +293,8 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
         # verified: every a posteriori check holds, whatever Ipopt's exit status
         verified=bool(ver.meets_damping and gain_ok and ver16.stable_everywhere
                       and variants_ok),
-        gamma_T_frobenius=res.solve.gamma_T, objective=float(res.solve.objective),
+        gamma_T_frobenius=res.solve.gamma_T, phase_1_point=_phase_1(res),
+        objective=NAN if _phase_1(res) else float(res.solve.objective),
         dense_t_peak_check_speeds=res.robust.peak if res.robust is not None else float("nan"),
         robust_bound_holds=res.robust_bound_holds, robust=rob, verification=ver16,
         robust_cuts=res.robust_cuts, gain_cuts=res.gain_cuts,
@@ -306,6 +307,13 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
                               "stable_to_m_s": v.stable_to_m_s}
                              for q, v in zip(prob.variants, vchecks, strict=True)),
         design_verification=ver)
+
+
+def _phase_1(res) -> bool:
+    """The cuts kept the phase-1 point (design.cuts._best): its objective is the feasibility
+    solve's, not the design's, so it is not ranked by it (issue 32 item 4)."""
+    lab = res.rounds[res.chosen_round].placement if res.rounds else None
+    return bool(lab and lab.startswith("phase 1"))
 
 
 def _margin_at(rob, speeds):
@@ -373,7 +381,8 @@ def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
     ``converged``: the *verified* start (damping on the design model's dense grid, true peak
     gain ``max_gain <= gain_limit`` -- no tolerance, the NLP backs off by ``GAIN_BACKOFF`` --,
     stable on the verification model) with the lowest NLP objective (the design's own
-    objective, issue 32 item 4; ties and a NaN objective: the larger margin), whatever its
+    objective, issue 32 item 4; after them the starts without one -- a phase-1 point, NaN --
+    and ties, by the larger margin), whatever its
     Ipopt exit status; ``unverified``: feasible on the design model only; ``infeasible``: no
     start meets the damping and the gain limit (the least violating is reported, never as
     converged); ``failed``: no start produced a design.

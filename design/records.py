@@ -235,7 +235,9 @@ class StartRecord:
         Optimiser's epigraph value [-].
     objective : float
         The NLP objective at the chosen round's solution [-] (the design's own objective: the
-        starts are ranked by it, issue 32 item 4).
+        starts are ranked by it, issue 32 item 4); NaN for a phase-1 point.
+    phase_1_point : bool
+        The cuts kept the phase-1 (feasibility) point, whose objective is not the design's.
     dense_t_peak_check_speeds : float
         Dense ``sigma_max(T)`` peak at the robust check speeds [-].
     robust : RobustMargin
@@ -264,6 +266,7 @@ class StartRecord:
     verified: bool = False
     gamma_T_frobenius: float = NAN
     objective: float = NAN
+    phase_1_point: bool = False
     dense_t_peak_check_speeds: float = NAN
     robust_bound_holds: bool | None = None
     robust: RobustMargin | None = None
@@ -313,7 +316,7 @@ class StartRecord:
             "stable_everywhere": self.stable_everywhere, "max_gain": self.max_gain,
             "meets_damping": self.meets_damping, "gain_ok": self.gain_ok,
             "verified": self.verified, "gamma_T_frobenius": self.gamma_T_frobenius,
-            "objective": self.objective,
+            "objective": self.objective, "phase_1_point": self.phase_1_point,
             "dense_T_peak_check_speeds": self.dense_t_peak_check_speeds,
             "robust_bound_holds": self.robust_bound_holds, "robust_margin": self.robust_margin,
             "robust_T_inf_by_speed": self.t_inf_by_speed(),
@@ -338,6 +341,7 @@ class StartRecord:
         return {"start": self.start, "status": self.ipopt_status,
                 "iterations": self.iterations, "cut_rounds": self.cut_rounds,
                 "time_s": self.time_s, "objective": self.objective,
+                "phase_1_point": bool(self.phase_1_point),
                 "theta": list(self.theta) if self.theta is not None else None,
                 "flap_count": len(self.flap_positions_m),
                 "robust_margin": self.robust_margin,

@@ -109,7 +109,8 @@ class DesignResult(ResultData):
             "start_table": [s.table_row(b is not None and s.start == b.start)
                             for s in self.starts],
             "start_selection": "verified starts (damping, gain limit, verification model) "
-                               "ranked by the NLP objective, lowest first (design.driver."
+                               "ranked by the NLP objective, lowest first, a phase-1 point "
+                               "(no design objective) after them by margin (design.driver."
                                "select_start); each row is that start's own optimum",
             "dense_T_peak": 1.0 / margin if margin else NAN,
             "robust_bound_holds": b.robust_bound_holds if b is not None else None,

@@ -265,6 +265,20 @@ def test_select_start_ranks_verified_starts_by_objective():
     assert select_start(recs, 15.0)[0].start == 2
 
 
+def test_a_phase_1_point_has_no_design_objective():
+    # the default card's start 1 ends on its phase-1 point (objective of the feasibility
+    # solve, 1.4 against start 0's design objective): it must not win on that number
+    from types import SimpleNamespace
+
+    from design.driver import _phase_1
+
+    rounds = (SimpleNamespace(placement="phase 1 (feasibility, no robust epigraph)"),
+              SimpleNamespace(placement=None))
+    assert _phase_1(SimpleNamespace(rounds=rounds, chosen_round=0))
+    assert not _phase_1(SimpleNamespace(rounds=rounds, chosen_round=1))
+    assert not _phase_1(SimpleNamespace(rounds=(), chosen_round=0))
+
+
 def test_gain_cuts_enforce_true_peak(small):
     # a 4-point gain grid misses the compensator peak; after the cut rounds the chosen design
     # meets the true sup |K| <= gain_limit, or is flagged (gain_ok False), never hidden
