@@ -8,27 +8,33 @@ full default design (`design.driver.design`, the packaged card) is run on each G
 A GJ at which no design verifies bounds the fraction of the uncertainty set that any single
 controller can hold to 85 m/s from above.
 
-    python runs/robust_limit/run.py [--gj 4.7e11,5.0e11] [--json]
+    python runs/robust_limit/run.py [--gj 4.7e11,5.0e11] [--json] [--quick]
+
+``--quick`` (or ``BRIDGEFLAP_QUICK=1``): the 47 m mesh and :func:`design.settings.quick_settings`
+(CI; not the README's numbers).
 
 Each design takes ~5-15 min on the 2-core machine (two starts in two processes).
 """
 
 import argparse
 import json
+import os
 import sys
 import time
 
 from design.driver import design
 from design.io import to_jsonable
-from design.settings import DEFAULT_CARD, load_settings
+from design.settings import DEFAULT_CARD, load_settings, quick_settings
 from model.spec import load_bridge
 
 
-def row(gj: float) -> dict:
+def row(gj: float, quick: bool = False) -> dict:
     """The default card's design on humber with ``deck.gj_nm2 = gj``."""
     t0 = time.perf_counter()
-    res = design(load_settings(DEFAULT_CARD),
-                 bridge=load_bridge("humber").replace(**{"deck.gj_nm2": float(gj)}),
+    settings, changes = load_settings(DEFAULT_CARD), {"deck.gj_nm2": float(gj)}
+    if quick:
+        settings, changes = quick_settings(settings), changes | {"mesh.element_length_m": 47.0}
+    res = design(settings, bridge=load_bridge("humber").replace(**changes),
                  progress=lambda m: print(m, file=sys.stderr, flush=True), progress_bar=False)
     s = res.summary()
     lim = s.get("closed_loop_limits") or {}
@@ -49,10 +55,14 @@ def main(argv=None) -> int:
     ap.add_argument("--gj", default="4.7e11,5.0e11",
                     help="GJ values [N m^2], comma-separated (the set's range: 4.7e11-7.1e11)")
     ap.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    ap.add_argument("--quick", action="store_true",
+                    help="coarse mesh, one start, quick settings (or BRIDGEFLAP_QUICK=1)")
     a = ap.parse_args(argv)
-    rows = [row(float(g)) for g in a.gj.split(",")]
+    quick = a.quick or os.environ.get("BRIDGEFLAP_QUICK", "") not in ("", "0")
+    rows = [row(float(g), quick) for g in a.gj.split(",")]
     if a.json:
-        print(json.dumps(to_jsonable({"rows": rows, "card": str(DEFAULT_CARD)}),
+        print(json.dumps(to_jsonable({"rows": rows, "card": str(DEFAULT_CARD),
+                                       "quick": quick}),
                          allow_nan=False))
     else:
         print(f"{'GJ [N m2]':>10} {'status':>11} {'margin':>8} {'open-loop':>10} "
