@@ -295,11 +295,18 @@ def compare_layouts(settings, positions, theta0, spec=None, variants=(), weights
     todo = [k for k in range(len(layouts)) if k > 0 or rounded_record is None]
     args = [(settings, cand[layouts[k]["mask"] > 0.5], theta0, k, spec, variants)
             for k in todo]
+    def done(k, r):
+        log(f"layout {k} {layouts[k]['kind']} ({int(layouts[k]['mask'].sum())} flaps, "
+            f"|x| <= {np.abs(cand[layouts[k]['mask'] > 0.5]).max():g} m): {r.ipopt_status}, "
+            f"verified {r.verified}, margin {r.robust_margin:.4g}, stable to "
+            f"{r.stable_to_m_s:g} m/s, max gain {r.max_gain:.4g}, {r.time_s:.0f} s")
+        return r
+
     if pool is not None:
         futs = [pool.submit(layout_record, *a) for a in args]
-        got = [f.result() for f in futs]
+        got = [done(k, f.result()) for k, f in zip(todo, futs, strict=True)]
     else:
-        got = [layout_record(*a) for a in args]
+        got = [done(k, layout_record(*a)) for k, a in zip(todo, args, strict=True)]
     recs = dict(zip(todo, got, strict=True))
     if rounded_record is not None:
         recs[0] = rounded_record
@@ -311,8 +318,6 @@ def compare_layouts(settings, positions, theta0, spec=None, variants=(), weights
                and r.verified else NAN)
         zj = float(z[lay["group"]]) if z is not None and lay["group"] is not None else NAN
         rows.append(LayoutRow(lay["kind"], lay["group"], lay["group_radius_m"], zj, r, gap))
-        log(f"layout {lay['kind']} ({int(lay['mask'].sum())} flaps): {r.ipopt_status}, "
-            f"verified {r.verified}, margin {r.robust_margin:.4g}")
     ok = [k for k, r in enumerate(rows) if r.record.verified
           and np.isfinite(r.record.robust_margin)]
     ranked = sorted(ok, key=lambda k: (-rows[k].record.robust_margin, k))
