@@ -232,7 +232,8 @@ class LayoutComparison:
 
     def table(self) -> str:
         """Plain-text table, one line per layout: the verified ones by rank, then the rest."""
-        head = (f"{'rank':>4} {'kind':<12} {'flaps':>5} {'|x| span [m]':>15} {'z':>6} "
+        head = (f"{'rank':>4} {'kind':<12} {'flaps':>5} {'changed':>8} {'|x| span [m]':>15} "
+                f"{'z':>6} "
                 f"{'verified':>8} {'margin':>8} {'gap %':>7} {'stable to':>9} "
                 f"{'max gain':>8}  status")
         lines = [head]
@@ -243,8 +244,10 @@ class LayoutComparison:
 
             def f(v, fmt):
                 return fmt.format(v) if v is not None else "nan"
+            ch = (f"+-{d['changed_radius_m']:.1f}" if d["changed_radius_m"] is not None
+                  else "-")
             lines.append(f"{d['rank'] or '-':>4} {d['kind']:<12} {d['flap_count']:>5} "
-                         f"{span:>15} "
+                         f"{ch:>8} {span:>15} "
                          f"{f(d['weight_relaxed'], '{:.3f}'):>6} {str(d['verified']):>8} "
                          f"{f(d['robust_margin'], '{:.4f}'):>8} "
                          f"{f(d['gap_to_rounded_pct'], '{:+.2f}'):>7} "

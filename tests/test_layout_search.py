@@ -209,3 +209,22 @@ def test_card_keys_are_checked():
         load_settings(layout_neighbours="yes")
     with pytest.raises(BridgeflapInputError, match="^layout_adopt: needs layout_neighbours"):
         load_settings(layout_adopt=True)
+
+
+@pytest.mark.slow
+def test_design_reports_layout_neighbours_in_its_summary():
+    # the whole design with the card key on the small card: the summary carries the table
+    # (strict JSON), its rounded row is the chosen start's record, and the key is shown in
+    # the settings only when set (older records stay as they were)
+    from design.driver import design
+
+    s = load_settings(**SMALL, starts=1, layout_neighbours=True, min_flap_counts=(3,))
+    res = design(s)
+    out = res.summary()
+    json.dumps(out, allow_nan=False)
+    table = out["layout_neighbours"]
+    assert table["rows"][0]["kind"] == "rounded" and table["adopted"] is False
+    assert table["rows"][0]["robust_margin"] == out["robust_margin"]
+    assert out["settings"]["layout_neighbours"] is True
+    assert "layout_adopt" not in out["settings"]
+    assert "layout neighbours (K re-optimised)" in res.extras["phase_times_s"]
