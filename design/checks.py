@@ -14,7 +14,7 @@ from dataclasses import replace
 import numpy as np
 
 from design.nlp import DesignProblem
-from design.records import ParetoPoint
+from design.records import BuffetingComparison, ParetoPoint
 from design.settings import DesignSettings
 from model.control import Controller
 
@@ -310,3 +310,24 @@ def limits_text(lim) -> str:
             f"divergence {sp('divergence_speed_m_s')} ({lim.get('divergence_status')}; static "
             f"{sp('divergence_static_speed_m_s')}), governing {sp('governing_speed_m_s')} "
             f"{lim.get('governing_mechanism') or ''}").rstrip()
+
+
+def buffeting_comparison(settings: DesignSettings, controller: Controller, speeds=None,
+                         spec=None) -> BuffetingComparison:
+    """Open- vs closed-loop max RMS response (``model.buffeting``, verification model) at
+    ``speeds`` [m/s] (default ``buffeting_speeds_m_s``) on ``spec`` (default the built-in
+    ``settings.bridge``)."""
+    from model.buffeting import buffeting
+    from model.spec import load_bridge
+
+    spec = load_bridge(settings.bridge if spec is None else spec)
+    speeds = np.asarray(settings.buffeting_speeds_m_s if speeds is None else speeds, float)
+    nm = settings.verification_modes
+    ol = buffeting(spec, speeds, n_modes=nm)
+    cl = buffeting(spec, speeds, n_modes=nm, controller=controller)
+    return BuffetingComparison(
+        status="ok", speeds_m_s=tuple(speeds.tolist()), modes=nm,
+        open_loop_rms_vertical_m=tuple(ol.rms_vertical.tolist()),
+        closed_loop_rms_vertical_m=tuple(cl.rms_vertical.tolist()),
+        open_loop_rms_torsion_rad=tuple(ol.rms_torsion.tolist()),
+        closed_loop_rms_torsion_rad=tuple(cl.rms_torsion.tolist()))

@@ -43,6 +43,7 @@ from design.checks import (  # noqa: F401 - re-exported (tests, API)
     LIMIT_SPEED_FACTOR,
     LIMIT_STEP_M_S,
     active_constraints,
+    buffeting_comparison,
     closed_loop_limits,
     flap_count_pareto,
     fresh_variant_check,
@@ -54,6 +55,7 @@ from design.checks import (  # noqa: F401 - re-exported (tests, API)
     sample_variants,
 )
 from design.flap_count import MISSES_TO_STOP, minimum_flap_count  # noqa: F401 - re-exported
+from design.layout_search import round_layout  # noqa: F401 - re-exported (tests, API)
 from design.nlp import EIG_SCALE, DesignProblem
 from design.plant import closed_loop_abscissa
 from design.records import (
@@ -188,32 +190,6 @@ def _progress_bar(index: int, show, total: int):
                 position=index, total=total)
 
 
-def round_layout(S, z, budget=0) -> np.ndarray:
-    """0/1 flap weights from relaxed placement variables ``z`` (``w = S z``).
-
-    The groups (mirror pairs with ``symmetric_layout``) are taken largest ``z`` first: with a
-    ``budget`` > 0 while the flap count stays within it, otherwise every group with
-    ``z > 0.5``; at least the largest group is kept, so a layout never loses every flap.
-    The rounded layout stays symmetric because whole groups are kept.
-    """
-    S = np.asarray(S, float)
-    z = np.asarray(z, float)
-    sizes = S.sum(axis=0)
-    keep = np.zeros(z.size, bool)
-    count = 0.0
-    for j in np.argsort(-z, kind="stable"):
-        if budget > 0:
-            if count + sizes[j] > budget:
-                continue
-        elif z[j] <= 0.5:
-            break
-        keep[j] = True
-        count += sizes[j]
-    if not keep.any():
-        keep[int(np.argmax(z))] = True
-    return (S @ keep.astype(float) > 0.5).astype(float)
-
-
 def run_start(settings: DesignSettings, theta0, index: int, spec=None,
               progress_bar=None, variants=()) -> StartRecord:
     """One start: solve with cuts (placement: round the weights, re-solve), then the dense
@@ -222,7 +198,7 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     Ipopt iterations on stderr (None: when stderr is a terminal); ``variants``: bridge
     variants (BridgeSpec) of a multi-model design -- every damping constraint and check on
     every variant as well."""
-    from design.pair_failure import extra_models, pair_label
+    from design.pair_failure import extra_models
 
     t0 = time.perf_counter()
     spec, model = build_model(settings, spec=spec)
@@ -253,16 +229,9 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
             w_cont = tuple(float(v) for v in res.solve.weights)
             rounded = round_layout(prob.symmetry, prob.z_of(w_cont), settings.flap_budget)
             positions = positions[rounded > 0.5]
-            # K re-optimised on the placed flaps only: the candidates left out are not built,
-            # so the flap loop (and its robust margin) has no channel for them
-            fixed_s = replace(settings, optimise_placement=False)
-            fixed = DesignProblem(fixed_s, build_model(settings, positions=positions,
-                                                       spec=spec)[1], spec=spec)
-            fixed.on_iteration = prob.on_iteration
-            fixed.variants = extra_models(fixed_s, fixed.model, spec, variants, positions)
-            res = fixed.solve_with_cuts(res.theta)
+            prob, res = solve_fixed_layout(settings, positions, res.theta, spec, variants,
+                                           prob.on_iteration)
             rounds += [replace(r, placement="rounded") for r in res.rounds]
-            prob = fixed
     except Exception as exc:  # noqa: BLE001 - solver failure is data (STYLE)
         if bar is not None:
             bar.close()
@@ -271,6 +240,52 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
                            weights_continuous=w_cont)
     if bar is not None:
         bar.close()
+    return _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_cont,
+                         spec)
+
+
+def solve_fixed_layout(settings: DesignSettings, positions, theta0, spec=None, variants=(),
+                       on_iteration=None):
+    """K(s) re-optimised with cutting planes on the flaps at ``positions`` [m] only, from
+    ``theta0`` (the rounded layout's step of :func:`run_start`; also
+    :mod:`design.layout_search`). The candidates left out are not built, so the flap loop
+    (and its robust margin) has no channel for them. ``variants``: multi-model bridges.
+    Returns ``(problem, CutsOutcome)``; raises what the solve raises."""
+    from design.pair_failure import extra_models
+    from model.spec import load_bridge
+
+    spec = load_bridge(settings.bridge if spec is None else spec)
+    fixed_s = replace(settings, optimise_placement=False)
+    fixed = DesignProblem(fixed_s, build_model(settings, positions=positions, spec=spec)[1],
+                          spec=spec)
+    fixed.on_iteration = on_iteration
+    fixed.variants = extra_models(fixed_s, fixed.model, spec, variants, positions)
+    return fixed, fixed.solve_with_cuts(np.asarray(theta0, float))
+
+
+def layout_record(settings: DesignSettings, positions, theta0, index: int = 0, spec=None,
+                  variants=()) -> StartRecord:
+    """K(s) re-optimised and checked on the fixed layout ``positions`` [m] from ``theta0``,
+    exactly as :func:`run_start` treats a rounded layout (:func:`solve_fixed_layout`, then
+    the same dense margin and verification); a failed solve is a record (STYLE)."""
+    t0 = time.perf_counter()
+    theta0 = tuple(float(v) for v in theta0)
+    positions = np.asarray(positions, float)
+    try:
+        prob, res = solve_fixed_layout(settings, positions, theta0, spec, variants)
+    except Exception as exc:  # noqa: BLE001 - solver failure is data (STYLE)
+        return StartRecord(start=index, theta0=theta0, ipopt_status=f"failed: {exc}",
+                           success=False, time_s=time.perf_counter() - t0,
+                           flap_positions_m=tuple(float(x) for x in positions))
+    return _start_record(settings, prob, res, list(res.rounds), positions, theta0, index, t0,
+                         None, prob.spec)
+
+
+def _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_cont,
+                  spec) -> StartRecord:
+    """The record of a solved start: dense margin, verification-model check, variants."""
+    from design.pair_failure import pair_label
+
     theta = res.theta
     ver = res.verification
     rob = _margin_at(res.robust, settings.robust_speeds_m_s)
@@ -306,12 +321,11 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
                               "min_damping_ratio": v.min_damping_ratio,
                               "stable_to_m_s": v.stable_to_m_s}
                              for q, v in zip(prob.variants, vchecks, strict=True)),
-        design_verification=ver)
+        design_verification=ver, nlp_objective=float(res.solve.objective))
 
 
 def _phase_1(res) -> bool:
-    """The cuts kept the phase-1 point (design.cuts._best): its objective is the feasibility
-    solve's, not the design's, so it is not ranked by it (issue 32 item 4)."""
+    """The cuts kept the phase-1 point (its objective is not the design's, issue 32 item 4)."""
     lab = res.rounds[res.chosen_round].placement if res.rounds else None
     return bool(lab and lab.startswith("phase 1"))
 
@@ -334,25 +348,6 @@ def _margin_at(rob, speeds):
                         margin=float(1.0 / t_inf.max()))
 
 
-def buffeting_comparison(settings: DesignSettings, controller: Controller, speeds=None,
-                         spec=None) -> BuffetingComparison:
-    """Open- vs closed-loop max RMS response (``model.buffeting``, verification model) at
-    ``speeds`` [m/s] (default ``buffeting_speeds_m_s``) on ``spec`` (default the built-in
-    ``settings.bridge``)."""
-    from model.buffeting import buffeting
-    from model.spec import load_bridge
-
-    spec = load_bridge(settings.bridge if spec is None else spec)
-    speeds = np.asarray(settings.buffeting_speeds_m_s if speeds is None else speeds, float)
-    nm = settings.verification_modes
-    ol = buffeting(spec, speeds, n_modes=nm)
-    cl = buffeting(spec, speeds, n_modes=nm, controller=controller)
-    return BuffetingComparison(
-        status="ok", speeds_m_s=tuple(speeds.tolist()), modes=nm,
-        open_loop_rms_vertical_m=tuple(ol.rms_vertical.tolist()),
-        closed_loop_rms_vertical_m=tuple(cl.rms_vertical.tolist()),
-        open_loop_rms_torsion_rad=tuple(ol.rms_torsion.tolist()),
-        closed_loop_rms_torsion_rad=tuple(cl.rms_torsion.tolist()))
 
 
 def _timed(fun, *args, **kw):
@@ -490,10 +485,15 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
             f"{r.verified}")
     mark("starts (Ipopt, cuts, verification)")
     best, status = select_start(records, settings.gain_limit)
-    controller = None
+    extras, controller = {}, None
+    if settings.layout_neighbours:  # issue 32 item 5 (design.layout_search)
+        from design.layout_search import design_step
+
+        best, status, extras["layout_neighbours"] = design_step(settings, best, status, spec,
+                                                                variants, log)
+        mark("layout neighbours (K re-optimised)")
     absc_u = settings.check_speeds()
     absc = np.full(absc_u.shape, np.nan)
-    extras = {}
     min_flaps = None
     if best is not None:
         theta = np.asarray(best.theta)

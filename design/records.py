@@ -280,6 +280,8 @@ class StartRecord:
     variant_checks: tuple = ()
     #: dense check on the design model (reused by the driver, not serialised)
     design_verification: Verification | None = None
+    #: Ipopt's objective value of the chosen round [-] (not serialised: design.layout_search)
+    nlp_objective: float = NAN
 
     @property
     def failed(self) -> bool:

@@ -122,12 +122,15 @@ class DesignResult(ResultData):
                          and (crit or k2 not in CRITICAL_SPEED_FIELDS)
                          and (k2 not in ACTUATOR_FIELDS or v != ACTUATOR_DEFAULTS[k2])
                          # shown when set (design.pair_failure): older records stay as they were
-                         and (k2 != "design_for_pair_failure" or v)},
+                         and (k2 not in ("design_for_pair_failure", "layout_neighbours",
+                                         "layout_adopt") or v)},
         })
         if "robust_margin_speed_grid" in self.extras:  # a design that reached its checks
             out["robust_margin_speed_grid"] = jsonable(self.extras["robust_margin_speed_grid"])
         if self.controller is None and b is not None:
             out["best_achievable"] = jsonable(self.best_achievable())
+        if "layout_neighbours" in self.extras:   # design.layout_search, only when it ran
+            out["layout_neighbours"] = jsonable(self.extras["layout_neighbours"])
         if crit:    # the critical-speed search (design.critical_speed), only when it ran
             out["critical_speed"] = jsonable(self.extras.get("critical_speed", {}))
         return out

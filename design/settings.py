@@ -71,6 +71,12 @@ class DesignSettings:
     ``critical_speed_tol_m_s``, at most ``critical_speed_evaluations`` inner designs
     (:mod:`design.critical_speed`).
 
+    ``layout_neighbours``: after the design, the chosen layout is compared with its
+    neighbouring integer layouts (one mirror pair added or removed, centred blocks) at
+    re-optimised K (:mod:`design.layout_search`; JSON key ``layout_neighbours``);
+    ``layout_adopt``: the best verified neighbour replaces it when its margin is larger.
+    Both left out of the design's JSON settings while false.
+
     ``flap_angle_limit_deg`` [deg] and ``flap_rate_limit_deg_s`` [deg/s]: the flap actuator's
     angle and rate limits (defaults 20 deg and 40 deg/s, engineering estimates for hydraulic
     flap actuators, :mod:`model.actuator_limits`). The design does not use them; ``bridgeflap
@@ -136,6 +142,8 @@ class DesignSettings:
     critical_speed_tol_m_s: float = 1.0
     critical_speed_max_m_s: float = 0.0
     critical_speed_evaluations: int = 10
+    layout_neighbours: bool = False
+    layout_adopt: bool = False
     flap_angle_limit_deg: float = ACTUATOR_DEFAULTS["flap_angle_limit_deg"]
     flap_rate_limit_deg_s: float = ACTUATOR_DEFAULTS["flap_rate_limit_deg_s"]
     extras: dict = field(default_factory=dict, compare=False)
@@ -189,10 +197,14 @@ class DesignSettings:
                 raise BridgeflapInputError(name, "needs at least one speed while weight_robust "
                                                  "> 0 (or set weight_robust = 0)")
         for name in ("optimise_placement", "leading_edge", "trailing_edge", "parallel",
-                     "pareto", "symmetric_layout", "design_for_pair_failure"):
+                     "pareto", "symmetric_layout", "design_for_pair_failure",
+                     "layout_neighbours", "layout_adopt"):
             if not isinstance(getattr(self, name), bool):
                 raise BridgeflapInputError(name, f"must be true or false, got "
                                                  f"{getattr(self, name)!r}")
+        if self.layout_adopt and not self.layout_neighbours:
+            raise BridgeflapInputError("layout_adopt", "needs layout_neighbours = true (the "
+                                                       "neighbour comparison it adopts from)")
         _num("b_bound", self.b_bound, positive=True)
         if not 0 < _num("robust_cut_tol", self.robust_cut_tol) <= 0.1:
             raise BridgeflapInputError("robust_cut_tol", "must be in (0, 0.1] (relative gap "

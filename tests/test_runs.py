@@ -53,6 +53,7 @@ EXAMPLES = {
     "great_belt_updating/run.py": "test_great_belt_updating_example",
     "optimisation/buffeting_tradeoff.py": "test_buffeting_tradeoff_example",
     "robust_limit/run.py": "test_robust_limit_example",
+    "layout_neighbours/run.py": "test_layout_neighbours_example",
     # the optimise definition: run by test_optimisation_example (and the optimise golden case)
     "humber_flaps.toml": "test_optimisation_example",
 }
@@ -309,3 +310,18 @@ def test_buffeting_tradeoff_example(tmp_path, monkeypatch):
     assert len(rows) == 4 and rows[0].startswith("weight_buffeting,status")
     assert (tmp_path / "tradeoff.png").stat().st_size > 1000
     assert "rms_torsion_ratio_20_m_s" in (tmp_path / "tradeoff.md").read_text()
+
+
+def test_layout_neighbours_example(tmp_path):
+    # quick mode: one placement start of a 6-mode, 3-candidate model, then its rounded layout
+    # and every neighbour re-optimised (~20 s); the full run is in docs/methods.md
+    out = tmp_path / "ln"
+    r = _run([*_script("layout_neighbours"), "--quick", "--out", str(out)], tmp_path)
+    res = json.loads((out / "layout_neighbours.json").read_text())
+    assert res["rows"][0]["kind"] == "rounded" and res["rows"][0]["verified"]
+    assert res["n_layouts"] == len(res["rows"]) >= 2
+    assert all(row["status"] for row in res["rows"])
+    csv_rows = (out / "layout_neighbours.csv").read_text().splitlines()
+    assert len(csv_rows) == 1 + len(res["rows"]) and csv_rows[0].startswith("rank,kind")
+    assert "best layout is the rounded one" in r.stdout
+    assert json.loads((out / "manifest.json").read_text())["config"]["quick"] is True
