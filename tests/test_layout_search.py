@@ -185,7 +185,9 @@ def test_failed_solve_is_a_row(monkeypatch):
 def test_design_step_adopts_only_when_asked(monkeypatch):
     # the optimise step: the rounded row is the design's record (not re-solved); adoption
     # replaces the chosen start by the better neighbour (start index kept) only with the key
-    s = load_settings(flap_count=5, optimise_placement=True, layout_neighbours=True)
+    # parallel off: the monkeypatched solver is a local function (no worker process)
+    s = load_settings(flap_count=5, optimise_placement=True, layout_neighbours=True,
+                      parallel=False)
     best = _record(s.positions(), 0.4, start=3)
 
     def fake(settings, positions, theta0, index=0, spec=None, variants=()):
@@ -196,7 +198,8 @@ def test_design_step_adopts_only_when_asked(monkeypatch):
     assert got is best and status == "unverified" and table["adopted"] is False
     assert table["best_layout_is_rounded"] is False
     got, status, table = design_step(load_settings(
-        flap_count=5, optimise_placement=True, layout_neighbours=True, layout_adopt=True),
+        flap_count=5, optimise_placement=True, layout_neighbours=True, layout_adopt=True,
+        parallel=False),
         best, "converged")
     assert table["adopted"] is True and status == "converged"
     assert got.start == 3 and len(got.flap_positions_m) == 3 and got.robust_margin == 0.5
