@@ -78,16 +78,15 @@ def test_every_example_is_run():
 
 @pytest.mark.slow
 def test_robust_limit_example(tmp_path):
-    # quick mode: one GJ at the low end of the set; lower GJ lowers the open-loop critical
-    # speed below the nominal bridge's 69.5 m/s (30 modes; the 47 m mesh moves it < 1 %), and
-    # a usable design is one stable past the card's 85 m/s
+    # quick mode: one GJ at the low end of the set; lower GJ lowers the open-loop (torsional)
+    # divergence below the nominal bridge's 75.95 m/s (70.6 m/s measured, 30 modes; the 47 m
+    # mesh moves it < 1 %), and a usable design is one stable past the card's 85 m/s
     r = _run([*_script("robust_limit"), "--gj", "4.7e11", "--json"], tmp_path,
              {"BRIDGEFLAP_QUICK": "1"})
     out = json.loads(r.stdout)
     (row,) = out["rows"]
     assert out["quick"] is True and row["gj_nm2"] == 4.7e11
-    ol = min(row["open_loop_flutter_speed_m_s"], row["open_loop_divergence_speed_m_s"])
-    assert 60.0 < ol < 69.5
+    assert 60.0 < row["open_loop_divergence_speed_m_s"] < 75.0
     assert row["status"] in ("converged", "unverified", "infeasible", "failed")
     if row["controller_usable"]:       # None: no closed-loop limit found (beyond the search)
         assert (row["closed_loop_governing_speed_m_s"] or math.inf) > 85.0
