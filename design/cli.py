@@ -51,6 +51,7 @@ from design.io import atomic_write
 from design.options import MAX_GRID_VALUE, MAX_MODES, check_int, check_number, parse_range
 from model.errors import BridgeflapInputError
 from model.results import table_text
+from model.rfa import RFA_NAMES
 from model.spec import SIDE_SPAN_SEQUENCES, check_fraction
 
 __all__ = ["COMMANDS", "Command", "build_parser", "main"]
@@ -301,7 +302,8 @@ def _flutter_arguments(sp):
     sp.add_argument("--modes", type=int, default=_default("flutter", "modes"),
                     help="retained vertical+torsional modes")
     sp.add_argument("--order", choices=("modal", "full"), default=_default("flutter", "order"))
-    sp.add_argument("--rfa", choices=("rfa4", "jones"), default=_default("flutter", "rfa"))
+    sp.add_argument("--rfa", choices=RFA_NAMES, default=_default("flutter", "rfa"),
+                    help="C(k) approximation: rfa4 (default), jones, rfa4-band (model.rfa)")
     sp.add_argument("--controller", default=None, help="controller .toml (closed loop)")
     sp.add_argument("--sweep", choices=("dense", "fast"), default=None,
                     help="fast (default): coarse tracked sweep and Newton on the critical "
@@ -331,7 +333,7 @@ def _state_space_arguments(sp):
 
 def _rfa_arguments(sp):
     add_common(sp, bridge=False, erection=False)
-    sp.add_argument("--name", choices=("rfa4", "jones"), default="rfa4")
+    sp.add_argument("--name", choices=RFA_NAMES, default="rfa4")
 
 
 # ------------------------------------------------------------------------------ table

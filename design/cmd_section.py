@@ -1,8 +1,8 @@
 """CLI command ``section``: the rigid 2-DOF deck section (listed in :data:`design.cli.COMMANDS`).
 
 ``bridgeflap section --mass M --inertia I --f-heave FH --f-torsion FT --half-chord B
-[--aero exact|rfa4|jones] [--json]`` -> flutter and divergence speeds [m/s] of the section,
-with Selberg's estimate as a sanity check.
+[--aero exact|rfa4|jones|rfa4-band] [--json]`` -> flutter and divergence speeds [m/s] of the
+section, with Selberg's estimate as a sanity check.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ import numpy as np
 from design.cli_common import add_common, emit, speed_text
 from design.options import parse_range
 from model.errors import BridgeflapInputError
+from model.rfa import RFA_NAMES
 
 __all__ = ["arguments", "cmd_section"]
 
@@ -78,5 +79,5 @@ def arguments(sp):
     sp.add_argument("--air-density", type=float, default=1.225, help="[kg/m3]")
     sp.add_argument("--damping-ratio", type=float, default=0.0)
     sp.add_argument("--no-added-inertia", action="store_true")
-    sp.add_argument("--aero", choices=("exact", "rfa4", "jones"), default="rfa4")
+    sp.add_argument("--aero", choices=("exact", *RFA_NAMES), default="rfa4")
     sp.add_argument("--speeds", default=None, help="start:stop:step [m/s]")

@@ -51,6 +51,7 @@ EXAMPLES = {
     "mode_convergence/run.py": "test_mode_convergence_example",
     "flutter_mode_shape/run.py": "test_flutter_mode_shape_example",
     "great_belt_updating/run.py": "test_great_belt_updating_example",
+    "rfa_fit/run.py": "test_rfa_fit_example",
     "optimisation/buffeting_tradeoff.py": "test_buffeting_tradeoff_example",
     "robust_limit/run.py": "test_robust_limit_example",
     "layout_neighbours/run.py": "test_layout_neighbours_example",
@@ -268,6 +269,21 @@ def test_flutter_mode_shape_example(tmp_path):
     assert 0.9 < sum(fm["participation_kinetic_energy"].values()) <= 1.0 + 1e-9
     assert [r_["erected_fraction"] for r_ in s["ratio_modes"]] == [0.2, 0.5, 0.8, 1.0]
     assert all(r_["vertical_mode"] and r_["torsional_mode"] for r_ in s["ratio_modes"])
+
+
+def test_rfa_fit_example(tmp_path):
+    # quick mode: the 2-D cases only; the gaps are pinned by tests/test_rfa_band.py, here only
+    # that the run writes what it prints and the band fit is the closer one on every case
+    out = tmp_path / "rfa"
+    r = _run([*_script("rfa_fit"), "--quick", "--json", "--out", str(out)], tmp_path)
+    s = json.loads(r.stdout)
+    assert json.loads((out / "rfa_fit.json").read_text())["cases"] == s["cases"]
+    assert [f["name"] for f in s["fits"]] == ["rfa4", "rfa4-band"]
+    for c in s["cases"]:
+        assert c["exact_flutter_status"] == "converged"
+        gaps = {n: abs(v["gap_percent"]) for n, v in c["rfa"].items()}
+        assert gaps["rfa4-band"] < gaps["rfa4"] < 0.2, c["case"]
+    assert s["humber"] is None and s["scan"] == []
 
 
 def test_great_belt_updating_example(tmp_path):
