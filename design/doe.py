@@ -113,6 +113,18 @@ class BatchResult(ResultData):
     def _rows(self) -> list[dict]:
         return flat_case_rows(self.rows)
 
+    def _headline(self) -> dict:
+        return {"cases": self.cases, "succeeded": self.succeeded, "failed": self.failed,
+                "reused": self.reused, "status": "ok" if not self.failed else
+                f"{self.failed} failed", "table": str(self.table_path)}
+
+    def plot(self, ax=None, output: str | None = None):
+        """One numeric output per case (default: the first), failed cases as red crosses
+        (:func:`design.result_plots.batch_cases`)."""
+        from design.result_plots import batch_cases
+
+        return batch_cases(self, ax, output)
+
 
 def _one_line(text: str, limit: int = 500) -> str:
     line = " ".join(str(text).split())
