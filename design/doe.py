@@ -67,6 +67,7 @@ from design.outputs import (
 )
 from model.errors import BridgeflapInputError
 from model.results import ResultData
+from model.workers import check_main_guard
 
 __all__ = [
     "BatchResult",
@@ -340,6 +341,8 @@ def run_batch(
         raise BridgeflapInputError("fn", "the analysis must be callable")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise BridgeflapInputError("workers", f"must be an integer >= 1, got {workers!r}")
+    if scheduler is None:  # a local cluster's nannies spawn: they re-run an unguarded script
+        check_main_guard(workers, "spawn")
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise BridgeflapInputError("retries", f"must be an integer >= 0, got {retries!r}")
     if timeout_s is not None:

@@ -317,6 +317,9 @@ def single_pair_failures(controller, bridge=None, n_modes: int = 30,
     else:
         from concurrent.futures import ProcessPoolExecutor
 
+        from model.workers import check_main_guard
+
+        check_main_guard(workers)
         with ProcessPoolExecutor(max_workers=workers) as ex:
             futs = [ex.submit(_case, model, k, w, u, sweep_method, grid_max) for _, w in jobs]
             out = [f.result() for f in futs]

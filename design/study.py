@@ -431,6 +431,9 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
     import pickle
     from concurrent.futures import ProcessPoolExecutor
 
+    from model.workers import check_main_guard
+
+    check_main_guard(min(workers, len(jobs)))
     try:
         pickle.dumps(progress)
         remote_say = progress

@@ -316,6 +316,9 @@ def _stages(specs, speeds, n_modes: int, workers: int, done) -> list[dict]:
         return out
     from concurrent.futures import ProcessPoolExecutor
 
+    from model.workers import check_main_guard
+
+    check_main_guard(workers)
     with ProcessPoolExecutor(max_workers=workers) as ex:
         futures = [ex.submit(_stage, s, speeds, n_modes) for s in specs]
         out = []
