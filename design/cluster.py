@@ -26,6 +26,7 @@ import uuid
 from collections import deque
 
 from model.errors import BridgeflapInputError
+from model.workers import check_main_guard
 
 __all__ = ["CONNECT_TIMEOUT_S", "LOCAL_WORKER_CONFIG", "LOCAL_WORKER_PRELOAD",
            "WORKERS_TIMEOUT_S", "cluster_client",
@@ -84,6 +85,8 @@ def cluster_client(workers: int, scheduler: str | None):
 
     cluster = None
     if scheduler is None:
+        check_main_guard(workers, dask.config.get("distributed.worker.multiprocessing-method",
+                                                  "spawn"))
         # allowed-failures 0: a worker death surfaces at once as KilledWorker, and retries
         # are ours (counted per case); saturation 1.0 keeps at most one task per worker thread,
         # so a dying worker takes no innocent queued case with it.

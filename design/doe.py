@@ -67,6 +67,7 @@ from design.outputs import (
 )
 from model.errors import BridgeflapInputError
 from model.results import ResultData
+from model.workers import check_main_guard
 
 __all__ = [
     "BatchResult",
@@ -112,6 +113,18 @@ class BatchResult(ResultData):
 
     def _rows(self) -> list[dict]:
         return flat_case_rows(self.rows)
+
+    def _headline(self) -> dict:
+        return {"cases": self.cases, "succeeded": self.succeeded, "failed": self.failed,
+                "reused": self.reused, "status": "ok" if not self.failed else
+                f"{self.failed} failed", "table": str(self.table_path)}
+
+    def plot(self, ax=None, output: str | None = None):
+        """One numeric output per case (default: the first), failed cases as red crosses
+        (:func:`design.result_plots.batch_cases`)."""
+        from design.result_plots import batch_cases
+
+        return batch_cases(self, ax, output)
 
 
 def _one_line(text: str, limit: int = 500) -> str:
@@ -328,6 +341,8 @@ def run_batch(
         raise BridgeflapInputError("fn", "the analysis must be callable")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise BridgeflapInputError("workers", f"must be an integer >= 1, got {workers!r}")
+    if scheduler is None:  # a local cluster's nannies spawn: they re-run an unguarded script
+        check_main_guard(workers, "spawn")
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise BridgeflapInputError("retries", f"must be an integer >= 0, got {retries!r}")
     if timeout_s is not None:

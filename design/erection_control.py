@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from model.control import Controller
+from model.results import ResultData
 from model.spec import BridgeSpec
 
 __all__ = ["STAGE_DESIGN", "ErectionControlResult", "design_for_stage", "erection_closed_loop",
@@ -72,7 +73,7 @@ def _stage(spec, controller, speeds, n_modes, fraction):
 
 
 @dataclass(frozen=True)
-class ErectionControlResult:
+class ErectionControlResult(ResultData):
     """Open- and closed-loop critical speeds per erection stage; ``rows`` one dict per stage
     (the completed bridge last), ``status`` ``ok`` or what did not converge."""
 
@@ -108,9 +109,18 @@ class ErectionControlResult:
 
         return pd.DataFrame(list(self.rows))
 
-    def __repr__(self) -> str:
-        return (f"ErectionControlResult({self.bridge!r}, {len(self.rows)} stages, "
-                f"status={self.status!r})")
+    _HEADLINE_KEYS = ("bridge", "side_spans", "worst_stage_erected_fraction",
+                      "worst_closed_loop_critical_speed_m_s", "status")
+
+    def _headline(self) -> dict:
+        return {**super()._headline(), "stages": len(self.rows)}
+
+    def plot(self, ax=None):
+        """Open- and closed-loop critical speeds against the erected fraction
+        (:func:`design.result_plots.erection_stages`)."""
+        from design.result_plots import erection_stages
+
+        return erection_stages(self, ax)
 
 
 def erection_closed_loop(spec: BridgeSpec, controller: Controller, fractions, speeds,

@@ -278,6 +278,13 @@ class DoeResult(ResultData):
                 "reused": self.reused, "table": str(self.table_path), "out_dir": str(self.out_dir),
                 "statuses": {r["case_id"]: r["status"] for r in self.rows}}
 
+    def _headline(self) -> dict:
+        return {"name": self.config.name, "bridge": self.config.bridge,
+                "analysis": self.config.analysis, "cases": self.cases,
+                "succeeded": self.succeeded, "failed": self.failed, "reused": self.reused,
+                "status": "ok" if not self.failed else f"{self.failed} failed",
+                "table": str(self.table_path)}
+
     def _rows(self) -> list[dict]:
         """Parameters and results in one flat row per case (:func:`design.doe.flat_case_rows`)."""
         from design.doe import flat_case_rows

@@ -235,6 +235,22 @@ class FailSafeResult(ResultData):
     def _rows(self) -> list[dict]:
         return [dict(r) for r in self.rows]
 
+    def _headline(self) -> dict:
+        s, w = self.summary(), self.worst()
+        return {"bridge": self.bridge, "flap_pairs": len(self.rows),
+                "design_speed_m_s": self.speed_max_m_s,
+                "intact_critical_speed_m_s": self.intact["critical_speed_m_s"],
+                "worst_pair": w["pair"], "worst_critical_speed_m_s": w["critical_speed_m_s"],
+                "pairs_stable_to_design_speed": s["pairs_stable_to_design_speed"],
+                "status": self.status}
+
+    def plot(self, ax=None):
+        """Critical speed [m/s] with each flap pair failed, against the pair's position [m]
+        (:func:`design.result_plots.pair_failures`)."""
+        from design.result_plots import pair_failures
+
+        return pair_failures(self, ax)
+
 
 def single_pair_failures(controller, bridge=None, n_modes: int = 30,
                          speed_max_m_s: float = 85.0, speeds=None,
@@ -301,6 +317,9 @@ def single_pair_failures(controller, bridge=None, n_modes: int = 30,
     else:
         from concurrent.futures import ProcessPoolExecutor
 
+        from model.workers import check_main_guard
+
+        check_main_guard(workers)
         with ProcessPoolExecutor(max_workers=workers) as ex:
             futs = [ex.submit(_case, model, k, w, u, sweep_method, grid_max) for _, w in jobs]
             out = [f.result() for f in futs]

@@ -147,7 +147,8 @@ def margins(result, axes=None, spec=None):
     for a in (a0, a1, a2):
         a.set_xlabel("wind speed U [m/s]")
         a.grid(alpha=0.3)
-        a.legend(fontsize=7)
+        if a.get_legend_handles_labels()[0]:  # a design without a best start has no margin
+            a.legend(fontsize=7)
     if result.candidate is not None:
         flap_layout(a3, result.candidate, spec, st.flap_chord_m)
     return axes

@@ -59,6 +59,9 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
     if own:                     # issue 16 goal 3: the counts in two processes, in order
         from concurrent.futures import ProcessPoolExecutor
 
+        from model.workers import check_main_guard
+
+        check_main_guard(workers)
         pool = ProcessPoolExecutor(max_workers=workers)
     elif workers == 1:
         pool = None

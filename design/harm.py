@@ -127,6 +127,17 @@ class HarmResult(ResultData):
             "ranges": {k: list(v) for k, v in self.ranges.items()},
         }
 
+    _HEADLINE_KEYS = ("bridge", "variants", "modes", "design_speed_m_s",
+                      "fraction_stable_to_design_speed", "fraction_harmed",
+                      "worst_closed_over_open", "worst_closed_loop_critical_speed_m_s", "status")
+
+    def plot(self, ax=None):
+        """Histogram of the closed- over open-loop critical speed of the variants [-]
+        (:func:`design.result_plots.harm_ratios`)."""
+        from design.result_plots import harm_ratios
+
+        return harm_ratios(self, ax)
+
     def to_dataframe(self):
         """One row per variant: its inputs and the verdict (unit-named columns)."""
         import pandas as pd

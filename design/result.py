@@ -222,6 +222,18 @@ class DesignResult(ResultData):
                              "phase_deg": np.degrees(np.angle(h)),
                              "gain_limit_rad_per_rad": self.settings.gain_limit})
 
+    def _headline(self) -> dict:
+        s = self.summary()
+        return {"bridge": self.settings.bridge, "status": self.status,
+                **{k: s[k] for k in ("controller_usable", "flap_count", "max_gain", "gain_limit",
+                                     "robust_margin", "closed_loop_stable_to_m_s",
+                                     "design_modes")},
+                "starts": len(self.starts), "wall_time_s": self.wall_time_s}
+
+    def plot(self, ax=None):
+        """The margins per speed with the flap layout (:meth:`plot_margins`)."""
+        return self.plot_margins(ax)
+
     def plot_bode(self, ax=None):
         """Gain and phase of the compensator against frequency [Hz] with the gain limit
         (:func:`design.figures.bode`)."""

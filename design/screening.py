@@ -87,6 +87,16 @@ class GlobalSensitivityResult(ResultData):
                 "indices": self.indices, "band": self.band, "cases": self.cases,
                 "succeeded": self.succeeded, "failed": self.failed, "out_dir": self.out_dir}
 
+    def _headline(self) -> dict:
+        out = {"method": self.method, "parameters": len(self.ranges), "cases": self.cases,
+               "succeeded": self.succeeded, "failed": self.failed}
+        for q in ("flutter_speed_m_s", "divergence_speed_m_s"):
+            b = self.band.get(q) or {}
+            out[f"{q[:-10]}_p05_p95_m_s"] = (f"{b['p05']:.4g} .. {b['p95']:.4g}"
+                                             if b.get("p05") is not None else None)
+        out["status"] = "ok" if not self.failed else f"{self.failed} failed"
+        return out
+
     def _rows(self) -> list[dict]:
         """One row per output x parameter: Morris ``mu_star_m_s``, ``mu_m_s``, ``sigma_m_s``,
         ``mu_star_conf_m_s``; Sobol' ``S1_index``, ``ST_index`` and their ``_conf`` [-]."""

@@ -308,6 +308,12 @@ class SensitivityResult(ResultData):
                 "derivatives": {r["parameter"]: {k: v for k, v in r.items() if k != "parameter"}
                                 for r in self._rows()}}
 
+    _HEADLINE_KEYS = ("bridge", "flutter_speed_m_s", "flutter_status", "critical_branch_label",
+                      "divergence_speed_m_s", "divergence_status", "modes_retained")
+
+    def _headline(self) -> dict:
+        return {**super()._headline(), "parameters": ", ".join(r["parameter"] for r in self.rows)}
+
     def _rows(self) -> list[dict]:
         """Per parameter, keys with units: ``value_si`` (the parameter in SI units),
         ``d_<q>_speed_m_s_per_unit[_fd|_fixed_basis|_ritz_fd]`` ([m/s] per SI unit of the

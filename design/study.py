@@ -76,6 +76,7 @@ from design.outputs import (
 )
 from design.report import PAPER, study_report, study_report_html
 from model.errors import BridgeflapError, BridgeflapInputError
+from model.results import ResultData
 from model.vocabulary import renamed
 
 __all__ = [
@@ -209,7 +210,7 @@ def study_from_dict(data: Mapping, base: Path | None = None, quick: bool = False
 
 
 @dataclass(frozen=True)
-class StudyResult:
+class StudyResult(ResultData):
     """Outcome of :func:`run_study`.
 
     Attributes
@@ -258,6 +259,13 @@ class StudyResult:
                             "divergence_status": fl.get("divergence_status"),
                             "paper_flutter_speed_m_s": PAPER["flutter_speed_m_s"],
                             "paper_divergence_speed_m_s": PAPER["divergence_speed_m_s"]}}
+
+    def _headline(self) -> dict:
+        s = self.summary()
+        return {"study": s["study"], "status": s["status"], "quick": s["quick"],
+                **{k: v for k, v in s["results"].items() if not k.startswith("paper_")},
+                "analyses": len(self.statuses), "elapsed_s": s["elapsed_s"],
+                "out_dir": s["out_dir"]}
 
     def plot(self, axes=None):
         """The flutter root locus and damping/frequency plots (seed Fig. 3 left)."""
@@ -423,6 +431,9 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
     import pickle
     from concurrent.futures import ProcessPoolExecutor
 
+    from model.workers import check_main_guard
+
+    check_main_guard(min(workers, len(jobs)))
     try:
         pickle.dumps(progress)
         remote_say = progress

@@ -25,7 +25,7 @@ from model.errors import BridgeflapError, BridgeflapInputError
 from model.fe import assemble
 from model.flaps import closed_loop_model
 from model.modes import ModalModel, solve
-from model.results import ResultData
+from model.results import ResultData, finite_extreme
 from model.spec import BridgeSpec, check_fraction
 from model.stability import StabilitySweep, check_speeds, sweep
 from model.vocabulary import DEFAULT_MODES
@@ -64,6 +64,11 @@ def bridge_system(bridge: BridgeArg, n_modes: int = DEFAULT_MODES, order: str = 
 @dataclass(frozen=True)
 class FlutterResult(ResultData):
     """Stability sweep of one bridge state."""
+
+    _HEADLINE_KEYS = ("bridge", "erected_fraction", "critical_speed_m_s", "critical_mechanism",
+                      "flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
+                      "divergence_speed_m_s", "divergence_status", "critical_branch_label",
+                      "modes_retained", "states", "speed_min_m_s", "speed_max_m_s")
 
     spec: BridgeSpec
     sweep: StabilitySweep
@@ -186,6 +191,17 @@ class _StagesResult(ResultData):
         return {"bridge": self.bridge, "side_spans": self.side_spans,
                 "stages": list(self.stages), "completed_bridge": dict(self.completed)}
 
+    def _headline(self) -> dict:
+        """Bridge, stage count, and of each key in ``_HEADLINE_KEYS`` the lowest value over the
+        stages and the completed bridge's (where the rows hold it)."""
+        out = {"bridge": self.bridge, "side_spans": self.side_spans, "stages": len(self.stages)}
+        for k in self._HEADLINE_KEYS:
+            vals = [_nan(r.get(k)) for r in self.stages if k in r]
+            if vals:
+                out[f"lowest_{k}"] = finite_extreme(vals, lowest=True)
+            if k in self.completed:
+                out[f"completed_{k}"] = self.completed[k]
+        return out
 
     def _rows(self) -> list[dict]:
         """The stages, then the completed bridge as its own row."""
@@ -208,6 +224,8 @@ def _nan(v) -> float:
 @dataclass(frozen=True)
 class ErectionResult(_StagesResult):
     """Flutter and divergence speeds [m/s] and statuses against the erected fraction."""
+
+    _HEADLINE_KEYS = ("critical_speed_m_s", "flutter_speed_m_s", "divergence_speed_m_s")
 
     def plot(self, ax=None):
         """Flutter and divergence speed against deck completion (seed Fig. 3 right); the
@@ -298,6 +316,9 @@ def _stages(specs, speeds, n_modes: int, workers: int, done) -> list[dict]:
         return out
     from concurrent.futures import ProcessPoolExecutor
 
+    from model.workers import check_main_guard
+
+    check_main_guard(workers)
     with ProcessPoolExecutor(max_workers=workers) as ex:
         futures = [ex.submit(_stage, s, speeds, n_modes) for s in specs]
         out = []
@@ -311,6 +332,8 @@ def _stages(specs, speeds, n_modes: int, workers: int, done) -> list[dict]:
 class FrequencyRatioResult(_StagesResult):
     """First torsional over first vertical symmetric deck frequency [-] against erected
     fraction, with half and with full GJ during erection, and the completed bridge."""
+
+    _HEADLINE_KEYS = ("ratio_full_gj", "ratio_half_gj", "ratio")
 
     def plot(self, ax=None):
         """Seed Fig. 2 style plot; the completed bridge is its own marker at 100 %."""
@@ -454,6 +477,11 @@ def frequency_ratio(bridge: BridgeArg, fractions, side_spans: str | None = None
 @dataclass(frozen=True)
 class ClosedLoopFlutterResult(ResultData):
     """Closed-loop stability sweep plus the open-loop reference."""
+
+    _HEADLINE_KEYS = ("bridge", "flap_count", "max_gain", "critical_speed_m_s",
+                      "critical_mechanism", "flutter_speed_m_s", "flutter_status",
+                      "divergence_speed_m_s", "divergence_status", "open_loop_flutter_speed_m_s",
+                      "open_loop_flutter_status", "modes_retained")
 
     base: object            # model.analysis.FlutterResult of the closed loop
     open_loop: object       # model.analysis.FlutterResult without flaps

@@ -41,7 +41,7 @@ from model.buffeting_inputs import LOADS, resolve_system
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.grid import speed_grid
 from model.gust import GustField, coherence_projection, gust_field
-from model.results import ResultData
+from model.results import ResultData, finite_extreme
 from model.simulation import simulate_monte_carlo
 from model.spectral import (
     adaptive_frequency_grid,
@@ -270,6 +270,16 @@ class BuffetingResult(ResultData):
             "elapsed_s": self.elapsed_s,
             "inputs": dict(self.inputs),
         }
+
+    def _headline(self) -> dict:
+        """Bridge, method, the speed range and the largest RMS responses over it."""
+        st = list(self.status)
+        return {"bridge": self.inputs.get("bridge", ""), "method": self.method,
+                "speeds": self.speeds.size, "speed_min_m_s": float(self.speeds.min()),
+                "speed_max_m_s": float(self.speeds.max()),
+                "max_rms_vertical_m": finite_extreme(self.rms_vertical),
+                "max_rms_torsion_rad": finite_extreme(self.rms_torsion),
+                "status": ", ".join(f"{st.count(k)} {k}" for k in dict.fromkeys(st))}
 
     def _rows(self) -> list[dict]:
         """One row per speed (units in the column names)."""

@@ -101,6 +101,24 @@ class Plant(ResultData):
                 "input_names": list(self.input_names), "output_names": list(self.output_names),
                 "strip_x_m": self.strip_x_m.tolist(), "flap_x_m": self.flap_x_m.tolist()}
 
+    _HEADLINE_KEYS = ("inputs", "states", "input_count", "output_count", "wind_speed_m_s",
+                      "spectral_abscissa_1_s")
+
+    def plot(self, ax=None):
+        """Eigenvalues of ``A`` in the complex plane [1/s]."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 4.5), layout="constrained")
+        lam = np.linalg.eigvals(self.A)
+        ax.plot(lam.real, lam.imag, "x", color="C0")
+        ax.axvline(0.0, color="k", lw=0.8)
+        ax.set_xlabel("Re lambda [1/s]")
+        ax.set_ylabel("Im lambda [1/s]")
+        ax.set_title(f"plant eigenvalues at U = {self.wind_speed_m_s:g} m/s ({self.inputs})")
+        ax.grid(alpha=0.3)
+        return ax
+
     def arrays(self, mat: bool = False) -> dict:
         """The ``.npz``/``.mat`` payload: matrices, names, coordinates [m] and the speed [m/s].
 

@@ -38,6 +38,7 @@ from model.bridge_arg import BridgeArg, takes_bridge
 from model.errors import BridgeflapInputError
 from model.fe import assemble
 from model.modes import ModalModel, solve
+from model.results import ResultData
 from model.spec import BridgeSpec
 from model.stability import CONVERGED, check_speeds, sweep
 
@@ -108,7 +109,7 @@ def _change_pct(a: float, b: float) -> float:
 
 
 @dataclass(frozen=True)
-class ConvergenceResult:
+class ConvergenceResult(ResultData):
     """Flutter and divergence speeds [m/s] against the number of retained modes.
 
     Attributes
@@ -142,6 +143,9 @@ class ConvergenceResult:
     status: str
     erected_fraction: float = 1.0
     half_chord_m: float = float("nan")
+
+    _HEADLINE_KEYS = ("bridge", "erected_fraction", "tolerance_pct", "converged_modes",
+                      "first_small_step_modes", "reference_modes", "status")
 
     def row(self, n_modes: int) -> dict:
         """The row of ``n_modes``."""

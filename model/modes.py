@@ -90,6 +90,16 @@ class ModalModel(ResultData):
                          "erected_fraction": self.spec.erected_fraction,
                          "modes": self.table()})
 
+    def _headline(self) -> dict:
+        """Bridge, stage, mode count and the lowest mode of each family."""
+        out = {"bridge": self.spec.name, "erected_fraction": self.spec.erected_fraction,
+               "modes": len(self.modes)}
+        for fam, idx in self.family_index.items():
+            if idx:
+                m = self.modes[idx[0]]
+                out[f"lowest_{fam}"] = f"{m.label} {m.frequency_hz:.4g} Hz"
+        return out
+
     def deck_shapes(self) -> dict:
         """Mass-normalised deck mode shapes at the structural nodes, per mode.
 

@@ -34,6 +34,7 @@ from model.bridge_arg import BridgeArg, takes_bridge
 from model.errors import BridgeflapError
 from model.fe import assemble
 from model.modes import ModalModel, solve
+from model.results import ResultData
 from model.spec import BridgeSpec
 from model.stability import CONVERGED, check_speeds, oscillation_tolerance, sweep
 
@@ -116,7 +117,7 @@ def _normaliser(pitch: np.ndarray, peak_pitch_rad: float) -> complex:
 
 
 @dataclass(frozen=True)
-class FlutterModeShape:
+class FlutterModeShape(ResultData):
     """The flutter eigenvector as deck heave and pitch along the bridge.
 
     Attributes
@@ -170,6 +171,10 @@ class FlutterModeShape:
         w2 = np.array([(2 * np.pi * self.mode_frequencies_hz[lab]) ** 2 for lab in self.labels])
         e = w2 * np.abs(self.q) ** 2
         return {lab: float(v) for lab, v in zip(self.labels, e / e.sum(), strict=True)}
+
+    _HEADLINE_KEYS = ("bridge", "flutter_speed_m_s", "flutter_frequency_hz",
+                      "divergence_speed_m_s", "n_modes", "peak_heave_m", "peak_heave_x_m",
+                      "peak_pitch_x_m", "status")
 
     def summary(self, top: int = 6) -> dict:
         """JSON-ready numbers: speed, frequency, participation (largest ``top``), peaks."""

@@ -16,6 +16,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from model.pk_kernel import BranchMemory, kernel_for
+from model.results import ResultData
 from model.statespace import AeroelasticSystem, exact_dynamic_matrix
 from model.theodorsen import theodorsen
 from model.tracking import (
@@ -40,7 +41,7 @@ PK_RESIDUAL_TOL = 1e-7
 
 
 @dataclass(frozen=True)
-class PKResult:
+class PKResult(ResultData):
     """Exact-Theodorsen p-k branches and the flutter crossing.
 
     ``converged`` (n_b, n_u): the k iteration converged and every continuation sub-step was
@@ -70,6 +71,26 @@ class PKResult:
             out["flutter_bracket_m_s"] = [float(c.bracket[0]), float(c.bracket[1])]
             out["flutter_reason"] = c.reason
         return out
+
+
+    def plot(self, ax=None):
+        """Damping ratio ``-Re p/|p|`` [-] of each p-k branch against wind speed [m/s]."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 4), layout="constrained")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            zeta = -self.branches.real / np.abs(self.branches)
+        for label, z in zip(self.branch_labels, zeta, strict=True):
+            ax.plot(self.speeds, z, label=label)
+        ax.axhline(0.0, color="k", lw=0.8)
+        if self.flutter.status == CONVERGED:
+            ax.axvline(self.flutter.speed, color="C3", ls=":", label="flutter")
+        ax.set_xlabel("wind speed [m/s]")
+        ax.set_ylabel("damping ratio [-]")
+        ax.set_title("p-k branches (exact Theodorsen)")
+        ax.legend(fontsize=7, ncol=2)
+        return ax
 
 
 def _frozen_matrix(frozen, U: float, kr: float):

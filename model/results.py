@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["ResultData", "UNITLESS_COLUMNS", "jsonable", "sweep_dataset",
-           "strict_json", "sweep_frame", "table_text"]
+__all__ = ["REPR_LIMIT", "ResultData", "UNITLESS_COLUMNS", "finite_extreme", "jsonable",
+           "sweep_dataset", "strict_json", "sweep_frame", "table_text"]
 
 #: Column names that carry no unit because they are labels, statuses or counts.
 UNITLESS_COLUMNS = frozenset({
@@ -111,13 +111,89 @@ def table_text(frame, fmt: str = "github", floatfmt: str = ".6g") -> str:
                     missingval="")
 
 
+#: longest ``repr`` of a result [characters] (issue 29: "repr of each result under 2 kB")
+REPR_LIMIT = 2000
+_VALUE_LIMIT = 60  # characters of one headline value in the repr
+
+
+def _is_scalar(v) -> bool:
+    return v is None or isinstance(v, (bool, int, float, str, np.generic))
+
+
+def finite_extreme(values, lowest: bool = False) -> float | None:
+    """Largest (``lowest``: smallest) finite entry of ``values``; None when none is finite."""
+    a = np.asarray(values, float).ravel()
+    a = a[np.isfinite(a)]
+    return None if not a.size else float(a.min() if lowest else a.max())
+
+
+def _short(v, limit: int = _VALUE_LIMIT) -> str:
+    """One headline value as short text: floats to 6 significant digits, long text cut."""
+    if isinstance(v, (float, np.floating)):
+        text = f"{float(v):.6g}"
+    elif isinstance(v, str):
+        text = repr(v)
+    else:
+        text = str(v)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 class ResultData:
-    """Mixin of every result record: ``to_dict``, ``to_dataframe``, ``table``.
+    """Mixin of every result record: ``to_dict``, ``to_dataframe``, ``table``, and the notebook
+    views ``__repr__``, ``_repr_html_`` and ``plot``.
 
     ``to_dict`` is the record's ``summary()`` (its JSON contract) when it has one, else its
     fields, made strict-JSON by :func:`jsonable`. Tabular records override
     :meth:`_rows` (a list of flat dicts with units in the keys) or :meth:`to_dataframe`.
+
+    ``repr`` and ``_repr_html_`` show :meth:`_headline`: the summary's scalar entries named in
+    ``_HEADLINE_KEYS`` (every scalar entry when it is empty), a few numbers and the status,
+    never the arrays (``repr`` stays under :data:`REPR_LIMIT` characters). ``plot(ax=None)``
+    draws the result and returns its axes (matplotlib imported there, never ``plt.show()``).
     """
+
+    #: summary keys shown by ``repr`` and the HTML table, in order (empty: every scalar entry)
+    _HEADLINE_KEYS: tuple = ()
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        # @dataclass writes a field-by-field __repr__ (165 kB for a FlutterResult: every
+        # eigenvalue) unless the class defines one itself: give each subclass the short one
+        if "__repr__" not in cls.__dict__:
+            cls.__repr__ = ResultData.__repr__
+
+    def _headline(self) -> dict:
+        """The few numbers and statuses that say what the result is (scalars of the summary)."""
+        summary = getattr(self, "summary", None)
+        d = summary() if callable(summary) else self.to_dict()
+        keys = self._HEADLINE_KEYS or tuple(d)
+        return {k: d[k] for k in keys if k in d and _is_scalar(d[k])}
+
+    def _headline_safe(self) -> dict:
+        # a view must not raise in a notebook: a result that cannot summarise itself says so
+        try:
+            return self._headline()
+        except Exception as exc:  # shown, not hidden: the error is the view
+            return {"summary_error": f"{type(exc).__name__}: {exc}"}
+
+    def __repr__(self) -> str:
+        items = ", ".join(f"{k}={_short(v)}" for k, v in self._headline_safe().items())
+        text = f"{type(self).__name__}({items})"
+        return text if len(text) <= REPR_LIMIT else text[: REPR_LIMIT - 4] + "...)"
+
+    def _repr_html_(self) -> str:
+        """The headline as a small HTML table (escaped; what Jupyter shows for the result)."""
+        import html
+
+        rows = "".join(f"<tr><th style='text-align:left'>{html.escape(str(k))}</th>"
+                       f"<td style='text-align:left'>{html.escape(_short(v, 120))}</td></tr>"
+                       for k, v in self._headline_safe().items())
+        return (f"<table><caption>{html.escape(type(self).__name__)}</caption>"
+                f"<tbody>{rows}</tbody></table>")
+
+    def plot(self, ax=None, **kwargs):
+        """Draw the result on ``ax`` (new figure when None); returns the axes."""
+        raise TypeError(f"{type(self).__name__} has nothing to plot")
 
     def to_dict(self) -> dict:
         """Strict-JSON dict (units in the key names, NaN/inf as ``None``)."""

@@ -131,6 +131,10 @@ class StabilitySweep(ResultData):
     eigen_solutions: int = 0
     fallback_reason: str = ""
 
+    _HEADLINE_KEYS = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
+                      "divergence_speed_m_s", "divergence_status", "critical_branch_label",
+                      "speed_min_m_s", "speed_max_m_s", "sweep_method", "eigen_solutions")
+
     @property
     def divergence_static_status(self) -> str:
         """:func:`static_status` of the static divergence root on this grid."""

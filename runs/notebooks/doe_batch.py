@@ -17,27 +17,24 @@
 # settings: 6 modes, a 2 m/s grid.
 
 # %%
+# %matplotlib inline
 import tempfile
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from design.experiments import doe_from_dict, run_doe  # noqa: E402
-from model.analysis import flutter  # noqa: E402
-from model.spec import load_bridge  # noqa: E402
+import design
+import model
 
 OPTIONS = {"speeds": "0:120:2", "modes": 6, "truncation_check": False}
-config = doe_from_dict({
+config = design.doe_from_dict({
     "name": "gj_sag", "bridge": "humber", "analysis": "flutter", "options": OPTIONS,
     "design": {"kind": "full_factorial", "levels": 2},
     "parameters": {"deck.gj_nm2": [4.7e11, 7.1e11], "cable.main_sag_m": [110.0, 125.0]}})
 out = Path(tempfile.mkdtemp()) / "gj_sag"
-doe = run_doe(config, out_dir=out, progress=False)
-print(doe.summary()["statuses"])
+doe = design.run_doe(config, out_dir=out, progress=False)
+doe  # the summary table
 
 # %% [markdown]
 # The batch table, one flat row per case (parameters and results):
@@ -52,7 +49,7 @@ ax = doe.plot(output="divergence_speed_m_s")
 # %% [markdown]
 # ## Checks
 # 1. Every case ran (status ok).
-# 2. One case re-run directly through the API (`model.analysis.flutter` on the modified bridge,
+# 2. One case re-run directly through the API (`model.flutter` on the modified bridge,
 #    with the fast sweep that the CLI and DOE cases use by default; the API's default is the
 #    dense reference sweep) gives the batch's numbers exactly: the batch adds bookkeeping, not
 #    physics.
@@ -63,8 +60,8 @@ ax = doe.plot(output="divergence_speed_m_s")
 assert doe.succeeded == doe.cases == 4 and doe.failed == 0
 row = next(r for r in doe.rows if r["params"]["deck.gj_nm2"] == 7.1e11
            and r["params"]["cable.main_sag_m"] == 110.0)
-spec = load_bridge("humber").replace(**row["params"])
-direct = flutter(spec, np.arange(0.0, 120.0 + 1e-9, 2.0), 6, sweep_method="fast").summary()
+spec = model.load_bridge("humber").replace(**row["params"])
+direct = model.flutter(spec, np.arange(0.0, 120.0 + 1e-9, 2.0), 6, sweep_method="fast").summary()
 for key in ("flutter_speed_m_s", "divergence_speed_m_s"):
     assert np.isclose(row["result"][key], direct[key], rtol=1e-12, atol=0), key
 by = {(r["params"]["deck.gj_nm2"], r["params"]["cable.main_sag_m"]):

@@ -12,29 +12,28 @@
 # # Sensitivity study: which inputs move the Humber flutter and divergence speeds?
 #
 # Exact derivatives of the flutter speed `U_F` and the torsional-divergence speed `U_D` by the
-# implicit-function theorem (`design.sensitivity.local_sensitivity`), each checked against a
+# implicit-function theorem (`design.local_sensitivity`), each checked against a
 # central finite difference of the fully re-solved pipeline. Cheap settings (6 modes, a 2 m/s
 # grid, two parameters) so that CI runs it in seconds; the same call with the defaults is what
 # `bridgeflap sensitivity` does.
 
 # %%
+# %matplotlib inline
 import json
 import subprocess
 import sys
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import numpy as np  # noqa: E402
-
-from design.sensitivity import local_sensitivity  # noqa: E402
-from model.spec import load_bridge  # noqa: E402
+import design
+import model
 
 PARAMETERS = ["deck.gj_nm2", "deck.half_chord_m"]
 MODES, SPEEDS = 6, "0:120:2"
-spec = load_bridge("humber")
-res = local_sensitivity(spec, PARAMETERS, speeds=SPEEDS, n_modes=MODES)
+spec = model.load_bridge("humber")
+res = design.local_sensitivity(spec, PARAMETERS, speeds=SPEEDS, n_modes=MODES)
 print(res.table())
+res  # the headline numbers
 
 # %% [markdown]
 # The relative derivative `(p/U) dU/dp` says how many per cent the speed moves for one per cent

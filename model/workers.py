@@ -1,0 +1,110 @@
+"""The ``if __name__ == "__main__":`` guard that a script starting worker processes needs.
+
+A worker process started by the *spawn* (or *forkserver*) method re-imports the script that
+started it, as ``__mp_main__``, to find its functions. A script whose batch call is not under
+``if __name__ == "__main__":`` therefore runs the batch again in every worker: there it finds
+the output folder locked ("lock held") and its own workers failing to start ("Nanny failed to
+start"), errors that do not say what is wrong. Dask's local cluster always spawns; a
+``ProcessPoolExecutor`` does so where spawn is the default start method (macOS, Windows; Linux
+from Python 3.14 uses forkserver).
+
+:func:`check_main_guard` is called by every public function that starts local worker processes,
+before it starts them. It raises one line, :class:`~model.errors.BridgeflapInputError` naming
+``workers``, when
+
+* this process is itself such a re-import (``multiprocessing``'s bootstrapping flag, the one
+  behind its own "An attempt has been made to start a new process" error), or
+* the call comes from the top level of a script file run as ``__main__`` and the statement
+  running there lies outside any ``if __name__ == "__main__":`` block (read from the script's
+  source with :mod:`ast`; a notebook cell, the interactive prompt or a frozen program has no
+  script file and is not checked).
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import multiprocessing
+import os
+import sys
+
+from model.errors import BridgeflapInputError
+
+__all__ = ["MAIN_GUARD_REASON", "check_main_guard"]
+
+#: the reason of the one-line error
+MAIN_GUARD_REASON = ("this script starts worker processes, which re-run it: put its code under "
+                     "if __name__ == '__main__': (docs: multiprocessing 'safe importing of the "
+                     "main module') or use workers=1")
+
+
+def _is_main_test(test: ast.expr) -> bool:
+    """``__name__ == "__main__"`` (either way round)."""
+    if not (isinstance(test, ast.Compare) and len(test.ops) == 1
+            and isinstance(test.ops[0], ast.Eq)):
+        return False
+    sides = (test.left, test.comparators[0])
+    names = [s.id for s in sides if isinstance(s, ast.Name)]
+    texts = [s.value for s in sides if isinstance(s, ast.Constant)]
+    return names == ["__name__"] and texts == ["__main__"]
+
+
+@functools.lru_cache(maxsize=8)
+def _guarded_lines(path: str, mtime: float) -> tuple[tuple[int, int], ...] | None:
+    """Line ranges of the top-level ``if __name__ == "__main__":`` blocks of ``path`` (None
+    when it cannot be read or parsed)."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            tree = ast.parse(f.read(), path)
+    except (OSError, SyntaxError, ValueError):
+        return None
+    return tuple((node.lineno, node.end_lineno or node.lineno) for node in tree.body
+                 if isinstance(node, ast.If) and _is_main_test(node.test))
+
+
+def _unguarded_top_level_call() -> bool:
+    """The call stack starts in a script's top-level statement outside a main guard."""
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if not path or not os.path.isfile(path):
+        return False
+    path = os.path.realpath(path)
+    frame, top = sys._getframe(1), None
+    while frame is not None:  # the outermost frame running the script's module code
+        if (frame.f_code.co_name == "<module>"
+                and os.path.realpath(frame.f_code.co_filename) == path):
+            top = frame
+        frame = frame.f_back
+    if top is None:
+        return False
+    guarded = _guarded_lines(path, os.path.getmtime(path))
+    if guarded is None:
+        return False
+    return not any(lo <= top.f_lineno <= hi for lo, hi in guarded)
+
+
+def check_main_guard(workers: int, start_method: str | None = None) -> None:
+    """Raise the one-line guard error before ``workers`` > 1 local processes are started.
+
+    Parameters
+    ----------
+    workers : int
+        Worker processes about to be started (nothing is checked for 1 or fewer).
+    start_method : str, optional
+        How they start: ``"spawn"`` (Dask's nannies), ``"forkserver"`` or ``"fork"``; default
+        the ``multiprocessing`` default of this platform. A forked worker does not re-import
+        the script, so nothing is checked then.
+
+    Raises
+    ------
+    BridgeflapInputError
+        ``workers``: :data:`MAIN_GUARD_REASON`.
+    """
+    if int(workers) <= 1:
+        return
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        raise BridgeflapInputError("workers", MAIN_GUARD_REASON)  # a worker re-running it
+    method = start_method or multiprocessing.get_start_method(allow_none=True) or \
+        multiprocessing.get_context().get_start_method()
+    if method != "fork" and _unguarded_top_level_call():
+        raise BridgeflapInputError("workers", MAIN_GUARD_REASON)
