@@ -387,8 +387,11 @@ def _only_unstable(system, u, lam, omega_tol, kind):
         raise FastPathError(f"{kind}: another eigenvalue is unstable at the crossing")
 
 
-def _divergence(system, march, tol, omega_tol):
-    """Verified divergence crossing: ``(Crossing, eigenvector or None)``."""
+def _divergence(system, march, tol, omega_tol, name=True):
+    """Verified divergence crossing: ``(Crossing, eigenvector or None)``.
+
+    ``name=False`` (``critical_only``) skips the continuation to the coarse bracket's ends
+    that finds the tracked branch (the static aerodynamic work names it in either case)."""
     sp, vals = march.speeds, march.div_vals
     i = _first_bracket(vals, sp, omega_tol)
     if isinstance(i, Crossing):
@@ -414,6 +417,8 @@ def _divergence(system, march, tol, omega_tol):
         raise FastPathError("divergence: no transversal crossing")
     _check_bracket_sides(system, u, 0.0j, vc, tol, omega_tol, "divergence")
     _only_unstable(system, u, 0.0j, omega_tol, "divergence")
+    if not name:
+        return Crossing(float(u), 0.0, CONVERGED, (a, b), re_slope_per_m=float(dlam.real)), v
     l_a, _, ok_a = continue_eigenpair(system, u, 0.0, vc, a)
     branch = _branch_of(l_a, march.tracked[:, i]) if ok_a else -1
     if branch < 0:
@@ -460,8 +465,8 @@ def _second(system, march, labels, flutter, tol, omega_tol):
 
 def _crossing(find, system, speeds, march, tol, omega_tol, kind, critical_only=False):
     try:
-        if critical_only and kind == "flutter":
-            return find(system, march, tol, omega_tol, confirm=False)
+        if critical_only:  # no label confirmation (flutter), no branch naming (divergence)
+            return find(system, march, tol, omega_tol, False)
         return find(system, march, tol, omega_tol)
     except FastPathError as exc:
         return _grid_crossing(system, speeds, march, tol, omega_tol, kind, str(exc),
@@ -481,6 +486,7 @@ def fast_sweep(system: CountedSystem, speeds, speed_tol, dense, critical_only=Fa
     """
     from model.stability import (
         StabilitySweep,
+        _critical_vector,
         _name_divergence,
         _name_flutter,
         _structural_start,
@@ -501,8 +507,13 @@ def fast_sweep(system: CountedSystem, speeds, speed_tol, dense, critical_only=Fa
         v_f, v_d = bal.states(v_f), bal.states(v_d)
         if speeds[0] == 0.0 and _max_real_real(march.eigenvalues[0], omega_tol) > 1e-6 * omega_tol:
             divergence = Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (0.0, 0.0))
-        flutter, participation = _name_flutter(system, flutter, labels, lambda: v_f)
-        divergence = _name_divergence(system, divergence, labels, lambda: v_d)
+        # a crossing kept from its grid bracket (critical_only) has no Newton eigenvector
+        flutter, participation = _name_flutter(system, flutter, labels, lambda: (
+            v_f if v_f is not None else _critical_vector(system, flutter.speed, omega_tol,
+                                                         "flutter")))
+        divergence = _name_divergence(system, divergence, labels, lambda: (
+            v_d if v_d is not None else _critical_vector(system, divergence.speed, omega_tol,
+                                                         "divergence")))
         second = (Crossing(float("nan"), float("nan"), NOT_EVALUATED) if critical_only
                   else _second(bal, march, labels, flutter, speed_tol, omega_tol))
     except FastPathError as exc:
