@@ -92,10 +92,11 @@ def _crit(summary: dict) -> tuple[float, str, bool]:
     return u, mech, resolved
 
 
-def _verdict(res, speed_max_m_s: float, n_modes: int) -> dict:
-    """The row of one :class:`model.analysis.ClosedLoopFlutterResult`."""
-    cl, cl_mech, cl_ok = _crit(res.base.summary())
-    ol, ol_mech, ol_ok = _crit(res.open_loop.summary())
+def _row(crits: dict, speed_max_m_s: float, modes: dict) -> dict:
+    """The row of ``{"open_loop"|"closed_loop": (speed, mechanism, resolved)}`` (:func:`_crit`)
+    and the mode count of each loop's numbers."""
+    cl, cl_mech, cl_ok = crits["closed_loop"]
+    ol, ol_mech, ol_ok = crits["open_loop"]
     resolved = cl_ok and ol_ok
     if math.isinf(ol) and math.isinf(cl):
         ratio = None  # both beyond the grid: nothing to compare
@@ -111,64 +112,49 @@ def _verdict(res, speed_max_m_s: float, n_modes: int) -> dict:
         "closed_loop_beyond_grid": math.isinf(cl), "closed_loop_mechanism": cl_mech,
         "closed_over_open": ratio,
         "stable_to_design_speed": bool(resolved and cl > speed_max_m_s),
-        "harmed": bool(harmed), "resolved": bool(resolved), "modes": int(n_modes),
+        "harmed": bool(harmed), "resolved": bool(resolved),
+        "open_loop_modes": int(modes["open_loop"]), "closed_loop_modes": int(modes["closed_loop"]),
     }
 
 
 def harm_row(spec, controller, speeds, n_modes: int, speed_max_m_s: float,
              sweep_method: str = "fast", method: str = "reference",
-             screen_modes: int | None = None) -> dict:
+             screen_modes: int | None = None, confirm=None, screened=None) -> dict:
     """One variant's open- and closed-loop critical speeds and the harm verdict.
 
-    ``method``: :data:`HARM_METHODS`. ``"fast"`` reads the critical crossings alone
-    (``critical_only``) on a modal model of the retained modes (``sweep_method`` is ignored:
-    always the fast sweep); with ``screen_modes < n_modes`` it first screens the variant on
-    ``screen_modes`` and keeps that row (``modes`` says which) unless it lies near a decision
-    (:func:`near_decision`), where the row is recomputed on ``n_modes``. The screened speeds
-    are kept under ``screen_*`` for :func:`do_no_harm`'s a-posteriori check.
+    ``method``: :data:`HARM_METHODS`. ``"fast"``: :func:`design.harm_fast.fast_row` (screened
+    on ``screen_modes`` when below ``n_modes``; ``confirm`` the loops to put on ``n_modes``
+    regardless, ``screened`` an earlier row whose screening is reused; ``sweep_method`` is
+    ignored: always the fast sweep, ``critical_only``).
     """
     from model.analysis import closed_loop_flutter
 
     _check_method(method)
-    if method == "reference":
-        res = closed_loop_flutter(spec, controller, speeds, n_modes, sweep_method=sweep_method,
-                                  verify_static=False)  # the verdict reads the sweep alone
-        return _verdict(res, speed_max_m_s, n_modes)
-    from model.fe import assemble
-    from model.modes import solve
+    if method == "fast":
+        from design.harm_fast import fast_row
 
-    # the lowest n_modes of each family hold the lowest n_modes of both together: the same
-    # basis, labels and Rayleigh damping as all modes (modes.solve), fewer modes labelled
-    modal = solve(assemble(spec), int(n_modes))
-
-    def at(m):
-        return _verdict(closed_loop_flutter(spec, controller, speeds, m, sweep_method="fast",
-                                            verify_static=False, critical_only=True,
-                                            modal=modal), speed_max_m_s, m)
-
-    screen = {"screen_open_loop_critical_speed_m_s": None,
-              "screen_closed_loop_critical_speed_m_s": None}
-    if screen_modes is not None and int(screen_modes) < int(n_modes):
-        row = at(int(screen_modes))
-        screen = {f"screen_{k}": row[k] for k in ("open_loop_critical_speed_m_s",
-                                                  "closed_loop_critical_speed_m_s")}
-        if not near_decision(row, speed_max_m_s):
-            return {**row, **screen}
-    return {**at(int(n_modes)), **screen}
+        return fast_row(spec, controller, speeds, n_modes, speed_max_m_s, screen_modes,
+                        confirm, screened)
+    res = closed_loop_flutter(spec, controller, speeds, n_modes, sweep_method=sweep_method,
+                              verify_static=False)  # the verdict reads the sweep alone
+    crits = {"closed_loop": _crit(res.base.summary()),
+             "open_loop": _crit(res.open_loop.summary())}
+    return _row(crits, speed_max_m_s, {"open_loop": n_modes, "closed_loop": n_modes})
 
 
-def near_decision(row: dict, speed_max_m_s: float, margin: float | None = None) -> bool:
-    """Whether a screened row's verdict could change on more modes.
+def near_decision(row: dict, speed_max_m_s: float, margin: float | None = None) -> tuple:
+    """The loops of a screened row whose numbers could change its verdict on more modes.
 
-    Near: not resolved, a critical speed beyond the grid, the closed-loop critical speed
-    within ``margin`` (default :data:`SCREEN_MARGIN_REL`) of the design speed, or the
-    closed/open ratio within ``2 margin`` of 1 (both speeds may move).
+    Both loops when the row is not resolved, has a critical speed beyond the grid, or its
+    closed/open ratio lies within ``2 margin`` of 1 (both speeds may move); the closed loop
+    when its critical speed lies within ``margin`` (default :data:`SCREEN_MARGIN_REL`) of the
+    design speed; else none.
     """
     m = SCREEN_MARGIN_REL if margin is None else float(margin)
     cl, ol = row["closed_loop_critical_speed_m_s"], row["open_loop_critical_speed_m_s"]
-    if not row["resolved"] or cl is None or ol is None:
-        return True
-    return abs(cl / speed_max_m_s - 1.0) <= m or abs(cl / ol - 1.0) <= 2 * m
+    if not row["resolved"] or cl is None or ol is None or abs(cl / ol - 1.0) <= 2 * m:
+        return ("open_loop", "closed_loop")
+    return ("closed_loop",) if abs(cl / speed_max_m_s - 1.0) <= m else ()
 
 
 @dataclass(frozen=True)
@@ -212,8 +198,7 @@ class HarmResult(ResultData):
             "status": ("unresolved" if unresolved else "harm" if harmed else "no_harm"),
             "ranges": {k: list(v) for k, v in self.ranges.items()},
             "method": self.method, "screen_modes": self.screen_modes,
-            "variants_on_all_modes": sum(r.get("modes", self.n_modes) == self.n_modes
-                                         for r in self.rows),
+            "variants_on_all_modes": sum(_on(r, self.n_modes) for r in self.rows),
             **({"screen_check": dict(self.screen_check)} if self.screen_check else {}),
         }
 
@@ -233,9 +218,14 @@ def _sample(spec, ranges: dict, count: int, seed: int) -> list[tuple[dict, objec
 
 
 def _rows_of(chunk, controller, speeds, n_modes, speed_max, method="reference",
-             screen_modes=None):
+             screen_modes=None, redo=None):
+    """Rows of ``chunk``; ``redo``: ``(loops, earlier row)`` to put those loops on
+    ``n_modes`` reusing the earlier row's screening."""
+    confirm, screened = redo if redo is not None else (None, None)
     return [{**params, **harm_row(v, controller, speeds, n_modes, speed_max, method=method,
-                                  screen_modes=screen_modes)}
+                                  screen_modes=screen_modes, confirm=confirm,
+                                  screened=screened and {k: x for k, x in screened.items()
+                                                         if k not in params})}
             for params, v in chunk]
 
 
@@ -271,8 +261,8 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
     screen_modes : int or None
         ``method="fast"``: screen every variant on this many modes first (ignored unless
         below ``n_modes``). A row near a decision (:func:`near_decision`) and every row near
-        the reported extremes (the worst ratio within ``2`` :data:`SCREEN_MARGIN_REL`, the
-        lowest closed-loop speed within one) is on ``n_modes``; the largest screening change
+        the extremes (the worst ratio, the lowest and highest closed-loop speeds:
+        :func:`_extreme_candidates`) is on ``n_modes``; the largest screening change
         seen on those rows must stay below :data:`SCREEN_CHECK_FRACTION` of the margin, else
         every row is recomputed on ``n_modes`` (``screen_check``).
     """
@@ -302,8 +292,8 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
     say = progress or (lambda msg: None)
     say(f"do no harm: {count} variants x 2 sweeps ({n_modes} modes"
         f"{f', screened on {screen}' if screen else ''}, 0..{u[-1]:g} m/s, {method})")
-    with _Runner(workers, controller, u, n_modes, speed_max_m_s, method, say) as run:
-        rows = run(samples, range(len(samples)), screen)
+    with _Runner(workers, controller, u, n_modes, speed_max_m_s, method, screen, say) as run:
+        rows = run(samples, range(len(samples)))
         check = {}
         if screen:
             rows, check = _confirm(run, samples, rows, n_modes, speed_max_m_s, say)
@@ -316,8 +306,8 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
 class _Runner:
     """Rows of chosen samples, serially or in one process pool kept for every pass."""
 
-    def __init__(self, workers, controller, speeds, n_modes, speed_max, method, say):
-        self.args = (controller, speeds, n_modes, speed_max, method)
+    def __init__(self, workers, controller, speeds, n_modes, speed_max, method, screen, say):
+        self.args = (controller, speeds, n_modes, speed_max, method, screen)
         self.workers, self.say, self.ex = workers, say, None
 
     def __enter__(self):
@@ -331,8 +321,11 @@ class _Runner:
         if self.ex is not None:
             self.ex.shutdown(cancel_futures=True)
 
-    def __call__(self, samples, indices, screen_modes) -> list:
+    def __call__(self, samples, indices, confirm=None) -> list:
+        """Rows of ``samples[indices]``; ``confirm``: per index, ``(loops, earlier row)`` to
+        put on all modes (None: the screening decides)."""
         indices = list(indices)
+        confirm = dict(zip(indices, confirm, strict=True)) if confirm is not None else {}
         rows: dict = {}
         step = max(1, len(indices) // 10)
 
@@ -343,46 +336,57 @@ class _Runner:
 
         if self.ex is None:
             for i in indices:
-                done(i, _rows_of([samples[i]], *self.args, screen_modes)[0])
+                done(i, _rows_of([samples[i]], *self.args, confirm.get(i))[0])
         else:
             from concurrent.futures import as_completed
 
-            futures = {self.ex.submit(_rows_of, [samples[i]], *self.args, screen_modes): i
+            futures = {self.ex.submit(_rows_of, [samples[i]], *self.args, confirm.get(i)): i
                        for i in indices}
             for f in as_completed(futures):
                 done(futures[f], f.result()[0])
         return [rows[i] for i in indices]
 
 
-def _extreme_candidates(rows, n_modes) -> list[int]:
-    """Screened rows that may hold the summary's worst ratio or lowest closed-loop speed."""
-    m = SCREEN_MARGIN_REL
+def _on(row, n_modes, loops=("open_loop", "closed_loop")) -> bool:
+    """Whether the row's ``loops`` are on ``n_modes`` (a row without counts: yes)."""
+    return all(row.get(f"{k}_modes", n_modes) == n_modes for k in loops)
+
+
+def _extreme_candidates(rows, n_modes) -> dict:
+    """``{row: loops}`` of screened rows that may hold the worst ratio (both loops) or the
+    lowest or highest closed-loop speed (the closed loop).
+
+    Within the a-posteriori limit of the screening change (``SCREEN_CHECK_FRACTION x
+    SCREEN_MARGIN_REL``, twice that for the ratio) of the extreme: a row outside it stays
+    outside on ``n_modes`` as long as the check passes, so the extremes are ``n_modes`` values.
+    """
+    m = SCREEN_CHECK_FRACTION * SCREEN_MARGIN_REL
     ratios = [r["closed_over_open"] for r in rows
               if r["resolved"] and r["closed_over_open"] is not None]
     speeds = [r["closed_loop_critical_speed_m_s"] for r in rows
               if r["closed_loop_critical_speed_m_s"] is not None]
-    r_min, u_min = min(ratios, default=None), min(speeds, default=None)
-    out = []
+    r_min = min(ratios, default=None)
+    u_min, u_max = min(speeds, default=None), max(speeds, default=None)
+    out = {}
     for i, r in enumerate(rows):
-        if r["modes"] == n_modes:
-            continue
         q, cl = r["closed_over_open"], r["closed_loop_critical_speed_m_s"]
-        if ((r_min is not None and q is not None and q <= r_min * (1 + 2 * m))
-                or (u_min is not None and cl is not None and cl <= u_min * (1 + m))):
-            out.append(i)
+        if (not _on(r, n_modes) and r_min is not None and q is not None
+                and q <= r_min * (1 + 2 * m)):
+            out[i] = ("open_loop", "closed_loop")
+        elif (not _on(r, n_modes, ("closed_loop",)) and cl is not None
+              and (cl <= u_min * (1 + m) or cl >= u_max * (1 - m))):
+            out[i] = ("closed_loop",)
     return out
 
 
 def _screen_change(rows, n_modes) -> float:
-    """The largest relative change of a critical speed from its screening, over the rows
+    """The largest relative change of a critical speed from its screening, over the loops
     recomputed on ``n_modes`` (0 when none has both)."""
     worst = 0.0
     for r in rows:
-        if r["modes"] != n_modes:
-            continue
-        for k in ("open_loop_critical_speed_m_s", "closed_loop_critical_speed_m_s"):
-            a, b = r.get(f"screen_{k}"), r[k]
-            if a is not None and b is not None:
+        for k in ("open_loop", "closed_loop"):
+            a, b = r.get(f"screen_{k}_critical_speed_m_s"), r[f"{k}_critical_speed_m_s"]
+            if r.get(f"{k}_modes") == n_modes and a is not None and b is not None:
                 worst = max(worst, abs(b / a - 1.0))
     return worst
 
@@ -391,26 +395,30 @@ def _confirm(run, samples, rows, n_modes, speed_max, say):
     """Rows near the reported extremes on ``n_modes``, then the a-posteriori check."""
     rows = list(rows)
 
-    def redo(idx):
-        for i, new in zip(idx, run(samples, idx, None), strict=True):
-            keep = {k: rows[i][k] for k in ("screen_open_loop_critical_speed_m_s",
-                                            "screen_closed_loop_critical_speed_m_s")}
-            rows[i] = {**new, **keep}
+    def redo(todo: dict):
+        idx = list(todo)
+        for i, new in zip(idx, run(samples, idx, [(todo[i], rows[i]) for i in idx]),
+                          strict=True):
+            rows[i] = new
 
     for _ in range(len(rows)):  # each pass recomputes at least one row, or stops
-        idx = _extreme_candidates(rows, n_modes)
-        if not idx:
+        todo = _extreme_candidates(rows, n_modes)
+        if not todo:
             break
-        say(f"do no harm: {len(idx)} variants near the extremes on {n_modes} modes")
-        redo(idx)
+        say(f"do no harm: {len(todo)} variants near the extremes on {n_modes} modes")
+        redo(todo)
     change = _screen_change(rows, n_modes)
     limit = SCREEN_CHECK_FRACTION * SCREEN_MARGIN_REL
     check = {"margin_rel": SCREEN_MARGIN_REL, "largest_change_rel": change,
-             "limit_rel": limit, "rows_compared": sum(r["modes"] == n_modes for r in rows),
+             "limit_rel": limit,
+             "loops_compared": sum(r.get(f"{k}_modes") == n_modes
+                                   and r.get(f"screen_{k}_critical_speed_m_s") is not None
+                                   for r in rows for k in ("open_loop", "closed_loop")),
              "passed": change <= limit}
     if not check["passed"]:
-        idx = [i for i, r in enumerate(rows) if r["modes"] != n_modes]
+        todo = {i: ("open_loop", "closed_loop") for i, r in enumerate(rows)
+                if not _on(r, n_modes)}
         say(f"do no harm: screening change {100 * change:.2f} % above {100 * limit:.2f} %: "
-            f"{len(idx)} more variants on {n_modes} modes")
-        redo(idx)
+            f"{len(todo)} more variants on {n_modes} modes")
+        redo(todo)
     return rows, check
