@@ -69,6 +69,12 @@ def cmd_robustness(args):
             f"{s['design_speed_m_s']:g} m/s, {100 * s['fraction_harmed']:.1f} % harmed, "
             f"worst closed/open {'n/a' if worst is None else f'{worst:.4f}'}, "
             f"{s['unresolved_variants']} unresolved: {s['status']}")
+    if s.get("screen_modes"):
+        c = s["screen_check"]
+        text += (f"\n{s['method']}: screened on {s['screen_modes']} modes, "
+                 f"{s['variants_on_all_modes']} variants on all {s['modes']}; screening change "
+                 f"{100 * c['largest_change_rel']:.3f} % (limit {100 * c['limit_rel']:.2f} %): "
+                 f"{'passed' if c['passed'] else 'failed, every variant on all modes'}")
     emit(args, s, text)
     return 0 if s["status"] == "no_harm" else 1
 
