@@ -1,13 +1,17 @@
 """``bridgeflap robustness``: do no harm -- a controller on fresh bridge variants (issue 28).
 
 ``bridgeflap robustness --controller controller.toml [--samples 200] [--seed 11] [--modes 30]
-[--speed-max 85] [--workers 2] [--out table.csv] [--json]`` samples ``--samples`` variants over
+[--speed-max 85] [--workers 2] [--method fast|reference] [--screen-modes 16] [--out table.csv]
+[--json]`` samples ``--samples`` variants over
 the estimated-input ranges (:mod:`design.harm`), runs each open and closed loop on the same grid
 and prints the fraction stable to the design speed, the fraction *harmed* (closed-loop critical
 speed below the variant's own open-loop one), the worst closed/open ratio and the status
 (``no_harm``, ``harm``, or ``unresolved`` when a crossing is not verified). Exit status 0 for
 ``no_harm``, 1 otherwise (a result, but not a controller to use as it is); ``--out`` writes the
-per-variant table (CSV).
+per-variant table (CSV). ``--method fast`` (default) screens each variant on
+``--screen-modes`` modes and recomputes on ``--modes`` the rows near a decision or an extreme
+(:func:`design.harm.do_no_harm`; ``--screen-modes 0``: no screening); ``--method reference``
+runs the full sweeps of every variant on ``--modes``.
 
 ``--failures [--stuck-angle-deg 5]`` judges the controller on its own bridge with each single
 flap pair failed instead (:mod:`design.failsafe`): stuck at 0, stuck at an angle (the same
@@ -21,6 +25,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from design.cli_common import add_common, controller_from_args, default_workers, emit, log
+from design.harm import DEFAULT_SCREEN_MODES, HARM_METHODS
 from model.errors import BridgeflapInputError
 
 __all__ = ["arguments", "cmd_robustness"]
@@ -36,6 +41,8 @@ def cmd_robustness(args):
         raise BridgeflapInputError("controller", "a controller .toml is required")
     if not args.speed_max > 0:
         raise BridgeflapInputError("speed-max", f"must be positive, got {args.speed_max}")
+    if args.screen_modes < 0:
+        raise BridgeflapInputError("screen-modes", f"must be >= 0, got {args.screen_modes}")
     if args.stuck_angle_deg is not None and not args.failures:
         raise BridgeflapInputError("stuck-angle-deg", "only with --failures")
     if args.out:
@@ -48,7 +55,8 @@ def cmd_robustness(args):
     controller = controller_from_args(args, spec)
     res = do_no_harm(controller, args.bridge, count=args.samples, seed=args.seed,
                      n_modes=args.modes, speed_max_m_s=args.speed_max, workers=args.workers,
-                     progress=log)  # progress on stderr, also with --json
+                     progress=log,  # progress on stderr, also with --json
+                     method=args.method, screen_modes=args.screen_modes or None)
     s = res.summary()
     if args.out:
         from design.io import atomic_write_text
@@ -61,6 +69,12 @@ def cmd_robustness(args):
             f"{s['design_speed_m_s']:g} m/s, {100 * s['fraction_harmed']:.1f} % harmed, "
             f"worst closed/open {'n/a' if worst is None else f'{worst:.4f}'}, "
             f"{s['unresolved_variants']} unresolved: {s['status']}")
+    if s.get("screen_modes"):
+        c = s["screen_check"]
+        text += (f"\n{s['method']}: screened on {s['screen_modes']} modes, "
+                 f"{s['variants_on_all_modes']} variants on all {s['modes']}; screening change "
+                 f"{100 * c['largest_change_rel']:.3f} % (limit {100 * c['limit_rel']:.2f} %): "
+                 f"{'passed' if c['passed'] else 'failed, every variant on all modes'}")
     emit(args, s, text)
     return 0 if s["status"] == "no_harm" else 1
 
@@ -129,6 +143,11 @@ def arguments(sp) -> None:
                     help="design speed [m/s]: 'stable to the design speed' is above it")
     sp.add_argument("--workers", type=int, default=default_workers(),
                     help="worker processes (default: min(2, CPUs))")
+    sp.add_argument("--method", choices=HARM_METHODS, default="fast",
+                    help="fast: critical crossings only, screened on --screen-modes; "
+                         "reference: the full sweeps on --modes")
+    sp.add_argument("--screen-modes", type=int, default=DEFAULT_SCREEN_MODES,
+                    help="modes of the fast method's screening (0: none)")
     sp.add_argument("--out", default=None, help="per-variant (or per-pair) table (.csv)")
     sp.add_argument("--failures", action="store_true",
                     help="each single flap pair failed (stuck) and the controller off, on the "

@@ -536,7 +536,9 @@ def closed_loop_flutter(bridge: BridgeArg, controller: Controller, speeds,
                         n_modes: int = DEFAULT_MODES,
                         flap_chord_m: float | None = None,
                         sweep_method: str = "dense",
-                        verify_static: bool = True) -> ClosedLoopFlutterResult:
+                        verify_static: bool = True,
+                        critical_only: bool = False,
+                        modal: ModalModel | None = None) -> ClosedLoopFlutterResult:
     """Closed-loop flutter/divergence sweep (and the open-loop one for reference).
 
     ``flap_chord_m`` [m] default: the controller's own (:attr:`Controller.chord_m`).
@@ -544,20 +546,22 @@ def closed_loop_flutter(bridge: BridgeArg, controller: Controller, speeds,
     (:func:`model.static_divergence.static_divergence`, ~0.3 s on 30 modes).
 
     ``speeds`` [m/s]: any form of :func:`model.grid.speed_grid`; ``sweep_method`` that of
-    :func:`model.stability.sweep` (``"dense"``, the reference, or ``"fast"``) for both.
+    :func:`model.stability.sweep` (``"dense"``, the reference, or ``"fast"``) for both, and
+    ``critical_only`` that sweep's option (the critical crossings alone, no second branch);
+    ``modal`` a modal model of ``bridge`` already solved (default: all modes of its FE model).
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     u = check_speeds(speeds)
     chord = controller.chord_m if flap_chord_m is None else flap_chord_m
     model = closed_loop_model(spec, controller.flap_strip_positions_m, controller.flap_width_m,
                               n_modes, chord, controller.leading_edge,
-                              controller.trailing_edge)
+                              controller.trailing_edge, modal=modal)
     system = model.open_loop
     cl = model.system(controller.compensator)
-    base = FlutterResult(spec, sweep(cl, u, method=sweep_method), int(n_modes), "modal", "rfa4",
-                         cl.n_states)
-    ol = FlutterResult(spec, sweep(system, u, method=sweep_method), int(n_modes), "modal",
-                       "rfa4", system.n_states)
+    base = FlutterResult(spec, sweep(cl, u, method=sweep_method, critical_only=critical_only),
+                         int(n_modes), "modal", "rfa4", cl.n_states)
+    ol = FlutterResult(spec, sweep(system, u, method=sweep_method, critical_only=critical_only),
+                       int(n_modes), "modal", "rfa4", system.n_states)
     static = None
     if verify_static:
         from model.static_divergence import static_divergence

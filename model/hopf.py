@@ -15,7 +15,9 @@ continuations. This module (``method="fast"``) gives the same result with a frac
 2. **Newton on the critical eigenpair** in the first bracket of a sign change: the Hopf point
    ``(A(U) - i w I) v = 0, c^H v = 1`` (unknowns ``U, w`` real, ``v`` complex) for flutter,
    ``A(U) v = 0, c^T v = 1`` (``U``, ``v`` real) for divergence, with the exact derivative
-   ``dA/dU = A1 + 2 U A2`` (``A(U) = A0 + U A1 + U^2 A2``, :mod:`model.statespace`);
+   ``dA/dU = A1 + 2 U A2`` (``A(U) = A0 + U A1 + U^2 A2``, :mod:`model.statespace`); a
+   divergence Newton that fails from the interpolated zero restarts at the smallest static
+   root ``det(K - U^2 Q) = 0`` in the bracket (:func:`model.hopf_newton._static_seeded`);
 3. **verification** with the meaning of :func:`model.stability._verify`: the point is a root
    (Newton residual), ``d Re lambda / dU > 0`` (exact, bordered solve) and the eigenvalue stays
    oscillatory (flutter) or real (divergence) a bracket either side; the eigenpair continued by
@@ -40,11 +42,20 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
+from model.hopf_newton import (  # noqa: F401 - Newton's solvers are part of this module's face
+    NEWTON_MAXITER,
+    FastPathError,
+    _inverse_vector,
+    _static_seeded,
+    divergence_newton,
+    hopf_newton,
+    static_roots,
+)
 from model.tracking import (
     _A,
     COINCIDENT,
     CONVERGED,
-    NEWTON_RTOL,
+    NEWTON_RTOL,  # noqa: F401 - re-exported with the solvers
     NO_CROSSING,
     NOT_EVALUATED,
     TRACKING_BUDGET_MIN,
@@ -54,7 +65,6 @@ from model.tracking import (
     _bracket_half_width,
     _branch_of,
     _Budget,
-    _dA,
     _max_real_real,
     _scale,
     _track_interval,
@@ -74,8 +84,6 @@ MIN_STEP_DIVISOR = 400
 #: threshold of :data:`model.spectrum.DEFECT_TOL`; the measure depends on the states' scaling,
 #: and simple flutter eigenvalues of the IABSE 2a bridge measure 3e-8)
 NEAR_DEFECTIVE = 1e-8
-#: Newton iterations at most (the residual test is :data:`model.tracking.NEWTON_RTOL`)
-NEWTON_MAXITER = 30
 
 
 class CountedSystem:
@@ -117,100 +125,6 @@ class BalancedSystem:
 
     def __getattr__(self, name):
         return getattr(self._system, name)
-
-
-class FastPathError(Exception):
-    """The fast path is unsure; the message is the fallback reason."""
-
-
-# ------------------------------------------------------------------ Newton
-
-def hopf_newton(system, u0, lam0, v0, c=None, maxiter=NEWTON_MAXITER, bounds=(0.0, np.inf)):
-    """Newton on the Hopf point ``(A(U) - i w I) v = 0``, ``c^H v = 1``.
-
-    Starts from ``U = u0`` [m/s], ``w = Im lam0`` [rad/s], ``v = v0``. Returns
-    ``(U, w, v, relative residual, iterations)``; raises :class:`FastPathError` when Newton does
-    not converge or leaves ``bounds``.
-    """
-    v = np.asarray(v0, complex)
-    c = v / np.vdot(v, v).real if c is None else c
-    v = v / np.vdot(c, v)
-    U, w = float(u0), float(lam0.imag)
-    nx = v.size
-    cr, ci = c.real, c.imag
-    res = np.inf
-    for it in range(1, maxiter + 1):
-        A = _A(system, U)
-        r = A @ v - 1j * w * v
-        s = np.vdot(c, v) - 1.0
-        res = float(np.linalg.norm(r)) / (_scale(A) * float(np.linalg.norm(v)))
-        M = A - 1j * w * np.eye(nx)
-        J = np.zeros((2 * nx + 2, 2 * nx + 2))
-        J[:nx, :nx], J[:nx, nx:2 * nx] = M.real, -M.imag
-        J[nx:2 * nx, :nx], J[nx:2 * nx, nx:2 * nx] = M.imag, M.real
-        J[:nx, 2 * nx], J[nx:2 * nx, 2 * nx] = v.imag, -v.real
-        dv = _dA(system, U) @ v
-        J[:nx, 2 * nx + 1], J[nx:2 * nx, 2 * nx + 1] = dv.real, dv.imag
-        J[2 * nx, :nx], J[2 * nx, nx:2 * nx] = cr, ci
-        J[2 * nx + 1, :nx], J[2 * nx + 1, nx:2 * nx] = -ci, cr
-        rhs = -np.concatenate([r.real, r.imag, [s.real, s.imag]])
-        try:
-            x = np.linalg.solve(J, rhs)
-        except np.linalg.LinAlgError:
-            raise FastPathError("Newton (Hopf): singular Jacobian") from None
-        v = v + x[:nx] + 1j * x[nx:2 * nx]
-        w, U = w + x[2 * nx], U + x[2 * nx + 1]
-        if not (bounds[0] <= U <= bounds[1]) or not np.isfinite(U):
-            raise FastPathError(f"Newton (Hopf) left the bracket (U = {U:.6g} m/s)")
-        if abs(x[2 * nx + 1]) <= 1e-13 * max(abs(U), 1.0) and res <= NEWTON_RTOL:
-            A = _A(system, U)
-            res = float(np.linalg.norm(A @ v - 1j * w * v)) / (_scale(A) * np.linalg.norm(v))
-            return U, w, v, res, it
-    raise FastPathError(f"Newton (Hopf) did not converge in {maxiter} iterations "
-                        f"(residual {res:.2g})")
-
-
-def divergence_newton(system, u0, v0, maxiter=NEWTON_MAXITER, bounds=(0.0, np.inf)):
-    """Newton on the real-eigenvalue crossing ``A(U) v = 0``, ``c^T v = 1`` (``U``, ``v`` real).
-
-    Returns ``(U, v, relative residual, iterations)``; raises :class:`FastPathError`.
-    """
-    v = np.asarray(v0, float)
-    c = v / float(v @ v)
-    U, nx = float(u0), v.size
-    res = np.inf
-    for it in range(1, maxiter + 1):
-        A = _A(system, U)
-        r = A @ v
-        res = float(np.linalg.norm(r)) / (_scale(A) * float(np.linalg.norm(v)))
-        J = np.zeros((nx + 1, nx + 1))
-        J[:nx, :nx], J[:nx, nx], J[nx, :nx] = A, _dA(system, U) @ v, c
-        try:
-            x = np.linalg.solve(J, -np.concatenate([r, [c @ v - 1.0]]))
-        except np.linalg.LinAlgError:
-            raise FastPathError("Newton (divergence): singular Jacobian") from None
-        v, U = v + x[:nx], U + x[nx]
-        if not (bounds[0] <= U <= bounds[1]) or not np.isfinite(U):
-            raise FastPathError(f"Newton (divergence) left the bracket (U = {U:.6g} m/s)")
-        if abs(x[nx]) <= 1e-13 * max(abs(U), 1.0) and res <= NEWTON_RTOL:
-            A = _A(system, U)
-            res = float(np.linalg.norm(A @ v)) / (_scale(A) * float(np.linalg.norm(v)))
-            return U, v, res, it
-    raise FastPathError(f"Newton (divergence) did not converge in {maxiter} iterations "
-                        f"(residual {res:.2g})")
-
-
-def _inverse_vector(system, U, shift, real=False):
-    """Eigenvector of ``A(U)`` for the eigenvalue nearest ``shift``: two inverse iterations."""
-    A = _A(system, U)
-    nx = A.shape[0]
-    M = A - shift * np.eye(nx) if not real else A - float(np.real(shift)) * np.eye(nx)
-    lu = sla.lu_factor(M, check_finite=False)
-    x = np.linspace(1.0, 2.0, nx) + (0 if real else 0.1j)
-    for _ in range(3):
-        x = sla.lu_solve(lu, x, check_finite=False)
-        x = x / np.linalg.norm(x)
-    return x
 
 
 # ------------------------------------------------------------------ the coarse sweep
@@ -291,7 +205,7 @@ def _first_bracket(vals, speeds, omega_tol):
     return int(idx[0]) if idx.size else Crossing(float("nan"), float("nan"), NO_CROSSING)
 
 
-def _grid_crossing(system, speeds, march, tol, omega_tol, kind, why):
+def _grid_crossing(system, speeds, march, tol, omega_tol, kind, why, accept=False):
     """A crossing the fast path could not verify (``why``), located as the dense sweep does
     (:func:`model.stability._locate`) on the grid speeds around its coarse bracket.
 
@@ -300,7 +214,10 @@ def _grid_crossing(system, speeds, march, tol, omega_tol, kind, why):
     passes zero): the dense sweep's first grid sign change is the coarse sweep's, as the fast
     path assumes throughout, so the dense sweep would return the same. Anything else (the grid
     point below the bracket not stable, no grid sign change in it, a converged crossing that
-    Newton missed) raises: the whole dense sweep decides.
+    Newton missed) raises: the whole dense sweep decides. With ``accept`` (the sweep's
+    ``critical_only``) a converged crossing is kept too: it is the dense sweep's own Brent
+    root and verification on the same grid bracket, only named by its participation, not by
+    the dense sweep's branch tracking.
     """
     from model.stability import _indicator, _locate
 
@@ -318,7 +235,8 @@ def _grid_crossing(system, speeds, march, tol, omega_tol, kind, why):
         raise FastPathError(why)
     got = _locate(system, sub, np.array(vals), tol, omega_tol, kind,
                   np.full((1, sub.size), np.nan))
-    if got.status in (CONVERGED, NO_CROSSING, UNSTABLE_AT_FIRST):
+    if got.status in (NO_CROSSING, UNSTABLE_AT_FIRST) or (got.status == CONVERGED
+                                                          and not accept):
         raise FastPathError(why)
     return got
 
@@ -426,8 +344,11 @@ def _candidates(march, i, omega_tol):
     return sorted(out)
 
 
-def _flutter(system, march, tol, omega_tol):
-    """Verified flutter crossing of the coarse sweep: ``(Crossing, eigenvector or None)``."""
+def _flutter(system, march, tol, omega_tol, confirm=True):
+    """Verified flutter crossing of the coarse sweep: ``(Crossing, eigenvector or None)``.
+
+    ``confirm=False`` (``critical_only``) skips :func:`_confirmed`: the branch is then named
+    by the participation (the speed, frequency and status are the same)."""
     sp = march.speeds
     i = _first_bracket(march.flutter_vals, sp, omega_tol)
     if isinstance(i, Crossing):
@@ -444,7 +365,8 @@ def _flutter(system, march, tol, omega_tol):
         lam_a = lam_b
     u, lam, v, slope, (l_a, v_a) = _hopf(system, march, i, lam_a, lam_b, tol, omega_tol)
     branch = _branch_of(l_a, march.tracked[:, i])
-    branch = _confirmed(system, march, i, branch, l_a, v_a) if branch >= 0 else -1
+    branch = (_confirmed(system, march, i, branch, l_a, v_a) if branch >= 0 and confirm
+              else -1)
     _only_unstable(system, u, lam, omega_tol, "flutter")
     return Crossing(float(u), float(lam.imag / (2 * np.pi)), CONVERGED, (a, b),
                     re_slope_per_m=slope, branch=branch), v
@@ -465,22 +387,28 @@ def _only_unstable(system, u, lam, omega_tol, kind):
         raise FastPathError(f"{kind}: another eigenvalue is unstable at the crossing")
 
 
-def _divergence(system, march, tol, omega_tol):
-    """Verified divergence crossing: ``(Crossing, eigenvector or None)``."""
+def _divergence(system, march, tol, omega_tol, name=True):
+    """Verified divergence crossing: ``(Crossing, eigenvector or None)``.
+
+    ``name=False`` (``critical_only``) skips the continuation to the coarse bracket's ends
+    that finds the tracked branch (the static aerodynamic work names it in either case)."""
     sp, vals = march.speeds, march.div_vals
     i = _first_bracket(vals, sp, omega_tol)
     if isinstance(i, Crossing):
         return i, None
     a, b = float(sp[i]), float(sp[i + 1])
     u_g = _interp_zero(a, b, vals[i], vals[i + 1])
-    def newton(v0):
-        u, v, _, _ = divergence_newton(system, u_g, v0.real,
+    def newton(v0, u0=u_g):
+        u, v, _, _ = divergence_newton(system, u0, v0.real,
                                        bounds=(max(a - 4 * (b - a), 0.0), b + 4 * (b - a)))
         if not a - 1e-12 * b <= u <= b + 1e-12 * b:
             raise FastPathError(f"divergence: Newton converged outside the bracket ({u:.6g} m/s)")
         return u, v
 
-    u, v = _with_retry(newton, system, u_g, 0.0, omega_tol, "divergence")
+    try:
+        u, v = _with_retry(newton, system, u_g, 0.0, omega_tol, "divergence")
+    except FastPathError:
+        u, v = _static_seeded(newton, system, a, b)
     vc = v.astype(complex)
     dlam, _, cond = eigen_sensitivity(system, u, 0.0, vc)
     if cond < NEAR_DEFECTIVE:
@@ -489,6 +417,8 @@ def _divergence(system, march, tol, omega_tol):
         raise FastPathError("divergence: no transversal crossing")
     _check_bracket_sides(system, u, 0.0j, vc, tol, omega_tol, "divergence")
     _only_unstable(system, u, 0.0j, omega_tol, "divergence")
+    if not name:
+        return Crossing(float(u), 0.0, CONVERGED, (a, b), re_slope_per_m=float(dlam.real)), v
     l_a, _, ok_a = continue_eigenpair(system, u, 0.0, vc, a)
     branch = _branch_of(l_a, march.tracked[:, i]) if ok_a else -1
     if branch < 0:
@@ -533,21 +463,30 @@ def _second(system, march, labels, flutter, tol, omega_tol):
 
 # ------------------------------------------------------------------ the fast sweep
 
-def _crossing(find, system, speeds, march, tol, omega_tol, kind):
+def _crossing(find, system, speeds, march, tol, omega_tol, kind, critical_only=False):
     try:
+        if critical_only:  # no label confirmation (flutter), no branch naming (divergence)
+            return find(system, march, tol, omega_tol, False)
         return find(system, march, tol, omega_tol)
     except FastPathError as exc:
-        return _grid_crossing(system, speeds, march, tol, omega_tol, kind, str(exc)), None
+        return _grid_crossing(system, speeds, march, tol, omega_tol, kind, str(exc),
+                              accept=critical_only), None
 
 
-def fast_sweep(system: CountedSystem, speeds, speed_tol, dense):
+def fast_sweep(system: CountedSystem, speeds, speed_tol, dense, critical_only=False):
     """:func:`model.stability.sweep` with ``method="fast"`` (module docstring).
 
     ``system`` counts its eigen-solutions; ``dense(reason)`` runs the dense sweep on the same
-    counted system (the fallback).
+    counted system (the fallback). ``critical_only``: the flutter and divergence crossings
+    alone -- no second-critical branch (``not_evaluated``), no confirmation of the flutter
+    branch's label by continuation to ``U = 0`` (the participation names it), and a crossing
+    Newton misses is kept from its grid bracket when converged there (:func:`_grid_crossing`)
+    instead of running the whole dense sweep. The speeds, frequencies and statuses are those of
+    the full fast path; what it saves are the labels' and the second branch's solutions.
     """
     from model.stability import (
         StabilitySweep,
+        _critical_vector,
         _name_divergence,
         _name_flutter,
         _structural_start,
@@ -563,14 +502,20 @@ def fast_sweep(system: CountedSystem, speeds, speed_tol, dense):
     bal = BalancedSystem(system, float(speeds[-1]))
     try:
         (flutter, v_f), (divergence, v_d) = (
-            _crossing(find, bal, speeds, march, speed_tol, omega_tol, kind)
+            _crossing(find, bal, speeds, march, speed_tol, omega_tol, kind, critical_only)
             for find, kind in ((_flutter, "flutter"), (_divergence, "divergence")))
         v_f, v_d = bal.states(v_f), bal.states(v_d)
         if speeds[0] == 0.0 and _max_real_real(march.eigenvalues[0], omega_tol) > 1e-6 * omega_tol:
             divergence = Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (0.0, 0.0))
-        flutter, participation = _name_flutter(system, flutter, labels, lambda: v_f)
-        divergence = _name_divergence(system, divergence, labels, lambda: v_d)
-        second = _second(bal, march, labels, flutter, speed_tol, omega_tol)
+        # a crossing kept from its grid bracket (critical_only) has no Newton eigenvector
+        flutter, participation = _name_flutter(system, flutter, labels, lambda: (
+            v_f if v_f is not None else _critical_vector(system, flutter.speed, omega_tol,
+                                                         "flutter")))
+        divergence = _name_divergence(system, divergence, labels, lambda: (
+            v_d if v_d is not None else _critical_vector(system, divergence.speed, omega_tol,
+                                                         "divergence")))
+        second = (Crossing(float("nan"), float("nan"), NOT_EVALUATED) if critical_only
+                  else _second(bal, march, labels, flutter, speed_tol, omega_tol))
     except FastPathError as exc:
         return dense(str(exc))
     return StabilitySweep(

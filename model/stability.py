@@ -236,7 +236,7 @@ SWEEP_METHODS = ("dense", "fast")
 
 
 def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
-          method: str = "dense") -> StabilitySweep:
+          method: str = "dense", critical_only: bool = False) -> StabilitySweep:
     """Eigenvalue sweep with branch tracking and refined, verified flutter/divergence speeds.
 
     Parameters
@@ -253,6 +253,9 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
         back to ``dense`` when unsure (``fallback_reason``). Both give the same fields and
         statuses; the fast path's ``speeds``, ``eigenvalues`` and ``branches`` are on its
         coarse speeds.
+    critical_only : bool
+        The crossings alone (do no harm): no second branch; fast path: no label confirmation,
+        a grid crossing kept, not the dense fallback (:func:`model.hopf.fast_sweep`).
     """
     if method not in SWEEP_METHODS:
         raise BridgeflapInputError("sweep", f"must be one of {SWEEP_METHODS}, got {method!r}")
@@ -262,10 +265,11 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
     counted = CountedSystem(system)
     if method == "fast":
         def dense(reason):
-            return replace(_dense_sweep(counted, speeds, speed_tol), fallback_reason=reason)
+            return replace(_dense_sweep(counted, speeds, speed_tol, critical_only),
+                           fallback_reason=reason)
 
-        return fast_sweep(counted, speeds, speed_tol, dense)
-    return _dense_sweep(counted, speeds, speed_tol)
+        return fast_sweep(counted, speeds, speed_tol, dense, critical_only)
+    return _dense_sweep(counted, speeds, speed_tol, critical_only)
 
 
 def _upper(lam, n):
@@ -377,7 +381,7 @@ def _critical_vector(system, u, omega_tol, kind):
     return V[:, sel[np.argmin(np.abs(lam[sel].real))]]
 
 
-def _dense_sweep(system, speeds, speed_tol) -> StabilitySweep:
+def _dense_sweep(system, speeds, speed_tol, critical_only=False) -> StabilitySweep:
     """The dense sweep on a validated grid (``system`` counts its eigen-solutions)."""
     n = system.basis.n
     omega_tol = oscillation_tolerance(system)
@@ -421,7 +425,8 @@ def _dense_sweep(system, speeds, speed_tol) -> StabilitySweep:
     divergence = _name_divergence(
         system, divergence, labels,
         lambda: _critical_vector(system, divergence.speed, omega_tol, "divergence"))
-    second = _second_crossing(system, speeds, branches, labels, flutter, speed_tol, omega_tol)
+    second = (Crossing(float("nan"), float("nan"), NOT_EVALUATED) if critical_only else
+              _second_crossing(system, speeds, branches, labels, flutter, speed_tol, omega_tol))
     return StabilitySweep(speeds=speeds, eigenvalues=all_lam, branches=branches,
                           branch_labels=labels, flutter=flutter, divergence=divergence,
                           divergence_static_speed=u_static, critical_branch=flutter.label,
