@@ -254,8 +254,7 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
         statuses; the fast path's ``speeds``, ``eigenvalues`` and ``branches`` are on its
         coarse speeds.
     critical_only : bool
-        The crossings alone (do no harm): no second branch; fast path: no label confirmation,
-        a grid crossing kept, not the dense fallback (:func:`model.hopf.fast_sweep`).
+        Crossings alone (do no harm): no second branch, no label check (model.hopf.fast_sweep).
     """
     if method not in SWEEP_METHODS:
         raise BridgeflapInputError("sweep", f"must be one of {SWEEP_METHODS}, got {method!r}")
