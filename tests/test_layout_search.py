@@ -227,7 +227,8 @@ def test_design_reports_layout_neighbours_in_its_summary():
     json.dumps(out, allow_nan=False)
     table = out["layout_neighbours"]
     assert table["rows"][0]["kind"] == "rounded" and table["adopted"] is False
-    assert table["rows"][0]["robust_margin"] == out["robust_margin"]
+    # the layout rows carry the margin at the robust speeds (the headline is the speed grid's)
+    assert table["rows"][0]["robust_margin"] == out["robust_margin_at_robust_speeds"]
     assert out["settings"]["layout_neighbours"] is True
     assert "layout_adopt" not in out["settings"]
     assert "layout neighbours (K re-optimised)" in res.extras["phase_times_s"]
