@@ -146,7 +146,7 @@ def arguments(sp) -> None:
     sp.add_argument("--method", choices=HARM_METHODS, default="fast",
                     help="fast: critical crossings only, screened on --screen-modes; "
                          "reference: the full sweeps on --modes")
-    sp.add_argument("--screen-modes", type=int, default=DEFAULT_SCREEN_MODES,
+    sp.add_argument("--screen-modes", type=int, default=DEFAULT_SCREEN_MODES, metavar="N",
                     help="modes of the fast method's screening (0: none)")
     sp.add_argument("--out", default=None, help="per-variant (or per-pair) table (.csv)")
     sp.add_argument("--failures", action="store_true",
