@@ -7,7 +7,7 @@ import os
 import shutil
 from pathlib import Path
 
-from design.cli_common import add_common, emit, log, save_figure
+from design.cli_common import add_common, default_workers, emit, log, save_figure
 from model.errors import BridgeflapInputError
 
 __all__ = ["arguments", "cmd_optimise"]
@@ -26,6 +26,12 @@ def cmd_optimise(args):
     over = {k: v for k, v in (("objective", getattr(args, "objective", None)),
                               ("margin_min", getattr(args, "margin_min", None)))
             if v is not None}
+    from design.acceptance import parse_checks
+
+    parse_checks(args.checks)  # a bad --checks stops here, before the design runs
+    for name, v in (("check-samples", args.check_samples), ("workers", args.workers)):
+        if v is not None and v < 1:
+            raise BridgeflapInputError(name, f"must be at least 1, got {v}")
     settings = load_settings(args.definition or DEFAULT_DEFINITION, **over)
     if args.quick:
         settings = quick_settings(settings)
@@ -50,6 +56,7 @@ def cmd_optimise(args):
 
 def _design_and_write(args, settings, out):
     """Run the design and replace ``out`` by its complete folder (crash-safe swap)."""
+    from design.acceptance import design_closed_loop
     from design.driver import design
     from design.io import atomic_write_text, naming_os_errors
     from design.outputs import swap_into_place, temporary_sibling, write_marker
@@ -75,20 +82,17 @@ def _design_and_write(args, settings, out):
 
             from model.stability import sweep
 
-            cl = result.extras.get("closed_loop")
             for name, fn in (("bode.png", result.plot_bode), ("margins.png", result.plot_margins)):
                 ax = fn()
                 save_figure(ax[0].figure, tmp / name)
                 plt.close(ax[0].figure)
-            if cl is None:
-                from design.driver import build_model
-
-                _, model = build_model(settings)
-                cl = model.system(result.candidate.compensator)
+            cl = design_closed_loop(result, settings)
             sw = sweep(cl, settings.check_speeds())
             ax = sw.plot(title="closed loop")
             save_figure(ax[0].figure, tmp / "root_locus.png")
             plt.close(ax[0].figure)
+        if result.controller is not None:
+            payload["acceptance"] = _acceptance(args, settings, result, tmp)
         swap_into_place(tmp, out)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -124,7 +128,16 @@ def _design_and_write(args, settings, out):
                      f"margin {g(cs['robust_margin'], '.4g')} (min {cs['margin_min']}), "
                      f"{cs['inner_solves']} inner solves")
     lines.append(result.table("simple"))
+    acc = payload.get("acceptance")
+    if acc:
+        lines.append(_acceptance_text(acc))
     emit(args, payload, "\n".join(lines))
+    if acc and acc["status"] in ("harm", "failed"):
+        log(f"bridgeflap: acceptance {acc['status']}: "
+            + ("the controller lowers the critical speed of a bridge variant below its open-loop"
+               " value (JSON acceptance.robustness)" if acc["status"] == "harm" else
+               "the independent closed loop disagrees (JSON acceptance.independent_check)"))
+        return 1
     if result.controller is None:
         # the design failed its checks: its candidate is in the JSON (for diagnosis), but no
         # controller.toml is written and the exit status says it is not usable
@@ -134,6 +147,68 @@ def _design_and_write(args, settings, out):
                           "(JSON best_achievable)" if best.get("why_not_usable") else ""))
         return 1
     return 0
+
+
+def _acceptance(args, settings, result, folder) -> dict:
+    """The acceptance checks (:mod:`design.acceptance`) of the written controller; their tables
+    as CSV beside it."""
+    from design.acceptance import AcceptanceOptions, acceptance, design_closed_loop, parse_checks
+    from design.io import atomic_write_text
+    from model.controller_file import load_controller
+
+    checks = parse_checks(args.checks)
+    if not checks:
+        return {"checks": [], "status": "not_run"}
+    opts = (AcceptanceOptions.for_quick(checks, args.workers, args.check_samples) if args.quick
+            else AcceptanceOptions(checks=checks, workers=args.workers,
+                                   samples=args.check_samples or 200))
+    controller = load_controller(folder / "controller.toml")  # as a user reads it back
+    block, results = acceptance(controller, settings, opts,
+                                closed_loop=design_closed_loop(result, settings), progress=log)
+    for name, res in results.items():
+        text = res.csv_text() if name == "actuators" else res.to_dataframe().to_csv(index=False)
+        atomic_write_text(folder / f"{name}.csv", text)
+        block[name]["table"] = str(Path(args.out) / f"{name}.csv")
+    return block
+
+
+def _acceptance_text(acc: dict) -> str:
+    """One line per check of the acceptance block."""
+    def f(v, spec):
+        return "n/a" if v is None else format(v, spec)
+
+    out = [f"acceptance: {acc['status']}"]
+    ind = acc.get("independent_check")
+    if ind and "largest_difference_rel" in ind:
+        out.append(f"  independent closed loop ({ind['modes']} modes, {len(ind['speeds'])} "
+                   f"speeds): eigenvalues agree to {f(ind['largest_difference_rel'], '.2e')} "
+                   f"(tolerance {ind['tolerance_rel']:g}): {ind['status']}")
+    r = acc.get("robustness")
+    if r and "variants" in r:
+        out.append(f"  do no harm: {r['variants']} fresh variants, "
+                   f"{100 * r['fraction_stable_to_design_speed']:.1f} % stable to "
+                   f"{r['design_speed_m_s']:g} m/s, {100 * r['fraction_harmed']:.1f} % harmed, "
+                   f"worst closed/open {f(r['worst_closed_over_open'], '.4f')}: {r['status']}")
+    fl = acc.get("failures")
+    if fl and "worst_single_failure" in fl:
+        w = fl["worst_single_failure"]
+        out.append(f"  one pair failed: worst {f(w.get('critical_speed_m_s'), '.2f')} m/s "
+                   f"(pair {w.get('pair')}), controller off "
+                   f"{f(fl['controller_off']['critical_speed_m_s'], '.2f')} m/s, "
+                   f"{fl['pairs_stable_to_design_speed']}/{fl['flap_pairs']} pairs stable to "
+                   f"{fl['design_speed_m_s']:g} m/s: {fl['status']}")
+    a = acc.get("actuators")
+    if a and "speeds" in a:
+        parts = [f"{s['speed_m_s']:.1f} m/s " + (
+            f"rms {s['rms_flap_angle_deg']:.2f} deg, peak {s['peak_flap_angle_deg']:.2f} deg, "
+            f"saturated {100 * s['angle_saturated_fraction']:.2f} %" if s["status"] == "ok"
+            else s["status"]) for s in a["speeds"]]
+        out.append(f"  actuators: {'; '.join(parts)}: {a['status']}")
+    for name in ("independent_check", "robustness", "failures", "actuators"):
+        c = acc.get(name) or {}
+        if c.get("status") in ("error", "skipped"):
+            out.append(f"  {name}: {c['status']} ({c.get('reason')})")
+    return "\n".join(out)
 
 
 def arguments(sp) -> None:
@@ -151,3 +226,11 @@ def arguments(sp) -> None:
     sp.add_argument("--margin-min", dest="margin_min", type=float, default=None,
                     help="robust margin required by the critical_speed objective [-]; "
                          "overrides the definition's")
+    sp.add_argument("--checks", default="all", metavar="LIST",
+                    help="acceptance checks of the designed controller: all, none, or a comma "
+                         "list of independent_check, robustness, failures, actuators")
+    sp.add_argument("--check-samples", dest="check_samples", type=int, default=None,
+                    metavar="N", help="fresh bridge variants of the robustness check "
+                                      "(default 200; 8 with --quick)")
+    sp.add_argument("--workers", type=int, default=default_workers(),
+                    help="worker processes of the checks (default: min(2, CPUs))")
