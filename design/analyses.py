@@ -439,6 +439,13 @@ def _run_design(spec, opts, context) -> Outcome:
     res = design(settings, progress=lambda msg: context.say(f"  design: {msg}"),
                  bridge=context.bridge if mem else None)
     s = res.summary()
+    if res.controller is not None:  # the checks `bridgeflap optimise` runs (design.acceptance)
+        from design.acceptance import AcceptanceOptions, acceptance, design_closed_loop
+
+        opts_a = AcceptanceOptions.for_quick() if context.quick else AcceptanceOptions()
+        s["acceptance"], _ = acceptance(
+            res.controller, settings, opts_a, closed_loop=design_closed_loop(res, settings),
+            progress=lambda msg: context.say(f"  design: {msg}"))
     figs = {}
     if context.figures and res.controller is not None:
         from design.report import fig5

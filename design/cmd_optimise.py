@@ -130,7 +130,9 @@ def _design_and_write(args, settings, out):
     lines.append(result.table("simple"))
     acc = payload.get("acceptance")
     if acc:
-        lines.append(_acceptance_text(acc))
+        from design.acceptance import acceptance_text
+
+        lines.append(acceptance_text(acc))
     emit(args, payload, "\n".join(lines))
     if acc and acc["status"] in ("harm", "failed"):
         log(f"bridgeflap: acceptance {acc['status']}: "
@@ -170,45 +172,6 @@ def _acceptance(args, settings, result, folder) -> dict:
         atomic_write_text(folder / f"{name}.csv", text)
         block[name]["table"] = str(Path(args.out) / f"{name}.csv")
     return block
-
-
-def _acceptance_text(acc: dict) -> str:
-    """One line per check of the acceptance block."""
-    def f(v, spec):
-        return "n/a" if v is None else format(v, spec)
-
-    out = [f"acceptance: {acc['status']}"]
-    ind = acc.get("independent_check")
-    if ind and "largest_difference_rel" in ind:
-        out.append(f"  independent closed loop ({ind['modes']} modes, {len(ind['speeds'])} "
-                   f"speeds): eigenvalues agree to {f(ind['largest_difference_rel'], '.2e')} "
-                   f"(tolerance {ind['tolerance_rel']:g}): {ind['status']}")
-    r = acc.get("robustness")
-    if r and "variants" in r:
-        out.append(f"  do no harm: {r['variants']} fresh variants, "
-                   f"{100 * r['fraction_stable_to_design_speed']:.1f} % stable to "
-                   f"{r['design_speed_m_s']:g} m/s, {100 * r['fraction_harmed']:.1f} % harmed, "
-                   f"worst closed/open {f(r['worst_closed_over_open'], '.4f')}: {r['status']}")
-    fl = acc.get("failures")
-    if fl and "worst_single_failure" in fl:
-        w = fl["worst_single_failure"]
-        out.append(f"  one pair failed: worst {f(w.get('critical_speed_m_s'), '.2f')} m/s "
-                   f"(pair {w.get('pair')}), controller off "
-                   f"{f(fl['controller_off']['critical_speed_m_s'], '.2f')} m/s, "
-                   f"{fl['pairs_stable_to_design_speed']}/{fl['flap_pairs']} pairs stable to "
-                   f"{fl['design_speed_m_s']:g} m/s: {fl['status']}")
-    a = acc.get("actuators")
-    if a and "speeds" in a:
-        parts = [f"{s['speed_m_s']:.1f} m/s " + (
-            f"rms {s['rms_flap_angle_deg']:.2f} deg, peak {s['peak_flap_angle_deg']:.2f} deg, "
-            f"saturated {100 * s['angle_saturated_fraction']:.2f} %" if s["status"] == "ok"
-            else s["status"]) for s in a["speeds"]]
-        out.append(f"  actuators: {'; '.join(parts)}: {a['status']}")
-    for name in ("independent_check", "robustness", "failures", "actuators"):
-        c = acc.get(name) or {}
-        if c.get("status") in ("error", "skipped"):
-            out.append(f"  {name}: {c['status']} ({c.get('reason')})")
-    return "\n".join(out)
 
 
 def arguments(sp) -> None:

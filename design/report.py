@@ -278,7 +278,6 @@ def _design_section(doc: Document, d: dict) -> None:
                    for u, t in t_inf.items()], ["U [m/s]", "margin [-]", "norm(T, inf) [-]"])
     starts = d.get("starts") or []
     if starts:
-        doc.paragraph("Every Ipopt start:")
         doc.paragraph("Every Ipopt start (ranked by the NLP objective among the verified "
                       "ones; margin at the robust speeds):")
         doc.table([(st.get("start"), st.get("status"), st.get("iterations"),
@@ -289,6 +288,14 @@ def _design_section(doc: Document, d: dict) -> None:
                    for st in starts],
                   ["start", "Ipopt status", "iterations", "time [s]", "objective", "max gain",
                    "margin", "stable 0-85 m/s", "verified"])
+    acc = d.get("acceptance") or {}
+    if acc.get("checks"):
+        from design.acceptance import acceptance_text
+
+        doc.paragraph("Acceptance checks of the controller (as `bridgeflap optimise` runs "
+                      "them; design.acceptance):")
+        doc.table([(line.strip().split(":", 1)[0], line.strip().split(":", 1)[1].strip())
+                   for line in acceptance_text(acc).splitlines()], ["check", "result"])
     buf = d.get("buffeting") or {}
     if buf.get("speeds_m_s"):
         doc.paragraph("Buffeting, open vs closed loop (max RMS on the main span):")

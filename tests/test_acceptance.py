@@ -18,6 +18,7 @@ from design.acceptance import (
     AcceptanceOptions,
     _verdict,
     acceptance,
+    acceptance_text,
     independent_check,
     parse_checks,
 )
@@ -76,6 +77,9 @@ def test_a_harmful_controller_is_flagged(small):
     assert rob["status"] == "harm" and block["status"] == "harm"
     assert rob["fraction_harmed"] > 0 and rob["worst_closed_over_open"] < 1.0
     assert len(rob["rows"]) == 4 and len(results["robustness"].to_dataframe()) == 4
+    text = acceptance_text(block).splitlines()  # the CLI's and the study report's lines
+    assert text[0] == "acceptance: harm" and len(text) == 3
+    assert "eigenvalues agree" in text[1] and text[2].rstrip().endswith(": harm")
 
 
 def test_verdict_rules():
