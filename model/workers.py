@@ -18,6 +18,14 @@ before it starts them. It raises one line, :class:`~model.errors.BridgeflapInput
   running there lies outside any ``if __name__ == "__main__":`` block (read from the script's
   source with :mod:`ast`; a notebook cell, the interactive prompt or a frozen program has no
   script file and is not checked).
+
+:func:`process_pool` is the package's one process-pool mechanism: every local pool of worker
+processes (the design's parallel starts and follow-up checks, the layout neighbours, the flap
+counts, do-no-harm, fail-safe, erection stages, a study's analyses) is made by it, so that none
+skips the guard. It checks the guard before any process starts, keeps the platform's default
+start method (no package-wide context is set: fork on Linux up to Python 3.13), makes every
+worker end with the process that started it (:func:`_die_with_parent`) and starts at least
+one worker. Dask (:mod:`design.cluster`) is for DOE batches only.
 """
 
 from __future__ import annotations
@@ -27,10 +35,11 @@ import functools
 import multiprocessing
 import os
 import sys
+from concurrent.futures import ProcessPoolExecutor
 
 from model.errors import BridgeflapInputError
 
-__all__ = ["MAIN_GUARD_REASON", "check_main_guard"]
+__all__ = ["MAIN_GUARD_REASON", "check_main_guard", "process_pool"]
 
 #: the reason of the one-line error
 MAIN_GUARD_REASON = ("this script starts worker processes, which re-run it: put its code under "
@@ -108,3 +117,48 @@ def check_main_guard(workers: int, start_method: str | None = None) -> None:
         multiprocessing.get_context().get_start_method()
     if method != "fork" and _unguarded_top_level_call():
         raise BridgeflapInputError("workers", MAIN_GUARD_REASON)
+
+
+def process_pool(workers: int, *, die_with_parent: bool = True) -> ProcessPoolExecutor:
+    """The package's process pool of ``workers`` local processes (the module docstring).
+
+    Parameters
+    ----------
+    workers : int
+        ``max_workers`` of the pool (at least 1 is used).
+    die_with_parent : bool
+        Install :func:`_die_with_parent` as the workers' initializer (default).
+
+    Returns
+    -------
+    concurrent.futures.ProcessPoolExecutor
+        Started on the platform's default start method; a context manager as usual.
+
+    Raises
+    ------
+    BridgeflapInputError
+        ``workers``: :data:`MAIN_GUARD_REASON` (:func:`check_main_guard`), before any process
+        starts.
+    """
+    check_main_guard(workers)
+    extra = {"initializer": _die_with_parent, "initargs": (os.getpid(),)} if die_with_parent \
+        else {}
+    return ProcessPoolExecutor(max_workers=max(1, int(workers)), **extra)
+
+
+def _die_with_parent(parent: int) -> None:
+    """Pool initializer: the worker ends with the process that started it, even one killed by
+    SIGKILL (Linux ``PR_SET_PDEATHSIG``), so that no orphan writes into a folder a later run
+    has claimed (elsewhere the pool's own broken-pipe handling ends it after its task). Linux
+    sends the signal when the *thread* that started the worker ends: submit to the pool from
+    a thread that outlives it (every caller in the package does)."""
+    import signal
+
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # 1 = PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux
+        pass
+    if os.getppid() != parent:  # the parent ended before the line above
+        os._exit(1)
