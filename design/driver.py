@@ -21,7 +21,7 @@ Every result reports the closed-loop flutter and divergence limits and mechanism
 (:func:`active_constraints`). Multi-model (``variants`` > 0): damping constraints on bridge
 variants sampled over the estimated-input ranges, fresh variants checked a posteriori.
 
-Parallel starts use a :class:`concurrent.futures.ProcessPoolExecutor`, not the Dask cluster of
+Parallel starts use a process pool (:func:`model.workers.process_pool`), not the Dask cluster of
 the DOE (:mod:`design.cluster`; issue 15 item 7). A design runs two to four long tasks once,
 inside one call, on the local machine: the executor starts in 0.16 s, while a Dask
 ``LocalCluster`` of two workers took 10.0 s to start and 2.3 s to close on the loaded
@@ -467,9 +467,9 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     if given:
         records = list(records)
     elif settings.parallel and settings.starts > 1:
-        from concurrent.futures import ProcessPoolExecutor
+        from model.workers import process_pool
 
-        with ProcessPoolExecutor(max_workers=min(2, settings.starts)) as ex:
+        with process_pool(min(2, settings.starts)) as ex:
             records = list(ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n,
                                   [progress_bar] * n, [variants] * n))
     else:
@@ -513,9 +513,9 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
         # own time, marked "worker")
         pool = None
         if settings.parallel:
-            from concurrent.futures import ProcessPoolExecutor
+            from model.workers import process_pool
 
-            pool = ProcessPoolExecutor(max_workers=2)
+            pool = process_pool(2)
         try:
             lim_job = _job(pool, closed_loop_limits, settings, controller, spec=spec)
             grid_job = _job(pool, margin_on_speed_grid, settings, controller, spec=spec,

@@ -315,12 +315,9 @@ def single_pair_failures(controller, bridge=None, n_modes: int = 30,
     if workers == 1:
         out = [_case(model, k, w, u, sweep_method, grid_max) for _, w in jobs]
     else:
-        from concurrent.futures import ProcessPoolExecutor
+        from model.workers import process_pool
 
-        from model.workers import check_main_guard
-
-        check_main_guard(workers)
-        with ProcessPoolExecutor(max_workers=workers) as ex:
+        with process_pool(workers) as ex:
             futs = [ex.submit(_case, model, k, w, u, sweep_method, grid_max) for _, w in jobs]
             out = [f.result() for f in futs]
     cases = {label: _stability(s, st, grid_max, speed_max_m_s)

@@ -57,12 +57,9 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
     misses = 0
     own = pool is None and workers > 1
     if own:                     # issue 16 goal 3: the counts in two processes, in order
-        from concurrent.futures import ProcessPoolExecutor
+        from model.workers import process_pool
 
-        from model.workers import check_main_guard
-
-        check_main_guard(workers)
-        pool = ProcessPoolExecutor(max_workers=workers)
+        pool = process_pool(workers)
     elif workers == 1:
         pool = None
     pending = {}                # index -> future (at most `workers` in flight)

@@ -323,9 +323,9 @@ class _Runner:
 
     def __enter__(self):
         if self.workers > 1:
-            from concurrent.futures import ProcessPoolExecutor
+            from model.workers import process_pool
 
-            self.ex = ProcessPoolExecutor(max_workers=self.workers)
+            self.ex = process_pool(self.workers)
         return self
 
     def __exit__(self, *exc):

@@ -371,9 +371,9 @@ def design_step(settings, best, status, spec=None, variants=(), log=None):
         return best, status, {"status": "not_run: no design", "rows": []}
     pool = None
     if settings.parallel:
-        from concurrent.futures import ProcessPoolExecutor
+        from model.workers import process_pool
 
-        pool = ProcessPoolExecutor(max_workers=2)
+        pool = process_pool(2)
     try:
         comp = compare_layouts(settings, best.flap_positions_m, best.theta, spec, variants,
                                weights=best.weights_continuous, rounded_record=best, log=log,

@@ -429,11 +429,9 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
         return {kind: _run_and_write(kind, spec, opts, config, folder, say, True)
                 for kind, opts in jobs}
     import pickle
-    from concurrent.futures import ProcessPoolExecutor
 
-    from model.workers import check_main_guard
+    from model.workers import process_pool
 
-    check_main_guard(min(workers, len(jobs)))
     try:
         pickle.dumps(progress)
         remote_say = progress
@@ -441,10 +439,9 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
         remote_say = None
     rank = {k: i for i, k in enumerate(_LONGEST_FIRST)}
     jobs.sort(key=lambda job: rank.get(job[0], -1))  # unknown kinds first: no estimate
-    say(f"study {config.name}: {len(jobs)} analyses on {min(workers, len(jobs))} worker "
-        f"processes")
-    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_die_with_parent,
-                             initargs=(os.getpid(),)) as pool:
+    with process_pool(min(workers, len(jobs))) as pool:  # the guard, before the line below
+        say(f"study {config.name}: {len(jobs)} analyses on {min(workers, len(jobs))} worker "
+            f"processes")
         futures = {kind: pool.submit(_run_and_write, kind, spec, opts, config, folder,
                                      remote_say, False) for kind, opts in jobs}
         try:
@@ -460,22 +457,6 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
             for fut in futures.values():
                 fut.cancel()
             raise
-
-
-def _die_with_parent(parent: int) -> None:
-    """Pool initializer: the worker ends with the study's process, even one killed by SIGKILL
-    (Linux ``PR_SET_PDEATHSIG``), so that no orphan writes into a folder a later run has
-    claimed (elsewhere the pool's own broken-pipe handling ends it after its analysis)."""
-    import signal
-
-    try:
-        import ctypes
-
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # 1 = PR_SET_PDEATHSIG
-    except (OSError, AttributeError):  # not Linux
-        pass
-    if os.getppid() != parent:  # the study ended before the line above
-        os._exit(1)
 
 
 def validate_study(config: StudyConfig) -> None:

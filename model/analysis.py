@@ -314,12 +314,9 @@ def _stages(specs, speeds, n_modes: int, workers: int, done) -> list[dict]:
             out.append(_stage(s, speeds, n_modes))
             done(i)
         return out
-    from concurrent.futures import ProcessPoolExecutor
+    from model.workers import process_pool
 
-    from model.workers import check_main_guard
-
-    check_main_guard(workers)
-    with ProcessPoolExecutor(max_workers=workers) as ex:
+    with process_pool(workers) as ex:
         futures = [ex.submit(_stage, s, speeds, n_modes) for s in specs]
         out = []
         for i, fut in enumerate(futures):
