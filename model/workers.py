@@ -138,9 +138,10 @@ def process_pool(workers: int, *, die_with_parent: bool = True) -> ProcessPoolEx
     ------
     BridgeflapInputError
         ``workers``: :data:`MAIN_GUARD_REASON` (:func:`check_main_guard`), before any process
-        starts.
+        starts; checked for every pool, one worker included (a spawned worker re-runs the
+        script whatever the pool's size).
     """
-    check_main_guard(workers)
+    check_main_guard(max(2, int(workers)))  # even one spawned worker re-runs the script
     extra = {"initializer": _die_with_parent, "initargs": (os.getpid(),)} if die_with_parent \
         else {}
     return ProcessPoolExecutor(max_workers=max(1, int(workers)), **extra)
