@@ -528,7 +528,8 @@ def main(argv=None) -> int:
     with warnings.catch_warnings():
         if not debug:
             warnings.showwarning = one_line_warning
-        return run(argv, debug)
+        return run(argv, debug, build_parser=build_parser, check_args=_check_args,
+                   command_names=[c.name for c in COMMANDS])
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -100,15 +100,18 @@ if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_child_after_fork)
 
 
-def run(argv: list[str], debug: bool) -> int:
-    """Parse ``argv``, run its command and return the exit status (see the module doc)."""
+def run(argv: list[str], debug: bool, *, build_parser, check_args, command_names) -> int:
+    """Parse ``argv``, run its command and return the exit status (see the module doc).
+
+    The command table comes in as arguments (``design.cli`` passes its ``build_parser``, its
+    argument checks and its command names), so that this module does not import the CLI back."""
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, _on_sigint) if main_thread else None
     _STATE.update(pid=os.getpid(), interrupted=False, caught=False)
     hook, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
     hold_warnings()
     try:
-        return _run(argv, debug)
+        return _run(argv, debug, build_parser, check_args, command_names)
     except KeyboardInterrupt:  # raised again during the clean-up of an error
         return _interrupted()
     finally:
@@ -122,19 +125,17 @@ def run(argv: list[str], debug: bool) -> int:
             signal.signal(signal.SIGINT, previous)
 
 
-def _run(argv: list[str], debug: bool) -> int:
-    from design import cli
-
+def _run(argv: list[str], debug: bool, build_parser, check_args, command_names) -> int:
     args = None
     try:
-        parser = cli.build_parser(argv)
+        parser = build_parser(argv)
         args = parser.parse_args(argv)
         if not getattr(args, "command", None):
             drop_warnings()
-            sys.stderr.write(short_usage())
+            sys.stderr.write(short_usage(command_names))
             return EXIT_BAD_INPUT
         set_verbosity(getattr(args, "quiet", False), getattr(args, "verbose", False))
-        cli._check_args(args)
+        check_args(args)
         rc = args.func(args)
     except KeyboardInterrupt:
         return _interrupted()
@@ -172,11 +173,9 @@ def _interrupted() -> int:
     return EXIT_INTERRUPTED
 
 
-def short_usage() -> str:
+def short_usage(command_names) -> str:
     """What a bare ``bridgeflap`` prints: the usage line, the commands, where to read more."""
-    from design.cli import COMMANDS
-
-    names = [c.name for c in COMMANDS]
+    names = list(command_names)
     half = (len(names) + 1) // 2
     return ("usage: bridgeflap [--debug] COMMAND [options]\n"
             f"commands: {', '.join(names[:half])},\n"

@@ -295,17 +295,3 @@ def stdout_to_stderr():
             pass
         os.dup2(saved, 1)
         os.close(saved)
-
-
-_MOVED = frozenset({"OUTPUT_MARKER", "check_replaceable", "claim_output", "is_marked_output",
-                    "lock_path", "read_marker", "recover_output", "remove_stale_file_temporaries",
-                    "swap_into_place", "write_marker"})
-
-
-def __getattr__(name: str):
-    """The output-folder names moved to :mod:`design.outputs` (``design.io.X`` still works)."""
-    if name in _MOVED:
-        import design.outputs
-
-        return getattr(design.outputs, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
