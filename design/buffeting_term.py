@@ -23,7 +23,7 @@ import os
 import casadi as ca
 import numpy as np
 
-from design.robust import _loop_block, k_complex
+from design.loop_algebra import _loop_block, k_complex
 
 
 class BuffetingCost(ca.Callback):
@@ -497,9 +497,9 @@ def _eig_point_expression(n) -> ca.Function:
 
 
 def _lowrank_pitch_map(Pa) -> tuple[np.ndarray, np.ndarray]:
-    """``(U_r S, V_r)`` of ``Phi_a = U_r S V_r^T`` truncated at ``design.robust.LOWRANK_RTOL``
+    """``(U_r S, V_r)`` of ``Phi_a = U_r S V_r^T`` truncated at ``design.loop_algebra.LOWRANK_RTOL``
     (rank 4 for 25 flaps on 16 modes: only the torsional modes pitch)."""
-    from design.robust import LOWRANK_RTOL
+    from design.loop_algebra import LOWRANK_RTOL
 
     U, s, Vt = np.linalg.svd(np.asarray(Pa, float), full_matrices=False)
     r = max(1, int(np.sum(s > LOWRANK_RTOL * s[0]))) if s.size and s[0] > 0 else 1

@@ -12,7 +12,7 @@ from dataclasses import replace
 import numpy as np
 
 from design import variants
-from design.nlp import (
+from design.nlp_tolerances import (
     GAIN_BACKOFF,
     ROBUST_CLUSTER_STEP,
     ROBUST_CUTS_PER_SPEED,
@@ -21,8 +21,8 @@ from design.nlp import (
 from design.records import CutRound, CutsOutcome
 from model.control import Compensator
 
-#: Round 0 warm-started (monotone barrier from ``design.nlp.WARM_MU_INIT``) when its start
-#: is feasible (a feasible start, or phase 1's first feasible iterate). Measured on the
+#: Round 0 warm-started (monotone barrier from ``design.nlp_tolerances.WARM_MU_INIT``) when
+#: its start is feasible (a feasible start, or phase 1's first feasible iterate). Measured on the
 #: default card (``python -m bench.design``, 2 starts): Ipopt's adaptive barrier in round 0
 #: crawled to its 80-iteration cap from phase 1's point (start 0: gamma_T 40.7 against a
 #: dense peak of 4.5, then 77-103 more iterations in round 1). Warm: 424 + 554 -> 289 + 274

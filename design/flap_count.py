@@ -12,7 +12,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from design.nlp import VIOLATION_TOL, DesignProblem
+from design.nlp import DesignProblem
+from design.nlp_tolerances import VIOLATION_TOL
 from design.records import FlapCountCheck, FlapCountSearch
 from design.settings import DesignSettings
 

@@ -38,7 +38,8 @@ class Verification:
     step_m_s : float
         Grid step [m/s].
     meets_damping : bool
-        ``max_violation_1_s`` within the feasibility tolerance (``design.nlp.VIOLATION_TOL``).
+        ``max_violation_1_s`` within the feasibility tolerance
+        (``design.nlp_tolerances.VIOLATION_TOL``).
     min_damping_ratio : float
         Smallest damping ratio of the movable branches over the grid [-] (-1: a real root
         in the right half-plane).

@@ -61,7 +61,7 @@ class DesignSettings:
     ``robust_cut_tol`` [-]: the cutting planes stop when the dense peak of ``sigma_max(T)`` is
     within this of the optimiser's bound ``gamma_T`` (``robust_bound_holds``), i.e. the
     verified margin is within it of the optimiser's (default 1 %,
-    :data:`design.nlp.ROBUST_CUT_TOL`).
+    :data:`design.nlp_tolerances.ROBUST_CUT_TOL`).
 
     ``objective``: ``"margin"`` (default) maximises the robust margin subject to the damping up
     to ``speed_max_m_s``; ``"critical_speed"`` searches the largest design speed whose

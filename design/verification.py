@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from design.nlp import VIOLATION_TOL
+from design.nlp_tolerances import VIOLATION_TOL
 from design.plant import damping_check, damping_check_refined, lag_rates
 from design.records import Verification
 from model.control import Compensator

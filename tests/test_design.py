@@ -732,7 +732,7 @@ def test_lazy_variant_constraints_meet_every_variant(small_box):
     # check -- the constraints left out are verified, not assumed. The loop's own test (the
     # refined check) gives the dense check's maximum violation on every variant.
     from design.driver import sample_variants
-    from design.nlp import VIOLATION_TOL
+    from design.nlp_tolerances import VIOLATION_TOL
     from model.spec import load_bridge
 
     s, model = small_box
