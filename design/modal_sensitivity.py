@@ -100,8 +100,8 @@ def modal_sensitivity(spec, parameters: Sequence[str], speeds, n_modes: int, che
                       rel_step: float = 1e-4, fd_step: float = 1e-3,
                       progress: Callable[[str], None] | None = None):
     """IFT derivatives of ``U_F``, ``U_D`` to modal data, as a
-    :class:`design.sensitivity.SensitivityResult` (same row keys)."""
-    from design.sensitivity import (
+    :class:`design.ift.SensitivityResult` (same row keys)."""
+    from design.ift import (
         critical_speeds,
         empty_entries,
         sensitivity_result,
