@@ -204,7 +204,7 @@ def _best(fn, repeat: int):
 def _case_system(name: str):
     """``(system, speeds [m/s], wawi input or None, reference speed [m/s])`` of a case."""
     from model.analysis import bridge_system
-    from model.derivatives import derivative_system
+    from model.derivative_system import derivative_system
     from model.section_cases import case_fit, default_speeds, load_section_case
     from model.spec import load_bridge
 

@@ -25,7 +25,7 @@ mid-chord) and the lateral ``p`` and drag ``D`` positive **downwind**. For harmo
                                  P_6+iP_5 & P_3+iP_2 & P_4+iP_1 \end{pmatrix}.
 
 The package's own coordinates (:mod:`model`) have ``h`` (and the generalised lift) positive
-**down**; :func:`strip_matrix` applies that sign once.
+**down**; :func:`model.derivative_system.strip_matrix` applies that sign once.
 
 Other conventions and the converters (:func:`convert_argument`, :func:`flip_heave_sign`,
 :func:`polimi_to_scanlan`):
@@ -120,7 +120,7 @@ __all__ = [
 DERIVATIVE_NAMES: tuple[str, ...] = tuple(f"{f}{i}" for f in "HAP" for i in range(1, 7))
 """``H1..H6, A1..A6, P1..P6`` (Scanlan; 5 and 6 couple the lateral motion)."""
 
-#: the DOF order of :func:`strip_matrix`: heave, pitch, lateral
+#: the DOF order of :func:`model.derivative_system.strip_matrix`: heave, pitch, lateral
 DOFS = ("h", "alpha", "p")
 
 # entry (row, col) of Qn -> (real-part derivative, imaginary-part derivative)
@@ -585,16 +585,3 @@ def _fit_errors(source, fit, K, d):
             out[name] = (None if top == 0 else
                          float(np.max(np.abs(K ** 2 * got[name] - ref)) / top))
     return out
-
-
-#: names served by :mod:`model.derivative_system`, importable from here (PEP 562, on first use)
-_SYSTEM_NAMES = ("DerivativeFrozen", "DerivativeSystem", "derivative_system", "flat_plate_fit",
-                 "section_generalised", "strip_matrix")
-
-
-def __getattr__(name: str):
-    if name in _SYSTEM_NAMES:
-        from model import derivative_system as _ds
-
-        return getattr(_ds, name)
-    raise AttributeError(f"module 'model.derivatives' has no attribute {name!r}")

@@ -21,11 +21,11 @@ from importlib import resources
 import numpy as np
 
 from model.basis import StructuralBasis
+from model.derivative_system import derivative_system
 from model.derivatives import (
     FlutterDerivatives,
     PolimiDerivatives,
     RogerFit,
-    derivative_system,
     fit_roger,
     flat_plate,
 )

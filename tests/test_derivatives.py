@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
+from model import derivative_system as ds
 from model import derivatives as dv
 from model import stability, statespace
 from model.errors import BridgeflapInputError
@@ -62,7 +63,7 @@ def _match(a, b):
 def test_flat_plate_pk_equals_theodorsen_pk(name, added_inertia):
     basis, B, rho, speeds = SECTIONS[name]
     sys_t = statespace.build(basis, B / 2, rho, added_inertia=added_inertia)
-    sys_d = dv.derivative_system(basis, dv.flat_plate(B, added_inertia), rho)
+    sys_d = ds.derivative_system(basis, dv.flat_plate(B, added_inertia), rho)
     pk_t = stability.pk_sweep(sys_t, speeds, speed_tol=BRENT)
     pk_d = stability.pk_sweep(sys_d, speeds, speed_tol=BRENT)
     assert pk_t.flutter.status == pk_d.flutter.status == stability.CONVERGED
@@ -85,7 +86,7 @@ def test_flat_plate_rfa_state_space_equals_theodorsen_rfa(name, added_inertia):
     fit = dv.fit_roger(src, poles=2 * rfa.poles, optimise_poles=False, k_range=(1e-3, 20.0))
     # exactly representable: the least-squares residual is round-off
     assert fit.max_error < 1e-7
-    sys_d = dv.derivative_system(basis, src, rho, fit=fit)
+    sys_d = ds.derivative_system(basis, src, rho, fit=fit)
     assert sys_d.n_states == sys_t.n_states
     for U in speeds[1::max(1, len(speeds) // 6)]:
         lam_t = np.linalg.eigvals(sys_t.A(U))
@@ -105,11 +106,11 @@ def test_flat_plate_fitted_rfa_close_to_exact():
     than that (measured 4e-5), so 1e-3 is a bound that still fails on a wrong assembly.
     """
     basis, B, rho, speeds = SECTIONS["iabse-1.1a"]
-    fit = dv.flat_plate_fit(B, False, 4)
+    fit = ds.flat_plate_fit(B, False, 4)
     assert np.all(fit.poles > 0)
     assert set(fit.errors) == {"H1", "H2", "H3", "H4", "A1", "A2", "A3", "A4"}
     assert fit.max_error < 5e-3
-    sys_d = dv.derivative_system(basis, dv.flat_plate(B, False), rho, fit=fit)
+    sys_d = ds.derivative_system(basis, dv.flat_plate(B, False), rho, fit=fit)
     sw = stability.sweep(sys_d, speeds, speed_tol=1e-6)
     pk = stability.pk_sweep(sys_d, speeds, speed_tol=1e-6)
     assert sw.flutter.speed == pytest.approx(pk.flutter.speed, rel=1e-3)
@@ -212,14 +213,14 @@ def test_humber_flat_plate_derivatives_equal_theodorsen(coarse_humber):
     rfa = get_rfa("rfa4")
     src = dv.flat_plate(B, ai, c_function=_rfa_c(rfa))
     fit = dv.fit_roger(src, poles=2 * rfa.poles, optimise_poles=False, k_range=(1e-3, 20.0))
-    sys_d = dv.derivative_system(sys_t.basis, src, rho, fit=fit)
+    sys_d = ds.derivative_system(sys_t.basis, src, rho, fit=fit)
     for U in (20.0, 50.0, 65.0):
         lam_t = np.linalg.eigvals(sys_t.A(U))
         lam_d = np.linalg.eigvals(sys_d.A(U))
         assert _match(lam_t, lam_d).max() <= 1e-6 * np.abs(lam_t).max()
     speeds = np.arange(0.0, 85.0 + 1e-9, 2.5)
     pk_t = stability.pk_sweep(sys_t, speeds, speed_tol=BRENT)
-    sys_x = dv.derivative_system(sys_t.basis, dv.flat_plate(B, ai), rho, fit=fit)
+    sys_x = ds.derivative_system(sys_t.basis, dv.flat_plate(B, ai), rho, fit=fit)
     pk_d = stability.pk_sweep(sys_x, speeds, speed_tol=BRENT)
     assert pk_d.flutter.speed == pytest.approx(pk_t.flutter.speed, rel=REL)
 

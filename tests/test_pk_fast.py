@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from model import pk_kernel, stability
-from model.derivatives import derivative_system, flat_plate, tabulated
+from model.derivative_system import derivative_system
+from model.derivatives import flat_plate, tabulated
 from model.section import section_basis
 from model.section_cases import load_section_case, section_system
 from model.statespace import build
