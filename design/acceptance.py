@@ -99,7 +99,7 @@ def design_closed_loop(result, settings):
     keep it)."""
     cl = result.extras.get("closed_loop")
     if cl is None:
-        from design.driver import build_model
+        from design.problem_model import build_model
 
         _, model = build_model(settings, n_modes=settings.verification_modes,
                                positions=result.candidate.flap_strip_positions_m)

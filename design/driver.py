@@ -58,6 +58,7 @@ from design.flap_count import MISSES_TO_STOP, minimum_flap_count  # noqa: F401 -
 from design.layout_search import round_layout  # noqa: F401 - re-exported (tests, API)
 from design.nlp import EIG_SCALE, DesignProblem
 from design.plant import closed_loop_abscissa
+from design.problem_model import build_model  # noqa: F401 - re-exported (tests, API)
 from design.records import (
     BuffetingComparison,
     RobustMargin,
@@ -129,40 +130,6 @@ def screened_starts(settings: DesignSettings, count: int, model=None,
         scores.append(sc if np.isfinite(sc) else np.inf)
     order = np.argsort(np.asarray(scores), kind="stable")
     return cand[order[:count]]
-
-
-def build_model(settings: DesignSettings, count=None, modal=None, n_modes=None,
-                positions=None, spec=None):
-    """Bridge and closed-loop flap model of a design problem.
-
-    Parameters
-    ----------
-    settings : DesignSettings
-    count : int, optional
-        Evenly spaced flap count (default ``settings.flap_count``).
-    modal : model.modes.ModalModel, optional
-        Reused modal model.
-    n_modes : int, optional
-        Retained modes (default ``settings.n_modes``).
-    positions : array_like, optional
-        Flap centres from the main-span mid-point [m] (overrides ``count``).
-    spec : model.spec.BridgeSpec, optional
-        The bridge (default: the built-in ``settings.bridge``).
-
-    Returns
-    -------
-    spec : model.spec.BridgeSpec
-    model : model.flaps.ClosedLoopModel
-    """
-    from model.flaps import closed_loop_model
-    from model.spec import load_bridge
-
-    spec = load_bridge(settings.bridge if spec is None else spec)
-    pos = settings.positions(count) if positions is None else np.asarray(positions, float)
-    return spec, closed_loop_model(spec, pos, settings.flap_width_m,
-                                   settings.n_modes if n_modes is None else int(n_modes),
-                                   settings.flap_chord_m, settings.leading_edge,
-                                   settings.trailing_edge, modal=modal)
 
 
 def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,

@@ -107,7 +107,7 @@ def _count_row(count, ver) -> FlapCountCheck:
 
 def _check_count(settings, count, modal, spec, theta) -> FlapCountCheck:
     """Dense same-K check of ``count`` evenly spaced flaps on the verification model."""
-    from design.driver import build_model
+    from design.problem_model import build_model
 
     _, model = build_model(settings, count, modal, n_modes=settings.verification_modes,
                            spec=spec)

@@ -42,7 +42,7 @@ def extra_models(settings, model, spec, variants, positions=None) -> list:
     bridge variant (``variants``: specs; the layout ``positions``, default the card's), then,
     with ``design_for_pair_failure``, one :class:`FailedPairProblem` per flap pair of ``model``
     (the nominal bridge)."""
-    from design.driver import build_model
+    from design.problem_model import build_model
 
     out = [DesignProblem(settings, build_model(settings, positions=positions, spec=v)[1], spec=v)
            for v in variants]
