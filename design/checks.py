@@ -193,10 +193,10 @@ def active_constraints(settings: DesignSettings, start, ver) -> dict:
 
 def sample_variants(settings: DesignSettings, spec, count: int, seed: int) -> list:
     """``count`` bridge variants of ``spec``: a scrambled Sobol' sample of the estimated-input
-    ranges of the global sensitivity study (:data:`design.screening.DEFAULT_UNCERTAIN_RANGES`)
+    ranges of the global sensitivity study (:data:`design.uncertainty.DEFAULT_UNCERTAIN_RANGES`)
     without the ``variant_fixed`` parameters (held at ``spec``'s values)."""
     from design.designs import sobol
-    from design.screening import DEFAULT_UNCERTAIN_RANGES
+    from design.uncertainty import DEFAULT_UNCERTAIN_RANGES
 
     if count <= 0:
         return []

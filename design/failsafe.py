@@ -84,7 +84,7 @@ def _lower_bound(s: dict, grid_max: float):
 
 def _stability(summary: dict, static, grid_max: float, design_speed: float) -> dict:
     """Critical speed, mechanism and resolution of one case (module docstring)."""
-    from design.harm import _crit
+    from design.harm_verdict import _crit
 
     s = dict(summary)
     used_static = False

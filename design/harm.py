@@ -1,7 +1,7 @@
 """Do no harm: a controller judged on bridges it was not designed on (issue 28 item 1).
 
 For each of ``count`` fresh variants sampled (Sobol', :func:`design.designs.sobol`) over the
-uncertainty set of the estimated inputs (:data:`design.screening.DEFAULT_UNCERTAIN_RANGES`
+uncertainty set of the estimated inputs (:data:`design.uncertainty.DEFAULT_UNCERTAIN_RANGES`
 less the inputs held fixed), the variant's **open-loop** critical speed (flutter or divergence,
 whichever comes first) is set against its **closed-loop** one with the controller's flaps, both
 from the same sweep on the same grid and mode count (:func:`model.analysis.closed_loop_flutter`).
@@ -28,11 +28,17 @@ tolerance (docs/methods.md#fast-do-no-harm-check; tests/test_harm_fast.py).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from design.harm_verdict import (  # the verdict of one row, also served from here
+    HARM_TOL_REL,
+    SCREEN_MARGIN_REL,
+    _crit,
+    _row,
+    near_decision,
+)
 from model.errors import BridgeflapInputError
 from model.results import ResultData
 
@@ -43,23 +49,11 @@ __all__ = ["DEFAULT_SCREEN_MODES", "HARM_METHODS", "HARM_TOL_REL", "SCREEN_MARGI
 #: ``"reference"`` (the module docstring)
 HARM_METHODS = ("fast", "reference")
 
-#: closed-loop critical speed below ``(1 - HARM_TOL_REL)`` x the open-loop one is harm: the
-#: crossings are refined to 1e-3 m/s (Brent), 1e-4 relative at 10 m/s and more
-HARM_TOL_REL = 1e-4
-#: a screened row within this relative distance of a decision (the design speed; the open-loop
-#: speed: twice it) is recomputed on all modes. 16 modes against 30: the largest change of a
-#: critical speed is 0.70 % over the 66 cases of model.analysis.DEFAULT_MODES (the open loop at
-#: the 64 corners of the input ranges) and 0.095 % over 16 sampled variants of the default
-#: design (closed loop: its static divergence, +0.08..0.095 %); 1.5 % is twice the first. The
-#: margin is checked a posteriori on every recomputed row (SCREEN_CHECK_FRACTION)
-SCREEN_MARGIN_REL = 0.015
 #: the largest 16-vs-30 change seen on the recomputed rows must stay below this fraction of
 #: the margin, else every screened row is recomputed (the screening is not trusted)
 SCREEN_CHECK_FRACTION = 1 / 3
 #: modes of the fast method's screening (model.analysis.DEFAULT_MODES' 16-mode count)
 DEFAULT_SCREEN_MODES = 16
-#: statuses that are a result: a crossing found and verified, or none on the grid
-_RESOLVED = ("converged", "no_crossing_in_range")
 #: inputs held at their nominal value: the half-chord is a reading of the geometry, not an
 #: uncertainty of one bridge (the flap chord and positions are fixed to it), and the coherence
 #: decay enters buffeting only
@@ -69,52 +63,6 @@ DEFAULT_FIXED = ("deck.half_chord_m", "aero.coherence_decay")
 def _check_method(method) -> None:
     if method not in HARM_METHODS:
         raise BridgeflapInputError("method", f"must be one of {HARM_METHODS}, got {method!r}")
-
-
-def _crit(summary: dict) -> tuple[float, str, bool]:
-    """(critical speed [m/s] or inf beyond the grid, mechanism, resolved) of a summary.
-
-    Resolved: every crossing is converged or absent, or the converged critical speed lies
-    below the grid bracket of each crossing that is not (the lower crossing governs, whatever
-    the unverified one above it is: the closed-loop divergence of the default design is
-    ``unverified_crossing`` with a bracket above its flutter speed).
-    """
-    u = summary.get("critical_speed_m_s")
-    u = math.inf if u is None or not np.isfinite(u) else float(u)
-    lows = []
-    for kind in ("flutter", "divergence"):
-        if summary.get(f"{kind}_status") in _RESOLVED:
-            continue
-        bracket = summary.get(f"{kind}_bracket_m_s")
-        lows.append(float(bracket[0]) if bracket else -math.inf)  # no bracket: unknown
-    resolved = all(u <= lo for lo in lows) and not (lows and math.isinf(u))
-    mech = "none" if math.isinf(u) else str(summary.get("critical_mechanism", ""))
-    return u, mech, resolved
-
-
-def _row(crits: dict, speed_max_m_s: float, modes: dict) -> dict:
-    """The row of ``{"open_loop"|"closed_loop": (speed, mechanism, resolved)}`` (:func:`_crit`)
-    and the mode count of each loop's numbers."""
-    cl, cl_mech, cl_ok = crits["closed_loop"]
-    ol, ol_mech, ol_ok = crits["open_loop"]
-    resolved = cl_ok and ol_ok
-    if math.isinf(ol) and math.isinf(cl):
-        ratio = None  # both beyond the grid: nothing to compare
-    elif math.isinf(cl):
-        ratio = None  # closed loop beyond the grid: at least speeds[-1] / ol
-    else:
-        ratio = cl / ol if not math.isinf(ol) else 0.0  # open loop beyond the grid: harm
-    harmed = resolved and cl < ol * (1.0 - HARM_TOL_REL)
-    return {
-        "open_loop_critical_speed_m_s": None if math.isinf(ol) else ol,
-        "open_loop_beyond_grid": math.isinf(ol), "open_loop_mechanism": ol_mech,
-        "closed_loop_critical_speed_m_s": None if math.isinf(cl) else cl,
-        "closed_loop_beyond_grid": math.isinf(cl), "closed_loop_mechanism": cl_mech,
-        "closed_over_open": ratio,
-        "stable_to_design_speed": bool(resolved and cl > speed_max_m_s),
-        "harmed": bool(harmed), "resolved": bool(resolved),
-        "open_loop_modes": int(modes["open_loop"]), "closed_loop_modes": int(modes["closed_loop"]),
-    }
 
 
 def harm_row(spec, controller, speeds, n_modes: int, speed_max_m_s: float,
@@ -140,21 +88,6 @@ def harm_row(spec, controller, speeds, n_modes: int, speed_max_m_s: float,
     crits = {"closed_loop": _crit(res.base.summary()),
              "open_loop": _crit(res.open_loop.summary())}
     return _row(crits, speed_max_m_s, {"open_loop": n_modes, "closed_loop": n_modes})
-
-
-def near_decision(row: dict, speed_max_m_s: float, margin: float | None = None) -> tuple:
-    """The loops of a screened row whose numbers could change its verdict on more modes.
-
-    Both loops when the row is not resolved, has a critical speed beyond the grid, or its
-    closed/open ratio lies within ``2 margin`` of 1 (both speeds may move); the closed loop
-    when its critical speed lies within ``margin`` (default :data:`SCREEN_MARGIN_REL`) of the
-    design speed; else none.
-    """
-    m = SCREEN_MARGIN_REL if margin is None else float(margin)
-    cl, ol = row["closed_loop_critical_speed_m_s"], row["open_loop_critical_speed_m_s"]
-    if not row["resolved"] or cl is None or ol is None or abs(cl / ol - 1.0) <= 2 * m:
-        return ("open_loop", "closed_loop")
-    return ("closed_loop",) if abs(cl / speed_max_m_s - 1.0) <= m else ()
 
 
 @dataclass(frozen=True)
@@ -277,7 +210,7 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
         seen on those rows must stay below :data:`SCREEN_CHECK_FRACTION` of the margin, else
         every row is recomputed on ``n_modes`` (``screen_check``).
     """
-    from design.screening import DEFAULT_UNCERTAIN_RANGES
+    from design.uncertainty import DEFAULT_UNCERTAIN_RANGES
     from model.spec import BridgeSpec, load_bridge
 
     if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 4096:

@@ -122,7 +122,7 @@ def fast_row(spec, controller, speeds, n_modes, speed_max_m_s, screen_modes=None
     names (``do_no_harm``'s extremes); ``screened``: the row of an earlier call, whose
     screening is then reused (its loops already on ``n_modes`` stay).
     """
-    from design.harm import SCREEN_MARGIN_REL, _crit, _row, near_decision
+    from design.harm_verdict import SCREEN_MARGIN_REL, _crit, _row, near_decision
     from model.fe import assemble
     from model.flaps import closed_loop_model
     from model.modes import solve
