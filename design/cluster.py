@@ -178,7 +178,7 @@ def run_dask(client, fn, pending, workers, scheduler, timeout_s, retries, finish
     """
     from dask.distributed import wait
 
-    from design.doe import (
+    from design.batch_case import (
         STATUS_FAILED,
         _execute_case,
         _record,
@@ -246,7 +246,7 @@ def _future_error(future) -> str:
     try:
         exc = future.exception(timeout=5)
     except Exception as err:  # noqa: BLE001 - any failure to fetch the reason is itself a reason
-        from design.doe import _error_text
+        from design.batch_case import _error_text
 
         return _error_text(err)
     if exc is None:
@@ -254,7 +254,7 @@ def _future_error(future) -> str:
     name = type(exc).__name__
     if name == "KilledWorker":
         return "worker process died while running the case (KilledWorker)"
-    from design.doe import _error_text
+    from design.batch_case import _error_text
 
     return _error_text(exc)
 
