@@ -27,6 +27,7 @@ from design.options import (
     check_number,
     check_option_names,
     grid,
+    parse_range,
 )
 from design.sensitivity import DEFAULT_PARAMETERS
 from model.analysis import DEFAULT_MODES
@@ -448,8 +449,6 @@ def _run_design(spec, opts, context) -> Outcome:
             progress=lambda msg: context.say(f"  design: {msg}"))
     figs = {}
     if context.figures and res.controller is not None:
-        from design.report import fig5
-
         context.say("  design: closed-loop root locus and buffeting (Fig. 5)")
         # on the bridge the controller was designed for (the study's [design] may name a
         # variant), on the study's mesh
@@ -494,3 +493,22 @@ ANALYSES: Mapping[str, Analysis] = _table(
                          ("parameters", "speeds", "modes", "check")),
     design=Analysis("design", _run_design, _table(), None),
 )
+
+
+def fig5(spec, controller, n_modes: int = DEFAULT_MODES, quick: bool = False,
+         open_loop_flutter_m_s: float | None = None):
+    """Seed Fig. 5: closed-loop root locus 0-85 m/s over the open loop (left), vertical and
+    torsional buffeting with and without the flaps (the open loop is NaN beyond its flutter
+    speed, never clipped). ``open_loop_flutter_m_s`` is the marked open-loop flutter speed
+    (the design result's own; default: this figure's open-loop sweep)."""
+    from design.figures import fig5 as draw
+    from model.analysis import closed_loop_flutter
+    from model.buffeting import buffeting
+
+    speeds = parse_range("0:85:1" if quick else DEFAULT_SPEEDS, "speeds", 0.0)
+    cl = closed_loop_flutter(spec, controller, speeds, n_modes)
+    bspeeds = np.arange(4.0, 84.0 + 1e-9, 8.0 if quick else 4.0)
+    ol = buffeting(spec, bspeeds, n_modes=n_modes, allow_unstable=True)
+    clb = buffeting(spec, bspeeds, n_modes=n_modes, controller=controller, allow_unstable=True)
+    return draw(cl.base.sweep, cl.open_loop.sweep, ol, clb, controller, open_loop_flutter_m_s,
+                model_text=f"seed Fig. 5 analogue: {spec.name}, {n_modes} modes")

@@ -15,9 +15,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from design.analyses import DEFAULT_MODES, DEFAULT_SPEEDS
+from design.analyses import fig5  # the figure is drawn by the design analysis; also here
 from design.document import Document
-from design.options import parse_range
 
 if TYPE_CHECKING:
     from design.study import StudyResult
@@ -26,25 +25,6 @@ __all__ = ["PAPER", "fig5", "study_document", "study_report", "study_report_html
 
 #: the seed paper's complete-bridge speeds [m/s]
 PAPER = {"flutter_speed_m_s": 65.0, "divergence_speed_m_s": 74.0}
-
-
-def fig5(spec, controller, n_modes: int = DEFAULT_MODES, quick: bool = False,
-         open_loop_flutter_m_s: float | None = None):
-    """Seed Fig. 5: closed-loop root locus 0-85 m/s over the open loop (left), vertical and
-    torsional buffeting with and without the flaps (the open loop is NaN beyond its flutter
-    speed, never clipped). ``open_loop_flutter_m_s`` is the marked open-loop flutter speed
-    (the design result's own; default: this figure's open-loop sweep)."""
-    from design.figures import fig5 as draw
-    from model.analysis import closed_loop_flutter
-    from model.buffeting import buffeting
-
-    speeds = parse_range("0:85:1" if quick else DEFAULT_SPEEDS, "speeds", 0.0)
-    cl = closed_loop_flutter(spec, controller, speeds, n_modes)
-    bspeeds = np.arange(4.0, 84.0 + 1e-9, 8.0 if quick else 4.0)
-    ol = buffeting(spec, bspeeds, n_modes=n_modes, allow_unstable=True)
-    clb = buffeting(spec, bspeeds, n_modes=n_modes, controller=controller, allow_unstable=True)
-    return draw(cl.base.sweep, cl.open_loop.sweep, ol, clb, controller, open_loop_flutter_m_s,
-                model_text=f"seed Fig. 5 analogue: {spec.name}, {n_modes} modes")
 
 
 def _fmt(x, spec=".2f") -> str:
