@@ -27,14 +27,12 @@ KNOWN_CYCLES: dict[frozenset[str], str] = {
          "<-> controller_file); to be cut when model/ is split into structure/aero/aeroelastic/"
          "stability/response (issue 31 item 1)"),
     frozenset({
-        "design.acceptance", "design.analyses", "design.cases", "design.checks", "design.cluster",
-        "design.critical_speed", "design.doe", "design.driver", "design.failsafe",
-        "design.flap_count", "design.harm", "design.harm_fast", "design.layout_search",
-        "design.pair_failure", "design.report", "design.screening", "design.study",
-    }): ("the design driver and its checks, and the study and batch layers, still import each "
-         "other lazily (driver <-> checks <-> critical_speed, harm <-> harm_fast, study <-> "
-         "report <-> analyses, doe <-> cluster); to be cut with design/control, design/studies "
-         "and design/batch (issue 31 item 1)"),
+        "design.checks", "design.critical_speed", "design.driver", "design.layout_search",
+    }): ("the multistart driver and the steps it dispatches still call it back: the layout "
+         "search re-solves a layout through the driver's record (driver.layout_record), the "
+         "critical-speed search designs through driver.design, and the fresh-variant checks "
+         "verify through the driver; to be cut when design/control has one entry point above "
+         "these steps (issue 31 item 1)"),
 }
 
 
@@ -48,13 +46,32 @@ def _modules() -> dict[str, Path]:
     return out
 
 
+def _is_type_checking(test: ast.expr) -> bool:
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def _runtime_nodes(tree: ast.AST):
+    """Every node of ``tree`` except the bodies of ``if TYPE_CHECKING:`` blocks: an import
+    there is read by type checkers only and never runs, so it ties no module to another (its
+    ``else`` branch does run and is walked)."""
+    todo = [tree]
+    while todo:
+        node = todo.pop()
+        yield node
+        if isinstance(node, ast.If) and _is_type_checking(node.test):
+            todo.extend(node.orelse)
+            continue
+        todo.extend(ast.iter_child_nodes(node))
+
+
 def import_graph() -> dict[str, set[str]]:
     """module -> the package modules it imports (top level or lazy). A package's own
     ``__init__`` (the lazy public face) is not a node: importing ``model`` names nothing."""
     mods = _modules()
     graph: dict[str, set[str]] = {m: set() for m in mods if m not in PACKAGES}
     for name in graph:
-        for node in ast.walk(ast.parse(mods[name].read_text(encoding="utf-8"))):
+        for node in _runtime_nodes(ast.parse(mods[name].read_text(encoding="utf-8"))):
             if isinstance(node, ast.Import):
                 targets = [a.name for a in node.names]
             elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
@@ -116,6 +133,16 @@ def test_the_walker_sees_lazy_imports():
     graph = import_graph()
     # design.cli imports its commands inside functions only; the walker must see those edges
     assert any(t.startswith("design.cmd_") for t in graph["design.cli"]), graph["design.cli"]
+
+
+def test_the_walker_skips_type_checking_imports():
+    # design.report names design.study's result type under TYPE_CHECKING only: no edge (the
+    # study imports the report at run time); an import in the else branch does count
+    tree = ast.parse("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import a\n"
+                     "else:\n    import b\nimport c\n")
+    names = {a.name for n in _runtime_nodes(tree) if isinstance(n, ast.Import) for a in n.names}
+    assert names == {"b", "c"}
+    assert "design.study" not in import_graph()["design.report"]
 
 
 def test_no_import_cycle():
