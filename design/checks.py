@@ -22,9 +22,11 @@ NAN = float("nan")
 
 
 def _driver():
-    import design.driver as driver
+    """The design problem's model and checks (:mod:`design.problem_model`; imported on use:
+    it loads the NLP)."""
+    import design.problem_model as problem_model
 
-    return driver
+    return problem_model
 
 
 def flap_count_pareto(settings: DesignSettings, theta0, counts=None, spec=None,

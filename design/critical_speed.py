@@ -257,7 +257,7 @@ def inner_design(settings: DesignSettings, speed_m_s: float, theta0, spec=None,
                  progress_bar=None, variants=(), warm_from=None) -> Evaluation:
     """The inner design at ``speed_m_s`` [m/s] from ``theta0`` (plus ``starts - 1`` screened
     Sobol starts, serially), its outcome and checks (:class:`Evaluation`)."""
-    from design.driver import run_start, screened_starts, select_start
+    from design.start import run_start, screened_starts, select_start
 
     t0 = time.perf_counter()
     s = settings_at(settings, speed_m_s)
@@ -292,12 +292,14 @@ def inner_design(settings: DesignSettings, speed_m_s: float, theta0, spec=None,
 
 
 def critical_speed_design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
-                          progress_bar=None):
+                          progress_bar=None, *, design):
     """The critical-speed design (module docstring): search, then the chosen design's checks
-    by :func:`design.driver.design` (``records``). Returns a
+    by ``design`` (:func:`design.driver.design`, which calls this and passes itself: the
+    search does not import the driver back; ``records``). Returns a
     :class:`design.result.DesignResult` whose ``status`` is the search's (``controller``
     only when ``converged``) and ``extras["critical_speed"]`` the search record."""
-    from design.driver import NOMINAL_START, design, sample_variants, warm_start_theta
+    from design.checks import sample_variants
+    from design.problem_model import NOMINAL_START, warm_start_theta
     from model.spec import load_bridge
 
     t0 = time.perf_counter()

@@ -2,14 +2,14 @@
 
 With ``optimise_placement`` the relaxed weights ``w = S z`` (one ``z`` per mirror pair with
 ``symmetric_layout``) choose the layout by rounding (:func:`round_layout`), then K(s) is
-re-optimised on the rounded layout (:func:`design.driver.solve_fixed_layout`). Rounding at
+re-optimised on the rounded layout (:func:`design.start.solve_fixed_layout`). Rounding at
 0.5 is a heuristic; issue 32 item 5 asks how far it is from the neighbouring integer layouts.
 :func:`compare_layouts` answers that at re-optimised K: every layout one group flip away
 (a mirror pair, or the centre flap, added or removed; :func:`neighbour_layouts`) and the
 contiguous centred blocks of about the same size are re-optimised and verified by
-:func:`design.driver.layout_record` -- the very machinery :func:`design.driver.run_start`
+:func:`design.start.layout_record` -- the very machinery :func:`design.start.run_start`
 applies to the rounded layout -- and ranked by the design's selection criterion
-(:func:`design.driver.select_start`: the dense robust margin among verified layouts).
+(:func:`design.start.select_start`: the dense robust margin among verified layouts).
 
 Every row carries its status; a layout whose solve fails is a row (``failed: ...``), never
 dropped. ``bridgeflap optimise`` runs it on the chosen design with ``layout_neighbours =
@@ -23,37 +23,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from design.start import round_layout  # noqa: F401 - also served from here
 from model.results import strict_json
 
 NAN = float("nan")
 #: Positions equal within this [m] are the same candidate (candidates are ~56 m apart).
 POSITION_TOL_M = 1e-6
-
-
-def round_layout(S, z, budget=0) -> np.ndarray:
-    """0/1 flap weights from relaxed placement variables ``z`` (``w = S z``).
-
-    The groups (mirror pairs with ``symmetric_layout``) are taken largest ``z`` first: with a
-    ``budget`` > 0 while the flap count stays within it, otherwise every group with
-    ``z > 0.5``; at least the largest group is kept, so a layout never loses every flap.
-    The rounded layout stays symmetric because whole groups are kept.
-    """
-    S = np.asarray(S, float)
-    z = np.asarray(z, float)
-    sizes = S.sum(axis=0)
-    keep = np.zeros(z.size, bool)
-    count = 0.0
-    for j in np.argsort(-z, kind="stable"):
-        if budget > 0:
-            if count + sizes[j] > budget:
-                continue
-        elif z[j] <= 0.5:
-            break
-        keep[j] = True
-        count += sizes[j]
-    if not keep.any():
-        keep[int(np.argmax(z))] = True
-    return (S @ keep.astype(float) > 0.5).astype(float)
 
 
 def layout_groups(candidates, symmetric=True) -> np.ndarray:
@@ -155,7 +130,7 @@ class LayoutRow:
     """One layout of :func:`compare_layouts` with its re-optimised K(s).
 
     ``record`` is the :class:`design.records.StartRecord` of
-    :func:`design.driver.layout_record` (or the design's own for the rounded layout);
+    :func:`design.start.layout_record` (or the design's own for the rounded layout);
     ``weight_relaxed`` [-] the relaxed weight ``z`` of the flipped group (NaN: not known or
     not a flip); ``gap_pct`` [%] the robust margin's difference to the rounded layout's,
     relative to it.
@@ -225,7 +200,7 @@ class LayoutComparison:
                 "best_neighbour_gap_pct": self.best_neighbour_gap_pct,
                 "adopted": self.adopted,
                 "criterion": "largest dense robust margin among verified layouts (as "
-                             "design.driver.select_start); K(s) re-optimised per layout with "
+                             "design.start.select_start); K(s) re-optimised per layout with "
                              "cutting planes and verified like the rounded layout's",
                 "start": self.start, "n_layouts": len(self.rows), "time_s": self.time_s,
                 "rows": [r.to_dict() for r in self.rows]}
@@ -286,7 +261,7 @@ def compare_layouts(settings, positions, theta0, spec=None, variants=(), weights
     """
     import time
 
-    from design.driver import layout_record
+    from design import start
 
     t0 = time.perf_counter()
     log = log or (lambda msg: None)
@@ -306,10 +281,10 @@ def compare_layouts(settings, positions, theta0, spec=None, variants=(), weights
         return r
 
     if pool is not None:
-        futs = [pool.submit(layout_record, *a) for a in args]
+        futs = [pool.submit(start.layout_record, *a) for a in args]
         got = [done(k, f.result()) for k, f in zip(todo, futs, strict=True)]
     else:
-        got = [done(k, layout_record(*a)) for k, a in zip(todo, args, strict=True)]
+        got = [done(k, start.layout_record(*a)) for k, a in zip(todo, args, strict=True)]
     recs = dict(zip(todo, got, strict=True))
     if rounded_record is not None:
         recs[0] = rounded_record
@@ -344,7 +319,7 @@ def compare_layouts(settings, positions, theta0, spec=None, variants=(), weights
 
 def relaxed_theta(record) -> np.ndarray | None:
     """The K(s) the rounded layout's re-optimisation started from in
-    :func:`design.driver.run_start`: the chosen round of the relaxed (placement) solve,
+    :func:`design.start.run_start`: the chosen round of the relaxed (placement) solve,
     or None without placement rounds."""
     relaxed = [r for r in record.rounds if r.placement != "rounded"]
     if not relaxed or len(relaxed) == len(record.rounds):

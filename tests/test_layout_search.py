@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import design.driver as driver
+import design.start as start
 from design.layout_search import (
     compare_layouts,
     design_step,
@@ -138,7 +139,7 @@ def test_gap_and_ranking(monkeypatch):
         n, is_block = len(positions), max(abs(p) for p in positions) < 60.0
         return _record(positions, inner if is_block else margins[n], not is_block, index)
 
-    monkeypatch.setattr(driver, "layout_record", fake)
+    monkeypatch.setattr(start, "layout_record", fake)
     comp = compare_layouts(s, s.positions(), np.zeros(5))
     assert [r.kind for r in comp.rows] == ["rounded", "remove", "remove", "remove+block"]
     r5, r4, r3, blk = comp.rows
@@ -168,7 +169,7 @@ def test_failed_solve_is_a_row(monkeypatch):
     def boom(*args, **kw):
         raise RuntimeError("solver exploded")
 
-    monkeypatch.setattr(driver, "solve_fixed_layout", boom)
+    monkeypatch.setattr(start, "solve_fixed_layout", boom)
     rounded = _record(s.positions(), 0.4)
     comp = compare_layouts(s, s.positions(), np.zeros(5), rounded_record=rounded)
     assert len(comp.rows) == len(neighbour_layouts(s.positions(), s.positions()))
@@ -193,7 +194,7 @@ def test_design_step_adopts_only_when_asked(monkeypatch):
     def fake(settings, positions, theta0, index=0, spec=None, variants=()):
         return _record(positions, 0.5 if len(positions) == 3 else 0.3, True, index)
 
-    monkeypatch.setattr(driver, "layout_record", fake)
+    monkeypatch.setattr(start, "layout_record", fake)
     got, status, table = design_step(s, best, "unverified")
     assert got is best and status == "unverified" and table["adopted"] is False
     assert table["best_layout_is_rounded"] is False
