@@ -4,7 +4,7 @@ Everything else about the build is in ``pyproject.toml``. ``build_py`` writes
 ``model/_build_info.json`` (``version``, ``commit``, ``dirty``, ``built_utc``) into the build
 tree, so every wheel says which source it came from; ``sdist`` writes the same file into the
 source archive, so a wheel built from the sdist (no ``.git``) still knows the commit.
-:func:`design.manifest.build_info` reads it and every run manifest records it.
+:func:`design.io.manifest.build_info` reads it and every run manifest records it.
 """
 
 from __future__ import annotations

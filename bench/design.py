@@ -2,7 +2,7 @@
 
 Default: the full default ``optimise`` (the packaged design definition, every start, cuts,
 verification, closed-loop limits, flap-count check, buffeting comparison) through
-:func:`design.driver.design`: wall time, Ipopt iterations per start and round, and the share
+:func:`design.control.driver.design`: wall time, Ipopt iterations per start and round, and the share
 of the wall time per phase (``DesignResult.extras["phase_times_s"]``; inside the starts, the
 Ipopt share of each start; ``(worker)`` phases ran in worker processes alongside the others, so
 the shares add up to more than 1), the CPU time of the process and its workers, the design's result
@@ -35,9 +35,9 @@ def run(modes=(8, 12, 16), steps=(10.0, 5.0)) -> list[dict]:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     import casadi as ca
 
-    from design.driver import build_model
-    from design.nlp import DesignProblem
-    from design.settings import load_settings
+    from design.control.driver import build_model
+    from design.control.nlp import DesignProblem
+    from design.control.settings import load_settings
 
     rows = []
     th = np.array([0.0, 0.5, -1.0, 0.05, 0.5])
@@ -116,9 +116,9 @@ def _cpu_s() -> float:
 def run_full(definition=None, quick=False) -> dict:
     """One full default design: wall time, Ipopt iterations, share of time per phase."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    from design.cmd_optimise import DEFAULT_DEFINITION
-    from design.driver import design
-    from design.settings import load_settings, quick_settings
+    from design.cli.optimise import DEFAULT_DEFINITION
+    from design.control.driver import design
+    from design.control.settings import load_settings, quick_settings
 
     s = load_settings(definition or DEFAULT_DEFINITION)
     if quick:

@@ -3,11 +3,11 @@
 Run ``python -m bench.modes`` (table) or ``python -m bench.modes --json`` (one JSON object).
 
 For each element length the bridge (complete, default Humber) is assembled
-(:func:`model.cable.dead_load` + :func:`model.fe.assemble`) and the lowest ``k`` modes of each
-family are computed three ways:
+(:func:`model.structure.cable.dead_load` + :func:`model.structure.fe.assemble`) and the lowest ``k``
+modes of each family are computed three ways:
 
 * ``dense``: :func:`scipy.linalg.eigh` on the full generalised problem (what
-  :func:`model.modes.solve` does; the reference);
+  :func:`model.structure.modes.solve` does; the reference);
 * ``sparse``: :func:`scipy.sparse.linalg.eigsh` in shift-invert mode (``sigma = 0``) on the
   assembled matrices stored as CSC. The vertical and torsional stiffnesses carry Irvine's global
   rank-one cable-stretching term ``c g g^T``, so they are essentially *full*: the ``fill``
@@ -44,9 +44,9 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from design.io import to_jsonable
-from model import cable, fe
-from model.spec import BridgeSpec, load_bridge
+from design.io.files import to_jsonable
+from model.structure import cable, fe
+from model.structure.spec import BridgeSpec, load_bridge
 
 FAMILIES = ("vertical", "torsional", "lateral")
 

@@ -3,16 +3,17 @@
 Run ``python -m bench.pk`` (a table) or ``python -m bench.pk --json`` (one JSON object), with
 ``OPENBLAS_NUM_THREADS=1`` on a shared machine. Per case, best of ``--repeat`` (default 5):
 
-* ``fast p-k``: :func:`model.stability.pk_sweep` as the CLI calls it (the lean kernel of
-  :mod:`model.pk_kernel`, branches marched speed by speed and stopped at the first crossing);
+* ``fast p-k``: :func:`model.stability.sweeps.pk_sweep` as the CLI calls it (the lean kernel of
+  :mod:`model.stability.pk_kernel`, branches marched speed by speed and stopped at the first
+  crossing);
 * ``reference p-k``: the same with ``full_grid=True`` (the whole grid, fixed-point k iteration
   on the frozen system's own matrices), best of ``--reference-repeat`` (default 1: it is slow);
-* ``rfa eigen``: :func:`model.stability.sweep` on the RFA state space of the same case;
+* ``rfa eigen``: :func:`model.stability.sweeps.sweep` on the RFA state space of the same case;
 * ``wawi``: wawi's ``itflutter_cont_naive`` (optional, below), best of ``--repeat`` in its
   own process.
 
 Cases (``--cases``): the IABSE TG3.1 sections ``iabse-1.1a`` (flat plate) and ``iabse-1.1c``
-(PoliMi tables) on their CLI grid (:func:`model.section_cases.default_speeds`, 0 to twice the
+(PoliMi tables) on their CLI grid (:func:`model.cases.section_cases.default_speeds`, 0 to twice the
 reference speed in 401 points), the 12-mode step-2a bridges ``iabse-2a`` (flat plate) and
 ``iabse-2a:bb3`` (BB3 tables) on 0:100:0.5 [m/s], and on request ``humber`` (no wawi input,
 slow: its reference p-k takes about a minute) with the ``flutter --pk`` defaults
@@ -34,7 +35,7 @@ damping, B = 31 m, rho = 1.22): wawi's ``itflutter_cont_naive`` (the call of its
 ``tests/test_IABSE_step11a.py``: V = 0.1, dV = 5, tol 1e-3 m/s) with its own ``flatplate_ads``
 for 1.1a, and for 1.1c derivative functions built in the wawi process from the shipped PoliMi
 CSV (linear ``interp1d`` in ``v = U/(B omega)``, end values held, the conversion of
-:func:`model.derivatives.polimi_to_scanlan`): no pickle is loaded. Step 2a (``iabse-2a``,
+:func:`model.aero.derivatives.polimi_to_scanlan`): no pickle is loaded. Step 2a (``iabse-2a``,
 flat plate; ``iabse-2a:bb3``, the BB3 tables of ``step2a_bb3_derivatives.json`` with the
 conversion that file states and the sign flips of wawi's ``tests/test_IABSE_step2a.py``): the
 12 modes of ``step2a_modes.json`` at their 71 nodes (wawi integrates by the trapezoid rule over
@@ -203,18 +204,18 @@ def _best(fn, repeat: int):
 
 def _case_system(name: str):
     """``(system, speeds [m/s], wawi input or None, reference speed [m/s])`` of a case."""
+    from model.aeroelastic.derivative_system import derivative_system
     from model.analysis import bridge_system
-    from model.derivative_system import derivative_system
-    from model.section_cases import case_fit, default_speeds, load_section_case
-    from model.spec import load_bridge
+    from model.cases.section_cases import case_fit, default_speeds, load_section_case
+    from model.structure.spec import load_bridge
 
     if name in MODAL_CASES:
         spec = load_bridge(name)
         _, system = bridge_system(spec, 30)
         return system, np.arange(0.0, 100.01, 0.5), _modal_case_input(spec), MODAL_CASES[name]
     if name == "humber":
-        from design.analyses import DEFAULT_SPEEDS
-        from design.options import parse_range
+        from design.io.options import parse_range
+        from design.studies.analyses import DEFAULT_SPEEDS
         from model.analysis import DEFAULT_MODES
 
         _, system = bridge_system(load_bridge("humber"), DEFAULT_MODES)
@@ -244,7 +245,7 @@ def _wawi(python: str, wawi_input: dict, repeat: int):
 def run_case(name: str, repeat: int, reference_repeat: int, wawi_python: str | None,
              speed_tol: float = 1e-3) -> dict:
     """Rows and ratios of one case (module docstring)."""
-    from model import stability
+    from model.stability import sweeps as stability
 
     system, speeds, wawi_input, ref = _case_system(name)
     fast, t_fast = _best(lambda: stability.pk_sweep(system, speeds, speed_tol), repeat)

@@ -1,6 +1,6 @@
 """Benchmark of ``bridgeflap study`` (issue 16 goal 4): wall time, and where it goes.
 
-Runs the CLI (``python -m design.cli study [--quick] --workers N``) in a fresh process for each
+Runs the CLI (``python -m design.cli.main study [--quick] --workers N``) in a fresh process for each
 setting, best of ``--repeat``, and prints one table: the study's wall time, each analysis' own
 time (``results/<analysis>.json`` ``elapsed_s``: with several workers they overlap, so they
 sum to more than the wall time), the 1 -> N worker ratio, the CPU count, BLAS threads and the
@@ -32,7 +32,7 @@ def _load() -> str:
 def run_once(quick: bool, workers: int, folder: Path) -> dict:
     """One ``bridgeflap study`` run: wall time [s], per-analysis times [s], statuses, load."""
     out = folder / f"{'quick' if quick else 'default'}-{workers}-{time.monotonic_ns()}"
-    argv = [sys.executable, "-m", "design.cli", "study", "--out", str(out), "--workers",
+    argv = [sys.executable, "-m", "design.cli.main", "study", "--out", str(out), "--workers",
             str(workers), "--json", *(["--quick"] if quick else [])]
     env = {**os.environ, "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1"),
            "MPLBACKEND": "Agg"}

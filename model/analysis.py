@@ -1,13 +1,13 @@
 """High-level analyses on a bridge definition: modes, flutter, erection, frequency ratio.
 
-Plain functions of a ``bridge`` (a name, a file or a :class:`~model.spec.BridgeSpec`) and grids
-of wind speeds [m/s] and erected fractions [-] (``"0:85:0.5"`` text or numbers,
-:func:`model.grid.speed_grid`); the default grids belong to :mod:`design.analyses`; the argument
-names are those of docs/api_vocabulary.md. Each returns a frozen result
+Plain functions of a ``bridge`` (a name, a file or a :class:`~model.structure.spec.BridgeSpec`) and
+grids of wind speeds [m/s] and erected fractions [-] (``"0:85:0.5"`` text or numbers,
+:func:`model.grid.speed_grid`); the default grids belong to :mod:`design.studies.analyses`; the
+argument names are those of docs/api_vocabulary.md. Each returns a frozen result
 object with ``summary()`` (JSON-ready numbers with units in the key names and statuses) and
 ``plot()``. Conventions: see :mod:`model`.
 
->>> from model.spec import load_bridge                    # doctest: +SKIP
+>>> from model.structure.spec import load_bridge                    # doctest: +SKIP
 >>> res = flutter(load_bridge("humber"), np.arange(0.0, 85.5, 0.5))  # doctest: +SKIP
 >>> res.summary()["flutter_speed_m_s"]                     # doctest: +SKIP
 """
@@ -18,16 +18,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model import statespace
-from model.bridge_arg import BridgeArg, takes_bridge
-from model.control import Controller
+from model.aeroelastic import statespace
+from model.aeroelastic.control import Controller
+from model.aeroelastic.flaps import closed_loop_model
 from model.errors import BridgeflapError, BridgeflapInputError
-from model.fe import assemble
-from model.flaps import closed_loop_model
-from model.modes import ModalModel, solve
 from model.results import ResultData, finite_extreme
-from model.spec import BridgeSpec, check_fraction
-from model.stability import StabilitySweep, check_speeds, sweep
+from model.stability.sweeps import StabilitySweep, check_speeds, sweep
+from model.structure.bridge_arg import BridgeArg, takes_bridge
+from model.structure.fe import assemble
+from model.structure.modes import ModalModel, solve
+from model.structure.spec import BridgeSpec, check_fraction
 from model.vocabulary import DEFAULT_MODES
 
 
@@ -54,7 +54,7 @@ def bridge_system(bridge: BridgeArg, n_modes: int = DEFAULT_MODES, order: str = 
         raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")
     modal = modal_model(spec) if modal is None else modal
     if getattr(spec, "derivatives", None) is not None:  # flutter-derivative tables (modal bridge)
-        from model.modal_import import derivative_bridge_system
+        from model.structure.modal_import import derivative_bridge_system
 
         return modal, derivative_bridge_system(spec, modal, int(n_modes))
     system = statespace.spec_system(spec, modal.structural_basis(int(n_modes)), order, rfa)
@@ -162,7 +162,7 @@ def flutter(bridge: BridgeArg, speeds, n_modes: int = DEFAULT_MODES,
 
     ``speed_tol`` [m/s] is the width to which each crossing is refined and ``sweep_method``
     (``"dense"``, the reference, or ``"fast"``, the CLI's default) the method of
-    :func:`model.stability.sweep`.
+    :func:`model.stability.sweeps.sweep`.
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     u = check_speeds(speeds)
@@ -276,10 +276,11 @@ def erection(bridge: BridgeArg, fractions, speeds, n_modes: int = DEFAULT_MODES,
              progress=None, side_spans: str | None = None, workers: int = 1) -> ErectionResult:
     """Flutter/divergence at each erected fraction [-] over a grid of wind speeds [m/s].
 
-    Each stage is :meth:`~model.spec.BridgeSpec.erected`: the main-span deck from mid-span
+    Each stage is :meth:`~model.structure.spec.BridgeSpec.erected`: the main-span deck from mid-span
     outwards, half GJ and zero EI (temporary joints), the side spans as ``side_spans`` (default:
     the bridge file's sequence); a fraction of 1 is the closed deck before its joints are made.
-    The completed bridge (:meth:`~model.spec.BridgeSpec.completed`) is reported separately.
+    The completed bridge (:meth:`~model.structure.spec.BridgeSpec.completed`) is reported
+    separately.
 
     ``workers > 1`` runs the stages in that many worker processes (the same function on each
     stage, so the same numbers; processes, not threads: the sweeps hold the GIL between LAPACK
@@ -395,8 +396,8 @@ def first_symmetric_deck_mode(modal: ModalModel, family: str):
 
     Selection rule: among the symmetric modes whose deck kinetic-energy share is at least
     :data:`DECK_SHARE_FACTOR` (one half) of the main span's uniform-motion share (its deck mass
-    over its deck-plus-cable mass, :attr:`model.fe.FamilyMatrices.uniform_deck_share`; this
-    passes over the bare-cable modes of early erection stages), the one with the largest
+    over its deck-plus-cable mass, :attr:`model.structure.fe.FamilyMatrices.uniform_deck_share`;
+    this passes over the bare-cable modes of early erection stages), the one with the largest
     :func:`fundamental_content` (the most main-span deck fundamental in it). A selection by
     frequency order alone fails where the deck's TS1 hybridises with the torsion of a bare
     side-span cable of nearly the same frequency (Humber with bare side spans: at 35 % the
@@ -483,7 +484,7 @@ class ClosedLoopFlutterResult(ResultData):
     base: object            # model.analysis.FlutterResult of the closed loop
     open_loop: object       # model.analysis.FlutterResult without flaps
     controller: Controller
-    #: model.static_divergence.StaticDivergence of the closed loop (None: not checked)
+    #: model.stability.static_divergence.StaticDivergence of the closed loop (None: not checked)
     static: object = field(default=None, repr=False)
 
     def summary(self) -> dict:
@@ -491,7 +492,7 @@ class ClosedLoopFlutterResult(ResultData):
 
         ``divergence_static_speed_m_s`` is the closed-loop static check (static flap loads of
         ``beta = K(0) alpha``), ``divergence_static_verified_*`` its verification
-        (:mod:`model.static_divergence`: status, reason, direction of the real eigenvalue,
+        (:mod:`model.stability.static_divergence`: status, reason, direction of the real eigenvalue,
         whether it is the stability limit); the open-loop values are under ``open_loop_*``.
         """
         s = self.base.summary()
@@ -540,10 +541,10 @@ def closed_loop_flutter(bridge: BridgeArg, controller: Controller, speeds,
 
     ``flap_chord_m`` [m] default: the controller's own (:attr:`Controller.chord_m`).
     ``verify_static``: the verified static divergence of the closed loop on the grid's range
-    (:func:`model.static_divergence.static_divergence`, ~0.3 s on 30 modes).
+    (:func:`model.stability.static_divergence.static_divergence`, ~0.3 s on 30 modes).
 
     ``speeds`` [m/s]: any form of :func:`model.grid.speed_grid`; ``sweep_method`` that of
-    :func:`model.stability.sweep` (``"dense"``, the reference, or ``"fast"``) for both, and
+    :func:`model.stability.sweeps.sweep` (``"dense"``, the reference, or ``"fast"``) for both, and
     ``critical_only`` that sweep's option (the critical crossings alone, no second branch);
     ``modal`` a modal model of ``bridge`` already solved (default: all modes of its FE model).
     """
@@ -561,7 +562,7 @@ def closed_loop_flutter(bridge: BridgeArg, controller: Controller, speeds,
                        int(n_modes), "modal", "rfa4", system.n_states)
     static = None
     if verify_static:
-        from model.static_divergence import static_divergence
+        from model.stability.static_divergence import static_divergence
 
         static = static_divergence(cl, float(u[-1]))
     return ClosedLoopFlutterResult(base, ol, controller, static)
@@ -572,9 +573,9 @@ def pk_flutter(bridge: BridgeArg, speeds, n_modes: int = DEFAULT_MODES,
                controller: Controller | None = None) -> dict:
     """Summary of the exact-Theodorsen p-k check on the same generalised coordinates as
     :func:`flutter` (closed loop with the controller's exact ``K(p)`` when given):
-    :func:`model.stability.pk_sweep`."""
+    :func:`model.stability.sweeps.pk_sweep`."""
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
-    from model.stability import pk_sweep
+    from model.stability.sweeps import pk_sweep
 
     u = check_speeds(speeds)
     if controller is None:

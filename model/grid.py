@@ -4,7 +4,7 @@ The command line, study and DOE files and scripts give wind-speed grids (and ere
 fractions) as text (``start:stop:step``, ``stop`` included when on the grid, or a comma list)
 or as numbers; :func:`parse_range` reads the text, :func:`grid` either form, and
 :func:`speed_grid` is what every public function taking ``speeds`` [m/s] calls.
-:mod:`design.options` re-exports the first two.
+:mod:`design.io.options` re-exports the first two.
 """
 
 from __future__ import annotations

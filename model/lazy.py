@@ -29,10 +29,11 @@ def public_face(package: str, names: dict):
 class _PublicModule(types.ModuleType):
     """A package whose public functions are not replaced by submodules of the same name.
 
-    Importing ``model.buffeting`` (the module) sets the attribute ``buffeting`` of ``model``;
-    here that assignment is dropped when ``buffeting`` is a public name of another module, so
-    ``model.buffeting`` stays the function the docs promise (resolved by ``__getattr__``). The
-    submodule stays in :data:`sys.modules`: ``from model.buffeting import BuffetingResult`` and
+    Importing ``model.response.buffeting`` (the module) sets the attribute ``buffeting`` of
+    ``model``; here that assignment is dropped when ``buffeting`` is a public name of another
+    module, so ``model.response.buffeting`` stays the function the docs promise (resolved by
+    ``__getattr__``). The submodule stays in :data:`sys.modules`: ``from model.response.buffeting
+    import BuffetingResult`` and
     :func:`importlib.import_module` work as before.
     """
 

@@ -46,7 +46,7 @@ def data_limits(values, pad: float = 0.05) -> tuple[float, float]:
 
 def mark_spans(ax, spans, names: bool = True, y: float = 0.97, km: bool = True) -> None:
     """Towers (span boundaries) as dotted lines and the span names at height ``y`` (axes
-    fraction); ``spans`` is :func:`model.modeshape.span_extents_m`."""
+    fraction); ``spans`` is :func:`model.stability.modeshape.span_extents_m`."""
     s = 1000.0 if km else 1.0
     for i, (_, _, b) in enumerate(spans[:-1]):
         ax.axvline(b / s, color="k", lw=1.2, ls=":", label="tower" if i == 0 else None)
@@ -62,7 +62,7 @@ def mark_spans(ax, spans, names: bool = True, y: float = 0.97, km: bool = True) 
 
 def root_locus(sweep, ax=None, title: str = "root locus", reference=None,
                reference_label: str = "open loop", colorbar: bool = True):
-    """Tracked branches of a :class:`~model.stability.StabilitySweep` in the complex plane.
+    """Tracked branches of a :class:`~model.stability.sweeps.StabilitySweep` in the complex plane.
 
     Both axes in 1/s; points coloured by the wind speed [m/s], U = 0 as magenta dots.
     ``reference`` (another sweep, e.g. the open loop of a closed-loop ``sweep``) is drawn
@@ -115,7 +115,7 @@ def root_locus(sweep, ax=None, title: str = "root locus", reference=None,
 def vg_vf(sweep, axes=None, reference=None):
     """Damping ratio [%] (V-g) and frequency [Hz] (V-f) of every tracked branch against the
     wind speed, flutter and divergence marked; axes enclose all the data (no clipping)."""
-    from model.tracking import CONVERGED
+    from model.stability.tracking import CONVERGED
 
     ax1, ax2 = axes if axes is not None else _new_axes(1, 2, figsize=(11, 4.5))
     z, f = 100 * sweep.damping_ratios(), sweep.frequencies_hz()
@@ -167,7 +167,7 @@ def stability_panels(sweep, axes=None, title: str = "", reference=None):
 
 
 def _limit_text(sweep, crossing, name: str) -> str:
-    from model.tracking import CONVERGED, NO_CROSSING
+    from model.stability.tracking import CONVERGED, NO_CROSSING
 
     if crossing.status == CONVERGED:
         return f"{name} {crossing.speed:.2f} m/s"
@@ -183,7 +183,7 @@ def mode_shapes_by_family(modal, per_family: int = 3, axes=None, labels=None):
     """Deck mode shapes in one panel per family (vertical, torsional, lateral), each
     normalised to a peak of 1, the lowest ``per_family`` modes of each family (or the modes
     named in ``labels``), towers dotted."""
-    from model.modeshape import span_extents_m
+    from model.stability.modeshape import span_extents_m
 
     st = modal.structure
     fams = [f for f in _FAMILIES if f in st.families]
@@ -225,7 +225,7 @@ def _finish_family_axis(ax, fam: str) -> None:
 
 def imported_mode_shapes(modal, per_family: int = 3, axes=None, labels=None):
     """:func:`mode_shapes_by_family` for an imported modal model
-    (:class:`model.modal_model.ImportedModalModel`): file coordinates, the main-span ends
+    (:class:`model.structure.modal_model.ImportedModalModel`): file coordinates, the main-span ends
     (``structure.main_span_m``) dotted."""
     d = modal.spec.structure.data
     fams = [f for f in _FAMILIES if any(m.family == f for m in modal.modes)]
@@ -258,7 +258,7 @@ def buffeting_panels(curves, axes=None, log: bool = False, title: str = ""):
     """Vertical (left, ``max sigma_z / 2b``) and torsional (right, ``max sigma_alpha``
     [deg]) RMS on the main span against the wind speed.
 
-    ``curves`` maps a label to a :class:`~model.buffeting.BuffetingResult` (or one result);
+    ``curves`` maps a label to a :class:`~model.response.buffeting.BuffetingResult` (or one result);
     unstable speeds are NaN and leave a gap, nothing is clipped.
     """
     if not isinstance(curves, dict):

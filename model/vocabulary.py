@@ -1,7 +1,7 @@
 """The one vocabulary of the scripting API (docs/api_vocabulary.md).
 
 The public functions of :mod:`model` and :mod:`design` name the same thing the same way:
-``bridge`` (a name, a TOML path or a :class:`~model.spec.BridgeSpec`), ``speeds`` (a grid
+``bridge`` (a name, a TOML path or a :class:`~model.structure.spec.BridgeSpec`), ``speeds`` (a grid
 [m/s], read by :func:`model.grid.speed_grid`), ``speed`` (one speed [m/s]), ``n_modes``
 (vertical + torsional modes retained, default :data:`DEFAULT_MODES`), ``modes_per_family``,
 ``out_dir``. :data:`RENAMED` lists the names they replaced; :func:`renamed` refuses one in one
@@ -18,7 +18,8 @@ from model.errors import BridgeflapInputError
 __all__ = ["DEFAULT_MODES", "RENAMED", "RenamedArgumentError", "check_renamed", "renamed"]
 
 #: retained vertical + torsional modes of every analysis unless told otherwise
-#: (vertical and torsional together). Criterion (model.convergence.mode_convergence): the count at
+#: (vertical and torsional together). Criterion (model.stability.convergence.mode_convergence): the
+# count at
 #: which flutter and divergence speeds, and those of every larger count, are within 0.05 % of
 #: 40 modes. Measured by runs/mode_convergence on humber, humber:box and the 64 corners of the
 #: estimated-input ranges: 30 modes converge in all 66 cases (largest flutter error 0.0013 %);

@@ -25,7 +25,7 @@ counts, do-no-harm, fail-safe, erection stages, a study's analyses) is made by i
 skips the guard. It checks the guard before any process starts, keeps the platform's default
 start method (no package-wide context is set: fork on Linux up to Python 3.13), makes every
 worker end with the process that started it (:func:`_die_with_parent`) and starts at least
-one worker. Dask (:mod:`design.cluster`) is for DOE batches only.
+one worker. Dask (:mod:`design.batch.cluster`) is for DOE batches only.
 """
 
 from __future__ import annotations

@@ -17,10 +17,10 @@ import sys
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from design.options import parse_range
+from design.io.options import parse_range
 from model.analysis import flutter, modal_model
-from model.spec import get_path, load_bridge
-from model.validation import log_misfit
+from model.cases.validation import log_misfit
+from model.structure.spec import get_path, load_bridge
 
 RANGES = {
     # path: (low, high, reasoning)

@@ -1,6 +1,6 @@
 """The flutter mode of the built-in Humber along the span, and the frequency-ratio modes.
 
-Renders two figures (model/modeshape.py):
+Renders two figures (model/stability/modeshape.py):
 
 * ``flutter_mode_shape.png``: heave and pitch amplitude and their phase along the bridge at the
   flutter speed (16 modes, 0-85 m/s grid as ``bridgeflap flutter``), towers marked, with the
@@ -22,11 +22,11 @@ import argparse
 import json
 from pathlib import Path
 
-from design.io import atomic_write_json, ensure_writable_dir, to_jsonable
-from design.options import parse_range
+from design.io.files import atomic_write_json, ensure_writable_dir, to_jsonable
+from design.io.options import parse_range
 from model.analysis import DEFAULT_MODES, first_symmetric_deck_mode
-from model.modeshape import flutter_mode_shape, plot_ratio_modes, ratio_modes
-from model.spec import load_bridge
+from model.stability.modeshape import flutter_mode_shape, plot_ratio_modes, ratio_modes
+from model.structure.spec import load_bridge
 
 
 def main():

@@ -1,12 +1,12 @@
 """Mode-count convergence of flutter and divergence over the estimated-input ranges.
 
 For the built-in Humber, the humber:box variant (b = 11 m) and every corner of the ranges of the
-estimated inputs that enter flutter (design/screening.py DEFAULT_UNCERTAIN_RANGES without the
-buffeting-only coherence decay: 2^6 = 64 corners), solve the flutter/divergence sweep with
-8, 12, 16, 20, 24, 30 and 40 retained vertical + torsional modes (model/convergence.py), print
-the ladder, the converged count of each case (its own and every later step below 0.05 %) and
-the count that is converged over all cases, with the truncation error of 16 modes and of that
-count against 40.
+estimated inputs that enter flutter (design/sensitivity/screening.py DEFAULT_UNCERTAIN_RANGES
+without the buffeting-only coherence decay: 2^6 = 64 corners), solve the flutter/divergence sweep
+with 8, 12, 16, 20, 24, 30 and 40 retained vertical + torsional modes
+(model/stability/convergence.py), print the ladder, the converged count of each case (its own and
+every later step below 0.05 %) and the count that is converged over all cases, with the truncation
+error of 16 modes and of that count against 40.
 
     python runs/mode_convergence/run.py [--quick] [--json] [--out FILE.json]
 
@@ -20,11 +20,11 @@ import sys
 
 import numpy as np
 
-from design.io import atomic_write_json, to_jsonable
-from design.options import parse_range
-from design.screening import DEFAULT_UNCERTAIN_RANGES
-from model.convergence import DEFAULT_MODE_COUNTS, TOLERANCE_PCT, mode_convergence
-from model.spec import load_bridge
+from design.io.files import atomic_write_json, to_jsonable
+from design.io.options import parse_range
+from design.sensitivity.screening import DEFAULT_UNCERTAIN_RANGES
+from model.stability.convergence import DEFAULT_MODE_COUNTS, TOLERANCE_PCT, mode_convergence
+from model.structure.spec import load_bridge
 
 #: buffeting-only inputs do not enter flutter or divergence
 BUFFETING_ONLY = ("aero.coherence_decay",)

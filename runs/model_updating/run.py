@@ -2,9 +2,9 @@
 
 Updates, one family at a time, EI_vertical (vertical modes), GJ (torsional modes) and
 EI_lateral (lateral modes) to seed Table 1 (Brownjohn et al. 1994), all other inputs as in the
-built-in file. The objective (model.validation.log_misfit) weights the flutter-critical modes
-VS1 and TS1 (model.validation.CRITICAL_WEIGHT, default infinity: fitted exactly, the other modes
-of the family validate); the lateral family is an unweighted RMS fit. Masses, sag and geometry
+built-in file. The objective (model.cases.validation.log_misfit) weights the flutter-critical modes
+VS1 and TS1 (model.cases.validation.CRITICAL_WEIGHT, default infinity: fitted exactly, the other
+modes of the family validate); the lateral family is an unweighted RMS fit. Masses, sag and geometry
 are not touched. Prints the updated values for humber.toml and the resulting Table 1 comparison.
 
     python runs/model_updating/run.py [--json]
@@ -19,15 +19,15 @@ weight (docs/methods.md#model-updating). The weight is chosen on modal grounds, 
 import argparse
 import json
 
-from model.modes import modal_model
-from model.spec import load_bridge
-from model.validation import compare_table1, update_stiffnesses
+from model.cases.validation import compare_table1, update_stiffnesses
+from model.structure.modes import modal_model
+from model.structure.spec import load_bridge
 
 
 def weight_table(weights):
     """One row per critical-mode weight: updated EI, GJ, VS1, TS1, flutter and divergence."""
-    from design.analyses import DEFAULT_SPEEDS
-    from design.options import parse_range
+    from design.io.options import parse_range
+    from design.studies.analyses import DEFAULT_SPEEDS
     from model.analysis import flutter
 
     rows = []

@@ -12,8 +12,8 @@
 # # A DOE batch: flutter and divergence over deck GJ and main-cable sag
 #
 # A 2 x 2 full-factorial design through the fault-tolerant batch runner
-# (`design.experiments.run_doe`, the engine of `bridgeflap doe`): every case is its own file,
-# a failed case is a row with its status, and the table loads straight into pandas. Cheap
+# (`design.studies.experiments.run_doe`, the engine of `bridgeflap doe`): every case is its own
+# file, a failed case is a row with its status, and the table loads straight into pandas. Cheap
 # settings: 6 modes, a 2 m/s grid.
 
 # %%

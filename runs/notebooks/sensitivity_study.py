@@ -56,7 +56,7 @@ for row in res.rows:
     assert abs(ift - fd) <= 1e-3 * abs(fd), (row["parameter"], ift, fd)
 
 cli = json.loads(subprocess.run(
-    [sys.executable, "-m", "design.cli", "sensitivity", "--parameters", ",".join(PARAMETERS),
+    [sys.executable, "-m", "design.cli.main", "sensitivity", "--parameters", ",".join(PARAMETERS),
      "--modes", str(MODES), "--speeds", SPEEDS, "--json"],
     capture_output=True, text=True, check=True).stdout)
 assert np.isclose(cli["flutter_speed_m_s"], res.flutter_speed_m_s, rtol=1e-9, atol=0)

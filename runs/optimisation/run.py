@@ -1,8 +1,8 @@
 """Scripted flap-controller optimisation on the Humber case (seed Fig. 5).
 
-Designs the compensator K(s) with :func:`design.driver.design` from the packaged definition
+Designs the compensator K(s) with :func:`design.control.driver.design` from the packaged definition
 ``runs/humber_flaps.toml`` on a bridge specification built in this script (``--quick``: the
-coarse 47 m mesh, :func:`design.settings.quick_settings`, one start; otherwise the built-in
+coarse 47 m mesh, :func:`design.control.settings.quick_settings`, one start; otherwise the built-in
 mesh and 4 starts). Writes ``manifest.json`` (configuration, versions, commit),
 ``result.json`` (the ``bridgeflap optimise`` summary) and ``controller.toml``.
 
@@ -20,12 +20,12 @@ import os
 import sys
 from pathlib import Path
 
-from design.driver import design
-from design.io import atomic_write_json, ensure_writable_dir
-from design.manifest import build_manifest
-from design.settings import load_settings, quick_settings
-from model.control import save_controller
-from model.spec import load_bridge
+from design.control.driver import design
+from design.control.settings import load_settings, quick_settings
+from design.io.files import atomic_write_json, ensure_writable_dir
+from design.io.manifest import build_manifest
+from model.aeroelastic.control import save_controller
+from model.structure.spec import load_bridge
 
 DEFINITION = Path(__file__).resolve().parents[1] / "humber_flaps.toml"
 #: Changes to the built-in Humber specification in quick mode (numerics only).

@@ -67,7 +67,7 @@ def _extra(name: str, out: Path) -> dict:
 
 def run_case(name: str, argv: list[str], out: Path) -> dict:
     """Run one CLI command in-process and return its JSON plus the file numbers."""
-    from design.cli import main
+    from design.cli.main import main
 
     argv = [a.replace("{out}", str(out)) for a in argv] + ["--json"]
     buf, err = io.StringIO(), io.StringIO()
@@ -157,7 +157,7 @@ DESIGN_CASES = {"optimise_quick", "optimise_quick_b1425"}
 #: problem (a constraint, a weight, the model) moves the margin by more (weights 0 -> 3 of the
 #: buffeting term: 0.3553 -> 0.3226, 9 %).
 DESIGN_RTOL = 0.02
-#: A placed layout is rounded from relaxed weights at 0.5 (design.driver.round_layout). A
+#: A placed layout is rounded from relaxed weights at 0.5 (design.control.driver.round_layout). A
 #: weight within ROUNDING_BAND of it flips the layout on a last-digit change of the iterate:
 #: the quick design's outer pair sat at 0.4926 (8 pairs, margin 0.5303) when recorded and at
 #: 0.5173 (10 pairs, 0.5044) after this landing's robust-constraint changes. Then the flap

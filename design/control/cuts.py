@@ -1,0 +1,245 @@
+"""The cutting-plane loop of the compensator NLP
+(:meth:`design.control.nlp.DesignProblem.solve_with_cuts`).
+
+Phase 1 (feasibility, no robust epigraph) from an infeasible start, then warm-started
+re-solves with damping-speed, gain and robust cuts and robust peak tracking; the best round
+is returned and every round recorded (docstrings of :mod:`design.control.nlp`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from design.control import variants
+from design.control.nlp_tolerances import (
+    GAIN_BACKOFF,
+    ROBUST_CLUSTER_STEP,
+    ROBUST_CUTS_PER_SPEED,
+    VIOLATION_TOL,
+)
+from design.control.records import CutRound, CutsOutcome
+from model.aeroelastic.control import Compensator
+
+#: Round 0 warm-started (monotone barrier from ``design.control.nlp_tolerances.WARM_MU_INIT``) when
+#: its start is feasible (a feasible start, or phase 1's first feasible iterate). Measured on the
+#: default card (``python -m bench.design``, 2 starts): Ipopt's adaptive barrier in round 0
+#: crawled to its 80-iteration cap from phase 1's point (start 0: gamma_T 40.7 against a
+#: dense peak of 4.5, then 77-103 more iterations in round 1). Warm: 424 + 554 -> 289 + 274
+#: iterations, both starts on the same design (margin 0.3228 / 0.3230). With the card's
+#: former 20 robust frequencies per band the effect was mixed (start 0 393 -> 276, start 1
+#: 315 -> 582 into another basin); with 60 it is not. Tried and dropped: re-solves started
+#: from the previous multipliers (warm_start_init_point): 313 iterations and another design.
+WARM_FIRST = True
+#: Re-solves stopped by the divergence watchdog (``design.control.ipopt_hooks.DIVERGE_LEVEL``) after
+# which
+#: the loop ends (the first one is followed by a round from the best round's point).
+MAX_DIVERGED = 2
+
+
+def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
+    """Solve ``prob`` (a :class:`design.control.nlp.DesignProblem`) with phase 1 and cutting planes;
+    see :meth:`design.control.nlp.DesignProblem.solve_with_cuts`."""
+    s = prob.settings
+    speeds = list(prob.settings.design_speeds())
+    history = []
+    theta = np.asarray(theta0, float)
+    w = prob.weights if weights0 is None else np.asarray(weights0, float)
+    gamma = None
+    res = ver = rob = None
+    kept = []
+    diverged = 0
+    use_rob = s.weight_robust > 0 and (bool(s.robust_design_speeds_m_s)
+                                       or bool(s.robust_speeds_m_s))
+    nominal0 = prob.constraint_values(theta, sorted(speeds), w)
+    # the variants' largest measure; lazy: each speed's worst variant seeds its set
+    viol0 = max(float(np.max(nominal0)),
+                variants.seed(prob, theta, w, sorted(speeds), nominal0))
+    if viol0 > 0:
+        ph1 = prob.solve(theta, np.array(sorted(speeds)), weights0=w, feasibility=True)
+        ver1 = prob.verify(ph1.theta, ph1.weights, refined=True)
+        history.append(CutRound(
+            round=0, ipopt_status=ph1.ipopt_status, iterations=ph1.iterations,
+            theta=tuple(float(v) for v in ph1.theta), time_s=ph1.time_s,
+            n_speeds=len(speeds), max_violation_1_s=ver1.max_violation_1_s,
+            max_gain=ver1.max_gain, gamma_T_frobenius=float("nan"),
+            dense_t_peak=float("nan"), n_robust_points=0,
+            n_gain_points=len(prob.omega_grid()), new_speeds=0, new_gain_cuts=0,
+            new_robust_cuts=0, eig_time_per_speed_s=ph1.eig_time_per_speed_s,
+            placement="phase 1 (feasibility, no robust epigraph)", history=ph1.history))
+        # the phase-1 point is a fallback candidate when it meets damping and gain (issue 32
+        # item 3): re-solves that diverge from it under the robust cuts must not turn a
+        # feasible point into "infeasible"; used only when no round is feasible, and as the
+        # restart point after a divergence then (b = 14.25 m Humber, 3 m flaps: every round
+        # of the rounded layout diverged or broke the gain limit, its phase-1 point held both)
+        # Not with design variants: their lazy sets are grown by the rounds' checks only.
+        ph1_kept = None
+        if (ver1.max_violation_1_s <= VIOLATION_TOL and ver1.max_gain <= s.gain_limit
+                and not getattr(prob, "variants", ())):
+            rob1 = (prob.robust_margin(ph1.theta, speeds=prob.robust_check_speeds(),
+                                       weights=ph1.weights, peaks=ROBUST_CUTS_PER_SPEED)
+                    if use_rob and _a2_ok(ph1.theta) else None)
+            ph1_kept = (ph1, ver1, rob1, dict(speeds=sorted(speeds), robust_cuts=list(
+                prob.robust_cuts), gain_cuts=list(prob.gain_cuts)), True,
+                rob1.peak if rob1 is not None else float("nan"), False)
+        # phase 2 from the phase-1 point when it is less violating than the start
+        if float(np.max(ph1.constraints_eig_1_s)) < viol0:
+            theta, w = ph1.theta, ph1.weights
+        nominal1 = prob.constraint_values(theta, sorted(speeds), w)
+        feasible0 = max(float(np.max(nominal1)),
+                        variants.seed(prob, theta, w, sorted(speeds), nominal1)) <= 0
+    else:
+        feasible0 = True
+        ph1_kept = None
+    off = len(history)          # the phase-1 record, if any, precedes the rounds
+    for rnd in range(s.cutting_plane_rounds + 1):
+        # round 0 from a feasible point is warm-started like the re-solves (WARM_FIRST)
+        n_var = variants.constraint_count(prob, sorted(speeds))
+        res = prob.solve(theta, np.array(sorted(speeds)), weights0=w, gamma0=gamma,
+                         warm=rnd > 0 or (WARM_FIRST and feasible0),
+                         max_iter=s.resolve_max_iter if rnd > 0 else s.max_iter)
+        theta, w = res.theta, res.weights
+        gamma = res.gamma_T if use_rob else None
+        # the rounds on the refined subset of the check grid (the same decisions and worst
+        # speeds, design.control.plant.damping_check_refined); the chosen round is re-checked on the
+        # dense grid below. Variants: checked alike; when lazy, their violating and
+        # near-active speeds join their own sets (design.control.variants)
+        ver = prob.verify(theta, w, refined=True)
+        vvers, new_variant = variants.round_checks(prob, theta, w, sorted(speeds),
+                                                   VIOLATION_TOL, _worst_per_run)
+        eig_ok = all(vv.max_violation_1_s <= VIOLATION_TOL for vv in [ver, *vvers])
+        gain_ok = ver.max_gain <= s.gain_limit
+        rob_ok, new_rob = True, []
+        rob = None
+        if use_rob and _a2_ok(theta):
+            rob = prob.robust_margin(theta, speeds=prob.robust_check_speeds(), weights=w,
+                                     peaks=ROBUST_CUTS_PER_SPEED)
+            lim = gamma * (1.0 + s.robust_cut_tol)
+            rob_ok = bool(rob.peak <= lim)
+            for U, pk in zip(rob.speeds_m_s, rob.peaks, strict=True):
+                new_rob += [(float(U), om * (1.0 + k * ROBUST_CLUSTER_STEP))
+                            for om, v in pk if v > lim for k in (-2, -1, 0, 1, 2)]
+            if not rob_ok:
+                # peak tracking: the dense peak of every speed joins too (the resonance
+                # it sits on moves with theta; a point on it keeps the bound honest there)
+                new_rob += [(float(U), float(om))
+                            for U, om in zip(rob.speeds_m_s, rob.peak_omega_rad_s,
+                                             strict=True)]
+            new_rob = [c for c in dict.fromkeys(new_rob) if c not in prob.robust_cuts]
+        new_gain = []
+        if not gain_ok:
+            comp = Compensator(*(float(v) for v in theta))
+            wst = comp.stationary_frequencies()
+            new_gain = [float(x) for x in wst
+                        if abs(comp.frequency_response(x)) > s.gain_limit
+                        * (1.0 - GAIN_BACKOFF) and float(x) not in prob.gain_cuts]
+        new_speeds = []
+        if not eig_ok:      # the variants' too when they share the design speeds ("all")
+            checks = [ver] if variants.lazy(prob) else [ver, *vvers]
+            new_speeds = sorted({u for vv in checks for u in _worst_per_run(
+                vv.speeds_m_s, vv.violation_1_s > VIOLATION_TOL, vv.violation_1_s)
+                if u not in speeds})
+        peak = rob.peak if rob else float("nan")
+        history.append(CutRound(
+            round=rnd, ipopt_status=res.ipopt_status, iterations=res.iterations,
+            theta=tuple(float(v) for v in theta), time_s=res.time_s, n_speeds=len(speeds),
+            max_violation_1_s=ver.max_violation_1_s, max_gain=ver.max_gain,
+            gamma_T_frobenius=res.gamma_T, dense_t_peak=peak,
+            n_robust_points=len(prob.robust_function(
+                analytic=not s.optimise_placement)[1]) if use_rob else 0,
+            n_gain_points=len(prob.omega_grid()), new_speeds=len(new_speeds),
+            new_gain_cuts=len(new_gain), new_robust_cuts=len(new_rob),
+            eig_time_per_speed_s=res.eig_time_per_speed_s, history=res.history,
+            n_variant_constraints=n_var, new_variant_constraints=new_variant))
+        kept.append((res, ver, rob, dict(speeds=sorted(speeds), robust_cuts=list(
+            prob.robust_cuts), gain_cuts=list(prob.gain_cuts)), eig_ok and gain_ok, peak,
+                     rob is not None and rob_ok))
+        # every check holds: done -- unless Ipopt ran out of iterations (a bound that holds
+        # at a capped iterate, e.g. gamma_T 40.7 against a dense peak of 4.5, is not the
+        # optimum): then the next round continues it warm-started
+        if (eig_ok and gain_ok and rob_ok and res.success) or not _a2_ok(theta):
+            break
+        if res.diverged:
+            # the watchdog stopped a re-solve stalled far outside the feasible set: its
+            # iterate is no warm start. The next round starts from the best round so far
+            # (with every cut added since); a second divergence ends the loop.
+            diverged += 1
+            if diverged >= MAX_DIVERGED:
+                break
+            bres = _best(kept, ph1_kept, s.robust_cut_tol)[0][0]
+            theta, w = bres.theta, bres.weights
+            gamma = bres.gamma_T if use_rob else None
+        # No early stop for a re-solve that ran out of iterations with a worse dense peak
+        # (issue 16 goal 3 lever, tried): on the default design it never fired (548 Ipopt
+        # iterations with and without it), and a capped round can be followed by converging
+        # ones (the earlier code's start 1: rounds 3-5 after a capped round 2, margin 0.357).
+        # no new cut: stop, unless the solve ran out of iterations short of the checks --
+        # then the next round continues it (re-solve to convergence)
+        if rnd == s.cutting_plane_rounds or not (new_speeds or new_gain or new_rob
+                                                 or new_variant or not res.success):
+            break
+        speeds.extend(new_speeds)
+        prob.gain_cuts.extend(new_gain)
+        prob.robust_cuts.extend(new_rob)
+    # a re-solve sees only the sample points and can land on a design whose dense peak
+    # (or gain, damping) is worse than before the cuts: return the best round --
+    # feasible (damping and gain) first, then the smallest dense peak of sigma_max(T); peaks
+    # within robust_cut_tol of the smallest feasible one count as equal, and among those a
+    # round whose bound gamma_T holds is preferred (its margin is certified by the NLP too)
+    (res, ver, rob, cuts, _, _, _), ibest = _best(kept, ph1_kept, s.robust_cut_tol)
+    chosen = ibest + off if ibest >= 0 else 0   # -1: the phase-1 point (history[0])
+    ver = prob.verify(res.theta, res.weights)   # the chosen round's dense check (a posteriori)
+    return CutsOutcome(
+        solve=res, verification=ver, robust=rob,
+        rounds=tuple(replace(h, chosen=i == chosen) for i, h in enumerate(history)),
+        chosen_round=chosen, design_speeds_m_s=tuple(cuts["speeds"]),
+        gain_ok=bool(ver.max_gain <= s.gain_limit),
+        robust_bound_holds=(bool(rob is not None and rob.peak
+                                 <= res.gamma_T * (1.0 + s.robust_cut_tol))
+                            if use_rob else None),
+        robust_cuts=tuple(tuple(c) for c in cuts["robust_cuts"]),
+        gain_cuts=tuple(cuts["gain_cuts"]))
+
+
+def _best(kept, ph1, tol):
+    """``(entry, index)`` of the best kept round (:func:`_ranker`); when no round meets
+    damping and gain but the phase-1 point does, that point with index -1 (a fallback only:
+    a feasible round always wins, so a design that has one is unchanged)."""
+    if ph1 is not None and not any(k[4] for k in kept):
+        return ph1, -1
+    i = min(range(len(kept)), key=_ranker(kept, tol))
+    return kept[i], i
+
+
+def _ranker(kept, tol):
+    """Sort key of the kept rounds, best first: feasible (damping and gain), then the
+    smallest dense peak of sigma_max(T), peaks within ``tol`` of the smallest feasible one
+    counting as equal and among those a round whose bound gamma_T holds first, then the
+    latest."""
+    feas = [pk for _, _, _, _, ok, pk, _ in kept if ok and np.isfinite(pk)]
+    tie = min(feas) * (1.0 + tol) if feas else -np.inf
+
+    def rank(i):
+        _, _, _, _, ok, pk, holds = kept[i]
+        return (not ok, not (holds and pk <= tie), pk if np.isfinite(pk) else np.inf, -i)
+    return rank
+
+
+def _worst_per_run(U, bad, viol) -> list[float]:
+    """The worst speed in each run of consecutive violations."""
+    out, i = [], 0
+    while i < len(U):
+        if bad[i]:
+            j = i
+            while j + 1 < len(U) and bad[j + 1]:
+                j += 1
+            out.append(float(U[i + int(np.argmax(viol[i:j + 1]))]))
+            i = j + 1
+        else:
+            i += 1
+    return out
+
+
+def _a2_ok(theta) -> bool:
+    return bool(theta[3] > 0 and theta[4] > 0)

@@ -1,0 +1,31 @@
+"""The flap loop's algebra in real arithmetic, shared by the robustness terms
+(:mod:`design.control.robust`) and the buffeting term (:mod:`design.control.buffeting_term`): ``K(j
+omega)`` of the 2nd-order compensator for symbolic or numeric coefficients, the real block form of
+``I - K N``, and the rank tolerance of the flap pitch map. A leaf module: it imports neither."""
+
+from __future__ import annotations
+
+import casadi as ca
+
+#: Relative singular value of ``Phi_a`` below which a direction counts as absent in
+#: :func:`design.control.robust.lowrank_robust_data` (the pitch map of 25 flaps on 16 modes has rank
+# 4
+#: exactly: only the torsional modes pitch; the rest of its spectrum is round-off, ~1e-16).
+LOWRANK_RTOL = 1e-12
+
+
+def k_complex(th, om):
+    """Real and imaginary parts of ``K(j om)`` for symbolic or numeric theta."""
+    b2, b1, b0, a2, a1 = (th[i] for i in range(5))
+    nr, ni = b0 - b2 * om * om, b1 * om
+    dr, di = 1 - a2 * om * om, a1 * om
+    d2 = dr * dr + di * di
+    return (nr * dr + ni * di) / d2, (ni * dr - nr * di) / d2
+
+
+def _loop_block(Kr, Ki, Nr, Ni):
+    """``I - K N`` (``K = Kr + i Ki`` scalar, ``N = Nr + i Ni`` square) as the real block matrix
+    ``[[Re, -Im], [Im, Re]]`` of a complex solve in real arithmetic."""
+    Mr = ca.DM.eye(Nr.shape[0]) - (Kr * Nr - Ki * Ni)
+    Mi = -(Kr * Ni + Ki * Nr)
+    return ca.vertcat(ca.horzcat(Mr, -Mi), ca.horzcat(Mi, Mr))

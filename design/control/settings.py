@@ -1,0 +1,390 @@
+"""Settings of the compensator design problem: :class:`DesignSettings` and its TOML file.
+
+Defaults are the Humber design of seed §6; ``runs/humber_flaps.toml`` documents every key.
+Every TOML key is a field of :class:`DesignSettings` (``[tables]`` only group them).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from model.aeroelastic.actuator_limits import (
+    ACTUATOR_DEFAULTS,
+    ACTUATOR_FIELDS,
+    check_actuator_value,
+)
+from model.errors import BridgeflapInputError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+#: Names of the compensator coefficients theta, ``K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s
+#: + 1)`` (:class:`model.aeroelastic.control.Compensator`).
+THETA_NAMES = ("b2", "b1", "b0", "a2", "a1")
+#: Design objectives (``DesignSettings.objective``): the robust margin subject to stability up
+#: to the design speed, or the closed-loop critical speed subject to a robust margin.
+OBJECTIVES = ("margin", "critical_speed")
+#: Settings of the critical-speed search only (left out of a margin design's JSON summary).
+CRITICAL_SPEED_FIELDS = ("objective", "margin_min", "critical_speed_step_m_s",
+                         "critical_speed_tol_m_s", "critical_speed_max_m_s",
+                         "critical_speed_evaluations")
+
+
+def _num(field_name, v, positive=False, nonneg=False):
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise BridgeflapInputError(field_name, f"must be a number, got {v!r}")
+    v = float(v)
+    if not math.isfinite(v):
+        raise BridgeflapInputError(field_name, f"must be finite, got {v!r}")
+    if positive and v <= 0:
+        raise BridgeflapInputError(field_name, f"must be > 0, got {v!r}")
+    if nonneg and v < 0:
+        raise BridgeflapInputError(field_name, f"must be >= 0, got {v!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class DesignSettings:
+    """Definition of the design problem (defaults: Humber, seed §6; overridable by TOML).
+
+    Units: lengths [m], speeds [m/s], rates [1/s], frequencies [rad/s], gains [rad/rad].
+
+    ``zeta_min`` [-] is the minimum damping ratio ``-Re lambda / |lambda|`` demanded of every
+    closed-loop branch the flaps can move (default 0.5 %, half the structural 1 %), at every
+    design speed 0..``speed_max_m_s``; the copies of the aerodynamic lag poles ``-p_i U / b``
+    and of the compensator poles are excluded (:mod:`design.control.eigen`).
+
+    ``robust_cut_tol`` [-]: the cutting planes stop when the dense peak of ``sigma_max(T)`` is
+    within this of the optimiser's bound ``gamma_T`` (``robust_bound_holds``), i.e. the
+    verified margin is within it of the optimiser's (default 1 %,
+    :data:`design.control.nlp_tolerances.ROBUST_CUT_TOL`).
+
+    ``objective``: ``"margin"`` (default) maximises the robust margin subject to the damping up
+    to ``speed_max_m_s``; ``"critical_speed"`` searches the largest design speed whose
+    max-margin design verifies with robust margin >= ``margin_min`` [-], from
+    ``speed_max_m_s`` in steps of ``critical_speed_step_m_s`` up to ``critical_speed_max_m_s``
+    (0: ``2 speed_max_m_s``, the closed-loop limits' range), bisected to
+    ``critical_speed_tol_m_s``, at most ``critical_speed_evaluations`` inner designs
+    (:mod:`design.control.critical_speed`).
+
+    ``layout_neighbours``: after the design, the chosen layout is compared with its
+    neighbouring integer layouts (one mirror pair added or removed, centred blocks) at
+    re-optimised K (:mod:`design.control.layout_search`; JSON key ``layout_neighbours``);
+    ``layout_adopt``: the best verified neighbour replaces it when its margin is larger.
+    Both left out of the design's JSON settings while false.
+
+    ``flap_angle_limit_deg`` [deg] and ``flap_rate_limit_deg_s`` [deg/s]: the flap actuator's
+    angle and rate limits (defaults 20 deg and 40 deg/s, engineering estimates for hydraulic
+    flap actuators, :mod:`model.aeroelastic.actuator_limits`). The design does not use them;
+    ``bridgeflap actuators --card`` simulates the designed loop with them in turbulent wind. Left
+    out of the design's JSON settings while at their defaults.
+    """
+
+    bridge: str = "humber"
+    n_modes: int = 16
+    verification_modes: int = 16
+    flap_count: int = 25
+    flap_width_m: float = 56.4          # spanwise length of each flap pair: 1410 m / 25
+    flap_chord_m: float = 3.0           # chordwise, inside the 22 m deck chord (seed §6)
+    leading_edge: bool = True
+    trailing_edge: bool = True
+    speed_max_m_s: float = 85.0
+    design_step_m_s: float = 5.0
+    check_step_m_s: float = 0.25
+    zeta_min: float = 0.005
+    n_eig: int = 3
+    gain_limit: float = 15.0
+    omega_min_rad_s: float = 1e-3
+    omega_max_rad_s: float = 1e2
+    n_omega: int = 120
+    robust_design_speeds_m_s: tuple = (20.0, 40.0, 60.0, 70.0, 80.0, 85.0)
+    robust_omega_min_rad_s: float = 0.02
+    robust_omega_max_rad_s: float = 10.0
+    n_robust_omega: int = 20
+    robust_speeds_m_s: tuple = (10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 85.0)
+    robust_cut_tol: float = 0.01
+    weight_robust: float = 1.0
+    weight_regularisation: float = 1e-3
+    weight_buffeting: float = 0.0
+    buffeting_speeds_m_s: tuple = (10.0, 20.0, 25.0)
+    buffeting_term: str = "modal"
+    optimise_placement: bool = False
+    weight_flaps: float = 0.0
+    symmetric_layout: bool = True
+    flap_budget: int = 0
+    starts: int = 2
+    seed: int = 1
+    parallel: bool = False
+    max_iter: int = 80
+    resolve_max_iter: int = 60
+    cutting_plane_rounds: int = 5
+    placement_cut_rounds: int = -1
+    b_bound: float = 15.0
+    a2_bounds: tuple = (1e-3, 5.0)
+    a1_bounds: tuple = (1e-2, 10.0)
+    min_flap_counts: tuple = ()
+    pareto: bool = False
+    variants: int = 0
+    fresh_variants: int = 0
+    fresh_variant_modes: int = 30
+    variant_seed: int = 7
+    variant_fixed: tuple = ("deck.half_chord_m", "aero.coherence_decay")
+    variant_speeds: str = "lazy"
+    design_for_pair_failure: bool = False
+    pareto_step: int = 2
+    objective: str = "margin"
+    margin_min: float = 0.25
+    critical_speed_step_m_s: float = 10.0
+    critical_speed_tol_m_s: float = 1.0
+    critical_speed_max_m_s: float = 0.0
+    critical_speed_evaluations: int = 10
+    layout_neighbours: bool = False
+    layout_adopt: bool = False
+    flap_angle_limit_deg: float = ACTUATOR_DEFAULTS["flap_angle_limit_deg"]
+    flap_rate_limit_deg_s: float = ACTUATOR_DEFAULTS["flap_rate_limit_deg_s"]
+    extras: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        """Validate (one field named per error)."""
+        _num("gain_limit", self.gain_limit, positive=True)
+        for name in ACTUATOR_FIELDS:  # actuator limits (engineering estimates: actuator_limits)
+            check_actuator_value(name, getattr(self, name))
+        for name in ("flap_width_m", "flap_chord_m", "speed_max_m_s", "design_step_m_s",
+                     "check_step_m_s", "omega_min_rad_s", "omega_max_rad_s",
+                     "robust_omega_min_rad_s", "robust_omega_max_rad_s"):
+            _num(name, getattr(self, name), positive=True)
+        _num("zeta_min", self.zeta_min, nonneg=True)
+        if self.zeta_min >= 1.0:
+            raise BridgeflapInputError("zeta_min", f"must be < 1, got {self.zeta_min!r}")
+        for name in ("weight_regularisation",
+                     "weight_buffeting", "weight_robust", "weight_flaps"):
+            _num(name, getattr(self, name), nonneg=True)
+        for name in ("n_modes", "verification_modes", "flap_count", "n_eig", "n_omega",
+                     "n_robust_omega", "starts", "max_iter", "resolve_max_iter",
+                     "pareto_step", "fresh_variant_modes"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise BridgeflapInputError(name, f"must be a positive integer, got {v!r}")
+        if self.omega_max_rad_s <= self.omega_min_rad_s:
+            raise BridgeflapInputError("omega_max_rad_s", "must exceed omega_min_rad_s")
+        if self.robust_omega_max_rad_s <= self.robust_omega_min_rad_s:
+            raise BridgeflapInputError("robust_omega_max_rad_s",
+                                       "must exceed robust_omega_min_rad_s")
+        for name in ("a2_bounds", "a1_bounds"):
+            b = getattr(self, name)
+            if not (isinstance(b, tuple | list) and len(b) == 2):
+                raise BridgeflapInputError(name, f"must be a pair [low, high], got {b!r}")
+            if _num(name, b[0]) >= _num(name, b[1]):
+                raise BridgeflapInputError(name, f"low must be below high, got {b!r}")
+        for v in self.min_flap_counts:
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise BridgeflapInputError("min_flap_counts",
+                                           f"must be positive integers, got {v!r}")
+        if self.a2_bounds[0] <= 0 or self.a1_bounds[0] <= 0:
+            raise BridgeflapInputError("a2_bounds", "lower bounds of a2 and a1 must be > 0 "
+                                                    "(stable, proper compensator)")
+        if not (self.leading_edge or self.trailing_edge):
+            raise BridgeflapInputError("trailing_edge", "no flap fitted")
+        for name in ("robust_design_speeds_m_s", "robust_speeds_m_s", "buffeting_speeds_m_s"):
+            for v in getattr(self, name):
+                _num(name, v, positive=True)
+            if self.weight_robust > 0 and name.startswith("robust") and not getattr(self, name):
+                # an empty list ran the design 30 s, then failed on a broadcast (issue 30)
+                raise BridgeflapInputError(name, "needs at least one speed while weight_robust "
+                                                 "> 0 (or set weight_robust = 0)")
+        for name in ("optimise_placement", "leading_edge", "trailing_edge", "parallel",
+                     "pareto", "symmetric_layout", "design_for_pair_failure",
+                     "layout_neighbours", "layout_adopt"):
+            if not isinstance(getattr(self, name), bool):
+                raise BridgeflapInputError(name, f"must be true or false, got "
+                                                 f"{getattr(self, name)!r}")
+        if self.layout_adopt and not self.layout_neighbours:
+            raise BridgeflapInputError("layout_adopt", "needs layout_neighbours = true (the "
+                                                       "neighbour comparison it adopts from)")
+        _num("b_bound", self.b_bound, positive=True)
+        if not 0 < _num("robust_cut_tol", self.robust_cut_tol) <= 0.1:
+            raise BridgeflapInputError("robust_cut_tol", "must be in (0, 0.1] (relative gap "
+                                       f"of the robust bound), got {self.robust_cut_tol!r}")
+        for name in ("seed", "cutting_plane_rounds"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise BridgeflapInputError(name, f"must be an integer >= 0, got {v!r}")
+        v = self.placement_cut_rounds
+        if isinstance(v, bool) or not isinstance(v, int) or v < -1:
+            raise BridgeflapInputError("placement_cut_rounds", "must be an integer >= 0, or -1 "
+                                       f"(as cutting_plane_rounds), got {v!r}")
+        if not isinstance(self.bridge, str) or not self.bridge:
+            raise BridgeflapInputError("bridge", f"must be a bridge name or path, got "
+                                                 f"{self.bridge!r}")
+        for name in ("variants", "fresh_variants", "variant_seed"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise BridgeflapInputError(name, f"must be an integer >= 0, got {v!r}")
+        if self.variant_speeds not in ("lazy", "all"):
+            raise BridgeflapInputError("variant_speeds", "must be 'lazy' (constraint generation "
+                                       "over variant and speed, design.control.variants) or 'all', "
+                                       f"got {self.variant_speeds!r}")
+        if self.buffeting_term not in ("modal", "callback", "casadi"):
+            raise BridgeflapInputError("buffeting_term", "must be 'modal' (CasADi spectral "
+                                       "integral in modal coordinates), 'casadi' (on the state "
+                                       "matrix) or 'callback' (numpy, forward differences), "
+                                       f"got {self.buffeting_term!r}")
+        if (isinstance(self.flap_budget, bool) or not isinstance(self.flap_budget, int)
+                or not 0 <= self.flap_budget <= self.flap_count):
+            raise BridgeflapInputError("flap_budget", "must be an integer in 0..flap_count "
+                                                      f"(0: no budget), got {self.flap_budget!r}")
+
+        if self.objective not in OBJECTIVES:
+            raise BridgeflapInputError("objective", f"must be one of {', '.join(OBJECTIVES)}, "
+                                                    f"got {self.objective!r}")
+        _num("margin_min", self.margin_min, positive=True)
+        for name in ("critical_speed_step_m_s", "critical_speed_tol_m_s"):
+            _num(name, getattr(self, name), positive=True)
+        _num("critical_speed_max_m_s", self.critical_speed_max_m_s, nonneg=True)
+        v = self.critical_speed_evaluations
+        if isinstance(v, bool) or not isinstance(v, int) or v < 2:
+            raise BridgeflapInputError("critical_speed_evaluations",
+                                       f"must be an integer >= 2, got {v!r}")
+        if self.objective == "critical_speed":
+            if self.critical_speed_tol_m_s >= self.critical_speed_step_m_s:
+                raise BridgeflapInputError("critical_speed_tol_m_s",
+                                           "must be below critical_speed_step_m_s")
+            if 0 < self.critical_speed_max_m_s < self.speed_max_m_s:
+                raise BridgeflapInputError("critical_speed_max_m_s",
+                                           "must be >= speed_max_m_s, where the search "
+                                           "starts (0: 2 speed_max_m_s)")
+            if self.weight_robust <= 0 or not self.robust_speeds_m_s:
+                raise BridgeflapInputError("weight_robust", "the critical-speed objective "
+                                           "needs the robust margin (weight_robust > 0 and "
+                                           "robust_speeds_m_s)")
+
+    def positions(self, count: int | None = None) -> np.ndarray:
+        """Evenly spaced, touching flap centres from the main-span mid-point [m]."""
+        count = self.flap_count if count is None else int(count)
+        return (np.arange(count) - 0.5 * (count - 1)) * self.flap_width_m
+
+    def design_speeds(self) -> np.ndarray:
+        """Design grid [m/s], 0 .. speed_max inclusive (never above it: the steps that fit,
+        then ``speed_max``)."""
+        n = int(np.floor(self.speed_max_m_s / self.design_step_m_s + 1e-9))
+        return np.unique(np.append(np.linspace(0.0, n * self.design_step_m_s, n + 1),
+                                   self.speed_max_m_s))
+
+    def iteration_cap(self) -> int:
+        """Most Ipopt iterations of one start (the total of its progress bar): phase 1 and
+        round 0 (``max_iter`` each) and the cut re-solves (``resolve_max_iter`` each); twice
+        that with ``optimise_placement`` (the rounded layout is solved again)."""
+        once = 2 * self.max_iter + self.cutting_plane_rounds * self.resolve_max_iter
+        return once * (2 if self.optimise_placement else 1)
+
+    def check_speeds(self) -> np.ndarray:
+        """Dense verification grid [m/s]."""
+        n = int(round(self.speed_max_m_s / self.check_step_m_s))
+        return np.linspace(0.0, self.speed_max_m_s, n + 1)
+
+
+
+_TOML_KEYS = {f for f in DesignSettings.__dataclass_fields__ if f != "extras"}
+
+
+def load_settings(path: str | os.PathLike | None = "default", **overrides) -> DesignSettings:
+    """A design card (TOML) overridden by keyword arguments.
+
+    ``path``: a card file; ``"default"`` (the default) is :data:`DEFAULT_CARD`, the card
+    ``bridgeflap optimise`` runs without ``--definition``; ``None`` starts from the embedded
+    :class:`DesignSettings` defaults alone (docs/api_vocabulary.md).
+
+    Raises
+    ------
+    BridgeflapInputError
+        Unknown key, bad value, missing or unreadable file.
+    """
+    data = {}
+    if isinstance(path, str) and path == "default":
+        path = DEFAULT_CARD
+    if path is not None:
+        p = Path(path)
+        try:
+            data = tomllib.loads(p.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise BridgeflapInputError("design", f"file not found: {p}") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise BridgeflapInputError("design", f"invalid TOML in {p}: {exc}") from None
+        except OSError as exc:  # a folder, no permission
+            raise BridgeflapInputError("design", f"cannot read {p}: {exc}") from None
+    flat = {}
+    for key, value in data.items():
+        if isinstance(value, dict):         # allow [tables] for grouping
+            for k, v in value.items():
+                flat[k] = v
+        else:
+            flat[key] = value
+    flat.update(overrides)
+    unknown = sorted(set(flat) - _TOML_KEYS)
+    if unknown:
+        import difflib
+
+        close = difflib.get_close_matches(unknown[0], sorted(_TOML_KEYS), n=3)
+        raise BridgeflapInputError(unknown[0], "unknown design setting" + (
+            f" (did you mean {', '.join(close)}?)" if close else
+            f" (the {len(_TOML_KEYS)} known ones: design.control.settings.DesignSettings, "
+            "documented in runs/humber_flaps.toml)"))
+    for key in ("a2_bounds", "a1_bounds", "min_flap_counts", "robust_speeds_m_s", "variant_fixed",
+                "robust_design_speeds_m_s", "buffeting_speeds_m_s"):
+        if key in flat:
+            if not isinstance(flat[key], list | tuple):
+                raise BridgeflapInputError(key, f"must be a list, got {flat[key]!r}")
+            flat[key] = tuple(flat[key])
+    return DesignSettings(**flat)
+
+
+#: The packaged design cards (shipped in the wheel).
+CARDS_DIR = Path(__file__).resolve().parents[1] / "studies"
+
+#: The card `bridgeflap optimise` and the default study's design step run.
+DEFAULT_CARD = CARDS_DIR / "humber_flaps.toml"
+
+
+def packaged_card(name) -> Path:
+    """The path of a card: a file name of ``design/studies`` (``"humber_flaps.toml"``, with
+    or without the suffix; ``"default"`` is :data:`DEFAULT_CARD`) or any existing path."""
+    if str(name) == "default":
+        return DEFAULT_CARD
+    p = Path(name)
+    if p.exists():
+        return p
+    q = CARDS_DIR / (p.name if p.suffix == ".toml" else p.name + ".toml")
+    if str(name) == p.name and q.exists():
+        return q
+    known = ", ".join(sorted(c.stem for c in CARDS_DIR.glob("*.toml")))
+    raise BridgeflapInputError("card", f"no card {name!r} (packaged: default, {known})")
+
+
+def quick_settings(settings: DesignSettings) -> DesignSettings:
+    """Reduced settings for CI/--quick: one start, coarser design grid, two cut rounds,
+    fewer flap counts.
+
+    Two rounds, not one: on humber:box the first re-solve after the cuts can stop at its
+    iteration cap 4.6e-6 1/s short of the damping at a design speed (measured after the
+    analytic robust constraint changed Ipopt's path; status then infeasible); the second
+    re-solve continues it.
+
+    The design model keeps its modes (a design on 8 modes flutters at 79.75 m/s on the
+    16-mode model); the dense verification on ``verification_modes`` is unchanged and the
+    status says whether it holds.
+
+    The critical-speed search (``objective = "critical_speed"``) bisects to 2.5 m/s (at most
+    half its step) instead of ``critical_speed_tol_m_s``.
+    """
+    tol = max(settings.critical_speed_tol_m_s, min(2.5, 0.5 * settings.critical_speed_step_m_s))
+    return replace(settings, starts=1, design_step_m_s=max(settings.design_step_m_s, 10.0),
+                   cutting_plane_rounds=2, min_flap_counts=(25, 13, 5), pareto=False,
+                   critical_speed_tol_m_s=tol)

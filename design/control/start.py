@@ -1,0 +1,304 @@
+"""One start of the multistart design (:func:`design.control.driver.design`): the starting points
+(the nominal one and screened Sobol points), the solve with cutting planes, the rounding of a
+relaxed flap layout by whole groups and the re-solve on it, the record of a solved start (dense
+margin, verification-model check, design variants), and the choice among the starts. Below
+the driver, so that the critical-speed search and the layout search run starts and layouts
+without importing the driver back."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from design.control.checks import nlp_active_speeds
+from design.control.nlp import EIG_SCALE, DesignProblem
+from design.control.problem_model import build_model, verify_layout
+from design.control.records import RobustMargin, StartRecord
+from design.control.settings import DesignSettings
+from model.aeroelastic.control import Compensator
+
+NAN = float("nan")
+
+
+def round_layout(S, z, budget=0) -> np.ndarray:
+    """0/1 flap weights from relaxed placement variables ``z`` (``w = S z``).
+
+    The groups (mirror pairs with ``symmetric_layout``) are taken largest ``z`` first: with a
+    ``budget`` > 0 while the flap count stays within it, otherwise every group with
+    ``z > 0.5``; at least the largest group is kept, so a layout never loses every flap.
+    The rounded layout stays symmetric because whole groups are kept.
+    """
+    S = np.asarray(S, float)
+    z = np.asarray(z, float)
+    sizes = S.sum(axis=0)
+    keep = np.zeros(z.size, bool)
+    count = 0.0
+    for j in np.argsort(-z, kind="stable"):
+        if budget > 0:
+            if count + sizes[j] > budget:
+                continue
+        elif z[j] <= 0.5:
+            break
+        keep[j] = True
+        count += sizes[j]
+    if not keep.any():
+        keep[int(np.argmax(z))] = True
+    return (S @ keep.astype(float) > 0.5).astype(float)
+
+
+#: Candidates screened per Sobol start (:func:`screened_starts`).
+SCREEN_FACTOR = 8
+
+
+def sobol_starts(settings: DesignSettings, count: int) -> np.ndarray:
+    """Sobol points in the compensator box (b's in [-5, 5], a2, a1 log-uniform) (count, 5)."""
+    from scipy.stats import qmc
+
+    m = max(1, int(np.ceil(np.log2(max(count, 1)))))
+    pts = qmc.Sobol(5, scramble=True, seed=settings.seed).random_base2(m)[:count]
+    lo_a2, hi_a2 = np.log10(0.01), np.log10(1.0)
+    lo_a1, hi_a1 = np.log10(0.05), np.log10(3.0)
+    th = np.empty((count, 5))
+    th[:, :3] = -5.0 + 10.0 * pts[:, :3]
+    th[:, 3] = 10 ** (lo_a2 + (hi_a2 - lo_a2) * pts[:, 3])
+    th[:, 4] = 10 ** (lo_a1 + (hi_a1 - lo_a1) * pts[:, 4])
+    th[:, 0] = np.clip(th[:, 0], -0.5 * settings.gain_limit * th[:, 3],
+                       0.5 * settings.gain_limit * th[:, 3])
+    return th
+
+
+def screened_starts(settings: DesignSettings, count: int, model=None,
+                    spec=None) -> np.ndarray:
+    """``count`` Sobol starts, the best of ``SCREEN_FACTOR * count`` Sobol candidates.
+
+    Raw Sobol points in the compensator box are mostly far from feasible (positive static
+    gain, fast lead) and a start from there can use the whole Ipopt budget (80 iterations,
+    ~80 s on 16 modes) to reach a poor local solution. Each candidate is scored by the NLP's
+    own merit at the start point: ``weight_robust * gamma_T0 + EIG_SCALE * max(0, max
+    violation of the damping constraints)`` (objective plus an exact l-inf penalty on the
+    scaled eigenvalue constraints, unit weight) on a 10 m/s speed grid and the robust sample
+    points; candidates with ``sup|K| > gain_limit`` are rejected first. Cost: one eig per
+    speed and one epigraph evaluation per candidate (~0.2 s on 16 modes).
+    """
+    if count <= 0:
+        return np.empty((0, 5))
+    cand = sobol_starts(settings, SCREEN_FACTOR * count)
+    if model is None:
+        _, model = build_model(settings, spec=spec)
+    prob = DesignProblem(replace(settings, optimise_placement=False), model)
+    speeds = np.unique(np.append(np.arange(0.0, settings.speed_max_m_s, 10.0),
+                                 settings.speed_max_m_s))
+    use_rob = settings.weight_robust > 0 and bool(settings.robust_design_speeds_m_s)
+    rob = prob.robust_function(analytic=True)[0] if use_rob else None
+    w = np.ones(model.n_flaps)
+    scores = []
+    for th in cand:
+        if Compensator(*(float(v) for v in th)).max_gain() > settings.gain_limit:
+            scores.append(np.inf)
+            continue
+        viol = float(np.max(prob.constraint_values(th, speeds)))
+        gam = float(np.sqrt(np.max(np.asarray(rob(th, w).full())))) if rob else 0.0
+        sc = settings.weight_robust * gam + EIG_SCALE * max(0.0, viol)
+        scores.append(sc if np.isfinite(sc) else np.inf)
+    order = np.argsort(np.asarray(scores), kind="stable")
+    return cand[order[:count]]
+
+
+def _progress_bar(index: int, show, total: int):
+    """tqdm bar on stderr of one start's Ipopt iterations out of ``total``, their cap (None
+    when not shown: ``show`` None means "stderr is a terminal")."""
+    import sys
+
+    if not (sys.stderr.isatty() if show is None else show):
+        return None
+    from tqdm import tqdm
+
+    return tqdm(desc=f"start {index} Ipopt", unit="it", file=sys.stderr, leave=False,
+                position=index, total=total)
+
+
+def run_start(settings: DesignSettings, theta0, index: int, spec=None,
+              progress_bar=None, variants=()) -> StartRecord:
+    """One start: solve with cuts (placement: round the weights, re-solve), then the dense
+    robust margin and the check on the verification model. A failure is a record (STYLE).
+    ``spec``: the bridge (default ``settings.bridge``); ``progress_bar``: a tqdm bar of the
+    Ipopt iterations on stderr (None: when stderr is a terminal); ``variants``: bridge
+    variants (BridgeSpec) of a multi-model design -- every damping constraint and check on
+    every variant as well."""
+    from design.control.pair_failure import extra_models
+
+    t0 = time.perf_counter()
+    spec, model = build_model(settings, spec=spec)
+    relaxed = settings
+    if settings.optimise_placement and settings.placement_cut_rounds >= 0:
+        # the relaxed rounds only choose the layout: their own cut budget
+        relaxed = replace(settings, cutting_plane_rounds=settings.placement_cut_rounds)
+    prob = DesignProblem(relaxed, model, spec=spec)
+    # multi-model with placement: the relaxed solve chooses the layout on the nominal bridge,
+    # the variants join the rounded layout's K (fixed layout: 5 parameters per variant block,
+    # not 5 + the flap weights; measured: variants in the relaxed solve too took the default
+    # card to 3.4 min, round 0 capped infeasible, against ~1 min)
+    if not settings.optimise_placement:
+        prob.variants = extra_models(settings, model, spec, variants)
+    bar = _progress_bar(index, progress_bar, settings.iteration_cap())
+    if bar is not None:
+        def tick(i, f, x):
+            bar.update(1)
+            bar.set_postfix_str(f"objective {f:.4g}", refresh=False)
+        prob.on_iteration = tick
+    theta0 = tuple(float(v) for v in theta0)
+    w_cont = None
+    try:
+        res = prob.solve_with_cuts(np.asarray(theta0))
+        rounds = list(res.rounds)
+        positions = settings.positions()
+        if settings.optimise_placement:
+            w_cont = tuple(float(v) for v in res.solve.weights)
+            rounded = round_layout(prob.symmetry, prob.z_of(w_cont), settings.flap_budget)
+            positions = positions[rounded > 0.5]
+            prob, res = solve_fixed_layout(settings, positions, res.theta, spec, variants,
+                                           prob.on_iteration)
+            rounds += [replace(r, placement="rounded") for r in res.rounds]
+    except Exception as exc:  # noqa: BLE001 - solver failure is data (STYLE)
+        if bar is not None:
+            bar.close()
+        return StartRecord(start=index, theta0=theta0, ipopt_status=f"failed: {exc}",
+                           success=False, time_s=time.perf_counter() - t0,
+                           weights_continuous=w_cont)
+    if bar is not None:
+        bar.close()
+    return _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_cont,
+                         spec)
+
+
+def solve_fixed_layout(settings: DesignSettings, positions, theta0, spec=None, variants=(),
+                       on_iteration=None):
+    """K(s) re-optimised with cutting planes on the flaps at ``positions`` [m] only, from
+    ``theta0`` (the rounded layout's step of :func:`run_start`; also
+    :mod:`design.control.layout_search`). The candidates left out are not built, so the flap loop
+    (and its robust margin) has no channel for them. ``variants``: multi-model bridges.
+    Returns ``(problem, CutsOutcome)``; raises what the solve raises."""
+    from design.control.pair_failure import extra_models
+    from model.structure.spec import load_bridge
+
+    spec = load_bridge(settings.bridge if spec is None else spec)
+    fixed_s = replace(settings, optimise_placement=False)
+    fixed = DesignProblem(fixed_s, build_model(settings, positions=positions, spec=spec)[1],
+                          spec=spec)
+    fixed.on_iteration = on_iteration
+    fixed.variants = extra_models(fixed_s, fixed.model, spec, variants, positions)
+    return fixed, fixed.solve_with_cuts(np.asarray(theta0, float))
+
+
+def layout_record(settings: DesignSettings, positions, theta0, index: int = 0, spec=None,
+                  variants=()) -> StartRecord:
+    """K(s) re-optimised and checked on the fixed layout ``positions`` [m] from ``theta0``,
+    exactly as :func:`run_start` treats a rounded layout (:func:`solve_fixed_layout`, then
+    the same dense margin and verification); a failed solve is a record (STYLE)."""
+    t0 = time.perf_counter()
+    theta0 = tuple(float(v) for v in theta0)
+    positions = np.asarray(positions, float)
+    try:
+        prob, res = solve_fixed_layout(settings, positions, theta0, spec, variants)
+    except Exception as exc:  # noqa: BLE001 - solver failure is data (STYLE)
+        return StartRecord(start=index, theta0=theta0, ipopt_status=f"failed: {exc}",
+                           success=False, time_s=time.perf_counter() - t0,
+                           flap_positions_m=tuple(float(x) for x in positions))
+    return _start_record(settings, prob, res, list(res.rounds), positions, theta0, index, t0,
+                         None, prob.spec)
+
+
+def _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_cont,
+                  spec) -> StartRecord:
+    """The record of a solved start: dense margin, verification-model check, variants."""
+    from design.control.pair_failure import pair_label
+
+    theta = res.theta
+    ver = res.verification
+    rob = _margin_at(res.robust, settings.robust_speeds_m_s)
+    if rob is None:
+        rob = prob.robust_margin(theta)
+    ver16 = (verify_layout(settings, theta, positions, spec=spec)
+             if settings.verification_modes != settings.n_modes else ver)
+    gain_ok = bool(ver.max_gain <= settings.gain_limit)
+    # the design variants on the refined check grid (the dense check's decisions: damping
+    # met, first unstable speed; the smallest damping ratio over the speeds checked)
+    vchecks = [q.verify(theta, refined=True) for q in prob.variants]
+    variants_ok = all(v.meets_damping for v in vchecks)
+    return StartRecord(
+        start=index, theta0=theta0, theta=tuple(float(v) for v in theta),
+        ipopt_status=res.solve.ipopt_status, success=res.solve.success,
+        iterations=sum(r.iterations for r in rounds), time_s=time.perf_counter() - t0,
+        rounds=tuple(rounds), max_violation_1_s=ver.max_violation_1_s,
+        stable_to_m_s=ver.stable_to_m_s, stable_everywhere=ver.stable_everywhere,
+        max_gain=ver.max_gain, meets_damping=ver.meets_damping, gain_ok=gain_ok,
+        # verified: every a posteriori check holds, whatever Ipopt's exit status
+        verified=bool(ver.meets_damping and gain_ok and ver16.stable_everywhere
+                      and variants_ok),
+        gamma_T_frobenius=res.solve.gamma_T, phase_1_point=_phase_1(res),
+        objective=NAN if _phase_1(res) else float(res.solve.objective),
+        dense_t_peak_check_speeds=res.robust.peak if res.robust is not None else float("nan"),
+        robust_bound_holds=res.robust_bound_holds, robust=rob, verification=ver16,
+        robust_cuts=res.robust_cuts, gain_cuts=res.gain_cuts,
+        flap_positions_m=tuple(float(x) for x in positions),
+        design_speeds_m_s=res.design_speeds_m_s, weights_continuous=w_cont,
+        nlp_active_speeds_m_s=nlp_active_speeds(res.solve, res.design_speeds_m_s,
+                                                settings.n_eig),
+        variant_checks=tuple({**pair_label(q), "meets_damping": v.meets_damping,
+                              "min_damping_ratio": v.min_damping_ratio,
+                              "stable_to_m_s": v.stable_to_m_s}
+                             for q, v in zip(prob.variants, vchecks, strict=True)),
+        design_verification=ver, nlp_objective=float(res.solve.objective))
+
+
+def _phase_1(res) -> bool:
+    """The cuts kept the phase-1 point (its objective is not the design's, issue 32 item 4)."""
+    lab = res.rounds[res.chosen_round].placement if res.rounds else None
+    return bool(lab and lab.startswith("phase 1"))
+
+
+def _margin_at(rob, speeds):
+    """The dense margin at ``speeds`` [m/s] taken from a check ``rob`` (RobustMargin) of the
+    same design on a superset of speeds (the cutting-plane check at the design and reported
+    speeds: same per-speed grid and peak polishing), or None when ``rob`` lacks a speed --
+    not recomputed (issue 16 goal 3)."""
+    if rob is None:
+        return None
+    have = {float(u): i for i, u in enumerate(rob.speeds_m_s)}
+    idx = [have.get(float(u)) for u in speeds]
+    if not idx or any(i is None for i in idx):
+        return None
+    t_inf = np.asarray(rob.t_inf)[idx]
+    return RobustMargin(speeds_m_s=np.asarray(speeds, float), t_inf=t_inf,
+                        peak_omega_rad_s=np.asarray(rob.peak_omega_rad_s)[idx],
+                        peaks=tuple(rob.peaks[i][:1] for i in idx),
+                        margin=float(1.0 / t_inf.max()))
+
+
+
+
+def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
+    """Chosen start and design status from the per-start records of :func:`run_start`.
+
+    ``converged``: the *verified* start (damping on the design model's dense grid, true peak
+    gain ``max_gain <= gain_limit`` -- no tolerance, the NLP backs off by ``GAIN_BACKOFF`` --,
+    stable on the verification model) with the lowest NLP objective (the design's own
+    objective, issue 32 item 4; after them the starts without one -- a phase-1 point, NaN --
+    and ties, by the larger margin), whatever its
+    Ipopt exit status; ``unverified``: feasible on the design model only; ``infeasible``: no
+    start meets the damping and the gain limit (the least violating is reported, never as
+    converged); ``failed``: no start produced a design.
+    """
+    feasible = [r for r in records if r.meets_damping and r.max_gain <= gain_limit]
+    verified = [r for r in feasible if r.verified]
+    if verified:
+        return min(verified, key=lambda r: (r.objective if np.isfinite(r.objective)
+                                            else np.inf, -r.robust_margin)), "converged"
+    if feasible:
+        return max(feasible, key=lambda r: r.verification.stable_to_m_s), "unverified"
+    cands = [r for r in records if not r.failed]
+    if not cands:
+        return None, "failed"
+    return min(cands, key=lambda r: (max(r.max_violation_1_s, 0.0), r.max_gain)), "infeasible"

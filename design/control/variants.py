@@ -1,0 +1,120 @@
+"""Multi-model design: the damping constraints of bridge variants, generated lazily.
+
+A multi-model design (``variants > 0``) asks the damping constraint of every movable branch at
+every design speed on every variant as well as on the nominal bridge. Written out in full
+(``variant_speeds = "all"``) that is ``(1 + variants)`` eigen-decompositions with vectors per
+design speed and Ipopt iteration: 9x the nominal eigenvalue work for 8 variants (the card
+``design/studies/humber_flaps_multimodel.toml`` took 144 s so, 88 s lazy). Most of them are
+slack: the variants are perturbations of one bridge, and where the nominal constraint is
+satisfied with room so are theirs. ``variant_speeds = "lazy"`` (default) keeps, per variant,
+only the speeds at which its constraint can bind (constraint generation, the same cutting-plane
+idea as the nominal bridge's dense-check cuts of :mod:`design.control.cuts`):
+
+* **seed** (before the first solve, :func:`seed`): at each design speed the variant whose
+  damping measure at the start is the largest, when it exceeds the nominal one (an envelope:
+  there the nominal constraint does not cover it). Measured on the multi-model card (one run
+  each, deterministic): this seed 88 s; the near-active pairs (below) as the seed instead
+  190 s (one start's first rounded solve wandered into the left-out constraints: 80 + 146
+  iterations at ~0.7 s, line-search trials evaluating every speed); both 107 s;
+* **cuts** (after every round, :func:`round_checks`): every variant is checked on the check
+  grid (the refined subset of :func:`design.control.plant.damping_check_refined`, which keeps the
+  dense check's decisions); the worst speed of each run of violations joins that variant's set, and
+  so does every design speed at which the variant is near its bound (:data:`NEAR_ACTIVE_REL`;
+  the next round would otherwise be free to push it over).
+
+A round of :mod:`design.control.cuts` counts as feasible, and a start as verified, only when every
+variant passes its check, so a lazy design is held to the same a posteriori standard as a full
+one: the constraints left out are verified satisfied, not assumed. The sets only grow, so the
+loop cannot cycle.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from design.control.plant import damping_check, lag_rates
+
+#: A design speed joins a variant's constraint set when, at a round's design, the variant's
+#: smallest damping ratio of the movable branches there is below ``(1 + NEAR_ACTIVE_REL)
+#: zeta_min`` (0.6 % for zeta_min = 0.5 %), or its damping measure ``Re lambda + zeta_min
+#: |lambda|`` is above ``-NEAR_ACTIVE_1_S`` (a real root approaching divergence has damping
+#: ratio 1 until it crosses). Measured on the default card with 8 variants: an absolute 1e-3
+#: 1/s alone took 54-81 of the 144 pairs (the lightly damped low-speed vertical branches sit
+#: at ~-2e-3 1/s with the 1 % structural damping), no fewer rounds.
+NEAR_ACTIVE_REL = 0.2
+NEAR_ACTIVE_1_S = 1e-4
+
+
+def lazy(prob) -> bool:
+    """Whether ``prob``'s variants (or ``prob``, a variant) carry their own (lazy) speed
+    sets (:attr:`design.control.nlp.DesignProblem.lazy_speeds`)."""
+    return prob.settings.variant_speeds == "lazy"
+
+
+def speeds_of(variant, speeds) -> np.ndarray:
+    """The design speeds [m/s] whose damping constraints ``variant`` (a variant problem)
+    carries in the NLP: its own set when lazy, else every design speed ``speeds``."""
+    if not lazy(variant):
+        return np.asarray(speeds, float)
+    return np.array(variant.lazy_speeds, float)
+
+
+def _add(variant, speeds) -> int:
+    have = set(variant.lazy_speeds)
+    new = [float(u) for u in speeds if float(u) not in have]
+    variant.lazy_speeds = sorted(have | set(new))
+    return len(new)
+
+
+def seed(prob, theta, w, speeds, nominal) -> float:
+    """The largest damping measure of the variants at ``theta`` on the design ``speeds``
+    [1/s]; when lazy, each speed's worst variant joins its set where it exceeds the nominal
+    measures ``nominal`` (per speed)."""
+    if not prob.variants:
+        return -np.inf
+    U = np.asarray(speeds, float)
+    vals = np.array([v.constraint_values(theta, U, w) for v in prob.variants])
+    if lazy(prob):
+        worst = np.argmax(vals, axis=0)
+        for j, u in enumerate(U):
+            if vals[worst[j], j] > nominal[j]:
+                _add(prob.variants[worst[j]], [u])
+    return float(vals.max())
+
+
+def round_checks(prob, theta, w, speeds, tol, worst_per_run) -> tuple[list, int]:
+    """Check every variant after a round: ``(verifications, new constraints)``.
+
+    Verifications on the refined check grid; when lazy, the worst speed of each run of
+    violations above ``tol`` and every design speed where the variant is near its bound
+    (:data:`NEAR_ACTIVE_REL`, :data:`NEAR_ACTIVE_1_S`) join the variant's set (``new
+    constraints`` counts the (variant, speed) pairs added). When not lazy the violating check
+    speeds are returned through the nominal loop instead (0)."""
+    vers = [v.verify(theta, w, refined=True) for v in prob.variants]
+    if not lazy(prob):
+        return vers, 0
+    U = np.asarray(speeds, float)
+    new = 0
+    for v, ver in zip(prob.variants, vers, strict=True):
+        bad = ver.violation_1_s > tol
+        cand = worst_per_run(ver.speeds_m_s, bad, ver.violation_1_s) if bad.any() else []
+        near = U[_near_active(v, theta, w, U)]
+        new += _add(v, [*cand, *near])
+    return vers, new
+
+
+def _near_active(v, theta, w, U) -> np.ndarray:
+    """Mask of the design speeds ``U`` where variant ``v`` is near its damping bound."""
+    z = v.settings.zeta_min
+    return _near(damping_check(v.A_parts(theta, w), U, lag_rates(v.model), theta, z), z)
+
+
+def _near(chk, z) -> np.ndarray:
+    """Near the bound (or over it): damping ratio below ``(1 + NEAR_ACTIVE_REL) z`` or measure
+    above ``-NEAR_ACTIVE_1_S``, per speed of a :func:`design.control.plant.damping_check`."""
+    return (chk["zeta"] < z * (1.0 + NEAR_ACTIVE_REL)) | (chk["measure_1_s"] > -NEAR_ACTIVE_1_S)
+
+
+def constraint_count(prob, speeds) -> int:
+    """(variant, speed) damping-constraint pairs the NLP carries with design ``speeds``."""
+    return sum(speeds_of(v, speeds).size for v in prob.variants)

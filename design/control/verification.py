@@ -1,0 +1,52 @@
+"""The dense a posteriori check of a compensator design
+(:meth:`design.control.nlp.DesignProblem.verify`).
+
+Every eigenvalue of the closed loop on the check grid (the spectral abscissa), the damping of the
+branches the flaps can move against ``zeta_min``, and the compensator's peak gain.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from design.control.nlp_tolerances import VIOLATION_TOL
+from design.control.plant import damping_check, damping_check_refined, lag_rates
+from design.control.records import Verification
+from model.aeroelastic.control import Compensator
+
+
+def verify(prob, theta, weights=None, refined=False) -> Verification:
+    """Check ``theta`` (b2, b1, b0, a2, a1) with flap ``weights`` on ``prob`` (a
+    :class:`design.control.nlp.DesignProblem`) on its settings' check grid ``check_speeds()``.
+
+    ``refined``: on the subset of the check grid of
+    :func:`design.control.plant.damping_check_refined` (a coarse grid refined where a threshold
+    could be reached; the same decisions; ``speeds_m_s`` then lists the speeds checked).
+    """
+    s = prob.settings
+    U = s.check_speeds()
+    parts = prob.A_parts(theta, weights)
+    red = prob.reduction(parts[0].shape[0])
+    if red is not None:         # exact: the dropped eigenvalues are compensator poles
+        parts = (*[red[1] @ (a @ red[0]) for a in parts[:3]], red[2])
+    if refined:
+        chk = damping_check_refined(parts, U, lag_rates(prob.model), theta, s.zeta_min,
+                                    VIOLATION_TOL)
+        U = chk["speeds_m_s"]
+    else:
+        chk = damping_check(parts, U, lag_rates(prob.model), theta, s.zeta_min)
+    absc = chk["abscissa_1_s"]
+    viol = chk["measure_1_s"]
+    comp = Compensator(*(float(v) for v in theta))
+    stable = absc < 0
+    stable_to = float(U[-1]) if stable.all() else (
+        float(U[np.argmax(~stable) - 1]) if np.argmax(~stable) > 0 else 0.0)
+    return Verification(speeds_m_s=U, abscissa_1_s=absc, violation_1_s=viol,
+                        max_violation_1_s=float(viol.max()),
+                        stable_everywhere=bool(stable.all()), stable_to_m_s=stable_to,
+                        max_gain=comp.max_gain(), modes=int(prob.model.open_loop.basis.n),
+                        step_m_s=s.check_step_m_s,
+                        meets_damping=bool(viol.max() <= VIOLATION_TOL),
+                        min_damping_ratio=float(chk["zeta"].min()),
+                        min_damping_speed_m_s=float(U[int(np.argmin(chk["zeta"]))]),
+                        damping_ratio=chk["zeta"])

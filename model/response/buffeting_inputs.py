@@ -1,0 +1,97 @@
+"""Buffeting inputs: the state space and the gust-load model of
+:func:`model.response.buffeting.buffeting`.
+
+The thin-aerofoil gust loads of seed Eq. (8) (vertical turbulence, ``C_L'`` and ``C_M'`` of
+``spec.aero``; :func:`model.aero.strips.strip_aero`) or the quasi-steady loads of the bridge's
+``[static_coefficients]`` (:mod:`model.aero.quasi_steady`: ``u`` and ``w``), on the Theodorsen state
+space or, for a bridge with flutter-derivative loads, on its Roger state space
+(:func:`model.structure.modal_import.derivative_bridge_system`). Conventions: :mod:`model`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from model.errors import BridgeflapInputError
+
+__all__ = ["LOADS", "quasi_steady_inputs", "resolve_system"]
+
+#: gust-load models: seed Eq. (8) (w only, C_L' and C_M' slopes) or model.aero.quasi_steady (u and
+# w)
+LOADS = ("thin-aerofoil", "quasi-steady")
+
+
+def resolve_system(spec_or_system, n_modes, controller, spec, loads=None):
+    """``(spec, system, basis, loads)`` from a bridge spec (open or closed loop) or a system.
+
+    ``loads`` (None: ``"quasi-steady"`` for a flutter-derivative bridge, else
+    ``"thin-aerofoil"``) chooses the gust loads; the quasi-steady ones
+    (:mod:`model.aero.quasi_steady`) replace ``Bw1`` by the ``w`` loads and put the ``u`` loads in
+    ``system.extras["Bw1_u"]``.
+    """
+    from model.structure.spec import BridgeSpec
+
+    if loads not in (None, *LOADS):
+        raise BridgeflapInputError("loads", f"must be one of {LOADS}, got {loads!r}")
+    if isinstance(spec_or_system, BridgeSpec):
+        spec = spec_or_system
+        der = getattr(spec, "derivatives", None) is not None
+        loads = loads or ("quasi-steady" if der else "thin-aerofoil")
+        if der and loads != "quasi-steady":
+            raise BridgeflapInputError("loads", "this bridge's self-excited loads are "
+                                       "flutter-derivative tables: its gust loads are the "
+                                       "quasi-steady ones (--loads quasi-steady)")
+        if loads == "quasi-steady" and getattr(spec, "static_coefficients", None) is None:
+            raise BridgeflapInputError(
+                "static_coefficients", f"bridge {spec.name!r} gives no [static_coefficients] "
+                "(C_D, C_L, C_M and their slopes), which quasi-steady buffeting loads need")
+        if controller is not None and loads == "quasi-steady":
+            raise BridgeflapInputError("controller", "closed-loop buffeting is built for the "
+                                       "thin-aerofoil gust loads only")
+        if controller is not None:
+            from model.aeroelastic.flaps import closed_loop_system
+
+            system = closed_loop_system(spec, controller, n_modes)
+        elif der:
+            from model.structure.fe import assemble
+            from model.structure.modal_import import derivative_bridge_system
+            from model.structure.modes import solve
+
+            system = derivative_bridge_system(spec, solve(assemble(spec)), int(n_modes))
+        else:
+            from model.aeroelastic import statespace
+            from model.structure.fe import assemble
+            from model.structure.modes import solve
+
+            basis = solve(assemble(spec)).structural_basis(int(n_modes))
+            system = statespace.spec_system(spec, basis)
+        if loads == "quasi-steady":
+            system = quasi_steady_inputs(system, spec)
+        return spec, system, system.basis, loads
+    system = spec_or_system
+    if controller is not None:
+        raise BridgeflapInputError("controller", "give a bridge spec with a controller")
+    if loads == "quasi-steady":
+        raise BridgeflapInputError("loads", "quasi-steady loads need a bridge spec")
+    basis = getattr(system, "basis", None)
+    if basis is None:
+        raise BridgeflapInputError("system", "needs a .basis with strip_x (StructuralBasis)")
+    return spec, system, basis, "thin-aerofoil"
+
+
+def quasi_steady_inputs(system, spec):
+    """``system`` with the quasi-steady gust inputs (``Bw1`` = w, ``extras["Bw1_u"]`` = u)."""
+    import dataclasses
+
+    from model.aero.quasi_steady import gust_inputs
+
+    basis = system.basis
+    P_w, P_u = gust_inputs(basis, 2.0 * spec.deck.half_chord_m, spec.aero.air_density_kg_m3,
+                           spec.static_coefficients, system.extras.get("phi_p"))
+    M_t = basis.M + system.aero.M_nc  # the mass of the q'' rows (model.aeroelastic.assembly)
+    iv = system.index.q_dot
+    Bw, Bu = np.zeros_like(system.Bw1), np.zeros_like(system.Bw1)
+    Bw[iv] = np.linalg.solve(M_t, P_w)
+    Bu[iv] = np.linalg.solve(M_t, P_u)
+    extras = dict(system.extras, Bw1_u=Bu if np.any(Bu) else None)
+    return dataclasses.replace(system, Bw1=Bw, extras=extras)

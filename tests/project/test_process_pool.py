@@ -1,0 +1,100 @@
+"""One process-pool mechanism (issue 29 item 6): every local pool of worker processes is made
+by :func:`model.workers.process_pool`, which checks the ``if __name__ == "__main__":`` guard
+before any process starts (:mod:`model.workers`; tests/test_main_guard.py)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+from model.workers import MAIN_GUARD_REASON, process_pool
+
+ROOT = Path(__file__).resolve().parents[2]
+REFUSED = f"model.errors.BridgeflapInputError: workers: {MAIN_GUARD_REASON}"
+
+
+def _run(script: str, tmp_path: Path) -> subprocess.CompletedProcess:
+    path = tmp_path / "user_script.py"
+    path.write_text(textwrap.dedent(script))
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1",
+           "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH"))
+                                         if p)}
+    # a refusal takes about a second; a re-running spawned worker would take far longer
+    return subprocess.run([sys.executable, str(path)], env=env, capture_output=True,
+                          text=True, timeout=60, cwd=tmp_path)
+
+
+def test_no_other_process_pool_in_the_package():
+    """A pool made elsewhere would skip the guard: ``ProcessPoolExecutor(`` only in
+    model/workers.py."""
+    found = []
+    for pkg in ("design", "model"):
+        for path in sorted((ROOT / pkg).rglob("*.py")):
+            if "ProcessPoolExecutor(" in path.read_text(encoding="utf-8"):
+                found.append(path.relative_to(ROOT).as_posix())
+    assert found == ["model/workers.py"]
+
+
+def test_factory_refuses_an_unguarded_script_under_spawn(tmp_path):
+    """Even a pool of one worker is refused: a spawned worker re-runs the script whatever the
+    pool's size."""
+    proc = _run("""
+        import multiprocessing
+
+        from model.workers import process_pool
+
+        multiprocessing.set_start_method("spawn")
+        print("before")
+        with process_pool(1) as ex:
+            print("ran")
+        """, tmp_path)
+    assert proc.returncode == 1 and proc.stdout == "before\n", proc.stderr
+    assert proc.stderr.strip().splitlines()[-1] == REFUSED
+    assert proc.stderr.count("Traceback") == 1
+
+
+def test_factory_runs_a_guarded_script_under_spawn(tmp_path):
+    proc = _run("""
+        import multiprocessing
+
+        from model.workers import process_pool
+
+        if __name__ == "__main__":
+            multiprocessing.set_start_method("spawn")
+            with process_pool(2) as ex:
+                print("two workers:", sorted(ex.map(abs, [-3, 4])))
+        """, tmp_path)
+    assert proc.returncode == 0 and proc.stdout == "two workers: [3, 4]\n", proc.stderr
+
+
+def test_do_no_harm_refuses_an_unguarded_script(tmp_path):
+    """do-no-harm's pool did not check the guard before the factory; it refuses now, before
+    any variant is swept."""
+    proc = _run("""
+        import multiprocessing
+
+        from design.assessment.harm import do_no_harm
+        from model.aeroelastic.control import Compensator, Controller
+
+        multiprocessing.set_start_method("spawn")
+        k = Compensator(-1.05, 0.72, -4.99, 0.25, 0.20)
+        c = Controller(k, tuple(56.4 * i for i in range(-12, 13) if abs(i) >= 4), 56.4,
+                       flap_chord_m=3.0)
+        do_no_harm(c, count=2, workers=2)
+        print("ran")
+        """, tmp_path)
+    assert proc.returncode == 1 and "ran" not in proc.stdout
+    assert proc.stderr.strip().splitlines()[-1] == REFUSED
+    assert proc.stderr.count("Traceback") == 1
+
+
+def test_factory_in_process():
+    """Guarded (pytest's entry point), clamped to one worker, the initializer installed."""
+    with process_pool(0) as ex:
+        assert ex._max_workers == 1
+        assert ex.submit(os.getppid).result() == os.getpid()
+    with process_pool(2, die_with_parent=False) as ex:
+        assert ex._max_workers == 2 and ex._initializer is None

@@ -1,0 +1,158 @@
+"""The study report: report.md and report.html show the same tables, and every number in them is
+the one in results/*.json (rounded as printed, nothing else)."""
+
+import json
+from dataclasses import replace
+from html.parser import HTMLParser
+from pathlib import Path
+from types import MappingProxyType, SimpleNamespace
+
+import pytest
+
+from design.studies.report import study_document
+from design.studies.study import load_study, run_study
+
+
+class _Tables(HTMLParser):
+    """Cell texts of every <table> of an HTML page."""
+
+    def __init__(self):
+        super().__init__()
+        self.tables, self._cell = [], None
+
+    def handle_starttag(self, tag, attrs):
+        if tag == "table":
+            self.tables.append([])
+        elif tag == "tr":
+            self.tables[-1].append([])
+        elif tag in ("td", "th"):
+            self._cell = ""
+
+    def handle_endtag(self, tag):
+        if tag in ("td", "th"):
+            self.tables[-1][-1].append(self._cell.strip())
+            self._cell = None
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell += data
+
+
+def md_tables(text: str) -> list[list[list[str]]]:
+    """Rows of cells of every pipe table (the separator row dropped)."""
+    tables, cur = [], None
+    for line in text.splitlines():
+        if line.startswith("|"):
+            if cur is None:
+                cur = []
+                tables.append(cur)
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if not all(set(c) <= set(":-") for c in cells):
+                cur.append(cells)
+        else:
+            cur = None
+    return tables
+
+
+def html_tables(text: str) -> list[list[list[str]]]:
+    p = _Tables()
+    p.feed(text)
+    return p.tables
+
+
+def _table(tables, header0):
+    found = [t for t in tables if t[0][0] == header0]
+    assert found, header0
+    return {row[0]: dict(zip(found[0][0], row, strict=True)) for row in found[0][1:]}
+
+
+def _close(cell: str, value: float, digits: int) -> bool:
+    """``cell`` is ``value`` printed with ``digits`` decimals (half a unit of the last digit)."""
+    return abs(float(cell) - value) <= 0.5 * 10.0 ** -digits + 1e-12
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    cfg = load_study(quick=True)
+    keep = ("modes", "flutter", "sensitivity")
+    cfg = replace(cfg, analyses=tuple(a for a in cfg.analyses if a[0] in keep))
+    out = tmp_path_factory.mktemp("report") / "out"
+    run_study(cfg, out_dir=out)
+    return out
+
+
+def test_markdown_and_html_show_the_same_tables(study):
+    md = md_tables((study / "report.md").read_text())
+    html = (study / "report.html").read_text()
+    assert md and md == html_tables(html)
+    # self-contained: every figure inline, none linked
+    figs = sorted((study / "figures").glob("*.png"))
+    assert figs and html.count("data:image/png;base64,") == len(figs)
+    assert 'src="figures/' not in html
+
+
+def test_report_numbers_are_the_result_files(study):
+    tables = md_tables((study / "report.md").read_text())
+    res = {p.stem: json.loads(p.read_text()) for p in (study / "results").glob("*.json")}
+    statuses = json.loads((study / "statuses.json").read_text())
+    assert {k: v["status"] for k, v in _table(tables, "analysis").items()} == statuses
+    t1 = [t for t in tables if t[0][0] == "family"][0][1:]  # Table 1 repeats labels: in order
+    assert len(t1) == len(res["modes"]["table1"])
+    for row, r in zip(t1, res["modes"]["table1"], strict=True):
+        assert row[1] == r["table1_label"] and row[5] == r["bridgeflap_label"]
+        assert _close(row[2], r["measured_hz"], 3) and _close(row[4], r["bridgeflap_hz"], 3)
+        assert _close(row[6], r["difference_percent"], 1)
+    fl, f = _table(tables, "quantity"), res["flutter"]
+    assert _close(fl["flutter speed [m/s]"]["ours"], f["flutter_speed_m_s"], 2)
+    assert _close(fl["flutter frequency [Hz]"]["ours"], f["flutter_frequency_hz"], 4)
+    assert _close(fl["torsional divergence [m/s]"]["ours"], f["divergence_speed_m_s"], 2)
+    assert fl["flutter speed [m/s]"]["status"] == f["flutter_status"]
+    sens = _table(tables, "parameter")
+    d = res["sensitivity"]["derivatives"]
+    assert set(sens) == set(d)
+    for p, row in sens.items():
+        # four significant digits ('.4g')
+        assert float(row["dU_F/dp (IFT)"]) == pytest.approx(d[p]["d_flutter_speed_m_s_per_unit"],
+                                                                   rel=5e-4)
+        assert _close(row["(p/U_F) dU_F/dp"], d[p]["relative_d_flutter_speed"], 3)
+
+
+def test_design_section_numbers_are_the_design_summary():
+    d = {"status": "converged", "coefficients": {"b2": 0.5, "b1": -1.25, "b0": -2.5,
+                                                 "a2": 0.08, "a1": 0.4},
+         "flap_count": 25, "max_gain": 5.8312, "gain_limit": 15.0, "robust_margin": 0.1003,
+         "robust_margin_worst_speed_m_s": 84.25, "robust_margin_at_robust_speeds": 0.1012,
+         "closed_loop_stable_to_m_s": 85.0, "wall_time_s": 70.94, "elapsed_s": 84.52,
+         "verification": {"modes": 16, "min_damping_ratio": 0.00531},
+         "robust_T_inf_by_speed": {"10": 0.2226, "85": 9.988},
+         "closed_loop_limits": {"governing_speed_m_s": 88.146, "flutter_speed_m_s": 88.146,
+                                "open_loop_flutter_speed_m_s": 70.8877},
+         "starts": [{"start": 0, "status": "Solve_Succeeded", "iterations": 12}],
+         "buffeting": {"speeds_m_s": [10.0], "open_loop_rms_vertical_m": [0.02],
+                       "closed_loop_rms_vertical_m": [0.01],
+                       "open_loop_rms_torsion_rad": [1e-3],
+                       "closed_loop_rms_torsion_rad": [2e-3]}}
+    res = SimpleNamespace(config=SimpleNamespace(name="t", bridge="humber", quick=True,
+                                                 element_length_m=None),
+                          statuses=MappingProxyType({"design": "converged"}),
+                          results=MappingProxyType({"design": d}), elapsed_s=90.0)
+    tables = md_tables(study_document(res, {}).markdown())
+    q = {k: v["value"] for k, v in _table(tables, "quantity").items()}
+    assert q["optimisation wall time [s]"] == "70.9"
+    assert q["analysis time incl. the Fig. 5 sweeps [s]"] == "84.5"  # what the log says
+    assert q["open-loop flutter of the design model [m/s]"] == "70.89"
+    # the headline margin is the speed grid's, with its speed and the robust speeds' value
+    assert (q["robust margin 1 / max norm(T, inf) over the speed grid"]
+            == "0.1003 at 84.25 m/s (0.1012 at the robust speeds)")
+    margin = _table(tables, "U [m/s]")
+    assert margin["85"]["margin [-]"] == f"{1 / 9.988:.3f}"
+    buf = [t for t in tables if t[0][0] == "U [m/s]"][-1]
+    assert buf[1] == ["10", "0.0200", "0.0100", "-50.0 %", "1.000e-03", "2.000e-03",
+                      "+100.0 %"]
+    assert _table(tables, "start")["0"]["Ipopt status"] == "Solve_Succeeded"
+
+
+def test_report_file_names_are_listed_in_the_study_docstring():
+    import design.studies.study
+
+    assert "report.html" in Path(design.studies.study.__file__).read_text()
