@@ -41,13 +41,16 @@ def _err(approx, k):
 
 
 def test_default_rfa4_is_unchanged():
-    # The unweighted path runs the same operations as before, so the coefficients agree to the
-    # last bits; 1e-12 relative allows a different BLAS summation order and still fails on
-    # any change of the fit (a changed grid, weight or start moves them by > 1e-7).
+    # The unweighted path runs the same operations as before. The pole locations are weakly
+    # determined (a flat least-squares valley), so another BLAS kernel ends the same
+    # least_squares run (xtol = ftol = gtol = 1e-12) elsewhere in the valley: on an AMD EPYC
+    # with OpenBLAS 0.3.31 (Haswell kernel) the coefficients differ from the recorded ones
+    # (another CPU) by 3.0e-7 relative, the fit's error by far less. 2e-6 admits that and
+    # still fails on a changed fit: the band weight moves them by O(1), see the next test.
     r = get_rfa("rfa4")
     assert r is fit_theodorsen() and r.name == "rfa4"
-    np.testing.assert_allclose(r.gains, RFA4_GAINS, rtol=1e-12, atol=0)
-    np.testing.assert_allclose(r.poles, RFA4_POLES, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(r.gains, RFA4_GAINS, rtol=2e-6, atol=0)
+    np.testing.assert_allclose(r.poles, RFA4_POLES, rtol=2e-6, atol=0)
     assert r.fit_band is None and r.band_weight == 1.0
     # the statespace and CLI default is still the unweighted fit
     assert RFA_NAMES[0] == "rfa4"
