@@ -1,17 +1,18 @@
-"""bridgeflap design layer: analyses registry, studies, DOE batches, optimisation, CLI.
+"""bridgeflap design layer: optimisation, sensitivity, batches, studies and the CLI.
 
-Module map (each file one job; importing this package imports nothing else):
+Rooms, bottom to top (each imports only :mod:`model` and the rooms below it;
+tests/project/test_layering.py holds the rule):
 
-- :mod:`design.studies.analyses`: the registry of analyses (runner, defaults, DOE case row) that the
-  command line, studies and DOE cases share; the default speed grid and mode count.
-- :mod:`design.io.options`: grid text (``start:stop:step``), definition files, option checks.
-- :mod:`design.studies.study` / :mod:`design.studies.report`: study files and runner; ``report.md``,
-  Fig. 5.
-- :mod:`design.studies.experiments`: DOE files, run through the batch runner.
-- :mod:`design.batch.designs` / :mod:`design.batch.runner` / :mod:`design.studies.cases`: sampling
-  plans, the batch runner (no physics), picklable case functions.
-- :mod:`design.io.files` / :mod:`design.io.manifest`: output folders, atomic files, run manifest.
-- :mod:`design.cli.main` (entry point ``main``), :mod:`design.cli.common`, ``design.cmd_*``.
+- :mod:`design.io`: reading options and definition files, atomic outputs, output folders,
+  the run manifest.
+- :mod:`design.batch`: the fault-tolerant batch runner and sampling plans (no physics).
+- :mod:`design.control`: the compensator NLP, its driver, checks and result.
+- :mod:`design.sensitivity`: implicit-function sensitivities and global screening.
+- :mod:`design.assessment`: do no harm, failed flaps, actuator limits, acceptance.
+- :mod:`design.studies`: the analyses registry, studies, DOE files, the report.
+- :mod:`design.cli`: the ``bridgeflap`` command line (entry point :func:`design.cli.main.main`).
+
+Importing this package imports nothing else: the public names below resolve on first use.
 """
 
 #: What a script imports: ``from design import design, load_settings, run_study, ...``;

@@ -1,1 +1,9 @@
-"""design.assessment."""
+"""A designed controller judged on the bridges it was not designed on: do no harm over the stated
+uncertainty (``harm``, ``harm_fast``, ``harm_verdict``), one failed flap pair (``failsafe``),
+actuator limits in turbulent wind (``actuator_study``), the erection stages with flaps
+(``erection_control``) and the acceptance checks ``bridgeflap optimise`` runs on its own
+controller file (``acceptance``).
+
+May import: :mod:`model` and the design layers below it (``io``, ``batch``, ``control``,
+``sensitivity``).
+"""

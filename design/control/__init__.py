@@ -1,1 +1,12 @@
-"""design.control."""
+"""The compensator design (seed §6): the settings card (``settings``), the design problem's model
+(``problem_model``, ``plant``), the Ipopt NLP over K(s) and the flap layout (``nlp``,
+``nlp_tolerances``, ``ipopt_hooks``), its cutting planes (``cuts``), spectral-abscissa
+constraints (``eigen``), the robustness and buffeting terms (``robust``, ``loop_algebra``,
+``buffeting_term``), multi-model variants (``variants``, ``pair_failure``), the dense check
+(``verification``), the layout search (``layout_search``, ``flap_count``), the multistart
+driver (``driver``, ``start``), the critical-speed design (``critical_speed``), and the
+result with its records, checks and plots (``result``, ``records``, ``checks``,
+``result_plots``).
+
+May import: :mod:`model`, :mod:`design.io` and :mod:`design.batch`.
+"""

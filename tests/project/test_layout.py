@@ -1,7 +1,9 @@
-"""Code layout rules of issue 10: file sizes, the public face, the CasADi boundary."""
+"""Code layout rules (issues 10 and 31): file sizes, documented rooms, the public face, the
+tests' mirror of the rooms, the CasADi boundary."""
 
 from __future__ import annotations
 
+import ast
 import subprocess
 import sys
 from pathlib import Path
@@ -14,9 +16,48 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.mark.parametrize("package", ["model", "design"])
 def test_no_module_above_600_lines(package):
     # one job per file (issue 10): 600 lines is the stated ceiling
-    big = {p.name: n for p in (ROOT / package).glob("*.py")
+    big = {str(p.relative_to(ROOT)): n for p in (ROOT / package).rglob("*.py")
            if (n := len(p.read_text().splitlines())) > 600}
     assert not big, big
+
+
+def _subpackages(package):
+    return sorted(p.parent for p in (ROOT / package).glob("*/__init__.py")
+                  if p.parent.name != "bridges")
+
+
+@pytest.mark.parametrize("package", ["model", "design"])
+def test_every_room_says_what_lives_there_and_what_it_may_import(package):
+    # issue 31 item 1: a newcomer reads a room's __init__ docstring to know where code goes
+    rooms = _subpackages(package)
+    assert len(rooms) >= 6, rooms
+    for room in rooms:
+        doc = ast.get_docstring(ast.parse((room / "__init__.py").read_text())) or ""
+        assert "May import:" in doc, f"{room.name}: no 'May import:' line in its docstring"
+        # every module of the room is named in that docstring
+        missing = [m.stem for m in room.glob("*.py")
+                   if m.stem != "__init__" and f"``{m.stem}``" not in doc]
+        assert not missing, f"{package}.{room.name} does not describe {missing}"
+
+
+@pytest.mark.parametrize("package", ["model", "design"])
+def test_every_module_has_a_docstring(package):
+    bare = [str(p.relative_to(ROOT)) for p in (ROOT / package).rglob("*.py")
+            if "bridges" not in p.parts and not ast.get_docstring(ast.parse(p.read_text()))]
+    assert not bare, bare
+
+
+def test_tests_mirror_the_rooms():
+    # issue 31 item 4: tests/test_<package>/<room>/ for every room that has tests; a room's
+    # tests live nowhere else but there or in tests/project (cross-cutting)
+    for package in ("model", "design"):
+        rooms = {r.name for r in _subpackages(package)}
+        folders = {p.name for p in (ROOT / "tests" / f"test_{package}").iterdir() if p.is_dir()
+                   and p.name != "__pycache__"}
+        assert folders <= rooms, folders - rooms
+        assert len(folders) >= len(rooms) - 1, rooms - folders
+    loose = sorted(p.name for p in (ROOT / "tests").glob("test_*.py"))
+    assert not loose, f"tests outside the rooms' mirror: {loose}"
 
 
 @pytest.mark.parametrize("package", ["model", "design"])
