@@ -54,7 +54,7 @@ def bridge_system(bridge: BridgeArg, n_modes: int = DEFAULT_MODES, order: str = 
         raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")
     modal = modal_model(spec) if modal is None else modal
     if getattr(spec, "derivatives", None) is not None:  # flutter-derivative tables (modal bridge)
-        from model.structure.modal_import import derivative_bridge_system
+        from model.aeroelastic.derivative_system import derivative_bridge_system
 
         return modal, derivative_bridge_system(spec, modal, int(n_modes))
     system = statespace.spec_system(spec, modal.structural_basis(int(n_modes)), order, rfa)

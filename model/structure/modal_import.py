@@ -69,7 +69,6 @@ __all__ = [
     "DerivativeLoads",
     "ModalStructure",
     "compare_modes",
-    "derivative_bridge_system",
     "derivatives_from_dict",
     "export_modal",
     "imported_structure",
@@ -291,7 +290,8 @@ class DerivativeLoads:
 
     Instead of the thin-aerofoil (Theodorsen) strip loads, the deck's self-excited loads come
     from measured flutter derivatives (:mod:`model.aero.derivatives`), turned into a Roger RFA
-    state space on the modal coordinates (:func:`derivative_bridge_system`). ``file`` is a
+    state space on the modal coordinates
+    (:func:`model.aeroelastic.derivative_system.derivative_bridge_system`). ``file`` is a
     table of the ``form`` ``"polimi-json"``
     (:func:`model.structure.modal_files.read_polimi_derivatives`, the IABSE step-2a "BB3" file);
     ``lateral`` includes the lateral DOF (the drag and lateral-coupling derivatives on the lateral
@@ -389,38 +389,6 @@ def aero_sections(data: dict, origin: str = "<dict>", prefix: str = "") -> dict:
         out["static_coefficients"] = static_from_dict(data["static_coefficients"],
                                                       f"{prefix}static_coefficients")
     return out
-
-
-def derivative_bridge_system(spec, modal, n_modes: int):
-    """Aeroelastic state space of a modal bridge with ``[derivatives]`` loads.
-
-    The hook of :func:`model.analysis.bridge_system`: :meth:`ImportedModalModel.derivative_basis`
-    (lateral modes and shapes when ``lateral``), the table of the file with ``B = 2 b`` of the
-    deck, its Roger fit and :func:`model.aeroelastic.derivative_system.derivative_system` (whose
-    ``frozen()`` is the exact p-k on the interpolated tables,
-    :func:`model.stability.sweeps.pk_sweep`). ``extras["rfa"]`` names the fit (``roger<n>:<table>``)
-    for the flutter summary.
-    """
-    from model.aeroelastic.derivative_system import derivative_system
-
-    loads = spec.derivatives
-    if hasattr(modal, "derivative_basis"):
-        basis, phi_p = modal.derivative_basis(int(n_modes), loads.lateral)
-    else:  # the built-in FE model: vertical and torsional modes, no lateral DOF
-        basis, phi_p = modal.structural_basis(int(n_modes)), None
-    chord = 2.0 * spec.deck.half_chord_m
-    source = loads.table(chord)
-    if not source.lateral:
-        phi_p = None
-    fit = loads.fit(chord, 2 if phi_p is None else 3)
-    system = derivative_system(basis, source, spec.aero.air_density_kg_m3, fit=fit, phi_p=phi_p)
-    system.extras.update(rfa=f"{fit.name}:{source.name}", lateral_dof=phi_p is not None,
-                         phi_p=phi_p)
-    if getattr(spec, "static_coefficients", None) is not None:  # B_gust: quasi-steady w loads
-        from model.response.buffeting_inputs import quasi_steady_inputs
-
-        system = quasi_steady_inputs(system, spec)
-    return system
 
 
 # ------------------------------------------------------------------------------ the bridge
