@@ -16,7 +16,7 @@ gives natural frequencies, damping ratios, generalised masses and the deck mode 
   ``plot``), so that flutter, buffeting, the state-space export, flaps and control design,
   sensitivities to aerodynamic inputs and DOE run on it unchanged.
 
-The hook: :func:`model.structure.spec.spec_from_dict` hands a file with ``[structure]`` to
+The hook: :func:`model.structure.loader.spec_from_dict` hands a file with ``[structure]`` to
 :func:`modal_spec_from_dict`, :func:`model.structure.fe.assemble` returns an
 :class:`ImportedStructure` for such a bridge and :func:`model.structure.modes.solve` turns it into
 the :class:`ImportedModalModel`. The bridge is a :class:`ModalBridgeSpec` (a
@@ -33,13 +33,13 @@ import dataclasses
 import functools
 import math
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
 from model.errors import BridgeflapInputError
 from model.structure import spec as sm
+from model.structure.builtin_bridges import builtin_folder
 from model.structure.limits import MAX_STRIPS
 from model.structure.modal_files import (
     FAMILIES,
@@ -378,7 +378,7 @@ def aero_sections(data: dict, origin: str = "<dict>", prefix: str = "") -> dict:
     """
     from model.aero.quasi_steady import static_from_dict
 
-    base = _builtin_dir(origin)
+    base = builtin_folder(origin)
     if base is None:
         base = Path(origin).parent if origin not in ("<dict>", "") else Path(".")
     out = {}
@@ -471,13 +471,6 @@ class ModalBridgeSpec(sm.BridgeSpec):
         return spec
 
 
-def _builtin_dir(origin: str) -> Path | None:
-    files = getattr(sm, "BUILTIN_FILES", {})
-    if origin in files:
-        return Path(str(resources.files("model.bridges").joinpath(files[origin]))).parent
-    return None
-
-
 def modal_spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = None):
     """A :class:`ModalBridgeSpec` from a parsed bridge file with ``[structure] kind = "modal"``.
 
@@ -492,7 +485,7 @@ def modal_spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None
     name = data.get("name")
     if not isinstance(name, str) or not name:
         raise BridgeflapInputError("name", "missing or not a string")
-    base = _builtin_dir(origin)
+    base = builtin_folder(origin)
     if base is None:
         base = Path(origin).parent if origin not in ("<dict>", "") else Path(".")
     sources: dict = {}

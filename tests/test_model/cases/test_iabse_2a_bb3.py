@@ -24,8 +24,8 @@ from model.aeroelastic.derivative_system import DerivativeSystem
 from model.analysis import bridge_system, flutter
 from model.errors import BridgeflapInputError
 from model.stability import sweeps as stability
+from model.structure.loader import load_bridge
 from model.structure.modal_import import derivatives_from_dict
-from model.structure.spec import load_bridge
 
 SPEEDS = np.arange(0.0, 100.01, 0.5)
 PK_SPEEDS = np.arange(1.0, 100.0, 1.0)   # p-k continued from still air
