@@ -294,10 +294,11 @@ class BridgeSpec:
 
     def to_toml(self) -> str:
         """This bridge as bridge-file text, sources kept
-        (:func:`model.structure.spec_writer.to_toml`)."""
-        from model.structure.spec_writer import to_toml
+        (:func:`model.structure.spec_writer.to_toml`; the text is
+        :func:`model.structure.bridge_toml.bridge_toml`)."""
+        from model.structure.bridge_toml import bridge_toml
 
-        return to_toml(self)
+        return bridge_toml(self)
 
 
 def check_fraction(fraction: float) -> float:
