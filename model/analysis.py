@@ -7,7 +7,7 @@ argument names are those of docs/api_vocabulary.md. Each returns a frozen result
 object with ``summary()`` (JSON-ready numbers with units in the key names and statuses) and
 ``plot()``. Conventions: see :mod:`model`.
 
->>> from model.structure.spec import load_bridge                    # doctest: +SKIP
+>>> from model.structure.loader import load_bridge                  # doctest: +SKIP
 >>> res = flutter(load_bridge("humber"), np.arange(0.0, 85.5, 0.5))  # doctest: +SKIP
 >>> res.summary()["flutter_speed_m_s"]                     # doctest: +SKIP
 """
