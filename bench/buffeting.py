@@ -25,7 +25,7 @@ from model.aero.gust import gust_field
 from model.aeroelastic.symbolic import buffeting_rms_function, build_symbolic
 from model.analysis import bridge_system
 from model.response.buffeting import buffeting
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 SPEEDS = np.arange(4.0, 25.5, 1.0)
 REFERENCE = {"n_base": 480, "peaks_per_mode": 161, "half_widths": 60.0}

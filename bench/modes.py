@@ -46,7 +46,8 @@ import scipy.sparse.linalg as spla
 
 from design.io.files import to_jsonable
 from model.structure import cable, fe
-from model.structure.spec import BridgeSpec, load_bridge
+from model.structure.loader import load_bridge
+from model.structure.spec import BridgeSpec
 
 FAMILIES = ("vertical", "torsional", "lateral")
 

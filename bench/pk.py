@@ -207,7 +207,7 @@ def _case_system(name: str):
     from model.aeroelastic.derivative_system import derivative_system
     from model.analysis import bridge_system
     from model.cases.section_cases import case_fit, default_speeds, load_section_case
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     if name in MODAL_CASES:
         spec = load_bridge(name)

@@ -53,7 +53,7 @@ from design.studies.analyses import DEFAULT_SPEEDS
 from model.aero.rfa import get_rfa
 from model.analysis import bridge_system, modal_model
 from model.stability import sweeps as stability
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 TRUNCATION = (8, 12, 16, 20, 24, 30)
 

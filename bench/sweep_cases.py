@@ -35,7 +35,7 @@ _CONTROLLER = ((0.0, 0.0, -1.0, 0.1, 0.5), tuple(np.arange(-400.0, 401, 100)), 2
 
 def _bridge(name, n_modes, speeds=DEFAULT_SPEEDS, spec=None):
     from model.analysis import bridge_system
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     _, system = bridge_system(spec if spec is not None else load_bridge(name), n_modes)
     return name, system, parse_range(speeds, "speeds", 0.0)
@@ -50,7 +50,7 @@ def _section(name):
 def _closed_loop(n_modes):
     from model.aeroelastic.control import Compensator
     from model.aeroelastic.flaps import closed_loop_model
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     comp, pos, width = _CONTROLLER
     model = closed_loop_model(load_bridge("humber"), pos, width, n_modes)
@@ -85,7 +85,7 @@ def sampled_params(n: int, seed: int = 16):
 
 def sampled_case(params, n_modes: int = 30):
     from design.studies.cases import apply_parameters
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     spec = apply_parameters(load_bridge("humber"), params)
     return _bridge("humber sample", n_modes, spec=spec)

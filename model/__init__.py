@@ -29,8 +29,8 @@ Conventions (stated once here and in the README; every module refers back)
 #: What a script imports: ``from model import load_bridge, flutter, ...``. Names resolve on
 #: first use (PEP 562), so ``import model`` stays light (no CasADi, no matplotlib).
 _PUBLIC = {
-    "BridgeSpec": "model.structure.spec", "load_bridge": "model.structure.spec",
-    "spec_from_dict": "model.structure.spec", "PARAMETER_PATHS": "model.structure.spec",
+    "BridgeSpec": "model.structure.spec", "load_bridge": "model.structure.loader",
+    "spec_from_dict": "model.structure.loader", "PARAMETER_PATHS": "model.structure.spec",
     "save_bridge": "model.structure.spec_writer",
     "BridgeflapError": "model.errors", "BridgeflapInputError": "model.errors",
     "DEFAULT_MODES": "model.analysis", "modal_model": "model.analysis",

@@ -7,7 +7,7 @@ argument names are those of docs/api_vocabulary.md. Each returns a frozen result
 object with ``summary()`` (JSON-ready numbers with units in the key names and statuses) and
 ``plot()``. Conventions: see :mod:`model`.
 
->>> from model.structure.spec import load_bridge                    # doctest: +SKIP
+>>> from model.structure.loader import load_bridge                  # doctest: +SKIP
 >>> res = flutter(load_bridge("humber"), np.arange(0.0, 85.5, 0.5))  # doctest: +SKIP
 >>> res.summary()["flutter_speed_m_s"]                     # doctest: +SKIP
 """
@@ -54,7 +54,7 @@ def bridge_system(bridge: BridgeArg, n_modes: int = DEFAULT_MODES, order: str = 
         raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")
     modal = modal_model(spec) if modal is None else modal
     if getattr(spec, "derivatives", None) is not None:  # flutter-derivative tables (modal bridge)
-        from model.structure.modal_import import derivative_bridge_system
+        from model.aeroelastic.derivative_system import derivative_bridge_system
 
         return modal, derivative_bridge_system(spec, modal, int(n_modes))
     system = statespace.spec_system(spec, modal.structural_basis(int(n_modes)), order, rfa)

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import pytest
 
-from model.structure.spec import BridgeSpec, load_bridge
+from model.structure.loader import load_bridge
+from model.structure.spec import BridgeSpec
 
 #: element length of the fast tests' coarse mesh [m]
 COARSE_ELEMENT_M = 47.0

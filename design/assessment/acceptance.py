@@ -147,8 +147,8 @@ def independent_check(controller, settings, closed_loop, speeds=None) -> dict:
     design speed)."""
     from model.aeroelastic import statespace
     from model.structure.fe import assemble
+    from model.structure.loader import load_bridge
     from model.structure.modes import solve
-    from model.structure.spec import load_bridge
 
     spec = load_bridge(settings.bridge)
     n = int(settings.verification_modes)  # the modes of design_closed_loop
@@ -200,7 +200,7 @@ def _failures(controller, settings, opts, say):
 def _actuators(controller, settings, opts, say):
     from design.assessment.actuator_study import actuator_study
     from model.aeroelastic.actuator_limits import ActuatorLimits
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     limits = ActuatorLimits(settings.flap_angle_limit_deg, settings.flap_rate_limit_deg_s)
     res = actuator_study(load_bridge(settings.bridge), controller, opts.actuator_speeds_m_s,

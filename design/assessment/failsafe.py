@@ -283,7 +283,8 @@ def single_pair_failures(controller, bridge=None, n_modes: int = 30,
         Processes for the sweeps (one per case).
     """
     from model.aeroelastic.flaps import _main_span_frame, closed_loop_model
-    from model.structure.spec import BridgeSpec, load_bridge
+    from model.structure.loader import load_bridge
+    from model.structure.spec import BridgeSpec
 
     if not (np.isfinite(speed_max_m_s) and speed_max_m_s > 0):
         raise BridgeflapInputError("speed_max_m_s", f"must be positive, got {speed_max_m_s}")

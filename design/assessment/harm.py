@@ -212,7 +212,8 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
         every row is recomputed on ``n_modes`` (``screen_check``).
     """
     from design.sensitivity.uncertainty import DEFAULT_UNCERTAIN_RANGES
-    from model.structure.spec import BridgeSpec, load_bridge
+    from model.structure.loader import load_bridge
+    from model.structure.spec import BridgeSpec
 
     if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 4096:
         raise BridgeflapInputError("count", f"must be an integer in [1, 4096], got {count!r}")

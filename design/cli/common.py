@@ -167,7 +167,7 @@ def default_bridge(args) -> str:
 
 def spec_from_args(args):
     """The bridge of ``--bridge``, erected to ``--erection`` when given."""
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     spec = load_bridge(args.bridge)
     if getattr(args, "erection", None) is not None:
@@ -195,7 +195,7 @@ def controller_from_args(args, spec=None):
             from model.aeroelastic.controller_file import check_controller_plant
 
             if spec is None:
-                from model.structure.spec import load_bridge
+                from model.structure.loader import load_bridge
 
                 spec = load_bridge(bridge)
             note = check_controller_plant(controller, bridge, spec)

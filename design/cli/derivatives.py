@@ -2,8 +2,8 @@
 
 ``--bridge`` takes a section case (``iabse-1.1a``, ``iabse-1.1c`` or a section ``.json`` file
 with measured derivatives: :mod:`model.cases.section_cases`) or a bridge of
-:func:`model.structure.spec.load_bridge` (Humber, a .toml), whose deck is a Theodorsen flat plate of
-chord ``2 b`` (:func:`model.aero.derivatives.flat_plate`, with the spec's apparent-inertia
+:func:`model.structure.loader.load_bridge` (Humber, a .toml), whose deck is a Theodorsen flat
+plate of chord ``2 b`` (:func:`model.aero.derivatives.flat_plate`, with the spec's apparent-inertia
 convention). Prints the derivatives (Scanlan convention, :mod:`model.aero.derivatives`) over the
 data's reduced velocities, the Roger RFA (poles, error per derivative) and, for a section case, its
 flutter speed by the RFA state space and by the exact p-k against the reference. With ``--json`` one
@@ -75,7 +75,7 @@ def _source(args):
     if args.bridge in SECTION_CASES or str(args.bridge).lower().endswith(".json"):
         case = load_section_case(args.bridge, ai)
         return case.name, case.derivatives, case
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     spec = load_bridge(args.bridge)
     if getattr(spec, "derivatives", None) is not None:  # a modal bridge's derivative tables

@@ -25,7 +25,7 @@ _SIDE_SPANS_HELP = "side-span decks while erecting: bare, in_place, with_main (d
 def cmd_erection(args):
     """Open-loop stages, or open- and closed-loop stages with ``--controller``."""
     from design.cli.main import _run
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     check_plot_target(args)
     spec = load_bridge(args.bridge)

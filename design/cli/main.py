@@ -109,7 +109,7 @@ def _outcome(name: str, spec, workers: int = 1, **options):
 
 
 def cmd_frequency_ratio(args):
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     check_plot_target(args)
     res = _run("frequency_ratio", load_bridge(args.bridge), fractions=args.fractions,

@@ -44,7 +44,7 @@ def cmd_optimise(args):
         raise BridgeflapInputError("out", f"folder not writable: {parent}")
     if out.exists() and not out.is_dir():
         raise BridgeflapInputError("out", f"is a file, not a folder: {out}")
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     load_bridge(settings.bridge)  # bad bridge input stops here, before the design runs
     from design.io.outputs import check_replaceable, claim_output

@@ -35,7 +35,7 @@ def cmd_robustness(args):
     """Run the do-no-harm check of ``--controller`` and report it."""
     from design.assessment.harm import do_no_harm
     from design.cli.common import check_writable_parent
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     if not args.controller:
         raise BridgeflapInputError("controller", "a controller .toml is required")
@@ -85,7 +85,7 @@ def _failures(args) -> int:
     import math
 
     from design.assessment.failsafe import DEFAULT_STUCK_ANGLE_DEG, single_pair_failures
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     angle = DEFAULT_STUCK_ANGLE_DEG if args.stuck_angle_deg is None else args.stuck_angle_deg
     if not (math.isfinite(angle) and abs(angle) <= 90.0):

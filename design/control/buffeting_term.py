@@ -125,7 +125,7 @@ class SymbolicBuffeting:
         from model.aeroelastic.control import Compensator
         from model.aeroelastic.symbolic import buffeting_rms_function
         from model.response.buffeting import _main_span_mask, buffeting
-        from model.structure.spec import load_bridge
+        from model.structure.loader import load_bridge
 
         s = problem.settings
         spec = problem.spec if problem.spec is not None else load_bridge(s.bridge)
@@ -211,7 +211,7 @@ class ModalBuffeting:
             row_factor,
         )
         from model.response.spectral import adaptive_frequency_grid, trapezoid_weights
-        from model.structure.spec import load_bridge
+        from model.structure.loader import load_bridge
 
         s = problem.settings
         spec = problem.spec if problem.spec is not None else load_bridge(s.bridge)
@@ -318,7 +318,7 @@ class ModalBuffeting:
         ``theta``: the RMS at the same strips and the largest relative difference."""
         from model.aeroelastic.control import Compensator
         from model.response.buffeting import buffeting
-        from model.structure.spec import load_bridge
+        from model.structure.loader import load_bridge
 
         w = self.weights if w is None else np.asarray(w, float)
         s = problem.settings

@@ -110,7 +110,7 @@ def closed_loop_limits(settings: DesignSettings, controller: Controller, spec=No
     static divergence check ``det(K - U^2 P G0(K(0)))`` included.
     """
     from model.analysis import closed_loop_flutter
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     spec = load_bridge(settings.bridge if spec is None else spec)
     U = np.arange(0.0, LIMIT_SPEED_FACTOR * settings.speed_max_m_s + 1e-9, LIMIT_STEP_M_S)
@@ -321,7 +321,7 @@ def buffeting_comparison(settings: DesignSettings, controller: Controller, speed
     ``speeds`` [m/s] (default ``buffeting_speeds_m_s``) on ``spec`` (default the built-in
     ``settings.bridge``)."""
     from model.response.buffeting import buffeting
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     spec = load_bridge(settings.bridge if spec is None else spec)
     speeds = np.asarray(settings.buffeting_speeds_m_s if speeds is None else speeds, float)

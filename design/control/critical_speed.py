@@ -302,7 +302,7 @@ def critical_speed_design(settings: DesignSettings, progress=None, spec=None, wa
     only when ``converged``) and ``extras["critical_speed"]`` the search record."""
     from design.control.checks import sample_variants
     from design.control.problem_model import NOMINAL_START, warm_start_theta
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     t0 = time.perf_counter()
     log = progress or (lambda msg: None)

@@ -80,7 +80,7 @@ from design.control.start import (  # noqa: F401 - re-exported (tests, API)
     solve_fixed_layout,
 )
 from model.aeroelastic.control import Compensator, Controller
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 from model.vocabulary import renamed
 
 NAN = float("nan")

@@ -44,8 +44,8 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
         counts = tuple(range(settings.flap_count, 0, -1))
     if modal is None:           # one modal solution for every count (the layout changes only)
         from model.structure.fe import assemble
+        from model.structure.loader import load_bridge
         from model.structure.modes import solve
-        from model.structure.spec import load_bridge
 
         spec = load_bridge(settings.bridge if spec is None else spec)
         modal = solve(assemble(spec))

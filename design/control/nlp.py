@@ -343,7 +343,7 @@ class DesignProblem:
     def buffeting_rms(self, theta, weights=None, speeds=None) -> tuple[np.ndarray, np.ndarray]:
         """Max RMS vertical [m] and torsional [rad] response at ``speeds`` (closed loop)."""
         from model.response.buffeting import buffeting
-        from model.structure.spec import load_bridge
+        from model.structure.loader import load_bridge
 
         spec = self.spec if self.spec is not None else load_bridge(self.settings.bridge)
         w = self.weights if weights is None else np.asarray(weights, float)

@@ -43,7 +43,7 @@ def build_model(settings: DesignSettings, count=None, modal=None, n_modes=None,
     model : model.aeroelastic.flaps.ClosedLoopModel
     """
     from model.aeroelastic.flaps import closed_loop_model
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     spec = load_bridge(settings.bridge if spec is None else spec)
     pos = settings.positions(count) if positions is None else np.asarray(positions, float)

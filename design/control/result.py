@@ -252,7 +252,7 @@ class DesignResult(ResultData):
         (:func:`design.studies.figures.margins`)."""
         from design.studies.figures import margins
         from model.errors import BridgeflapError
-        from model.structure.spec import load_bridge
+        from model.structure.loader import load_bridge
 
         try:
             spec = load_bridge(self.settings.bridge)

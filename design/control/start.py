@@ -181,7 +181,7 @@ def solve_fixed_layout(settings: DesignSettings, positions, theta0, spec=None, v
     (and its robust margin) has no channel for them. ``variants``: multi-model bridges.
     Returns ``(problem, CutsOutcome)``; raises what the solve raises."""
     from design.control.pair_failure import extra_models
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     spec = load_bridge(settings.bridge if spec is None else spec)
     fixed_s = replace(settings, optimise_placement=False)

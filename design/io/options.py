@@ -123,7 +123,9 @@ def resolve_bridge(bridge: Any, base: Path, field_name: str = "bridge") -> Any:
 
     The bridge is loaded once here, so that bad input stops before anything is written.
     """
-    from model.structure.spec import BUILTIN_BRIDGES, BridgeSpec, _split_variant, load_bridge
+    from model.structure.builtin_bridges import BUILTIN_BRIDGES
+    from model.structure.loader import _split_variant, load_bridge
+    from model.structure.spec import BridgeSpec
 
     if isinstance(bridge, BridgeSpec):
         return bridge

@@ -33,7 +33,8 @@ from design.io.options import (
 from design.sensitivity.local import DEFAULT_PARAMETERS
 from model.analysis import DEFAULT_MODES
 from model.errors import BridgeflapInputError
-from model.structure.spec import BUILTIN_BRIDGES, BridgeSpec
+from model.structure.builtin_bridges import BUILTIN_BRIDGES
+from model.structure.spec import BridgeSpec
 
 __all__ = ["ANALYSES", "DEFAULT_MODES", "DEFAULT_SPEEDS", "Analysis", "Outcome", "RunContext",
            "check_options", "figure_of"]
@@ -455,7 +456,7 @@ def _run_design(spec, opts, context) -> Outcome:
         context.say("  design: closed-loop root locus and buffeting (Fig. 5)")
         # on the bridge the controller was designed for (the study's [design] may name a
         # variant), on the study's mesh
-        from model.structure.spec import load_bridge
+        from model.structure.loader import load_bridge
 
         dspec = load_bridge(context.bridge if mem else settings.bridge).replace(
             **{"mesh.element_length_m": spec.mesh.element_length_m})

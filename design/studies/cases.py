@@ -21,7 +21,8 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from model.errors import BridgeflapInputError
-from model.structure.spec import PARAMETER_PATHS, BridgeSpec, load_bridge
+from model.structure.loader import load_bridge
+from model.structure.spec import PARAMETER_PATHS, BridgeSpec
 
 __all__ = ["ERECTED_FRACTION", "analysis_case", "apply_parameters", "bridge_identity",
            "bridge_label", "check_applicable", "flutter_case"]

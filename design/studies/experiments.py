@@ -328,7 +328,8 @@ def doe_fingerprint(config: DoeConfig) -> str:
     resolved bridge), analysis, resolved options, bridgeflap version (the ``case_hash`` key)."""
     from design.batch.runner import _package_version
     from design.studies.cases import bridge_identity
-    from model.structure.spec import BridgeSpec, _read_source, _split_variant, load_bridge
+    from model.structure.loader import _read_source, _split_variant, load_bridge
+    from model.structure.spec import BridgeSpec
 
     if isinstance(config.bridge, BridgeSpec):  # in memory: the hash of its canonical form
         ident = bridge_identity(config.bridge)

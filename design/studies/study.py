@@ -135,7 +135,7 @@ class StudyConfig:
 
     def spec(self):
         """The bridge definition with the mesh override applied."""
-        from model.structure.spec import load_bridge
+        from model.structure.loader import load_bridge
 
         spec = load_bridge(self.bridge)
         if self.element_length_m is not None:
@@ -480,8 +480,8 @@ def validate_study(config: StudyConfig) -> None:
         ANALYSES[kind].resolve(opts)
     fe_only = [k for k, _ in config.analyses if k in FE_ONLY_ANALYSES]
     if fe_only:
+        from model.structure.loader import load_bridge
         from model.structure.modal_files import needs_fe
-        from model.structure.spec import load_bridge
 
         spec = load_bridge(config.bridge)
         if getattr(spec, "structure", None) is not None:  # an imported modal model

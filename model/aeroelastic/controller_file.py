@@ -32,8 +32,8 @@ __all__ = ["bridge_sha256", "check_controller_plant", "load_controller", "plant_
 
 def split_bridge(bridge: str) -> tuple[str, str]:
     """``(base, variant)`` of a ``--bridge`` value (``"humber:box"`` -> ``("humber", "box")``;
-    ``""`` for no variant), as :func:`model.structure.spec.load_bridge` reads it."""
-    from model.structure.spec import _split_variant
+    ``""`` for no variant), as :func:`model.structure.loader.load_bridge` reads it."""
+    from model.structure.loader import _split_variant
 
     base, variant = _split_variant(str(bridge))
     return base, variant or ""
@@ -49,7 +49,7 @@ def _canonical_sha256(spec) -> str:
 def bridge_sha256(bridge: str) -> str:
     """SHA-256 (hex) of the content of the definition file of ``bridge`` (a built-in name:
     the packaged file; a path: that file), variant suffix ignored (recorded apart)."""
-    from model.structure.spec import BUILTIN_BRIDGES, BUILTIN_FILES
+    from model.structure.builtin_bridges import BUILTIN_BRIDGES, BUILTIN_FILES
 
     base, _ = split_bridge(bridge)
     if base in BUILTIN_BRIDGES:
@@ -69,7 +69,7 @@ def plant_record(bridge: str, design_modes: int, spec=None) -> PlantRecord:
     ``spec``: the bridge the design actually ran on when it was not
     ``load_bridge(bridge)`` (a modified or erected spec): its canonical form is hashed then.
     """
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     base, variant = split_bridge(bridge)
     loaded = load_bridge(bridge)
@@ -146,7 +146,7 @@ def check_controller_plant(controller: Controller, bridge: str, spec) -> str | N
 
 
 def _builtin() -> tuple:
-    from model.structure.spec import BUILTIN_BRIDGES
+    from model.structure.builtin_bridges import BUILTIN_BRIDGES
 
     return tuple(BUILTIN_BRIDGES)
 

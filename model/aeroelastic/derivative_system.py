@@ -32,6 +32,7 @@ from model.errors import BridgeflapInputError
 __all__ = [
     "DerivativeFrozen",
     "DerivativeSystem",
+    "derivative_bridge_system",
     "derivative_system",
     "flat_plate_fit",
     "section_generalised",
@@ -221,3 +222,33 @@ def _cached_flat_fit(chord_m: float, added_inertia: bool, n_lags: int) -> RogerF
 def flat_plate_fit(chord_m: float, added_inertia: bool = False, n_lags: int = 4) -> RogerFit:
     """Cached :func:`fit_roger` of the exact flat plate (``K`` in [0.01, 6])."""
     return _cached_flat_fit(float(chord_m), bool(added_inertia), int(n_lags))
+
+
+def derivative_bridge_system(spec, modal, n_modes: int):
+    """Aeroelastic state space of a modal bridge with ``[derivatives]`` loads.
+
+    The hook of :func:`model.analysis.bridge_system`: :meth:`ImportedModalModel.derivative_basis`
+    (lateral modes and shapes when ``lateral``), the table of the file with ``B = 2 b`` of the
+    deck, its Roger fit and :func:`derivative_system` (whose ``frozen()`` is the exact p-k on the
+    interpolated tables, :func:`model.stability.sweeps.pk_sweep`). ``extras["rfa"]`` names the
+    fit (``roger<n>:<table>``) for the flutter summary. A bridge with ``[static_coefficients]``
+    gets the quasi-steady gust inputs (:func:`model.aeroelastic.gust_input.quasi_steady_inputs`).
+    """
+    loads = spec.derivatives
+    if hasattr(modal, "derivative_basis"):
+        basis, phi_p = modal.derivative_basis(int(n_modes), loads.lateral)
+    else:  # the built-in FE model: vertical and torsional modes, no lateral DOF
+        basis, phi_p = modal.structural_basis(int(n_modes)), None
+    chord = 2.0 * spec.deck.half_chord_m
+    source = loads.table(chord)
+    if not source.lateral:
+        phi_p = None
+    fit = loads.fit(chord, 2 if phi_p is None else 3)
+    system = derivative_system(basis, source, spec.aero.air_density_kg_m3, fit=fit, phi_p=phi_p)
+    system.extras.update(rfa=f"{fit.name}:{source.name}", lateral_dof=phi_p is not None,
+                         phi_p=phi_p)
+    if getattr(spec, "static_coefficients", None) is not None:  # B_gust: quasi-steady w loads
+        from model.aeroelastic.gust_input import quasi_steady_inputs
+
+        system = quasi_steady_inputs(system, spec)
+    return system

@@ -162,9 +162,9 @@ def spec_system(spec, basis: StructuralBasis, order: str = "modal",
 
     A bridge whose self-excited loads come from flutter-derivative tables (``[derivatives]``
     of a modal bridge) is refused here: its state space is built by
-    :func:`model.structure.modal_import.derivative_bridge_system` for flutter only, and an analysis
-    that builds Theodorsen deck loads (buffeting, flaps and design, sensitivities, state-space
-    export, mode shapes) must not silently use the flat plate instead.
+    :func:`model.aeroelastic.derivative_system.derivative_bridge_system` for flutter only, and an
+    analysis that builds Theodorsen deck loads (buffeting, flaps and design, sensitivities,
+    state-space export, mode shapes) must not silently use the flat plate instead.
     """
     if getattr(spec, "derivatives", None) is not None:
         raise BridgeflapInputError(

@@ -87,7 +87,7 @@ def case_system(name: str, rfa="rfa4"):
                                  added_inertia=name.endswith("-ai")), grid, grid, 1e-7, b)
     if name == "iabse-2a":
         from model import analysis
-        from model.structure.spec import load_bridge
+        from model.structure.loader import load_bridge
 
         spec = load_bridge("iabse-2a")
         _, system = analysis.bridge_system(spec, analysis.DEFAULT_MODES, rfa=rfa)

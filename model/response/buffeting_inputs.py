@@ -5,13 +5,14 @@ The thin-aerofoil gust loads of seed Eq. (8) (vertical turbulence, ``C_L'`` and 
 ``spec.aero``; :func:`model.aero.strips.strip_aero`) or the quasi-steady loads of the bridge's
 ``[static_coefficients]`` (:mod:`model.aero.quasi_steady`: ``u`` and ``w``), on the Theodorsen state
 space or, for a bridge with flutter-derivative loads, on its Roger state space
-(:func:`model.structure.modal_import.derivative_bridge_system`). Conventions: :mod:`model`.
+(:func:`model.aeroelastic.derivative_system.derivative_bridge_system`). The quasi-steady input
+matrices are built by :func:`model.aeroelastic.gust_input.quasi_steady_inputs` (re-exported
+here). Conventions: :mod:`model`.
 """
 
 from __future__ import annotations
 
-import numpy as np
-
+from model.aeroelastic.gust_input import quasi_steady_inputs
 from model.errors import BridgeflapInputError
 
 __all__ = ["LOADS", "quasi_steady_inputs", "resolve_system"]
@@ -53,8 +54,8 @@ def resolve_system(spec_or_system, n_modes, controller, spec, loads=None):
 
             system = closed_loop_system(spec, controller, n_modes)
         elif der:
+            from model.aeroelastic.derivative_system import derivative_bridge_system
             from model.structure.fe import assemble
-            from model.structure.modal_import import derivative_bridge_system
             from model.structure.modes import solve
 
             system = derivative_bridge_system(spec, solve(assemble(spec)), int(n_modes))
@@ -77,21 +78,3 @@ def resolve_system(spec_or_system, n_modes, controller, spec, loads=None):
     if basis is None:
         raise BridgeflapInputError("system", "needs a .basis with strip_x (StructuralBasis)")
     return spec, system, basis, "thin-aerofoil"
-
-
-def quasi_steady_inputs(system, spec):
-    """``system`` with the quasi-steady gust inputs (``Bw1`` = w, ``extras["Bw1_u"]`` = u)."""
-    import dataclasses
-
-    from model.aero.quasi_steady import gust_inputs
-
-    basis = system.basis
-    P_w, P_u = gust_inputs(basis, 2.0 * spec.deck.half_chord_m, spec.aero.air_density_kg_m3,
-                           spec.static_coefficients, system.extras.get("phi_p"))
-    M_t = basis.M + system.aero.M_nc  # the mass of the q'' rows (model.aeroelastic.assembly)
-    iv = system.index.q_dot
-    Bw, Bu = np.zeros_like(system.Bw1), np.zeros_like(system.Bw1)
-    Bw[iv] = np.linalg.solve(M_t, P_w)
-    Bu[iv] = np.linalg.solve(M_t, P_u)
-    extras = dict(system.extras, Bw1_u=Bu if np.any(Bu) else None)
-    return dataclasses.replace(system, Bw1=Bw, extras=extras)

@@ -87,7 +87,7 @@ def _solve(spec, modal, n, u, order, rfa, method="dense") -> dict:
     the
     numbers the ladder needs."""
     if getattr(spec, "derivatives", None) is not None:  # flutter-derivative loads
-        from model.structure.modal_import import derivative_bridge_system
+        from model.aeroelastic.derivative_system import derivative_bridge_system
 
         system = derivative_bridge_system(spec, modal, int(n))
     else:

@@ -3,9 +3,9 @@
 
 :func:`takes_bridge` decorates a public function whose first parameter is the bridge: a
 built-in name (``"humber"``, ``"humber:box"``), a bridge TOML path (``str`` or
-:class:`os.PathLike`) is loaded with :func:`model.structure.spec.load_bridge`; anything else (a
+:class:`os.PathLike`) is loaded with :func:`model.structure.loader.load_bridge`; anything else (a
 spec, an erection stage, an aeroelastic system where the function also takes one) is passed on as it
-is. The bad-input contract is :func:`~model.structure.spec.load_bridge`'s: one line naming
+is. The bad-input contract is :func:`~model.structure.loader.load_bridge`'s: one line naming
 ``bridge``. A keyword the API no longer uses (``spec=``, ``count=``, ``wind_speed=``) raises naming
 its new name (:func:`model.vocabulary.check_renamed`).
 """
@@ -31,7 +31,7 @@ BridgeArg = Union[str, os.PathLike, "BridgeSpec"]  # noqa: UP007 - a forward ref
 def as_bridge(bridge):
     """``load_bridge(bridge)`` for a name or a path; anything else as it is."""
     if isinstance(bridge, str | os.PathLike):
-        from model.structure.spec import load_bridge
+        from model.structure.loader import load_bridge
 
         return load_bridge(bridge)
     return bridge

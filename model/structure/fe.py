@@ -205,10 +205,11 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
     erection_gj_factor : float
         Fraction of GJ the deck keeps while erecting (seed §2: one half; 1 gives the paper's
         "full GJ" comparison curve of Fig. 2).
-        An imported modal bridge (:mod:`model.structure.modal_import`) gives its strips instead.
+        An imported modal bridge (:mod:`model.structure.modal_import`) gives its strips instead
+        (:func:`model.structure.modal_model.imported_structure`).
     """
     if getattr(spec, "structure", None) is not None:
-        from model.structure.modal_import import imported_structure
+        from model.structure.modal_model import imported_structure
 
         return imported_structure(spec)
     statics = dead_load(spec) if statics is None else statics

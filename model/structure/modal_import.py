@@ -16,7 +16,7 @@ gives natural frequencies, damping ratios, generalised masses and the deck mode 
   ``plot``), so that flutter, buffeting, the state-space export, flaps and control design,
   sensitivities to aerodynamic inputs and DOE run on it unchanged.
 
-The hook: :func:`model.structure.spec.spec_from_dict` hands a file with ``[structure]`` to
+The hook: :func:`model.structure.loader.spec_from_dict` hands a file with ``[structure]`` to
 :func:`modal_spec_from_dict`, :func:`model.structure.fe.assemble` returns an
 :class:`ImportedStructure` for such a bridge and :func:`model.structure.modes.solve` turns it into
 the :class:`ImportedModalModel`. The bridge is a :class:`ModalBridgeSpec` (a
@@ -33,13 +33,13 @@ import dataclasses
 import functools
 import math
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
 from model.errors import BridgeflapInputError
 from model.structure import spec as sm
+from model.structure.builtin_bridges import builtin_folder
 from model.structure.limits import MAX_STRIPS
 from model.structure.modal_files import (
     FAMILIES,
@@ -69,7 +69,6 @@ __all__ = [
     "DerivativeLoads",
     "ModalStructure",
     "compare_modes",
-    "derivative_bridge_system",
     "derivatives_from_dict",
     "export_modal",
     "imported_structure",
@@ -291,7 +290,8 @@ class DerivativeLoads:
 
     Instead of the thin-aerofoil (Theodorsen) strip loads, the deck's self-excited loads come
     from measured flutter derivatives (:mod:`model.aero.derivatives`), turned into a Roger RFA
-    state space on the modal coordinates (:func:`derivative_bridge_system`). ``file`` is a
+    state space on the modal coordinates
+    (:func:`model.aeroelastic.derivative_system.derivative_bridge_system`). ``file`` is a
     table of the ``form`` ``"polimi-json"``
     (:func:`model.structure.modal_files.read_polimi_derivatives`, the IABSE step-2a "BB3" file);
     ``lateral`` includes the lateral DOF (the drag and lateral-coupling derivatives on the lateral
@@ -378,7 +378,7 @@ def aero_sections(data: dict, origin: str = "<dict>", prefix: str = "") -> dict:
     """
     from model.aero.quasi_steady import static_from_dict
 
-    base = _builtin_dir(origin)
+    base = builtin_folder(origin)
     if base is None:
         base = Path(origin).parent if origin not in ("<dict>", "") else Path(".")
     out = {}
@@ -389,38 +389,6 @@ def aero_sections(data: dict, origin: str = "<dict>", prefix: str = "") -> dict:
         out["static_coefficients"] = static_from_dict(data["static_coefficients"],
                                                       f"{prefix}static_coefficients")
     return out
-
-
-def derivative_bridge_system(spec, modal, n_modes: int):
-    """Aeroelastic state space of a modal bridge with ``[derivatives]`` loads.
-
-    The hook of :func:`model.analysis.bridge_system`: :meth:`ImportedModalModel.derivative_basis`
-    (lateral modes and shapes when ``lateral``), the table of the file with ``B = 2 b`` of the
-    deck, its Roger fit and :func:`model.aeroelastic.derivative_system.derivative_system` (whose
-    ``frozen()`` is the exact p-k on the interpolated tables,
-    :func:`model.stability.sweeps.pk_sweep`). ``extras["rfa"]`` names the fit (``roger<n>:<table>``)
-    for the flutter summary.
-    """
-    from model.aeroelastic.derivative_system import derivative_system
-
-    loads = spec.derivatives
-    if hasattr(modal, "derivative_basis"):
-        basis, phi_p = modal.derivative_basis(int(n_modes), loads.lateral)
-    else:  # the built-in FE model: vertical and torsional modes, no lateral DOF
-        basis, phi_p = modal.structural_basis(int(n_modes)), None
-    chord = 2.0 * spec.deck.half_chord_m
-    source = loads.table(chord)
-    if not source.lateral:
-        phi_p = None
-    fit = loads.fit(chord, 2 if phi_p is None else 3)
-    system = derivative_system(basis, source, spec.aero.air_density_kg_m3, fit=fit, phi_p=phi_p)
-    system.extras.update(rfa=f"{fit.name}:{source.name}", lateral_dof=phi_p is not None,
-                         phi_p=phi_p)
-    if getattr(spec, "static_coefficients", None) is not None:  # B_gust: quasi-steady w loads
-        from model.response.buffeting_inputs import quasi_steady_inputs
-
-        system = quasi_steady_inputs(system, spec)
-    return system
 
 
 # ------------------------------------------------------------------------------ the bridge
@@ -503,13 +471,6 @@ class ModalBridgeSpec(sm.BridgeSpec):
         return spec
 
 
-def _builtin_dir(origin: str) -> Path | None:
-    files = getattr(sm, "BUILTIN_FILES", {})
-    if origin in files:
-        return Path(str(resources.files("model.bridges").joinpath(files[origin]))).parent
-    return None
-
-
 def modal_spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = None):
     """A :class:`ModalBridgeSpec` from a parsed bridge file with ``[structure] kind = "modal"``.
 
@@ -524,7 +485,7 @@ def modal_spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None
     name = data.get("name")
     if not isinstance(name, str) or not name:
         raise BridgeflapInputError("name", "missing or not a string")
-    base = _builtin_dir(origin)
+    base = builtin_folder(origin)
     if base is None:
         base = Path(origin).parent if origin not in ("<dict>", "") else Path(".")
     sources: dict = {}

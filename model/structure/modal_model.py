@@ -17,7 +17,7 @@ import numpy as np
 from model.aero.basis import StructuralBasis
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.structure.modal_files import needs_fe as _needs_fe
-from model.structure.modes import Mode
+from model.structure.mode import Mode
 
 __all__ = ["ImportedModalModel", "ImportedStructure", "compare_modes", "imported_structure"]
 

@@ -3,7 +3,9 @@
 Rayleigh damping ``C = a_M M + a_K K`` gives 1 % (``spec.damping.ratio``) in the first vertical
 and the first torsional mode (seed §2); every other mode's ratio follows from
 ``zeta = a_M/(2 omega) + a_K omega/2``. The three families are uncoupled, so the mass-normalised
-modes of each family diagonalise ``M``, ``K`` and ``C`` of the whole structure.
+modes of each family diagonalise ``M``, ``K`` and ``C`` of the whole structure. One mode's
+record, :class:`Mode`, lives in :mod:`model.structure.mode` (the imported modal models use it
+too) and is importable from here.
 """
 
 from __future__ import annotations
@@ -17,36 +19,8 @@ from model.aero.basis import StructuralBasis
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.results import ResultData, jsonable
 from model.structure.fe import StructuralModel, assemble
+from model.structure.mode import Mode
 from model.structure.spec import BridgeSpec
-
-
-@dataclass(frozen=True)
-class Mode:
-    """One structural mode."""
-
-    family: str
-    symmetry: str
-    frequency_hz: float
-    damping_ratio: float
-    order: int  # 1-based order within (family, symmetry)
-    main_span_share: float  # fraction of the mode's nodal norm in the main span
-    deck_share: float = 1.0  # kinetic-energy fraction in the deck (lateral: deck vs cables)
-
-    span: str = "main"  # span holding most of the mode ("main" or a side-span name)
-
-    @property
-    def label(self) -> str:
-        """Short label such as ``TS1`` or ``VA2``; side-span modes: ``V-barton1``."""
-        if self.span != "main":
-            return f"{self.family[0].upper()}-{self.span}{self.order}"
-        return f"{self.family[0].upper()}{self.symmetry[0].upper()}{self.order}"
-
-    def as_dict(self) -> dict:
-        """JSON-ready dict (the ``modes`` CLI contract)."""
-        return {"label": self.label, "family": self.family, "symmetry": self.symmetry,
-                "frequency_hz": self.frequency_hz, "damping_ratio": self.damping_ratio,
-                "main_span_share": self.main_span_share, "deck_share": self.deck_share,
-                "span": self.span}
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,8 @@ from scipy.optimize import minimize_scalar
 from design.io.options import parse_range
 from model.analysis import flutter, modal_model
 from model.cases.validation import log_misfit
-from model.structure.spec import get_path, load_bridge
+from model.structure.loader import load_bridge
+from model.structure.spec import get_path
 
 RANGES = {
     # path: (low, high, reasoning)

@@ -26,7 +26,7 @@ from design.io.files import atomic_write_json, ensure_writable_dir, to_jsonable
 from design.io.options import parse_range
 from model.analysis import DEFAULT_MODES, first_symmetric_deck_mode
 from model.stability.modeshape import flutter_mode_shape, plot_ratio_modes, ratio_modes
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 
 def main():

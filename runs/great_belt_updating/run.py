@@ -15,8 +15,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from model.analysis import modal_model
+from model.structure.loader import load_bridge
 from model.structure.modal_import import compare_modes
-from model.structure.spec import load_bridge
 
 #: the step-2a modes each family is updated to (the surely paired ones, docs/great_belt.md)
 TARGETS = {"vertical": ("deck.ei_vertical_nm2", ("VA1", "VS1", "VS2", "VA2"), (10.0, 14.0)),

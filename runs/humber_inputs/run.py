@@ -18,7 +18,7 @@ from design.io.options import parse_range
 from design.studies.analyses import DEFAULT_SPEEDS
 from model.analysis import flutter
 from model.cases.validation import update_stiffnesses
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 FIRST_LANDING_MASS = {"deck.mass_kg_per_m": 7660.0, "deck.mass_inertia_kgm2_per_m": 3.75e5}
 

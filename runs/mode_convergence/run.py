@@ -24,7 +24,7 @@ from design.io.files import atomic_write_json, to_jsonable
 from design.io.options import parse_range
 from design.sensitivity.screening import DEFAULT_UNCERTAIN_RANGES
 from model.stability.convergence import DEFAULT_MODE_COUNTS, TOLERANCE_PCT, mode_convergence
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 #: buffeting-only inputs do not enter flutter or divergence
 BUFFETING_ONLY = ("aero.coherence_decay",)

@@ -20,8 +20,8 @@ import argparse
 import json
 
 from model.cases.validation import compare_table1, update_stiffnesses
+from model.structure.loader import load_bridge
 from model.structure.modes import modal_model
-from model.structure.spec import load_bridge
 
 
 def weight_table(weights):

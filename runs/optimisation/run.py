@@ -25,7 +25,7 @@ from design.control.settings import load_settings, quick_settings
 from design.io.files import atomic_write_json, ensure_writable_dir
 from design.io.manifest import build_manifest
 from model.aeroelastic.control import save_controller
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 DEFINITION = Path(__file__).resolve().parents[1] / "humber_flaps.toml"
 #: Changes to the built-in Humber specification in quick mode (numerics only).

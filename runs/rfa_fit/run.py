@@ -34,7 +34,7 @@ from model import analysis
 from model.aero.rfa import FLUTTER_BAND_K, band_error, fit_theodorsen, get_rfa
 from model.cases.rfa_cases import RFA_CHECK_CASES, flutter_gap
 from model.stability import sweeps as stability
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 FITS = ("rfa4", "rfa4-band")
 SCAN_WEIGHTS = (1.0, 3.0, 10.0, 30.0, 1e4)

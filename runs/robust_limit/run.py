@@ -25,7 +25,7 @@ import time
 from design.control.driver import design
 from design.control.settings import DEFAULT_CARD, load_settings, quick_settings
 from design.io.files import to_jsonable
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 
 def row(gj: float, quick: bool = False) -> dict:

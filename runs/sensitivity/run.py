@@ -25,7 +25,7 @@ from design.io.files import atomic_write_json, ensure_writable_dir  # noqa: E402
 from design.io.manifest import build_manifest  # noqa: E402
 from design.sensitivity.local import DEFAULT_PARAMETERS, local_sensitivity  # noqa: E402
 from design.sensitivity.screening import DEFAULT_UNCERTAIN_RANGES, global_sensitivity  # noqa: E402
-from model.structure.spec import load_bridge  # noqa: E402
+from model.structure.loader import load_bridge  # noqa: E402
 
 
 def main():

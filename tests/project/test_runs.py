@@ -165,7 +165,7 @@ def test_model_updating_example(tmp_path):
         assert _finite_in(u["rms_log_misfit"], 0.0, 0.3), path
     # GJ updated to the measured torsional frequencies (humber.toml: 4.743e11 N m^2); the
     # script re-updates from the file, so it must land on the file's value (search xatol 0.02 %)
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
     gj = load_bridge("humber").deck.gj_nm2
     assert out["updated"]["deck.gj_nm2"]["value"] == pytest.approx(gj, rel=1e-3)
     rows = out["table1"]
@@ -180,7 +180,7 @@ def test_humber_inputs_example(tmp_path):
     updating lands on the file's values within its 0.02 % search tolerance)."""
     from design.io.options import parse_range
     from model.analysis import flutter
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     r = _run([*_script("humber_inputs"), "--json"], tmp_path)
     rows = json.loads(r.stdout)["rows"]
@@ -289,7 +289,7 @@ def test_rfa_fit_example(tmp_path):
 def test_great_belt_updating_example(tmp_path):
     # the updated stiffnesses in model/bridges/great_belt.toml are the ones the run finds (the
     # file gives 4 figures; Brent's xatol 1e-4 on log10 is 0.02 %)
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     r = _run(_script("great_belt_updating"), tmp_path)
     out = json.loads(r.stdout)

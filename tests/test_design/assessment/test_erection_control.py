@@ -15,7 +15,7 @@ from design.io.files import to_jsonable
 from model.aeroelastic.control import Compensator, Controller
 from model.aeroelastic.controller_file import save_controller
 from model.analysis import closed_loop_flutter
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 #: the default card's K (tests/test_harm.py) on its 18 placed strips (+-225.6 .. 676.8 m)
 K = Compensator(-1.0520215923792988, 0.724204088492299, -4.9906722869878095,

@@ -30,7 +30,7 @@ from model.stability.static_divergence import (
     static_stiffness,
 )
 from model.stability.sweeps import sweep
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 #: the 5 m flap design of tests/test_controller_file.py (a fixed, designed compensator)
 K5 = Compensator(-1.1668156764187112, -0.03901371153086817, -1.6746219244786549,

@@ -18,7 +18,7 @@ from design.assessment.harm import HarmResult, do_no_harm, harm_row
 from design.cli.main import main
 from model.aeroelastic.control import Compensator, Controller
 from model.aeroelastic.controller_file import save_controller
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 #: K(s) of the default card (`bridgeflap optimise`, built-in b = 14.25 m Humber, 3 m flaps,
 #: 18 placed pairs; run 2026-12-03 after issue 27's model updating): a fixed, designed

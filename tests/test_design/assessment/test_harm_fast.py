@@ -26,7 +26,7 @@ from design.assessment.harm_fast import static_crossing
 from model.aeroelastic.control import Compensator, Controller
 from model.aeroelastic.flaps import closed_loop_model
 from model.stability.sweeps import sweep
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 #: the default design's K(s) and layout (as tests/test_harm.py)
 K = Compensator(-1.0520215923792988, 0.724204088492299, -4.9906722869878095,

@@ -19,7 +19,7 @@ from design.batch.runner import run_batch
 from design.studies.cases import flutter_case
 from design.studies.study import run_study
 from model.analysis import erection
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 #: coarse mesh, few modes and a coarse grid: each stage or case takes a fraction of a second
 MESH = {"mesh.element_length_m": 50.0}

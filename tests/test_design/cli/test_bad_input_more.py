@@ -20,7 +20,7 @@ import pytest
 
 from design.cli.main import main
 from model.errors import BridgeflapInputError
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 UNITS_TOML = 'units = { frequency = "Hz", length = "m", rotation = "rad", mass = "kg" }\n'
 

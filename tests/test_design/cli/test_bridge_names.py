@@ -12,7 +12,7 @@ import pytest
 from design.studies.experiments import doe_fingerprint, doe_from_dict
 from design.studies.study import load_study
 from model.errors import BridgeflapInputError
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 ROOT = Path(__file__).resolve().parents[3]
 

@@ -23,7 +23,7 @@ from design.cli.main import main
 from design.io.options import parse_range
 from design.studies.analyses import DEFAULT_SPEEDS
 from model.analysis import DEFAULT_MODES, bridge_system, flutter
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 FLUTTER_KEYS = {"flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
                 "divergence_speed_m_s", "divergence_status", "critical_branch"}

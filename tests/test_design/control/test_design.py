@@ -383,7 +383,7 @@ def test_humber_design_stable_on_16_modes(tmp_path, capsys):
     from design.cli.main import main
     from model.aeroelastic.control import load_controller
     from model.analysis import DEFAULT_MODES, closed_loop_flutter
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     out = tmp_path / "opt"
     assert main(["optimise", "--out", str(out), "--json"]) == 0
@@ -589,7 +589,7 @@ def test_multi_model_design_constrains_every_variant(small_box):
     # half-chord held): the NLP carries one damping block per model, and a short solve_with_cuts
     # reports feasibility only when every variant's dense check meets zeta_min
     from design.control.driver import sample_variants
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     s, model = small_box
     s2 = replace(s, max_iter=30, resolve_max_iter=20, cutting_plane_rounds=1,
@@ -616,7 +616,7 @@ def test_closed_loop_limits_reported_with_mechanism(small_box):
     # and the governing one is the lower of the sweep's critical speed and the static check
     from design.control.driver import closed_loop_limits
     from model.analysis import closed_loop_flutter
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     s, model = small_box
     ctrl = Controller(Compensator(*THETA), tuple(s.positions()), s.flap_width_m)
@@ -707,7 +707,7 @@ def test_closed_loop_limits_fast_path_on_the_default_design():
     # 16 goal 2's agreement), the same statuses and mechanism
     from design.cli.optimise import DEFAULT_DEFINITION
     from model.analysis import closed_loop_flutter
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     s = load_settings(DEFAULT_DEFINITION)
     # the default card's design since issue 27 (built-in b = 14.25 m, 18 placed pairs, README
@@ -734,7 +734,7 @@ def test_lazy_variant_constraints_meet_every_variant(small_box):
     # refined check) gives the dense check's maximum violation on every variant.
     from design.control.driver import sample_variants
     from design.control.nlp_tolerances import VIOLATION_TOL
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     s, model = small_box
     base = load_bridge(s.bridge)

@@ -92,7 +92,7 @@ def test_fresh_variants_reported_stable_are_stable(small_box_fresh):
     from design.control.driver import fresh_variant_check, sample_variants
     from model.aeroelastic.control import Compensator, Controller
     from model.stability.sweeps import sweep
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     s = small_box_fresh
     base = load_bridge(s.bridge)
@@ -322,7 +322,7 @@ def test_multi_model_design_in_two_processes_reports_every_variant(small_box_fre
     from dataclasses import replace
 
     from design.control.driver import design, fresh_variant_check, sample_variants
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     # 3 rounds of 60 iterations: since issue 27's model updating 1 x 30 ends infeasible (max
     # gain 58.5) and leaves no candidate to check; 3 x 60 converges (measured, gain 15.00)

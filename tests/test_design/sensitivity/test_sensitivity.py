@@ -18,7 +18,7 @@ from design.sensitivity.local import (
 from design.sensitivity.screening import global_sensitivity
 from model.analysis import bridge_system, modal_model
 from model.stability.sweeps import oscillation_tolerance
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 COARSE = {"mesh.element_length_m": 50.0}
 N_MODES = 10
@@ -154,7 +154,7 @@ def test_cli_contract_and_bad_parameter(tmp_path, capsys):
     assert (tmp_path / "t.png").stat().st_size > 0
     # the result object: unit-named derivative keys, strict JSON, a table with units
     from design.sensitivity.local import local_sensitivity
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     res = local_sensitivity(load_bridge("humber"), ["deck.half_chord_m"], "0:120:2", 6)
     dd = json.loads(json.dumps(res.to_dict(), allow_nan=False))["derivatives"]

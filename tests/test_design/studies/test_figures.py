@@ -203,7 +203,7 @@ def test_document_renders_the_same_cells_twice(tmp_path):
 
 
 def test_imported_mode_shapes_by_family_with_the_main_span_ends():
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     axes = modal_model(load_bridge("iabse-2a")).plot()
     assert [ax.get_ylabel().split("\n")[0] for ax in axes] == ["vertical", "torsional",

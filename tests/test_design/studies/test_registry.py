@@ -72,7 +72,7 @@ def test_doe_case_without_options_gives_the_cli_flutter_speed(tmp_path):
 
 
 def test_study_runner_without_options_gives_the_cli_flutter_speed():
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(io.StringIO()):

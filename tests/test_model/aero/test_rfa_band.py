@@ -162,7 +162,7 @@ def test_humber_band_fit_shift():
     """Humber, 16 modes: exact p-k 69.389 m/s; rfa4 +0.177 %, rfa4-band +0.047 %."""
     from model import analysis
     from model.stability import sweeps as stability
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     spec = load_bridge("humber")
     modal, system = analysis.bridge_system(spec, analysis.DEFAULT_MODES)

@@ -36,7 +36,7 @@ from model.aeroelastic import statespace
 from model.cases.section import typical_section
 from model.errors import BridgeflapInputError
 from model.stability import sweeps as stability
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 RFA4_EPS = get_rfa("rfa4").max_error
 JONES_EPS = get_rfa("jones").max_error

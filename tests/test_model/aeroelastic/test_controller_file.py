@@ -19,7 +19,7 @@ from design.studies.analyses import ANALYSES
 from model.aeroelastic.control import Compensator, Controller, load_controller, save_controller
 from model.aeroelastic.controller_file import plant_record
 from model.analysis import closed_loop_flutter
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 #: K(s) of ``bridgeflap optimise design/studies/humber_b1425_flaps5m.toml`` (built-in Humber,
 #: b = 14.25 m, 25 touching 56.4 m flap pairs with 5 m chord; run 2026-12-03 on this branch,

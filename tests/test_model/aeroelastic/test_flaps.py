@@ -18,7 +18,7 @@ from model.aeroelastic.flaps import (
 from model.cases.section import section_basis
 from model.errors import BridgeflapInputError
 from model.stability.sweeps import sweep
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 B, RHO, CHORD = 11.0, 1.225, 3.0
 C_HINGE = (B - CHORD) / B

@@ -8,7 +8,8 @@ from scipy.optimize import linear_sum_assignment
 
 from model.aeroelastic.symbolic import SYMBOLIC_PARAMETERS, build_symbolic
 from model.analysis import bridge_system
-from model.structure.spec import get_path, load_bridge
+from model.structure.loader import load_bridge
+from model.structure.spec import get_path
 
 N_MODES = 10
 

@@ -3,8 +3,9 @@
 The bridge file's ``[variants.bb3.derivatives]`` section (model/bridges/iabse/
 step2a_bridge.toml, :class:`model.structure.modal_import.DerivativeLoads`) drives the self-excited
 loads from the shipped BB3 PoliMi tables (step2a_bb3_derivatives.json) through a 3-lag Roger RFA on
-all 12 modes with the lateral DOF (:func:`model.structure.modal_import.derivative_bridge_system`,
-the hook of :func:`model.analysis.bridge_system`); the exact p-k on the interpolated tables is the
+all 12 modes with the lateral DOF
+(:func:`model.aeroelastic.derivative_system.derivative_bridge_system`, the hook of
+:func:`model.analysis.bridge_system`); the exact p-k on the interpolated tables is the
 cross-check. Reference: 69.8 m/s (wawi tests/test_IABSE_step2a.py, "reference value from
 paper", 3 figures); the independent wawi-style p-k of tests/test_modal_import.py gives 69.855
 m/s with the lateral DOF and 68.31 m/s without.
@@ -23,8 +24,8 @@ from model.aeroelastic.derivative_system import DerivativeSystem
 from model.analysis import bridge_system, flutter
 from model.errors import BridgeflapInputError
 from model.stability import sweeps as stability
+from model.structure.loader import load_bridge
 from model.structure.modal_import import derivatives_from_dict
-from model.structure.spec import load_bridge
 
 SPEEDS = np.arange(0.0, 100.01, 0.5)
 PK_SPEEDS = np.arange(1.0, 100.0, 1.0)   # p-k continued from still air

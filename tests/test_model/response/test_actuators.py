@@ -35,7 +35,7 @@ def setup():
     from model.aero.gust import gust_field
     from model.aeroelastic.flaps import closed_loop_model
     from model.response.actuator_sim import SaturatedLoop
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     spec = load_bridge("humber:box")
     c = CONTROLLER
@@ -181,7 +181,7 @@ def test_turbulence_has_the_buffeting_spectrum_and_coherence():
 
     from model.aero.gust import gust_field
     from model.aero.turbulence import span_turbulence
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     gust = gust_field(load_bridge("humber:box"))
     U, h, n = 20.0, 0.1, 2 ** 15

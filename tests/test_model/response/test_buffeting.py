@@ -22,7 +22,7 @@ from model.errors import BridgeflapInputError
 from model.response.buffeting import CONVERGENCE_TOL, buffeting, reduced_response
 from model.response.simulation import lyapunov_rms
 from model.response.spectral import white_noise_intensity
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 
 # ----------------------------------------------------------------------------------------------

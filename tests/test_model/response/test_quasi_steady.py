@@ -22,7 +22,7 @@ from model.analysis import bridge_system
 from model.errors import BridgeflapInputError
 from model.response.buffeting import buffeting
 from model.stability import sweeps as stability
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 SPEEDS = [20.0, 40.0]
 

@@ -16,7 +16,7 @@ from model import analysis
 from model.aeroelastic import statespace
 from model.cases.section import typical_section
 from model.stability import sweeps as stability
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 
 
 @pytest.fixture(scope="module")

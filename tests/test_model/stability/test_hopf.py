@@ -33,7 +33,7 @@ REL_TOL = 1e-4
 
 def _bridge(name, n_modes, speeds=DEFAULT_SPEEDS):
     from model.analysis import bridge_system
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     _, system = bridge_system(load_bridge(name), n_modes)
     return name, system, parse_range(speeds, "speeds", 0.0)

@@ -146,7 +146,7 @@ def test_fast_pk_on_a_coarse_grid_from_zero():
     ("humber", 12, (0.0, 85.0, 0.5))])
 def test_fast_pk_equals_the_reference_on_bridges(name, modes, grid):
     from model.analysis import bridge_system
-    from model.structure.spec import load_bridge
+    from model.structure.loader import load_bridge
 
     _, system = bridge_system(load_bridge(name), modes)
     lo, hi, step = grid

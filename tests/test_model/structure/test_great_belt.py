@@ -16,8 +16,9 @@ import pytest
 
 from design.cli.main import main
 from model.analysis import modal_model
+from model.structure.builtin_bridges import BUILTIN_BRIDGES
+from model.structure.loader import load_bridge
 from model.structure.modal_import import compare_modes
-from model.structure.spec import BUILTIN_BRIDGES, load_bridge
 
 
 @pytest.fixture(scope="module")

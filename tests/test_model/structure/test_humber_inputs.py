@@ -15,8 +15,8 @@ import tomllib
 
 from model.errors import BridgeflapInputError
 from model.structure import cable, fe
+from model.structure.loader import load_bridge, spec_from_dict
 from model.structure.section_props import section_from_list
-from model.structure.spec import load_bridge, spec_from_dict
 
 
 def _humber_dict() -> dict:

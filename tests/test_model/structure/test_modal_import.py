@@ -18,8 +18,9 @@ from design.cli.main import main
 from model.analysis import bridge_system, flutter, modal_model
 from model.errors import BridgeflapInputError
 from model.stability.sweeps import pk_sweep
+from model.structure.loader import load_bridge, spec_from_dict
 from model.structure.modal_import import ImportedModalModel, export_modal
-from model.structure.spec import BridgeSpec, load_bridge, spec_from_dict
+from model.structure.spec import BridgeSpec
 
 UNITS = {"frequency": "Hz", "length": "m", "rotation": "rad", "mass": "kg"}
 SPEEDS = np.arange(0.0, 85.5, 0.5)

@@ -12,7 +12,7 @@ import pytest
 
 import model
 from model.errors import BridgeflapInputError
-from model.structure.spec import load_bridge
+from model.structure.loader import load_bridge
 from model.structure.spec_writer import save_bridge, to_toml
 
 BRIDGES = ["humber", "humber:box", "humber:flap_deck_flap", "great-belt",

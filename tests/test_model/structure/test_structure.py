@@ -21,7 +21,8 @@ from model.cases.validation import TABLE1, compare_table1
 from model.errors import BridgeflapInputError
 from model.structure import cable, fe, modes
 from model.structure.cable import G
-from model.structure.spec import BridgeSpec, load_bridge, spec_from_dict
+from model.structure.loader import load_bridge, spec_from_dict
+from model.structure.spec import BridgeSpec
 
 # --------------------------------------------------------------------------- case factories
 
