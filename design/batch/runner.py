@@ -126,8 +126,8 @@ class BatchResult(ResultData):
 
     def plot(self, ax=None, output: str | None = None):
         """One numeric output per case (default: the first), failed cases as red crosses
-        (:func:`design.control.result_plots.batch_cases`)."""
-        from design.control.result_plots import batch_cases
+        (:func:`design.batch.plots.batch_cases`)."""
+        from design.batch.plots import batch_cases
 
         return batch_cases(self, ax, output)
 
