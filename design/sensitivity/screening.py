@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES  # also served from here
 from design.io.files import atomic_write_text
-from design.sensitivity.uncertainty import DEFAULT_UNCERTAIN_RANGES  # also served from here
 from model.errors import BridgeflapInputError
 from model.results import ResultData
 from model.structure.spec import PARAMETER_PATHS
