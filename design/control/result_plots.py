@@ -1,4 +1,4 @@
-"""Plots of the design results that have no figure of their own in :mod:`design.studies.figures`
+"""Plots of the design results that have no figure of their own in :mod:`design.control.figures`
 (the batch plot is :mod:`design.batch.plots`).
 
 Each takes the result and an optional matplotlib axis (a new figure when None), draws, and

@@ -129,7 +129,7 @@ class GlobalSensitivityResult(ResultData):
                          label=f"{out.replace('_speed_m_s', '')}: 5-95 % "
                                f"{self.band[out]['p05']:.1f}-{self.band[out]['p95']:.1f} m/s")
         if morris:
-            from design.studies.figures import morris_mu_sigma
+            from design.sensitivity.figures import morris_mu_sigma
 
             morris_mu_sigma(axes[1], self.indices)
         ax0.set_yticks(y)
