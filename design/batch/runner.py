@@ -170,11 +170,11 @@ def function_fingerprint(fn: Callable) -> str:
 
     The default fingerprint of :func:`run_batch`; callers that know more (a DOE: the bridge
     file's content) pass their own. A bound in-memory :class:`~model.structure.spec.BridgeSpec` is
-    named by :func:`design.studies.cases.bridge_identity` (the hash of its canonical form).
+    named by :func:`design.io.identity.bridge_identity` (the hash of its canonical form).
     """
     import functools
 
-    from design.studies.cases import bridge_identity
+    from design.io.identity import bridge_identity
     from model.structure.spec import BridgeSpec
 
     parts = []
