@@ -7,6 +7,13 @@ or Sobol'/Saltelli), runs the flutter case of every sample through the fault-tol
 flutter and divergence speeds. Local (implicit-function) derivatives are in
 :mod:`design.sensitivity.local`.
 
+It is a study, not a derivative of the model: like a DOE (:mod:`design.studies.experiments`) it
+runs the registry's flutter case (:func:`design.studies.cases.flutter_case`, which takes its
+defaults from :data:`design.studies.analyses.ANALYSES`) over a sampling plan, so it sits beside
+the registry, which itself runs the local sensitivities. The ranges are
+:data:`design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES` (served from here too) and the Morris
+plane is :func:`design.sensitivity.figures.morris_mu_sigma`.
+
 References
 ----------
 Morris, M. D. (1991), Technometrics 33(2). Saltelli, A. (2002), Comput. Phys. Commun. 145.
