@@ -3,7 +3,7 @@
 :func:`cases` builds the stated set (Humber open and closed loop, the IABSE cases, Great Belt
 with the default and the bb3 flutter derivatives);
 :func:`sampled_cases` draws bridges from Humber's estimated-input ranges
-(:data:`design.sensitivity.screening.DEFAULT_UNCERTAIN_RANGES`) and erection stages; :func:`compare`
+(:data:`design.studies.screening.DEFAULT_UNCERTAIN_RANGES`) and erection stages; :func:`compare`
 runs both methods on one case and says whether they agree: the same statuses and labels, and the
 same flutter, divergence and second-flutter speeds to :data:`REL_TOL`.
 """
@@ -70,7 +70,7 @@ def sampled_params(n: int, seed: int = 16):
     """``n`` parameter sets: uniform over the estimated-input ranges (coherence decay, which
     enters buffeting only, left out); every third one also an erection stage, erected
     fraction uniform on (0.1, 1)."""
-    from design.sensitivity.screening import DEFAULT_UNCERTAIN_RANGES
+    from design.studies.screening import DEFAULT_UNCERTAIN_RANGES
 
     rng = np.random.default_rng(seed)
     ranges = {k: v for k, v in DEFAULT_UNCERTAIN_RANGES.items() if k != "aero.coherence_decay"}

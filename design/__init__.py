@@ -25,7 +25,7 @@ _PUBLIC = {
     "design": "design.control.driver",
     "DesignResult": "design.control.result",
     "local_sensitivity": "design.sensitivity.local",
-    "global_sensitivity": "design.sensitivity.screening",
+    "global_sensitivity": "design.studies.screening",
     "load_study": "design.studies.study", "run_study": "design.studies.study",
     "study_from_dict": "design.studies.study",
     "load_doe": "design.studies.experiments", "run_doe": "design.studies.experiments",

@@ -2,7 +2,7 @@
 
 For each of ``count`` fresh variants sampled (Sobol', :func:`design.batch.designs.sobol`) over the
 uncertainty set of the estimated inputs
-(:data:`design.sensitivity.uncertainty.DEFAULT_UNCERTAIN_RANGES` less the inputs held fixed), the
+(:data:`design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES` less the inputs held fixed), the
 variant's **open-loop** critical speed (flutter or divergence, whichever comes first) is set against
 its **closed-loop** one with the controller's flaps, both from the same sweep on the same grid and
 mode count (:func:`model.analysis.closed_loop_flutter`).
@@ -211,7 +211,7 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
         seen on those rows must stay below :data:`SCREEN_CHECK_FRACTION` of the margin, else
         every row is recomputed on ``n_modes`` (``screen_check``).
     """
-    from design.sensitivity.uncertainty import DEFAULT_UNCERTAIN_RANGES
+    from design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
     from model.structure.loader import load_bridge
     from model.structure.spec import BridgeSpec
 

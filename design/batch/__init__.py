@@ -1,6 +1,6 @@
 """The fault-tolerant batch runner, without physics: sampling plans (``designs``), the runner
-(``runner``), one case (``case``), its Dask side (``cluster``), its tables (``table``) and the
-branch-switch flags of a row (``branch_flags``).
+(``runner``), one case (``case``), its Dask side (``cluster``), its tables (``table``), the
+branch-switch flags of a row (``branch_flags``) and the plot of a batch's cases (``plots``).
 
 May import: :mod:`model` and :mod:`design.io`.
 """

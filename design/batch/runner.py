@@ -126,8 +126,8 @@ class BatchResult(ResultData):
 
     def plot(self, ax=None, output: str | None = None):
         """One numeric output per case (default: the first), failed cases as red crosses
-        (:func:`design.control.result_plots.batch_cases`)."""
-        from design.control.result_plots import batch_cases
+        (:func:`design.batch.plots.batch_cases`)."""
+        from design.batch.plots import batch_cases
 
         return batch_cases(self, ax, output)
 
@@ -170,11 +170,11 @@ def function_fingerprint(fn: Callable) -> str:
 
     The default fingerprint of :func:`run_batch`; callers that know more (a DOE: the bridge
     file's content) pass their own. A bound in-memory :class:`~model.structure.spec.BridgeSpec` is
-    named by :func:`design.studies.cases.bridge_identity` (the hash of its canonical form).
+    named by :func:`design.io.identity.bridge_identity` (the hash of its canonical form).
     """
     import functools
 
-    from design.studies.cases import bridge_identity
+    from design.io.identity import bridge_identity
     from model.structure.spec import BridgeSpec
 
     parts = []

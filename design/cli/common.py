@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from design.io.files import atomic_write, to_jsonable
+from design.io.text import number_text, speed_text  # noqa: F401 - served to the commands
 from model.errors import BridgeflapInputError
 
 __all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",
@@ -306,15 +307,3 @@ def limit_text(s: dict, mech: str) -> str:
     first = s.get(f"{mech}_unstable_from_m_s")
     return (speed_text(s[f"{mech}_speed_m_s"]) if first is None
             else f"unstable already at the first speed, {first:.2f} m/s")
-
-
-def number_text(x, fmt, unit="", none="-") -> str:
-    """``x`` formatted with ``fmt`` (e.g. ``".4f"``) and ``unit`` for the text output;
-    ``None``/NaN as ``none``."""
-    return none if x is None or x != x else f"{float(x):{fmt}}{unit}"
-
-
-def speed_text(u, digits=2, none="none on the grid") -> str:
-    """A speed [m/s] for the text output with ``digits`` decimals; ``None``/NaN (not found)
-    as ``none``, never "nan m/s"."""
-    return none if u is None or u != u else f"{float(u):.{int(digits)}f} m/s"

@@ -90,9 +90,7 @@ def cmd_sensitivity(args):
 def _global(args):
     from pathlib import Path
 
-    # design/sensitivity/local.py (H1 may move these to design/sensitivity/screening.py): one import
-    # line
-    from design.sensitivity.screening import DEFAULT_UNCERTAIN_RANGES, global_sensitivity
+    from design.studies.screening import DEFAULT_UNCERTAIN_RANGES, global_sensitivity
 
     ranges = DEFAULT_UNCERTAIN_RANGES
     if args.parameters:

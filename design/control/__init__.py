@@ -4,9 +4,9 @@
 constraints (``eigen``), the robustness and buffeting terms (``robust``, ``loop_algebra``,
 ``buffeting_term``), multi-model variants (``variants``, ``pair_failure``), the dense check
 (``verification``), the layout search (``layout_search``, ``flap_count``), the multistart
-driver (``driver``, ``start``), the critical-speed design (``critical_speed``), and the
-result with its records, checks and plots (``result``, ``records``, ``checks``,
-``result_plots``).
+driver (``driver``, ``start``), the critical-speed design (``critical_speed``), the stated
+uncertainty set of the estimated inputs (``uncertainty``), and the result with its records,
+checks and plots (``result``, ``records``, ``checks``, ``figures``, ``result_plots``).
 
 May import: :mod:`model`, :mod:`design.io` and :mod:`design.batch`.
 """

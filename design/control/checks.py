@@ -196,10 +196,10 @@ def active_constraints(settings: DesignSettings, start, ver) -> dict:
 def sample_variants(settings: DesignSettings, spec, count: int, seed: int) -> list:
     """``count`` bridge variants of ``spec``: a scrambled Sobol' sample of the estimated-input
     ranges of the global sensitivity study
-    (:data:`design.sensitivity.uncertainty.DEFAULT_UNCERTAIN_RANGES`)
+    (:data:`design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES`)
     without the ``variant_fixed`` parameters (held at ``spec``'s values)."""
     from design.batch.designs import sobol
-    from design.sensitivity.uncertainty import DEFAULT_UNCERTAIN_RANGES
+    from design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
 
     if count <= 0:
         return []
@@ -302,7 +302,7 @@ def margin_on_speed_grid(settings: DesignSettings, controller: Controller, spec=
 def limits_text(lim) -> str:
     """One log line of :func:`closed_loop_limits` (a limit not found within the searched
     range as such, never "nan m/s")."""
-    from design.cli.common import speed_text
+    from design.io.text import speed_text
 
     def sp(k):
         status = lim.get(k.replace("_speed_m_s", "_status"), "no_crossing_in_range")

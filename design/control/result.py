@@ -237,8 +237,8 @@ class DesignResult(ResultData):
 
     def plot_bode(self, ax=None):
         """Gain and phase of the compensator against frequency [Hz] with the gain limit
-        (:func:`design.studies.figures.bode`)."""
-        from design.studies.figures import bode
+        (:func:`design.control.figures.bode`)."""
+        from design.control.figures import bode
 
         st = self.settings
         return bode(self.candidate.compensator, st.gain_limit, ax,
@@ -249,8 +249,8 @@ class DesignResult(ResultData):
     def plot_margins(self, ax=None):
         """Spectral abscissa, smallest damping ratio of the movable branches with
         ``zeta_min``, robust margin per speed and the flap layout on the deck
-        (:func:`design.studies.figures.margins`)."""
-        from design.studies.figures import margins
+        (:func:`design.control.figures.margins`)."""
+        from design.control.figures import margins
         from model.errors import BridgeflapError
         from model.structure.loader import load_bridge
 

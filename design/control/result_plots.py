@@ -1,4 +1,5 @@
-"""Plots of the design results that have no figure of their own in :mod:`design.studies.figures`.
+"""Plots of the design results that have no figure of their own in :mod:`design.control.figures`
+(the batch plot is :mod:`design.batch.plots`).
 
 Each takes the result and an optional matplotlib axis (a new figure when None), draws, and
 returns the axis; matplotlib is imported here only, and nothing calls ``plt.show()``
@@ -9,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["batch_cases", "erection_stages", "harm_ratios", "pair_failures"]
+__all__ = ["erection_stages", "harm_ratios", "pair_failures"]
 
 
 def _axes(ax, figsize=(6.5, 4.0)):
@@ -23,27 +24,6 @@ def _axes(ax, figsize=(6.5, 4.0)):
 def _number(v) -> float:
     """``v`` as a float; NaN for None, text or a flag."""
     return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else float("nan")
-
-
-def batch_cases(batch, ax=None, output: str | None = None):
-    """One numeric output of each case of a :class:`design.batch.runner.BatchResult` (default: the
-    first numeric entry of the first successful case), failed cases as red crosses at zero."""
-    ax = _axes(ax)
-    ok = [r.get("result") or {} for r in batch.rows if r["status"] == "ok"]
-    if output is None:
-        output = next((k for k, v in (ok[0] if ok else {}).items()
-                       if not np.isnan(_number(v))), None)
-    y = [_number((r.get("result") or {}).get(output)) if r["status"] == "ok" else np.nan
-         for r in batch.rows]
-    x = np.arange(len(batch.rows))
-    ax.plot(x, y, "o", color="C0", label="ok")
-    bad = [i for i, r in enumerate(batch.rows) if r["status"] != "ok"]
-    ax.plot(bad, np.zeros(len(bad)), "x", color="C3", label="failed or timed out")
-    ax.set_xticks(x, [r["case_id"] for r in batch.rows], rotation=90, fontsize=7)
-    ax.set_ylabel(output or "(no numeric output)")
-    ax.set_title(f"batch of {batch.cases} cases ({batch.failed} failed)")
-    ax.legend(fontsize=8)
-    return ax
 
 
 def harm_ratios(harm, ax=None):

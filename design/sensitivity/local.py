@@ -43,7 +43,7 @@ small when the truncation has converged. Two finite-difference checks quantify b
 
 Relative (unit-free) derivatives ``(p/U) dU/dp`` are reported next to the absolute ones.
 
-Global screening (Morris, Sobol') is in :mod:`design.sensitivity.screening`.
+Global screening (Morris, Sobol') is in :mod:`design.studies.screening`.
 
 References
 ----------

@@ -1,7 +1,12 @@
-"""Studies and their reports: the registry of analyses (``analyses``), the picklable case
-functions of a batch (``cases``), study and DOE definition files and their runners (``study``,
-``experiments``), the report (``report``, ``document``) and its figures (``figures``); the
-packaged study and design cards (``*.toml``, package data) live here too.
+"""Studies built on the registry of analyses, their reports, and the built-in study files.
+
+A package of modules: the registry of analyses (``analyses``), the picklable case functions of
+a batch (``cases``), study and DOE definition files and their runners (``study``,
+``experiments``), the global screening over the stated uncertainty (``screening``: a study run
+over the registry, like a DOE), the report (``report``, ``document``) and its Fig. 5
+(``figures``). Also the home of the built-in study definitions (``*.toml``), shipped as package
+data (``[tool.setuptools.package-data]`` in pyproject.toml) and found with
+``importlib.resources.files("design.studies")``. Importing it imports nothing else.
 
 May import: :mod:`model` and every design layer below it.
 """

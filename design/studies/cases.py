@@ -10,8 +10,8 @@ a failure raises, and the runner records the row as failed.
 
 The bridge is a built-in name, a bridge TOML path or an in-memory
 :class:`~model.structure.spec.BridgeSpec` (a script's modified bridge): the spec itself goes to the
-workers (pickled with the case function) and :func:`bridge_identity` names it in the
-fingerprint of a batch by the SHA-256 of its canonical form, so two different specs never
+workers (pickled with the case function) and :func:`design.io.identity.bridge_identity` names it
+in the fingerprint of a batch by the SHA-256 of its canonical form, so two different specs never
 share a ``--resume`` record.
 """
 
@@ -24,8 +24,8 @@ from model.errors import BridgeflapInputError
 from model.structure.loader import load_bridge
 from model.structure.spec import PARAMETER_PATHS, BridgeSpec
 
-__all__ = ["ERECTED_FRACTION", "analysis_case", "apply_parameters", "bridge_identity",
-           "bridge_label", "check_applicable", "flutter_case"]
+__all__ = ["ERECTED_FRACTION", "analysis_case", "apply_parameters", "check_applicable",
+           "flutter_case"]
 
 ERECTED_FRACTION = "erected_fraction"
 
@@ -43,25 +43,6 @@ def apply_parameters(spec: BridgeSpec, params: Mapping) -> BridgeSpec:
             raise BridgeflapInputError("parameters", f"unknown parameter {key!r}")
     spec = spec.replace(**changes)
     return spec if fraction is None else spec.erected(float(fraction))
-
-
-def bridge_label(bridge) -> str:
-    """A one-line name of ``bridge`` for JSON records and reports: the name or path given, or
-    ``"<in-memory BridgeSpec 'humber'>"`` for a spec."""
-    if isinstance(bridge, BridgeSpec):
-        return f"<in-memory BridgeSpec {bridge.name!r}>"
-    return str(bridge)
-
-
-def bridge_identity(bridge) -> dict:
-    """What identifies ``bridge`` in a batch fingerprint: ``{"bridge": label}`` and, for an
-    in-memory spec, ``bridge_spec_sha256``: the SHA-256 of its canonical form (every resolved
-    value and source; the same in every process; :mod:`model.aeroelastic.controller_file`)."""
-    if not isinstance(bridge, BridgeSpec):
-        return {"bridge": str(bridge)}
-    from model.aeroelastic.controller_file import _canonical_sha256
-
-    return {"bridge": bridge_label(bridge), "bridge_spec_sha256": _canonical_sha256(bridge)}
 
 
 def analysis_case(params: Mapping, analysis: str, bridge: str | BridgeSpec = "humber",

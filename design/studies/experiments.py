@@ -17,7 +17,7 @@ recomputed, never reused.
 The bridge may be an in-memory :class:`~model.structure.spec.BridgeSpec` (``bridge=`` of
 :func:`load_doe` and :func:`run_doe`, or the ``"bridge"`` of :func:`doe_from_dict`): the cases run
 on it as it is, and the fingerprint hashes its canonical form
-(:func:`design.studies.cases.bridge_identity`).
+(:func:`design.io.identity.bridge_identity`).
 """
 
 from __future__ import annotations
@@ -111,7 +111,7 @@ class DoeConfig:
 
     def as_dict(self) -> dict:
         """JSON-ready resolved configuration."""
-        from design.studies.cases import bridge_identity
+        from design.io.identity import bridge_identity
 
         return {"name": self.name, **bridge_identity(self.bridge), "analysis": self.analysis,
                 "options": dict(self.options), "kind": self.kind,
@@ -327,7 +327,7 @@ def doe_fingerprint(config: DoeConfig) -> str:
     """What, besides a case's parameters, determines its result: bridge file content (and the
     resolved bridge), analysis, resolved options, bridgeflap version (the ``case_hash`` key)."""
     from design.batch.runner import _package_version
-    from design.studies.cases import bridge_identity
+    from design.io.identity import bridge_identity
     from model.structure.loader import _read_source, _split_variant, load_bridge
     from model.structure.spec import BridgeSpec
 

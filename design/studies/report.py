@@ -75,7 +75,7 @@ def study_document(res: StudyResult, figures: dict) -> Document:
     doc = Document()
     doc.heading(1, f"Study `{cfg.name}`: reproduction of Massaro, Limebeer et al. (flutter and "
                    "buffeting of long-span suspension bridges)")
-    from design.studies.cases import bridge_label
+    from design.io.identity import bridge_label
 
     doc.paragraph(f"Bridge: `{bridge_label(cfg.bridge)}`; quick mode: {cfg.quick}"
                   + (f" (mesh {cfg.element_length_m} m)" if cfg.element_length_m else "")

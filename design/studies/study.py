@@ -126,7 +126,7 @@ class StudyConfig:
 
     def as_dict(self) -> dict:
         """JSON-ready resolved configuration."""
-        from design.studies.cases import bridge_identity
+        from design.io.identity import bridge_identity
 
         return {"name": self.name, **bridge_identity(self.bridge), "quick": self.quick,
                 "element_length_m": self.element_length_m, "description": self.description,

@@ -1,7 +1,7 @@
 """Mode-count convergence of flutter and divergence over the estimated-input ranges.
 
 For the built-in Humber, the humber:box variant (b = 11 m) and every corner of the ranges of the
-estimated inputs that enter flutter (design/sensitivity/screening.py DEFAULT_UNCERTAIN_RANGES
+estimated inputs that enter flutter (design/studies/screening.py DEFAULT_UNCERTAIN_RANGES
 without the buffeting-only coherence decay: 2^6 = 64 corners), solve the flutter/divergence sweep
 with 8, 12, 16, 20, 24, 30 and 40 retained vertical + torsional modes
 (model/stability/convergence.py), print the ladder, the converged count of each case (its own and
@@ -22,7 +22,7 @@ import numpy as np
 
 from design.io.files import atomic_write_json, to_jsonable
 from design.io.options import parse_range
-from design.sensitivity.screening import DEFAULT_UNCERTAIN_RANGES
+from design.studies.screening import DEFAULT_UNCERTAIN_RANGES
 from model.stability.convergence import DEFAULT_MODE_COUNTS, TOLERANCE_PCT, mode_convergence
 from model.structure.loader import load_bridge
 

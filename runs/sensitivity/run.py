@@ -3,7 +3,7 @@
 1. Local: exact derivatives by the implicit-function theorem, checked by finite differences of
    the fully re-solved pipeline, and a tornado plot of the relative derivatives.
 2. Global: Morris elementary effects over the stated ranges of the estimated inputs
-   (design.sensitivity.screening.DEFAULT_UNCERTAIN_RANGES), run through the DOE batch runner;
+   (design.studies.screening.DEFAULT_UNCERTAIN_RANGES), run through the DOE batch runner;
    indices and the 5/50/95 % band of both speeds.
 
     python runs/sensitivity/run.py [--quick] [--out DIR] [--workers N] [--method morris|sobol]
@@ -24,7 +24,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from design.io.files import atomic_write_json, ensure_writable_dir  # noqa: E402
 from design.io.manifest import build_manifest  # noqa: E402
 from design.sensitivity.local import DEFAULT_PARAMETERS, local_sensitivity  # noqa: E402
-from design.sensitivity.screening import DEFAULT_UNCERTAIN_RANGES, global_sensitivity  # noqa: E402
+from design.studies.screening import DEFAULT_UNCERTAIN_RANGES, global_sensitivity  # noqa: E402
 from model.structure.loader import load_bridge  # noqa: E402
 
 

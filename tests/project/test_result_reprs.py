@@ -59,7 +59,7 @@ def records(fl) -> dict:
     from design.assessment.harm import HarmResult
     from design.batch.runner import BatchResult
     from design.sensitivity.local import SensitivityResult
-    from design.sensitivity.screening import GlobalSensitivityResult
+    from design.studies.screening import GlobalSensitivityResult
     from design.studies.study import StudyResult, study_from_dict
 
     rows = (OK_ROW, BAD_ROW)

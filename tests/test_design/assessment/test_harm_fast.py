@@ -63,7 +63,7 @@ def test_fast_rows_equal_the_reference(humber):
     the crossings' tolerance and the same verdicts, for the designed loop and the reversed one
     (harm)."""
     from design.assessment.harm import _sample
-    from design.sensitivity.screening import DEFAULT_UNCERTAIN_RANGES
+    from design.studies.screening import DEFAULT_UNCERTAIN_RANGES
 
     ranges = {k: v for k, v in DEFAULT_UNCERTAIN_RANGES.items()
               if k not in ("deck.half_chord_m", "aero.coherence_decay")}

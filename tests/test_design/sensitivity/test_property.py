@@ -1,6 +1,6 @@
 """Property-based test of the stability contract over the estimated-input ranges (issue 11).
 
-Random bridges from :data:`design.sensitivity.screening.DEFAULT_UNCERTAIN_RANGES` (the estimated
+Random bridges from :data:`design.studies.screening.DEFAULT_UNCERTAIN_RANGES` (the estimated
 Humber inputs; ``aero.coherence_decay`` enters buffeting only and is left out), random erection
 stages and random speed grids, on the coarse 47 m mesh with 10 modes so that each example is a
 fraction of a second. For every example:
@@ -29,7 +29,7 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from design.sensitivity.screening import DEFAULT_UNCERTAIN_RANGES
+from design.studies.screening import DEFAULT_UNCERTAIN_RANGES
 from model import analysis
 from model.errors import BridgeflapInputError
 from model.stability import sweeps as stability

@@ -15,7 +15,7 @@ from design.sensitivity.local import (
     ritz_system,
     speed_derivative_ift,
 )
-from design.sensitivity.screening import global_sensitivity
+from design.studies.screening import global_sensitivity
 from model.analysis import bridge_system, modal_model
 from model.stability.sweeps import oscillation_tolerance
 from model.structure.loader import load_bridge

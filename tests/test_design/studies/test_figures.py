@@ -1,4 +1,5 @@
-"""Figures (model/plots.py, design/studies/figures.py): what an engineer reads off them is there.
+"""Figures (model/plots.py, design/control/figures.py, design/sensitivity/figures.py,
+design/studies/figures.py): what an engineer reads off them is there.
 
 Every test draws on the Agg backend and checks the drawn data, not the pixels: axis limits
 enclose all the data (nothing clipped), each family/loop/output has its own artist, units are in
@@ -15,15 +16,15 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from design.cli.common import save_figure  # noqa: E402
-from design.studies.document import Document  # noqa: E402
-from design.studies.figures import (  # noqa: E402
+from design.control.figures import (  # noqa: E402
     bode,
     compensator_response,
-    fig5,
     flap_layout,
     margins,
-    morris_mu_sigma,
 )
+from design.sensitivity.figures import morris_mu_sigma  # noqa: E402
+from design.studies.document import Document  # noqa: E402
+from design.studies.figures import fig5  # noqa: E402
 from model.aeroelastic.control import Compensator, Controller  # noqa: E402
 from model.analysis import flutter, modal_model  # noqa: E402
 from model.plots import data_limits  # noqa: E402

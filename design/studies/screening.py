@@ -7,6 +7,13 @@ or Sobol'/Saltelli), runs the flutter case of every sample through the fault-tol
 flutter and divergence speeds. Local (implicit-function) derivatives are in
 :mod:`design.sensitivity.local`.
 
+It is a study, not a derivative of the model: like a DOE (:mod:`design.studies.experiments`) it
+runs the registry's flutter case (:func:`design.studies.cases.flutter_case`, which takes its
+defaults from :data:`design.studies.analyses.ANALYSES`) over a sampling plan, so it sits beside
+the registry, which itself runs the local sensitivities. The ranges are
+:data:`design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES` (served from here too) and the Morris
+plane is :func:`design.sensitivity.figures.morris_mu_sigma`.
+
 References
 ----------
 Morris, M. D. (1991), Technometrics 33(2). Saltelli, A. (2002), Comput. Phys. Commun. 145.
@@ -22,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES  # also served from here
 from design.io.files import atomic_write_text
-from design.sensitivity.uncertainty import DEFAULT_UNCERTAIN_RANGES  # also served from here
 from model.errors import BridgeflapInputError
 from model.results import ResultData
 from model.structure.spec import PARAMETER_PATHS
@@ -129,7 +136,7 @@ class GlobalSensitivityResult(ResultData):
                          label=f"{out.replace('_speed_m_s', '')}: 5-95 % "
                                f"{self.band[out]['p05']:.1f}-{self.band[out]['p95']:.1f} m/s")
         if morris:
-            from design.studies.figures import morris_mu_sigma
+            from design.sensitivity.figures import morris_mu_sigma
 
             morris_mu_sigma(axes[1], self.indices)
         ax0.set_yticks(y)
