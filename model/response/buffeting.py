@@ -301,11 +301,12 @@ class BuffetingResult(ResultData):
 
     def plot(self, axes=None, label=None, log: bool = False):
         """Vertical ``max sigma_z / (2b)`` and torsional ``max sigma_alpha`` [deg] on the main
-        span against ``U`` (seed Fig. 4 style, two panels; :func:`model.plots.buffeting_panels`).
+        span against ``U`` (seed Fig. 4 style, two panels;
+        :func:`model.response.plots.buffeting_panels`).
 
         Unstable speeds are NaN and leave a gap; nothing is clipped.
         """
-        from model.plots import buffeting_panels
+        from model.response.plots import buffeting_panels
 
         return buffeting_panels({label: self}, axes, log=log,
                                 title=f"{self.inputs.get('bridge', '')} buffeting "

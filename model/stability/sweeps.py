@@ -221,15 +221,15 @@ class StabilitySweep(ResultData):
 
     def plot_root_locus(self, ax=None, title: str = "root locus", reference=None):
         """Tracked branches in the complex plane (both axes 1/s, coloured by wind speed);
-        ``reference``: another sweep drawn in grey (:func:`model.plots.root_locus`)."""
-        from model.plots import root_locus
+        ``reference``: another sweep drawn in grey (:func:`model.stability.plots.root_locus`)."""
+        from model.stability.plots import root_locus
 
         return root_locus(self, ax, title=title, reference=reference)
 
     def plot(self, axes=None, title: str = "", reference=None):
         """Root locus (left), V-g and V-f (right), unclipped
-        (:func:`model.plots.stability_panels`)."""
-        from model.plots import stability_panels
+        (:func:`model.stability.plots.stability_panels`)."""
+        from model.stability.plots import stability_panels
 
         return stability_panels(self, axes, title=title, reference=reference)
 

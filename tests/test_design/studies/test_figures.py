@@ -1,4 +1,5 @@
-"""Figures (model/plots.py, design/studies/figures.py): what an engineer reads off them is there.
+"""Figures (model/axes.py, model/{structure,stability,response}/plots.py,
+design/studies/figures.py): what an engineer reads off them is there.
 
 Every test draws on the Agg backend and checks the drawn data, not the pixels: axis limits
 enclose all the data (nothing clipped), each family/loop/output has its own artist, units are in
@@ -26,7 +27,7 @@ from design.studies.figures import (  # noqa: E402
 )
 from model.aeroelastic.control import Compensator, Controller  # noqa: E402
 from model.analysis import flutter, modal_model  # noqa: E402
-from model.plots import data_limits  # noqa: E402
+from model.axes import data_limits  # noqa: E402
 
 SPEEDS = np.arange(0.0, 100.0 + 1e-9, 2.0)
 

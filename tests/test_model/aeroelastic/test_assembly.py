@@ -223,7 +223,8 @@ def _casadi_importers(folder: Path) -> list[str]:
 
 
 def test_casadi_imported_in_at_most_two_model_files():
-    assert _casadi_importers(ROOT / "model") == ["aeroelastic/backend.py", "aeroelastic/symbolic.py"]
+    assert _casadi_importers(ROOT / "model") == [
+        "aeroelastic/backend.py", "aeroelastic/symbolic.py"]
 
 
 def test_ruff_banned_api_rule_rejects_casadi_elsewhere_in_model(tmp_path):
