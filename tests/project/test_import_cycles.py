@@ -28,8 +28,6 @@ KNOWN_CYCLES: dict[frozenset[str], str] = {
     }): ("structure and control of model/ still call each other lazily (spec <-> "
          "modal_import, fe <-> modal_import, control <-> controller_file); to be cut now that "
          "model/ is split into structure/aero/aeroelastic/stability/response (issue 31 item 1)"),
-    frozenset({"model.stability.hopf", "model.stability.sweeps"}): (
-        "sweeps calls the fast Hopf sweep, hopf uses sweeps' crossing helpers; to be cut"),
 }
 
 
