@@ -116,7 +116,7 @@ class SymbolicBuffeting:
     theta_ref, w_ref : array_like
         Reference design (frozen grid, strips): e.g. the start point.
     n_base, peaks_per_mode : int
-        Grid of :func:`model.response.spectral.adaptive_frequency_grid` (coarser than the numpy
+        Grid of :func:`model.spectral.adaptive_frequency_grid` (coarser than the numpy
         path: one dense 2 n_x solve per frequency in the expression graph).
     """
 
@@ -184,7 +184,7 @@ class ModalBuffeting:
     Otherwise (flap placement, ``w`` a variable) one ``2 n`` real solve per frequency.
 
     The quadrature grid is frozen: per speed the union of the adaptive grids
-    (:func:`model.response.spectral.adaptive_frequency_grid`) of the open loop and of the reference
+    (:func:`model.spectral.adaptive_frequency_grid`) of the open loop and of the reference
     design ``theta_ref`` closed loop. The strips are the main-span strips of largest open-loop
     RMS (vertical and torsional). :meth:`check` compares the frozen integral with the converged
     numpy path at any design (a posteriori).
@@ -210,7 +210,7 @@ class ModalBuffeting:
             buffeting,
             row_factor,
         )
-        from model.response.spectral import adaptive_frequency_grid, trapezoid_weights
+        from model.spectral import adaptive_frequency_grid, trapezoid_weights
         from model.structure.loader import load_bridge
 
         s = problem.settings

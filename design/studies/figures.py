@@ -31,7 +31,7 @@ def fig5(sweep_cl, sweep_ol, ol_buffeting, cl_buffeting, controller,
     """Seed Fig. 5: closed-loop root locus over the open loop (left), vertical (middle) and
     torsional (right) buffeting with and without the flaps; the open-loop flutter speed
     marked is ``open_loop_flutter_m_s`` (the design result's), else ``sweep_ol``'s."""
-    from model.plots import root_locus
+    from model.stability.plots import root_locus
     from model.stability.tracking import CONVERGED
 
     axes = _new(1, 3, figsize=(18, 5))

@@ -1,6 +1,6 @@
 """Wind input of the buffeting analysis: the vertical gust field and its coherence.
 
-Spectra are one-sided in circular frequency (:mod:`model.response.spectral`); conventions of
+Spectra are one-sided in circular frequency (:mod:`model.spectral`); conventions of
 :mod:`model`. ``G_ww(omega) = s_w(omega) chi^2(k) R(omega)`` with ``R_ij = exp(-c n |y_i - y_j|
 / U)``, ``n = omega / 2 pi`` (seed Eqs. (13)-(16); Davenport 1962); the spectra and admittances
 are those of :mod:`model.aero.wind`.

@@ -13,7 +13,12 @@ as ``sup_w |K(jw)| <= 15`` (docs/methods.md#compensator-design), see :meth:`Comp
 The realisation (:func:`canonical_realisation`) is written once for numeric and CasADi
 coefficients through :mod:`model.aeroelastic.backend`; the symbolic closed loop
 (:mod:`model.aeroelastic.symbolic`) and the numeric one (:meth:`Compensator.state_space`) both use
-it.
+it. The file I/O is :mod:`model.aeroelastic.controller_file` (``load_controller``,
+``save_controller``, also ``from model import ...``); python-control objects come from
+:mod:`model.aeroelastic.python_control` (lazily).
+
+May import: the foundation, :mod:`model.aeroelastic.backend` and (lazily)
+:mod:`model.aeroelastic.python_control`; nothing that imports this module.
 """
 
 from __future__ import annotations
@@ -261,9 +266,9 @@ class Compensator:
 
     def to_control(self):
         """K(s) as a ``control.TransferFunction``
-        (:func:`model.aeroelastic.control_interop.compensator_tf`;
+        (:func:`model.aeroelastic.python_control.compensator_tf`;
         python-control, the extra ``control``)."""
-        from model.aeroelastic.control_interop import compensator_tf
+        from model.aeroelastic.python_control import compensator_tf
 
         return compensator_tf(self)
 
@@ -445,8 +450,8 @@ class Controller:
 
     def to_statespace(self):
         """The controller (``pitch_flap[f]`` -> ``flap_te[f]``, ``flap_le[f]``) as a
-        ``control.StateSpace`` (:func:`model.aeroelastic.control_interop.controller_statespace`)."""
-        from model.aeroelastic.control_interop import controller_statespace
+        ``control.StateSpace`` (:func:`model.aeroelastic.python_control.controller_statespace`)."""
+        from model.aeroelastic.python_control import controller_statespace
 
         return controller_statespace(self)
 
@@ -466,12 +471,3 @@ class Controller:
         gain = self.compensator.max_gain()
         return {"controller_max_gain": gain, "controller_gain_limit": self.gain_limit,
                 "controller_within_gain_limit": bool(gain <= self.gain_limit * (1 + 1e-6))}
-
-
-# the file I/O lives in model.aeroelastic.controller_file (kept importable here)
-def __getattr__(name):
-    if name in ("load_controller", "save_controller"):
-        from model.aeroelastic import controller_file
-
-        return getattr(controller_file, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -51,7 +51,6 @@ from model.aeroelastic.control import DEFAULT_FLAP_CHORD_M, Compensator, Control
 from model.aeroelastic.statespace import AeroelasticSystem, StateIndex
 from model.errors import BridgeflapInputError
 from model.spectrum import polynomial_abscissa
-from model.stability.sweeps import pk_sweep
 from model.structure.bridge_arg import takes_bridge
 from model.structure.fe import assemble
 from model.structure.modes import solve
@@ -63,7 +62,6 @@ __all__ = [
     "FlapSet",
     "closed_loop_model",
     "closed_loop_state_space",
-    "closed_loop_pk_flutter",
     "closed_loop_system",
     "section_model",
     "flap_set",
@@ -366,18 +364,3 @@ def closed_loop_state_space(bridge, controller: Controller, speed: float,
                + [f"beta[flap{f}] (rad, TE flap TE-down; LE flap = -beta, LE-down)"
                   for f in range(controller.n_flaps)])
     return A, B, C, D, list(sys_cl.index.names), inputs, outputs
-
-
-# --------------------------------------------------------------------------- p-k cross-check
-
-
-def closed_loop_pk_flutter(model: ClosedLoopModel, compensator: Compensator, speeds,
-                           speed_tol: float = 1e-4):
-    """Closed-loop flutter speed by the p-k method with exact Theodorsen and ``K(p)``.
-
-    :func:`model.stability.sweeps.pk_sweep` of the closed loop (the compensator states are part of
-    the frozen-C first-order matrix, so ``K(p)`` is exact). Returns ``(speed [m/s],
-    frequency [Hz], status, branches)``.
-    """
-    res = pk_sweep(model.system(compensator), speeds, speed_tol)
-    return res.flutter.speed, res.flutter.frequency_hz, res.flutter.status, res.branches

@@ -40,7 +40,7 @@ per-flap weights ``w``, the functions the compensator optimiser differentiates.
 Spectral RMS (:func:`casadi_spectral_variance`, :func:`buffeting_rms_function`): the one-sided
 output variance ``sigma_j^2 = int_0^omega_max G_yy,jj d omega`` with ``G_yy = H G_ww H^H`` and
 ``H = C (i omega I - A)^{-1} B`` (seed Eqs. (10)-(12), (17)) on a *fixed* grid (trapezoid
-weights), the convention of :mod:`model.response.spectral`. The complex solve is written in real
+weights), the convention of :mod:`model.spectral`. The complex solve is written in real
 arithmetic: ``[[-A, -omega I], [omega I, -A]] [Xr; Xi] = [B; 0]``.
 """
 
@@ -57,7 +57,7 @@ from model.aero.strips import strip_aero
 from model.aeroelastic.assembly import open_pieces, rfa_parts
 from model.aeroelastic.control import canonical_realisation
 from model.errors import BridgeflapInputError
-from model.response.spectral import trapezoid_weights
+from model.spectral import trapezoid_weights
 from model.structure.bridge_arg import BridgeArg, takes_bridge
 from model.structure.fe import assemble
 from model.structure.modes import ModalModel, solve
@@ -237,7 +237,7 @@ def casadi_spectral_variance(
         [input unit^2 per rad/s].
     weights : array_like, shape (n_omega,), optional
         Quadrature weights [rad/s]; trapezoid weights of ``omegas`` by default (the rule used
-        by :func:`model.response.spectral.rms_from_psd`).
+        by :func:`model.spectral.rms_from_psd`).
     linear_solver : str, optional
         CasADi linear solver plugin for ``ca.solve`` (e.g. ``"lapacklu"``, ``"qr"``); the
         CasADi default when omitted.
@@ -368,8 +368,7 @@ def buffeting_rms_function(A_fun: ca.Function, B_fun: ca.Function, nominal, C_ou
     one mode's strip shape times a scalar that carries ``b`` and ``rho``.
     """
     from model.aero.gust import coherence_projection
-    from model.response.buffeting import OMEGA_MAX_FACTOR, row_factor
-    from model.response.spectral import adaptive_frequency_grid
+    from model.spectral import OMEGA_MAX_FACTOR, adaptive_frequency_grid, row_factor
 
     U = float(wind_speed)
     args = [ca.MX.sym(A_fun.name_in(i), A_fun.sparsity_in(i)) for i in range(1, A_fun.n_in())]

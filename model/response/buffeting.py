@@ -2,7 +2,7 @@
 
 Conventions of :mod:`model` apply (SI units; heave ``h`` down, pitch ``alpha`` nose-up about
 mid-chord; ``k = omega b / U``). Spectra are **one-sided in circular frequency** as in
-:mod:`model.response.spectral` (``sigma^2 = int_0^inf G d omega``); the seed's Eqs. (15) and (17)
+:mod:`model.spectral` (``sigma^2 = int_0^inf G d omega``); the seed's Eqs. (15) and (17)
 are the same quantities written two-sided (``G = 2 S``).
 
 Model (seed Eqs. (7)-(8), (10)-(17), thin aerofoil with ``C_L = C_M = C_D = 0``)::
@@ -21,7 +21,7 @@ and ``C_out = C_l C_r`` are factorised once per speed (SVD), the load CSD is pro
 (the exponential coherence on a line is the covariance of a Markov process, so ``R v`` is a
 forward plus a backward first-order scan), and the transfer matrix ``C_r (i omega - A)^{-1} B_l``
 (r_c x r) is evaluated in the diagonalised (modal) form of
-:func:`model.response.spectral.response_psd`. The strip variances are ``diag(C_l P C_l^T)`` with ``P
+:func:`model.spectral.response_psd`. The strip variances are ``diag(C_l P C_l^T)`` with ``P
 = int G_qq d omega`` of the reduced outputs, so the strip outputs never enter the frequency loop.
 
 References
@@ -41,13 +41,15 @@ from model.errors import BridgeflapError, BridgeflapInputError
 from model.grid import speed_grid
 from model.response.buffeting_inputs import LOADS, resolve_system
 from model.response.simulation import simulate_monte_carlo
-from model.response.spectral import (
+from model.results import ResultData, finite_extreme
+from model.spectral import (
+    OMEGA_MAX_FACTOR,
     adaptive_frequency_grid,
     exponential_coherence,
     response_psd,
+    row_factor,
     trapezoid_weights,
 )
-from model.results import ResultData, finite_extreme
 from model.spectrum import spectral_abscissa
 from model.structure.bridge_arg import takes_bridge
 from model.vocabulary import DEFAULT_MODES
@@ -63,16 +65,6 @@ __all__ = [
 METHODS = ("spectral", "monte-carlo")
 #: Relative grid-convergence estimate above which a speed is flagged ``"unconverged"``.
 CONVERGENCE_TOL = 5e-3
-#: Upper integration limit as a multiple of the highest damped frequency of ``A(U)``.
-OMEGA_MAX_FACTOR = 3.0
-
-
-def row_factor(M, rtol=1e-12):
-    """``M = L R`` with ``R`` orthonormal rows spanning the row space of ``M`` (SVD)."""
-    U_, s, Vt = np.linalg.svd(M, full_matrices=False)
-    r = int(np.sum(s > rtol * (s[0] if s.size else 0.0))) if s.size and s[0] > 0 else 0
-    r = max(r, 1)
-    return U_[:, :r] * s[:r], Vt[:r]
 
 
 @dataclass(frozen=True)
@@ -115,7 +107,7 @@ def reduced_response(A, B, C, positions, wind_speed, gust: GustField, *, omega_m
     omegas : array_like, optional
         Fixed grid [rad/s] (overrides the adaptive grid).
     n_base, peaks_per_mode, half_widths : optional
-        :func:`model.response.spectral.adaptive_frequency_grid` settings.
+        :func:`model.spectral.adaptive_frequency_grid` settings.
     convergence_tol : float, optional
         Relative difference between the grid and its every-other-point coarsening above which
         the adaptive grid is refined (``n_base`` and ``peaks_per_mode`` doubled, at most twice)
@@ -301,11 +293,12 @@ class BuffetingResult(ResultData):
 
     def plot(self, axes=None, label=None, log: bool = False):
         """Vertical ``max sigma_z / (2b)`` and torsional ``max sigma_alpha`` [deg] on the main
-        span against ``U`` (seed Fig. 4 style, two panels; :func:`model.plots.buffeting_panels`).
+        span against ``U`` (seed Fig. 4 style, two panels;
+        :func:`model.response.plots.buffeting_panels`).
 
         Unstable speeds are NaN and leave a gap; nothing is clipped.
         """
-        from model.plots import buffeting_panels
+        from model.response.plots import buffeting_panels
 
         return buffeting_panels({label: self}, axes, log=log,
                                 title=f"{self.inputs.get('bridge', '')} buffeting "
@@ -404,7 +397,7 @@ def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
     omega_max : float, optional
         Integration limit [rad/s] (default 3x the highest damped frequency of ``A(U)``).
     n_base, peaks_per_mode, half_widths, convergence_tol : optional
-        Quadrature grid settings (:func:`model.response.spectral.adaptive_frequency_grid`).
+        Quadrature grid settings (:func:`model.spectral.adaptive_frequency_grid`).
     mc_records, mc_seed, mc_points : optional
         Monte-Carlo records, seed and number of synthesis frequencies (default: spacing a
         quarter of the smallest half-power half-bandwidth, at most 8000 points).

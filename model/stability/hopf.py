@@ -43,6 +43,15 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
+from model.aeroelastic.statespace import divergence_speed_static
+from model.stability.crossings import (
+    _critical_vector,
+    _indicator,
+    _locate,
+    _name_divergence,
+    _name_flutter,
+    _structural_start,
+)
 from model.stability.hopf_newton import (  # noqa: F401 - Newton's solvers are part of this module's face
     NEWTON_MAXITER,
     FastPathError,
@@ -52,6 +61,7 @@ from model.stability.hopf_newton import (  # noqa: F401 - Newton's solvers are p
     hopf_newton,
     static_roots,
 )
+from model.stability.result import StabilitySweep
 from model.stability.tracking import (
     _A,
     COINCIDENT,
@@ -71,6 +81,7 @@ from model.stability.tracking import (
     _track_interval,
     continue_eigenpair,
     eigen_sensitivity,
+    oscillation_tolerance,
 )
 
 #: the coarse step is at most the speed range over this many intervals (10: 8.5 m/s on
@@ -222,8 +233,6 @@ def _grid_crossing(system, speeds, march, tol, omega_tol, kind, why, accept=Fals
     root and verification on the same grid bracket, only named by its participation, not by
     the dense sweep's branch tracking.
     """
-    from model.stability.sweeps import _indicator, _locate
-
     i = _first_bracket(march.flutter_vals if kind == "flutter" else march.div_vals,
                        march.speeds, omega_tol)
     lo = max(int(np.searchsorted(speeds, march.speeds[i], "right")) - 1, 0)
@@ -487,16 +496,6 @@ def fast_sweep(system: CountedSystem, speeds, speed_tol, dense, critical_only=Fa
     instead of running the whole dense sweep. The speeds, frequencies and statuses are those of
     the full fast path; what it saves are the labels' and the second branch's solutions.
     """
-    from model.stability.sweeps import (
-        StabilitySweep,
-        _critical_vector,
-        _name_divergence,
-        _name_flutter,
-        _structural_start,
-        divergence_speed_static,
-        oscillation_tolerance,
-    )
-
     omega_tol = oscillation_tolerance(system)
     labels, start = _structural_start(system)
     march = _March(system, speeds, start, omega_tol)

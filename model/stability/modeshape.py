@@ -36,6 +36,7 @@ from model.stability.sweeps import CONVERGED, check_speeds, oscillation_toleranc
 from model.structure.bridge_arg import BridgeArg, takes_bridge
 from model.structure.fe import assemble
 from model.structure.modes import ModalModel, solve
+from model.structure.spans import span_extents_m, tower_positions_m
 from model.structure.spec import BridgeSpec
 
 __all__ = ["FlutterModeShape", "RatioModes", "critical_eigenvector", "deck_fields",
@@ -44,19 +45,6 @@ __all__ = ["FlutterModeShape", "RatioModes", "critical_eigenvector", "deck_field
 
 #: normalisation of the flutter shape: the largest pitch amplitude [rad]
 PEAK_PITCH_RAD = 0.01
-
-
-def tower_positions_m(spec: BridgeSpec) -> tuple[float, ...]:
-    """Distance from the north anchorage [m] of every span boundary between two spans."""
-    ends = np.cumsum([s.length_m for s in spec.spans])[:-1]
-    return tuple(float(x) for x in ends)
-
-
-def span_extents_m(spec: BridgeSpec) -> tuple[tuple[str, float, float], ...]:
-    """``(name, start, end)`` [m from the north anchorage] of every span."""
-    ends = np.concatenate([[0.0], np.cumsum([s.length_m for s in spec.spans])])
-    return tuple((s.name, float(a), float(b))
-                 for s, a, b in zip(spec.spans, ends[:-1], ends[1:], strict=True))
 
 
 def _mark_spans(ax, spans, names: bool = True, y: float = 0.97) -> None:

@@ -5,12 +5,19 @@ crossing branch and verified (docs/methods.md#p-k-check). By default the branche
 together and stopped at the first crossing, on the lean kernel of :mod:`model.stability.pk_kernel`
 (secant k iteration); ``pk_sweep(..., full_grid=True)`` is the reference (whole grid,
 fixed-point k iteration on the frozen system's own matrices). Re-exported by
-:mod:`model.stability.sweeps`.
+:mod:`model.stability.sweeps`. :func:`closed_loop_pk_flutter` is the p-k check of a flapped
+deck's closed loop (it was in :mod:`model.aeroelastic.flaps`, which sits below the stability
+layer).
+
+May import: the foundation, model.aero, model.aeroelastic (types of the closed loop only under
+``TYPE_CHECKING``) and of model.stability only :mod:`~model.stability.pk_kernel` and
+:mod:`~model.stability.tracking`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import brentq
@@ -34,6 +41,10 @@ from model.stability.tracking import (
     continue_adaptive,
     oscillation_tolerance,
 )
+
+if TYPE_CHECKING:
+    from model.aeroelastic.control import Compensator
+    from model.aeroelastic.flaps import ClosedLoopModel
 
 #: relative residual below which a p-k point solves its own frozen-C equation (the k iteration
 #: stops at a relative change of 1e-10; 1e-7 leaves three orders for round-off of larger models)
@@ -340,3 +351,19 @@ def exact_residual(system: AeroelasticSystem, p: complex, U: float) -> float:
     k = abs(p.imag) * system.aero.half_chord / U
     D = exact_dynamic_matrix(system, p, U, theodorsen(k))
     return float(np.linalg.svd(D, compute_uv=False)[-1])
+
+
+# ------------------------------------------------------------------ closed loop
+
+
+def closed_loop_pk_flutter(model: ClosedLoopModel, compensator: Compensator, speeds,
+                           speed_tol: float = 1e-4):
+    """Closed-loop flutter speed by the p-k method with exact Theodorsen and ``K(p)``.
+
+    :func:`pk_sweep` of the closed loop (``model``: a
+    :class:`model.aeroelastic.flaps.ClosedLoopModel`; the compensator states are part of the
+    frozen-C first-order matrix, so ``K(p)`` is exact). Returns ``(speed [m/s],
+    frequency [Hz], status, branches)``.
+    """
+    res = pk_sweep(model.system(compensator), speeds, speed_tol)
+    return res.flutter.speed, res.flutter.frequency_hz, res.flutter.status, res.branches

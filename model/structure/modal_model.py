@@ -170,8 +170,8 @@ class ImportedModalModel:
 
     def plot(self, labels=None, ax=None, per_family: int = 3):
         """Imported deck shapes, one panel per family, the main-span ends marked
-        (:func:`model.plots.imported_mode_shapes`)."""
-        from model.plots import imported_mode_shapes
+        (:func:`model.structure.plots.imported_mode_shapes`)."""
+        from model.structure.plots import imported_mode_shapes
 
         return imported_mode_shapes(self, per_family, ax, labels)
 

@@ -146,8 +146,9 @@ class ModalModel(ResultData):
     def plot(self, labels=None, ax=None, per_family: int = 3):
         """Mode shapes along the bridge, one panel per family (vertical, torsional, lateral),
         towers marked: the lowest ``per_family`` of each family, or the modes named in
-        ``labels`` (:func:`model.plots.mode_shapes_by_family`; ``ax``: one axis per family)."""
-        from model.plots import mode_shapes_by_family
+        ``labels`` (:func:`model.structure.plots.mode_shapes_by_family`; ``ax``: one axis per
+        family)."""
+        from model.structure.plots import mode_shapes_by_family
 
         return mode_shapes_by_family(self, per_family, ax, labels)
 

@@ -24,7 +24,7 @@ from design.control.driver import design
 from design.control.settings import load_settings, quick_settings
 from design.io.files import atomic_write_json, ensure_writable_dir
 from design.io.manifest import build_manifest
-from model.aeroelastic.control import save_controller
+from model.aeroelastic.controller_file import save_controller
 from model.structure.loader import load_bridge
 
 DEFINITION = Path(__file__).resolve().parents[1] / "humber_flaps.toml"

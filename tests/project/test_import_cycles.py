@@ -13,27 +13,6 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = ("model", "design")
 
-#: cycles still present, each with the reason it is left (the set may only shrink: a new cycle,
-#: or a listed one that grew, fails the test). design/ has none (it had 8, one of 17 modules);
-#: model/ had one of 21 modules, now two (10 and 8 modules).
-KNOWN_CYCLES: dict[frozenset[str], str] = {
-    frozenset({
-        "model.plots", "model.stability.hopf", "model.stability.modeshape",
-        "model.stability.sweeps", "model.structure.bridge_arg", "model.structure.fe",
-        "model.structure.loader", "model.structure.modal_import", "model.structure.modal_model",
-        "model.structure.modes",
-    }): ("the modal models draw themselves lazily (modes, modal_model -> plots), plots imports "
-         "stability (modeshape, tracking) and stability <-> hopf; the structure modules are in "
-         "it only through those plots edges (spec, spec_writer, cable left it: reading a bridge "
-         "is model.structure.loader, its text model.structure.bridge_toml)"),
-    frozenset({
-        "model.aeroelastic.control", "model.aeroelastic.control_interop",
-        "model.aeroelastic.control_plant", "model.aeroelastic.controller_file",
-        "model.aeroelastic.flaps", "model.aeroelastic.symbolic", "model.response.buffeting",
-        "model.response.buffeting_inputs",
-    }): ("control and buffeting still call each other lazily (control <-> controller_file, "
-         "symbolic -> response.buffeting, flaps -> stability)"),
-}
 
 
 def _modules() -> dict[str, Path]:
@@ -147,17 +126,10 @@ def test_the_walker_skips_type_checking_imports():
 
 
 def test_no_import_cycle():
-    found = cycles(import_graph())
-    # a cycle may only shrink: each one found must lie inside a listed one
-    new = [sorted(c) for c in found if not any(c <= known for known in KNOWN_CYCLES)]
-    assert not new, f"import cycles not in KNOWN_CYCLES: {new}"
-
-
-def test_known_cycles_are_still_cycles():
-    # a listed cycle that is gone must leave the list, so that it cannot come back unseen
-    found = cycles(import_graph())
-    stale = [sorted(k) for k in KNOWN_CYCLES if not any(c <= k and len(c) > 1 for c in found)]
-    assert not stale, f"remove from KNOWN_CYCLES: {stale}"
+    # issue 31 item 2: none anywhere (model/ had one of 21 modules, design/ 8, one of 17);
+    # each was cut by moving a shared concept into a module of its own, not by hiding an edge
+    found = [sorted(c) for c in cycles(import_graph())]
+    assert not found, f"import cycles: {found}"
 
 
 def test_model_does_not_import_design():
@@ -167,9 +139,3 @@ def test_model_does_not_import_design():
     up = sorted((m, t) for m, ts in graph.items() if m.startswith("model.")
                 for t in ts if t.startswith("design."))
     assert not up, up
-
-
-def test_design_has_no_cycle():
-    # design/ was cut free of its 8 cycles (issue 31 item 2): none may come back
-    found = [sorted(c) for c in cycles(import_graph()) if any(m.startswith("design.") for m in c)]
-    assert not found, found

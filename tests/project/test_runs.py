@@ -113,7 +113,7 @@ def test_optimisation_example(tmp_path):
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["config"]["quick"] is True
     assert manifest["config"]["spec_changes"] == {"mesh.element_length_m": 47.0}
-    from model.aeroelastic.control import load_controller
+    from model.aeroelastic.controller_file import load_controller
 
     ctrl = load_controller(out / "controller.toml")
     # the default card places the flaps: whole mirror pairs out of 25 candidates

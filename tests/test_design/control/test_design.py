@@ -381,7 +381,7 @@ def test_humber_design_stable_on_16_modes(tmp_path, capsys):
     import json
 
     from design.cli.main import main
-    from model.aeroelastic.control import load_controller
+    from model.aeroelastic.controller_file import load_controller
     from model.analysis import DEFAULT_MODES, closed_loop_flutter
     from model.structure.loader import load_bridge
 

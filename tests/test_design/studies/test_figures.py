@@ -1,4 +1,5 @@
-"""Figures (model/plots.py, design/control/figures.py, design/sensitivity/figures.py,
+"""Figures (model/axes.py, model/{structure,stability,response}/plots.py,
+design/control/figures.py, design/sensitivity/figures.py,
 design/studies/figures.py): what an engineer reads off them is there.
 
 Every test draws on the Agg backend and checks the drawn data, not the pixels: axis limits
@@ -27,7 +28,7 @@ from design.studies.document import Document  # noqa: E402
 from design.studies.figures import fig5  # noqa: E402
 from model.aeroelastic.control import Compensator, Controller  # noqa: E402
 from model.analysis import flutter, modal_model  # noqa: E402
-from model.plots import data_limits  # noqa: E402
+from model.axes import data_limits  # noqa: E402
 
 SPEEDS = np.arange(0.0, 100.0 + 1e-9, 2.0)
 

@@ -17,11 +17,12 @@ from scipy.optimize import linear_sum_assignment
 
 from model.aeroelastic.assembly import dynamic_matrices
 from model.aeroelastic.control import Compensator
-from model.aeroelastic.flaps import closed_loop_model, closed_loop_pk_flutter, section_model
+from model.aeroelastic.flaps import closed_loop_model, section_model
 from model.aeroelastic.statespace import build
 from model.aeroelastic.symbolic import build_symbolic
 from model.analysis import bridge_system
 from model.cases.section import section_basis
+from model.stability.pk import closed_loop_pk_flutter
 from model.stability.sweeps import pk_sweep
 
 ROOT = Path(__file__).resolve().parents[3]

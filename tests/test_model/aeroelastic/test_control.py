@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from model.aeroelastic.control import Compensator, Controller, load_controller, save_controller
+from model.aeroelastic.control import Compensator, Controller
+from model.aeroelastic.controller_file import load_controller, save_controller
 from model.errors import BridgeflapInputError
 
 # A lead compensator with an underdamped denominator (zeta ~ 0.67, w_n ~ 4.5 rad/s) and a

@@ -16,8 +16,8 @@ from design.cli.common import controller_from_args
 from design.cli.main import main
 from design.io.options import parse_range
 from design.studies.analyses import ANALYSES
-from model.aeroelastic.control import Compensator, Controller, load_controller, save_controller
-from model.aeroelastic.controller_file import plant_record
+from model.aeroelastic.control import Compensator, Controller
+from model.aeroelastic.controller_file import load_controller, plant_record, save_controller
 from model.analysis import closed_loop_flutter
 from model.structure.loader import load_bridge
 

@@ -11,12 +11,12 @@ from model.aero.theodorsen import flap_steady_coefficients
 from model.aeroelastic.control import Compensator, Controller
 from model.aeroelastic.flaps import (
     closed_loop_model,
-    closed_loop_pk_flutter,
     closed_loop_system,
     section_model,
 )
 from model.cases.section import section_basis
 from model.errors import BridgeflapInputError
+from model.stability.pk import closed_loop_pk_flutter
 from model.stability.sweeps import sweep
 from model.structure.loader import load_bridge
 

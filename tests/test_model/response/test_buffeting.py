@@ -1,7 +1,7 @@
 """Tests of the buffeting analysis (model/response/buffeting.py) and its CLI
 (design/cli/buffeting.py).
 
-Conventions: spectra one-sided in omega (model.response.spectral docstring); heave down, pitch
+Conventions: spectra one-sided in omega (model.spectral docstring); heave down, pitch
 nose-up. Each tolerance is justified next to its assertion.
 """
 
@@ -21,7 +21,7 @@ from model.analysis import bridge_system
 from model.errors import BridgeflapInputError
 from model.response.buffeting import CONVERGENCE_TOL, buffeting, reduced_response
 from model.response.simulation import lyapunov_rms
-from model.response.spectral import white_noise_intensity
+from model.spectral import white_noise_intensity
 from model.structure.loader import load_bridge
 
 

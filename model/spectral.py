@@ -33,6 +33,19 @@ References
 ----------
 The independent checks (Lyapunov covariance, Monte-Carlo simulation) are in
 :mod:`model.response.simulation`.
+
+Place and imports
+-----------------
+A foundation module (it was ``model/response/spectral.py``): it is pure LTI random-response
+math, with no bridge, no aerodynamics and no state space of its own, and two layers use it --
+the numeric buffeting analysis (:mod:`model.response.buffeting`) and the CasADi form of the
+same integral (:mod:`model.aeroelastic.symbolic`, which sits below the response layer and may
+alone hold CasADi beside :mod:`model.aeroelastic.backend`). The integration limit
+(:data:`OMEGA_MAX_FACTOR`) and the row-space factor of an input or output matrix
+(:func:`row_factor`) are part of the same engine, shared by both, so they are here too
+(:mod:`model.response.buffeting` keeps both importable).
+
+May import: numpy, scipy and :mod:`model.errors` only.
 """
 
 from __future__ import annotations
@@ -46,6 +59,7 @@ import scipy.linalg as sla
 from model.errors import BridgeflapInputError
 
 __all__ = [
+    "OMEGA_MAX_FACTOR",
     "SpectralResult",
     "exponential_coherence",
     "separable_csd",
@@ -55,7 +69,12 @@ __all__ = [
     "adaptive_frequency_grid",
     "rms_from_psd",
     "spectral_rms",
+    "row_factor",
 ]
+
+#: Upper integration limit as a multiple of the highest damped frequency of ``A(U)`` (the
+#: buffeting analysis's and the symbolic integral's default).
+OMEGA_MAX_FACTOR = 3.0
 
 #: Largest eigenvector-matrix condition number for which the modal (diagonal) evaluation of
 #: ``(i omega I - A)^{-1}`` is used; above it the backward-stable Schur path is taken. The modal
@@ -566,3 +585,11 @@ def spectral_rms(
         max_real_eig=abscissa,
         method=evaluator.method,
     )
+
+
+def row_factor(M, rtol=1e-12):
+    """``M = L R`` with ``R`` orthonormal rows spanning the row space of ``M`` (SVD)."""
+    U_, s, Vt = np.linalg.svd(M, full_matrices=False)
+    r = int(np.sum(s > rtol * (s[0] if s.size else 0.0))) if s.size and s[0] > 0 else 0
+    r = max(r, 1)
+    return U_[:, :r] * s[:r], Vt[:r]

@@ -1,0 +1,142 @@
+"""Figures of a stability sweep: root locus, V-g / V-f, and both in one figure.
+
+:class:`model.stability.sweeps.StabilitySweep` keeps thin ``plot`` methods that call these
+functions (matplotlib imported lazily, nothing here calls ``plt.show()``). Units are fixed per
+kind of axis so that figures can be read side by side:
+
+* root locus: ``Re(lambda)`` and ``Im(lambda)``, both in 1/s (rad/s for the imaginary part),
+  with rays of constant damping ratio and a secondary frequency axis in Hz;
+* V-g / V-f: damping ratio [%] and frequency [Hz] against the wind speed [m/s]; the axes
+  enclose every tracked branch (nothing is clipped: a branch that runs far negative past
+  flutter stays on the axis).
+
+May import: the foundation (:mod:`model.axes`) and model.stability's result vocabulary
+(:mod:`model.stability.tracking`), nothing above model.stability.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from model.axes import data_limits, new_axes
+
+__all__ = ["ZETA_RAYS", "root_locus", "stability_panels", "vg_vf"]
+
+#: constant damping ratios [-] drawn as rays on the root locus
+ZETA_RAYS = (0.0, 0.05, 0.1, 0.2)
+
+
+def root_locus(sweep, ax=None, title: str = "root locus", reference=None,
+               reference_label: str = "open loop", colorbar: bool = True):
+    """Tracked branches of a :class:`~model.stability.sweeps.StabilitySweep` in the complex plane.
+
+    Both axes in 1/s; points coloured by the wind speed [m/s], U = 0 as magenta dots.
+    ``reference`` (another sweep, e.g. the open loop of a closed-loop ``sweep``) is drawn
+    underneath in grey, so that what the controller moves is seen at a glance.
+    """
+    ax = ax if ax is not None else new_axes()
+    re_all, im_all = [], []
+    if reference is not None:
+        for k in range(reference.branches.shape[0]):
+            lam = reference.branches[k]
+            ax.plot(lam.real, lam.imag, "-", color="0.6", lw=1.6, alpha=0.8,
+                    label=reference_label if k == 0 else None, zorder=1)
+            re_all.append(lam.real)
+            im_all.append(lam.imag)
+    sc = None
+    for k in range(sweep.branches.shape[0]):
+        lam = sweep.branches[k]
+        sc = ax.scatter(lam.real, lam.imag, c=sweep.speeds, s=4, cmap="viridis", zorder=2,
+                        label=("closed loop" if reference is not None else "branches")
+                        if k == 0 else None)
+        re_all.append(lam.real)
+        im_all.append(lam.imag)
+    lam0 = sweep.branches[:, 0]
+    ax.plot(lam0.real, lam0.imag, "m.", ms=8, label=f"U = {sweep.speeds[0]:g} m/s", zorder=3)
+    xlo, xhi = data_limits(np.concatenate(re_all + [[0.0]]))
+    ylo, yhi = data_limits(np.concatenate(im_all))
+    for z in ZETA_RAYS:  # Re = -zeta |lambda|: the ray Re/Im = -zeta / sqrt(1 - zeta^2)
+        y = np.array([0.0, 2 * yhi])
+        ax.plot(-z / np.sqrt(1 - z * z) * y, y, color="k" if z == 0 else "0.75",
+                lw=0.8, ls="-" if z == 0 else "--", zorder=0)
+        if z > 0 and -z / np.sqrt(1 - z * z) * yhi > xlo + 0.1 * (xhi - xlo):
+            y_txt = yhi - 0.03 * (yhi - ylo)
+            ax.text(-z / np.sqrt(1 - z * z) * y_txt, y_txt, f"ζ = {100 * z:g} %", fontsize=7,
+                    color="0.35", ha="right", va="top", clip_on=True)
+    ax.set_xlim(xlo, xhi)
+    ax.set_ylim(ylo, yhi)
+    ax.set_xlabel("Re(λ) [1/s]")
+    ax.set_ylabel("Im(λ) [rad/s]")
+    sec = ax.secondary_yaxis("right", functions=(lambda w: w / (2 * np.pi),
+                                                 lambda f: f * 2 * np.pi))
+    sec.set_ylabel("frequency Im(λ)/2π [Hz]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower left")
+    if sc is not None and colorbar:
+        ax.figure.colorbar(sc, ax=ax, label="wind speed U [m/s]", pad=0.12)
+    return ax
+
+
+def vg_vf(sweep, axes=None, reference=None):
+    """Damping ratio [%] (V-g) and frequency [Hz] (V-f) of every tracked branch against the
+    wind speed, flutter and divergence marked; axes enclose all the data (no clipping)."""
+    from model.stability.tracking import CONVERGED
+
+    ax1, ax2 = axes if axes is not None else new_axes(1, 2, figsize=(11, 4.5))
+    z, f = 100 * sweep.damping_ratios(), sweep.frequencies_hz()
+    for k, lab in enumerate(sweep.branch_labels):
+        style = "-" if lab.startswith("T") else "--"
+        ax1.plot(sweep.speeds, z[k], style, lw=1.2, color=f"C{k % 10}", label=lab)
+        ax2.plot(sweep.speeds, f[k], style, lw=1.2, color=f"C{k % 10}", label=lab)
+    if reference is not None:
+        zr, fr = 100 * reference.damping_ratios(), reference.frequencies_hz()
+        for k in range(zr.shape[0]):
+            lab = "open loop" if k == 0 else None
+            ax1.plot(reference.speeds, zr[k], ":", color="0.6", lw=0.9, label=lab)
+            ax2.plot(reference.speeds, fr[k], ":", color="0.6", lw=0.9, label=lab)
+        z, f = np.concatenate([z, zr]), np.concatenate([f, fr])
+    for ax in (ax1, ax2):
+        for c, col, name in ((sweep.flutter, "r", "flutter"),
+                             (sweep.divergence, "b", "divergence")):
+            if c.status == CONVERGED:
+                ax.axvline(c.speed, color=col, lw=1.0, ls=":",
+                           label=f"{name} {c.speed:.2f} m/s")
+        ax.set_xlabel("wind speed U [m/s]")
+        ax.grid(alpha=0.3)
+        ax.set_xlim(sweep.speeds[0], sweep.speeds[-1])
+    ax1.axhline(0, color="k", lw=0.8)
+    ax1.set_ylim(*data_limits(np.concatenate([z.ravel(), [0.0]])))
+    ax2.set_ylim(*data_limits(f.ravel()))
+    ax1.set_ylabel("damping ratio ζ [%]")
+    ax2.set_ylabel("frequency [Hz]")
+    ax1.set_title("V-g: damping ratio (solid: torsional, dashed: vertical)", fontsize=9)
+    ax2.set_title("V-f: frequency", fontsize=9)
+    ax2.legend(fontsize=7, ncol=1, loc="center left", bbox_to_anchor=(1.02, 0.5))
+    return ax1, ax2
+
+
+def stability_panels(sweep, axes=None, title: str = "", reference=None):
+    """Root locus (left), V-g and V-f (right) in one figure; ``reference`` as
+    :func:`root_locus`."""
+
+    if axes is None:
+        axes = new_axes(1, 3, figsize=(17, 5))
+    ax0, ax1, ax2 = axes
+    root_locus(sweep, ax0, title="root locus" + (" (grey: open loop)" if reference else ""),
+               reference=reference)
+    vg_vf(sweep, (ax1, ax2), reference=reference)
+    fl, dv = (_limit_text(sweep, c, name) for c, name in ((sweep.flutter, "flutter"),
+                                                          (sweep.divergence, "divergence")))
+    ax0.figure.suptitle(f"{title}  {fl}, {dv}".strip())
+    return axes
+
+
+def _limit_text(sweep, crossing, name: str) -> str:
+    from model.stability.tracking import CONVERGED, NO_CROSSING
+
+    if crossing.status == CONVERGED:
+        return f"{name} {crossing.speed:.2f} m/s"
+    if crossing.status == NO_CROSSING:
+        return f"no {name} in {sweep.speeds[0]:g}-{sweep.speeds[-1]:g} m/s"
+    return f"{name}: {crossing.status}"
