@@ -2,10 +2,10 @@
 
 Rooms, bottom to top (each imports only itself and the rooms below it;
 tests/project/test_layering.py holds the rule): the foundation (the top-level modules
-``errors``, ``lazy``, ``results``, ``vocabulary``, ``grid``, ``workers``, ``spectrum``),
-:mod:`model.aero`, :mod:`model.structure`, :mod:`model.aeroelastic`, :mod:`model.stability`,
-:mod:`model.response`, the facade :mod:`model.analysis`, and the reference cases
-:mod:`model.cases`. Nothing in :mod:`model` imports :mod:`design`.
+``errors``, ``lazy``, ``results``, ``vocabulary``, ``grid``, ``workers``, ``spectrum``,
+``spectral``, ``axes``), :mod:`model.aero`, :mod:`model.structure`, :mod:`model.aeroelastic`,
+:mod:`model.stability`, :mod:`model.response`, the facade :mod:`model.analysis`, and the
+reference cases :mod:`model.cases`. Nothing in :mod:`model` imports :mod:`design`.
 
 Conventions (stated once here and in the README; every module refers back)
 ---------------------------------------------------------------------------
