@@ -1,9 +1,11 @@
 """Axis helpers shared by the figure modules of model/ (a foundation module).
 
-:func:`new_axes` opens a figure, :func:`data_limits` gives axis limits that enclose every
-finite value (nothing is clipped). The figures themselves live with their concept:
-mode shapes in :mod:`model.structure.plots`, root locus and V-g/V-f in
-:mod:`model.stability.plots`, buffeting in :mod:`model.response.plots`.
+:func:`new_axes` opens a figure, :func:`axes_or_new` draws on given axes or a new figure,
+:func:`data_limits` gives axis limits that enclose every finite value (nothing is clipped),
+:func:`number_or_nan` reads a table cell as a number to plot. The figures themselves live
+with their concept: mode shapes in :mod:`model.structure.plots`, root locus and V-g/V-f in
+:mod:`model.stability.plots`, buffeting in :mod:`model.response.plots`, the design's in
+design/.
 
 May import: numpy and matplotlib (lazily, inside :func:`new_axes`) only -- nothing of
 model/'s subpackages, so every layer may use it.
@@ -13,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["data_limits", "new_axes"]
+__all__ = ["axes_or_new", "data_limits", "new_axes", "number_or_nan"]
 
 
 def new_axes(nrows=1, ncols=1, figsize=(6, 4.5), **kw):
@@ -33,3 +35,13 @@ def data_limits(values, pad: float = 0.05) -> tuple[float, float]:
     lo, hi = float(v.min()), float(v.max())
     d = (hi - lo) or max(abs(hi), 1.0)
     return lo - pad * d, hi + pad * d
+
+
+def axes_or_new(ax=None, figsize=(6.5, 4.0)):
+    """``ax`` itself, or the axes of a new figure (constrained layout) of ``figsize`` [in]."""
+    return new_axes(figsize=figsize) if ax is None else ax
+
+
+def number_or_nan(v) -> float:
+    """``v`` as a float; NaN for None, text or a flag (a table cell that is not a number)."""
+    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else float("nan")

@@ -11,20 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from model.axes import axes_or_new as _axes
+from model.axes import number_or_nan as _number
+
 __all__ = ["batch_cases"]
-
-
-def _axes(ax, figsize=(6.5, 4.0)):
-    if ax is None:
-        import matplotlib.pyplot as plt
-
-        _, ax = plt.subplots(figsize=figsize, layout="constrained")
-    return ax
-
-
-def _number(v) -> float:
-    """``v`` as a float; NaN for None, text or a flag."""
-    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else float("nan")
 
 
 def batch_cases(batch, ax=None, output: str | None = None):
