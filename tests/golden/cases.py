@@ -140,9 +140,11 @@ def compare(a, b, rtol: float, path: str = "", atol: float = 1e-12) -> list[str]
 #: speeds (~1e-10 relative) by the relative step, so they reproduce to ~1e-6 relative across
 #: library releases (measured 1.5e-6, numpy 2.4.6 / scipy 1.17.1 against the recording), and a
 #: derivative that is physically zero (divergence against damping) is that round-off itself
-#: (1e-9 absolute measured); 1e-5 and 1e-8 still fail on any change of the model (a 1 %
-#: change of an input moves these derivatives by > 1e-3 relative).
-CASE_TOL = {"sensitivity": (1e-5, 1e-8)}
+#: (1e-9 absolute measured); on an AMD EPYC (OpenBLAS SkylakeX kernel) that zero derivative
+#: is -9.9e-9 against the recorded 5.7e-9 (1.6e-8 apart), so the floor is 5e-8; 1e-5 and 5e-8
+#: still fail on any change of the model (a 1 % change of an input moves these derivatives by
+#: > 1e-3 relative).
+CASE_TOL = {"sensitivity": (1e-5, 5e-8)}
 
 #: Design cases (Ipopt): compared on :func:`design_summary` only. An Ipopt trajectory
 #: amplifies the last-bit differences of a library release (LAPACK, numpy) into a different
@@ -153,6 +155,15 @@ CASE_TOL = {"sensitivity": (1e-5, 1e-8)}
 #: (no optimiser involved: to the default tolerance) and, for a usable design, the margin and
 #: closed-loop flutter to DESIGN_RTOL.
 DESIGN_CASES = {"optimise_quick", "optimise_quick_b1425"}
+#: ... and across machines, with the same libraries, the trajectory ends elsewhere: on an AMD
+#: EPYC (OpenBLAS 0.3.31, SkylakeX kernel) the commit before the rooms redesign (d6172d1)
+#: designs the quick Humber case to a robust margin of 0.0341 (exit 0) where the recording
+#: has 0.1698 (exit 1, harm), and the b = 14.25 m case to 0.1679 (exit 1, harm) where the
+#: recording has 0.1133 (exit 0); run to run on one machine it is bit-identical. So a design
+#: case keeps one recording per machine on which the unchanged code was run:
+#: ``<name>.json`` (the first) and ``<name>@<machine>.json``, each with ``recorded_on`` (CPU,
+#: BLAS, libraries, commit). A run must match one of them at DESIGN_RTOL; a change of the
+#: design problem still moves it away from all of them.
 #: 2 %: seven times the release-to-release spread measured above; a change of the design
 #: problem (a constraint, a weight, the model) moves the margin by more (weights 0 -> 3 of the
 #: buffeting term: 0.3553 -> 0.3226, 9 %).
@@ -191,3 +202,8 @@ def design_summary(result: dict) -> tuple[dict, dict]:
                     "closed_loop_flutter_speed_m_s": lim.get("flutter_speed_m_s"),
                     "closed_loop_stable_to_m_s": out.get("closed_loop_stable_to_m_s")}
     return exact, outcome
+
+
+def design_recordings(name: str) -> list[Path]:
+    """The recordings of design case ``name``: the first, then one per further machine."""
+    return [HERE / f"{name}.json", *sorted(HERE.glob(f"{name}@*.json"))]
