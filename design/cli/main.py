@@ -9,7 +9,7 @@ is not a :class:`~model.errors.BridgeflapError`) gives one line saying so and ex
 Option defaults shared with studies and DOE files come from the registry
 :data:`design.studies.analyses.ANALYSES`.
 
-Start-up stays lean: the command modules (``design.cmd_*``) load only when their command runs
+Start-up stays lean: the command modules (``design.cli.<name>``) load only when their command runs
 (:func:`_later`), and only the chosen command's options are built (:func:`build_parser`), so
 ``bridgeflap modes`` or ``flutter`` never import CasADi, matplotlib, Dask, SALib, pandas or
 xarray (tests/test_startup.py checks ``sys.modules``).
