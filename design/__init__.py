@@ -34,7 +34,48 @@ _PUBLIC = {
     "make_design": "design.batch.designs",
     "main": "design.cli.main",
 }
-from model.lazy import keep_public_names, public_face  # noqa: E402 - after the table it serves
+#: The flat modules before the rooms (issue 31) and where they went: importing one gives
+#: a one-line ModuleNotFoundError naming its new home (model.lazy.moved_modules).
+_MOVED = {
+    "acceptance": "design.assessment.acceptance",
+    "actuator_study": "design.assessment.actuator_study", "analyses": "design.studies.analyses",
+    "batch_case": "design.batch.case", "batch_table": "design.batch.table",
+    "branch_flags": "design.batch.branch_flags", "buffeting_term": "design.control.buffeting_term",
+    "cases": "design.studies.cases", "checks": "design.control.checks",
+    "cli_common": "design.cli.common", "cli_help": "design.cli.help", "cli_run": "design.cli.run",
+    "cluster": "design.batch.cluster", "cmd_actuators": "design.cli.actuators",
+    "cmd_buffeting": "design.cli.buffeting", "cmd_derivatives": "design.cli.derivatives",
+    "cmd_erection": "design.cli.erection", "cmd_imported": "design.cli.imported",
+    "cmd_optimise": "design.cli.optimise", "cmd_robustness": "design.cli.robustness",
+    "cmd_section": "design.cli.section", "cmd_study": "design.cli.study",
+    "critical_speed": "design.control.critical_speed", "cuts": "design.control.cuts",
+    "designs": "design.batch.designs", "document": "design.studies.document",
+    "doe": "design.batch.runner", "driver": "design.control.driver",
+    "eigen": "design.control.eigen", "erection_control": "design.assessment.erection_control",
+    "experiments": "design.studies.experiments", "failsafe": "design.assessment.failsafe",
+    "figures": "design.control.figures, design.sensitivity.figures, design.studies.figures",
+    "flap_count": "design.control.flap_count", "harm": "design.assessment.harm",
+    "harm_fast": "design.assessment.harm_fast", "harm_verdict": "design.assessment.harm_verdict",
+    "ift": "design.sensitivity.ift", "ipopt_hooks": "design.control.ipopt_hooks",
+    "layout_search": "design.control.layout_search", "loop_algebra": "design.control.loop_algebra",
+    "manifest": "design.io.manifest", "modal_sensitivity": "design.sensitivity.modal",
+    "nlp": "design.control.nlp", "nlp_tolerances": "design.control.nlp_tolerances",
+    "options": "design.io.options", "outputs": "design.io.outputs",
+    "pair_failure": "design.control.pair_failure", "plant": "design.control.plant",
+    "problem_model": "design.control.problem_model", "records": "design.control.records",
+    "report": "design.studies.report", "result": "design.control.result",
+    "result_plots": "design.control.result_plots", "robust": "design.control.robust",
+    "screening": "design.studies.screening", "settings": "design.control.settings",
+    "start": "design.control.start", "study": "design.studies.study",
+    "uncertainty": "design.control.uncertainty", "variants": "design.control.variants",
+    "verification": "design.control.verification",
+}
+from model.lazy import (  # noqa: E402 - after the tables they serve
+    keep_public_names,
+    moved_modules,
+    public_face,
+)
 
 __all__, __getattr__, __dir__ = public_face("design", _PUBLIC)
 keep_public_names(__name__)  # design.<function> is never shadowed by a submodule
+moved_modules(__name__, _MOVED)  # import design.<old flat module>: where it went

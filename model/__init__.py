@@ -55,7 +55,45 @@ _PUBLIC = {
     "closed_loop_functions": "model.aeroelastic.symbolic",
     "section_basis": "model.cases.section", "typical_section": "model.cases.section",
 }
-from model.lazy import keep_public_names, public_face  # noqa: E402 - after the table it serves
+#: The flat modules before the rooms (issue 31) and where they went: importing one gives
+#: a one-line ModuleNotFoundError naming its new home (model.lazy.moved_modules).
+_MOVED = {
+    "actuator_limits": "model.aeroelastic.actuator_limits",
+    "actuator_sim": "model.response.actuator_sim", "assembly": "model.aeroelastic.assembly",
+    "backend": "model.aeroelastic.backend", "basis": "model.aero.basis",
+    "bridge_arg": "model.structure.bridge_arg", "buffeting": "model.response.buffeting",
+    "buffeting_inputs": "model.response.buffeting_inputs", "cable": "model.structure.cable",
+    "control": "model.aeroelastic.control", "control_interop": "model.aeroelastic.control_interop",
+    "control_plant": "model.aeroelastic.control_plant",
+    "controller_file": "model.aeroelastic.controller_file",
+    "convergence": "model.stability.convergence",
+    "derivative_system": "model.aeroelastic.derivative_system",
+    "derivatives": "model.aero.derivatives", "fe": "model.structure.fe",
+    "flaps": "model.aeroelastic.flaps", "gust": "model.aero.gust", "hopf": "model.stability.hopf",
+    "hopf_newton": "model.stability.hopf_newton", "limits": "model.structure.limits",
+    "modal_files": "model.structure.modal_files", "modal_import": "model.structure.modal_import",
+    "modal_model": "model.structure.modal_model", "modes": "model.structure.modes",
+    "modeshape": "model.stability.modeshape", "pk": "model.stability.pk",
+    "pk_kernel": "model.stability.pk_kernel",
+    "plots": "model.structure.plots, model.stability.plots, model.response.plots",
+    "quasi_steady": "model.aero.quasi_steady", "rfa": "model.aero.rfa",
+    "rfa_cases": "model.cases.rfa_cases", "ritz": "model.structure.ritz",
+    "section": "model.cases.section", "section_cases": "model.cases.section_cases",
+    "section_props": "model.structure.section_props", "simulation": "model.response.simulation",
+    "spec": "model.structure.spec (load_bridge, spec_from_dict: model.structure.loader)",
+    "spec_writer": "model.structure.spec_writer",
+    "statespace": "model.aeroelastic.statespace",
+    "static_divergence": "model.stability.static_divergence",
+    "symbolic": "model.aeroelastic.symbolic", "theodorsen": "model.aero.theodorsen",
+    "tracking": "model.stability.tracking", "turbulence": "model.aero.turbulence",
+    "validation": "model.cases.validation", "wind": "model.aero.wind",
+}
+from model.lazy import (  # noqa: E402 - after the tables they serve
+    keep_public_names,
+    moved_modules,
+    public_face,
+)
 
 __all__, __getattr__, __dir__ = public_face("model", _PUBLIC)
 keep_public_names(__name__)  # model.<function> is never shadowed by a submodule
+moved_modules(__name__, _MOVED)  # import model.<old flat module>: where it went

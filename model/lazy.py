@@ -7,6 +7,7 @@ script can still write ``from model import load_bridge, flutter``.
 from __future__ import annotations
 
 import importlib
+import importlib.abc
 import sys
 import types
 
@@ -52,3 +53,25 @@ def keep_public_names(package: str) -> None:
         if isinstance(module.__dict__.get(name), types.ModuleType):
             del module.__dict__[name]
     module.__class__ = _PublicModule
+
+
+class _MovedFinder(importlib.abc.MetaPathFinder):
+    """Last on :data:`sys.meta_path`: a module no finder found that is in ``moved`` (old name ->
+    new home) is refused in one line that names where it went."""
+
+    def __init__(self, package: str, moved: dict):
+        self.package, self.moved = package, moved
+
+    def find_spec(self, fullname, path=None, target=None):
+        head, _, rest = fullname.partition(".")
+        if head != self.package or rest not in self.moved:
+            return None
+        raise ModuleNotFoundError(
+            f"No module named {fullname!r}: it moved to {self.moved[rest]} when the package was "
+            f"split into rooms (README 'Module map')", name=fullname)
+
+
+def moved_modules(package: str, moved: dict) -> None:
+    """Name the new home of ``package``'s old flat modules when a script imports one."""
+    if not any(isinstance(f, _MovedFinder) and f.package == package for f in sys.meta_path):
+        sys.meta_path.append(_MovedFinder(package, moved))
