@@ -40,7 +40,7 @@ DEFAULT_THETA = (-1.0520, 0.7242, -4.9907, 0.2457, 0.1963)
 DEFAULT_POSITIONS_M = tuple(s * 56.4 * k for k in range(4, 13) for s in (-1, 1))
 #: The quick model (numerics only: the code paths of the full run, small matrices). The
 #: re-optimisation of each layout gets 80 Ipopt iterations: with 20, the rounded layout ended
-#: at Maximum_Iterations_Exceeded (not verified) on an AMD EPYC (OpenBLAS Haswell kernel),
+#: at Maximum_Iterations_Exceeded (not verified) on an AMD EPYC (OpenBLAS SkylakeX kernel),
 #: though it had verified on the machines before; with 80 it ends Solve_Succeeded there.
 QUICK = {"bridge": "humber:box", "n_modes": 6, "verification_modes": 6, "flap_count": 3,
          "robust_design_speeds_m_s": (30.0, 60.0), "n_robust_omega": 8,

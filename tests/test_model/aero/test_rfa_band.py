@@ -44,7 +44,7 @@ def test_default_rfa4_is_unchanged():
     # The unweighted path runs the same operations as before. The pole locations are weakly
     # determined (a flat least-squares valley), so another BLAS kernel ends the same
     # least_squares run (xtol = ftol = gtol = 1e-12) elsewhere in the valley: on an AMD EPYC
-    # with OpenBLAS 0.3.31 (Haswell kernel) the coefficients differ from the recorded ones
+    # with OpenBLAS 0.3.31 (SkylakeX kernel) the coefficients differ from the recorded ones
     # (another CPU) by 3.0e-7 relative, the fit's error by far less. 2e-6 admits that and
     # still fails on a changed fit: the band weight moves them by O(1), see the next test.
     r = get_rfa("rfa4")
