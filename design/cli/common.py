@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from design.io.files import atomic_write, to_jsonable
-from design.io.text import number_text, speed_text  # noqa: F401 - served to the commands
+from design.io.text import speed_text
 from model.errors import BridgeflapInputError
 
 __all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",

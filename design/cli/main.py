@@ -40,14 +40,13 @@ from design.cli.common import (
     emit,
     limit_text,
     log,
-    number_text,
     save_plot,
     spec_from_args,
-    speed_text,
 )
 from design.cli.help import finish
 from design.io.files import atomic_write
 from design.io.options import MAX_GRID_VALUE, MAX_MODES, check_int, check_number, parse_range
+from design.io.text import number_text, speed_text
 from design.studies.analyses import ANALYSES, DEFAULT_MODES, RunContext
 from model.aero.rfa import RFA_NAMES
 from model.errors import BridgeflapInputError

@@ -19,7 +19,7 @@ continuations. This module (``method="fast"``) gives the same result with a frac
    ``dA/dU = A1 + 2 U A2`` (``A(U) = A0 + U A1 + U^2 A2``, :mod:`model.aeroelastic.statespace`); a
    divergence Newton that fails from the interpolated zero restarts at the smallest static
    root ``det(K - U^2 Q) = 0`` in the bracket (:func:`model.stability.hopf_newton._static_seeded`);
-3. **verification** with the meaning of :func:`model.stability.sweeps._verify`: the point is a root
+3. **verification** as :func:`model.stability.crossings._verify`: the point is a root
    (Newton residual), ``d Re lambda / dU > 0`` (exact, bordered solve) and the eigenvalue stays
    oscillatory (flutter) or real (divergence) a bracket either side; the eigenpair continued by
    Newton (linear solves only) to the grid speeds of the bracket is stable at the lower and
@@ -208,7 +208,7 @@ class _March:
 
 
 def _first_bracket(vals, speeds, omega_tol):
-    """Index of the first sign change of ``vals`` (as :func:`model.stability.sweeps._locate`), or
+    """Index of the first sign change of ``vals`` (as :func:`model.stability.crossings._locate`), or
     the
     :class:`Crossing` without one (unstable at the first speed, no crossing in range)."""
     if np.isfinite(vals[0]) and vals[0] > 1e-6 * omega_tol:
@@ -221,7 +221,7 @@ def _first_bracket(vals, speeds, omega_tol):
 
 def _grid_crossing(system, speeds, march, tol, omega_tol, kind, why, accept=False):
     """A crossing the fast path could not verify (``why``), located as the dense sweep does
-    (:func:`model.stability.sweeps._locate`) on the grid speeds around its coarse bracket.
+    (:func:`model.stability.crossings._locate`) on the grid speeds around its coarse bracket.
 
     Kept only when not converged there (``unverified_crossing``, ``bracket_failed``: e.g. an
     unstable complex pair turning into two positive real eigenvalues, where no eigenvalue

@@ -29,13 +29,13 @@ sweep as the fallback when unsure (:mod:`model.stability.hopf`); every result co
 eigen-solutions (``eigen_solutions``) and names its method (``sweep_method``,
 ``sweep_fallback_reason``).
 
-The building blocks (statuses, :class:`~model.stability.tracking.Crossing`, branch continuation) are
-in
-:mod:`model.stability.tracking`; :func:`pk_sweep`, the exact-Theodorsen p-k cross-check on the same
-generalised coordinates, is in :mod:`model.stability.pk` (its branches are continued with adaptive
-sub-steps and its crossing is verified the same way). Both are re-exported here, as are the
-sweep's record :class:`~model.stability.result.StabilitySweep` and the steps the dense and the
-fast sweep share (:mod:`model.stability.crossings`: start, locate, verify, name).
+The building blocks (statuses, :class:`~model.stability.tracking.Crossing`, branch
+continuation) are in :mod:`model.stability.tracking`; :func:`pk_sweep`, the exact-Theodorsen
+p-k cross-check on the same generalised coordinates, is in :mod:`model.stability.pk` (its
+branches are continued with adaptive sub-steps and its crossing is verified the same way). Both
+are re-exported here, as is the sweep's record :class:`~model.stability.result.StabilitySweep`;
+the steps the dense and the fast sweep share (start, locate, verify, name) live in
+:mod:`model.stability.crossings`.
 
 May import: the foundation, model.aeroelastic, and of model.stability the modules below the
 sweep (tracking, crossings, result, pk, plots) and :mod:`model.stability.hopf` (the fast path,
@@ -55,16 +55,12 @@ from model.aeroelastic.statespace import (  # noqa: F401 - divergence_mechanism 
     divergence_speed_static,
 )
 from model.errors import BridgeflapInputError
-from model.stability.crossings import (  # noqa: F401 - the shared steps stay importable here
+from model.stability.crossings import (
     _critical_vector,
-    _indicator,
     _locate,
     _name_divergence,
     _name_flutter,
-    _refine,
-    _shares,
     _structural_start,
-    _upper,
     _verify,
 )
 from model.stability.pk import (  # noqa: F401 - the p-k check is part of this module's public face

@@ -7,7 +7,7 @@ spans give near-double pairs of branches that no step halving separates (the coa
 assignment treats them as one, model/stability/tracking.py); with bb3 derivatives its divergence is
 an ``unverified_crossing`` in the dense sweep, which the fast path reproduces on the grid speeds of
 its coarse bracket. IABSE 1.1c, whose Roger fit moves the still-air spectrum far from the
-structure's, checks the start of the branches at U = 0 (model.stability.sweeps._structural_start:
+structure's, checks the start of the branches at U = 0 (model.stability.crossings._structural_start:
 matched by mode shape, not eigenvalue distance) and the low-speed tracking after it. The
 fallback is checked on constructed hard cases: no tracking sub-steps allowed (every ambiguous
 coarse step forced), a Newton that fails, a crossing that Newton misses but the grid converges.
@@ -22,7 +22,7 @@ from design.io.options import parse_range
 from design.studies.analyses import DEFAULT_SPEEDS
 from model.cases.section_cases import section_system
 from model.errors import BridgeflapInputError
-from model.stability import hopf
+from model.stability import crossings, hopf
 from model.stability import sweeps as stability
 
 #: agreement of the fast and dense speeds, relative (issue 16, as bench/sweep_cases.py's, which
@@ -113,7 +113,7 @@ def test_iabse_11c_branches_start_on_the_still_air_spectrum(cases):
     (its Newton continuation back to U = 0 did not find the flutter branch's label). The flutter
     branch is then the pitch mode's by tracking in both sweeps (torsional flutter, 0.20 Hz)."""
     _, system, speeds = cases["iabse-1.1c"]
-    labels, start = stability._structural_start(system)
+    labels, start = crossings._structural_start(system)
     assert labels == ("lateral", "heave", "pitch")
     lam0 = np.linalg.eigvals(system.A(0.0))
     lam0 = lam0[lam0.imag > 0]

@@ -19,6 +19,7 @@ from model import analysis
 from model.aeroelastic import statespace
 from model.aeroelastic.control import Compensator, Controller
 from model.cases.section import section_basis
+from model.stability import crossings
 from model.stability import sweeps as stability
 
 SPEED_TOL = 1e-3  # default Brent xtol of sweep / pk_sweep [m/s]
@@ -173,7 +174,7 @@ def test_a_jump_of_the_indicator_is_not_a_converged_crossing():
     omega_tol = 1e-3
     vals = np.array([stability.flutter_function(system, u, omega_tol) for u in speeds])
     tracked = np.array([np.linalg.eigvals(system.A(u)) for u in speeds]).T
-    c = stability._locate(system, speeds, vals, SPEED_TOL, omega_tol, "flutter", tracked)
+    c = crossings._locate(system, speeds, vals, SPEED_TOL, omega_tol, "flutter", tracked)
     assert c.status == stability.UNVERIFIED and np.isnan(c.speed)
     assert c.bracket == (5.0, 6.0) and c.reason
 
