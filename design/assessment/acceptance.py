@@ -1,4 +1,5 @@
-"""The acceptance checks of a designed controller, run by ``bridgeflap optimise`` (issue 28).
+"""The acceptance checks of a designed controller, run by ``bridgeflap optimise`` and
+:func:`design.assessment.accept.accept`.
 
 A controller is judged on the bridges it was not designed on (the brief's "do no harm"), with
 its flaps failed and its actuators limited, and its exported plant is re-closed by an
@@ -21,14 +22,17 @@ independent path. :func:`acceptance` runs, for one controller and its design car
     plain feedback formula here, against the design's own closed loop: the eigenvalues at a few
     speeds agree to :data:`EIGENVALUE_RTOL`.
 
-Each check reports its own ``status``; the block's ``status`` is ``passed`` when the
-independent check agrees and the controller harms no variant, ``harm`` when it lowers some
-variant's critical speed below its open-loop one, ``failed`` when the independent check
-disagrees, ``unresolved`` otherwise (a crossing not verified). The fraction stable to the
-design speed, the failure and the actuator verdicts are reported, not folded into the status:
-they are properties of the bridge and the flap authority as much as of the design (the GJ range
-of the uncertainty set alone puts 12.5 % of the variants beyond any 3 m-flap controller's reach,
-``runs/robust_limit``).
+Each check reports its own ``status``; the block's ``status`` is ``passed`` when the independent
+check agrees and the controller harms no variant, ``harm`` when it lowers some variant's
+critical speed below its open-loop one (whatever else is unresolved), ``failed`` when the
+independent check disagrees, ``unresolved`` otherwise (a crossing not verified). The fresh
+variants are independent uniform draws (``sampling = "random"``, seed 11: none is a design
+scenario), so the robustness block carries a one-sided 95 % Clopper-Pearson upper bound on the
+probability of harm (``harm_probability_upper_95``: 0.30 % for 0 harmed of 1000). The fraction
+stable to the design speed, the failure and the actuator verdicts are reported, not folded into
+the status: they are properties of the bridge and the flap authority as much as of the design
+(the GJ range of the uncertainty set alone puts 12.5 % of the variants beyond any 3 m-flap
+controller's reach, ``runs/robust_limit``).
 """
 
 from __future__ import annotations
@@ -62,8 +66,10 @@ class AcceptanceOptions:
     CI sizes of ``--quick``)."""
 
     checks: tuple = CHECKS
-    samples: int = 200
+    samples: int = 1000
     seed: int = 11
+    #: independent uniform draws: the Clopper-Pearson certificate needs them
+    sampling: str = "random"
     workers: int = 1
     actuator_speeds_m_s: tuple = (10.0, 20.0, 25.0)
     actuator_records: int = 4
@@ -183,7 +189,8 @@ def _robustness(controller, settings, opts, say):
 
     res = do_no_harm(controller, settings.bridge, count=opts.samples, seed=opts.seed,
                      n_modes=settings.fresh_variant_modes,
-                     speed_max_m_s=settings.speed_max_m_s, workers=opts.workers, progress=say)
+                     speed_max_m_s=settings.speed_max_m_s, workers=opts.workers, progress=say,
+                     sampling=opts.sampling)
     return res, {**res.summary(), "rows": [dict(r) for r in res.rows]}
 
 
@@ -273,8 +280,11 @@ def acceptance_text(acc: dict) -> str:
     if r and "variants" in r:
         out.append(f"  do no harm: {r['variants']} fresh variants, "
                    f"{100 * r['fraction_stable_to_design_speed']:.1f} % stable to "
-                   f"{r['design_speed_m_s']:g} m/s, {100 * r['fraction_harmed']:.1f} % harmed, "
-                   f"worst closed/open {f(r['worst_closed_over_open'], '.4f')}: {r['status']}")
+                   f"{r['design_speed_m_s']:g} m/s, {r.get('harmed_count', '?')} harmed "
+                   f"({100 * r['fraction_harmed']:.1f} %; 95 % upper bound on the harm "
+                   f"probability {f(r.get('harm_probability_upper_95'), '.2%')}), "
+                   f"{r['unresolved_variants']} unresolved, worst closed/open "
+                   f"{f(r['worst_closed_over_open'], '.4f')}: {r['status']}")
     fl = acc.get("failures")
     if fl and "worst_single_failure" in fl:
         w = fl["worst_single_failure"]
@@ -289,7 +299,10 @@ def acceptance_text(acc: dict) -> str:
             f"rms {s['rms_flap_angle_deg']:.2f} deg, peak {s['peak_flap_angle_deg']:.2f} deg, "
             f"saturated {100 * s['angle_saturated_fraction']:.2f} %" if s["status"] == "ok"
             else s["status"]) for s in a["speeds"]]
-        out.append(f"  actuators: {'; '.join(parts)}: {a['status']}")
+        out.append(f"  actuators: {'; '.join(parts)}: {a['status']}; the saturated loop "
+                   f"holds to {f(a.get('saturated_loop_holds_to_m_s'), '.1f')} m/s of those "
+                   f"checked (linear closed-loop critical speed "
+                   f"{f(a.get('closed_loop_critical_speed_m_s'), '.2f')} m/s)")
     for name in ("independent_check", "robustness", "failures", "actuators"):
         c = acc.get(name) or {}
         if c.get("status") in ("error", "skipped"):

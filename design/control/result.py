@@ -23,7 +23,9 @@ class DesignResult(ResultData):
     ----------
     status : str
         ``converged``, ``unverified``, ``infeasible`` or ``failed``
-        (:func:`design.control.driver.select_start`).
+        (:func:`design.control.driver.select_start`); after the acceptance checks of
+        :func:`design.assessment.accept.design` also ``harm``, ``failed_checks`` or
+        ``unresolved``. Only ``converged`` carries a ``controller``.
     settings : DesignSettings
     controller : model.aeroelastic.control.Controller or None
         The designed compensator and layout, **only when** ``status == "converged"`` (it met
@@ -102,6 +104,7 @@ class DesignResult(ResultData):
             "pareto": self.extras.get("pareto", {}),
             "fresh_variants": self.extras.get("fresh_variants", {}),
             "closed_loop_limits": self.extras.get("closed_loop_limits", {}),
+            "acceptance": self.extras.get("acceptance", {"status": "not_run", "checks": []}),
             "spectral_abscissa_by_speed": [
                 {"speed_m_s": float(u), "abscissa_1_s": float(a)}
                 for u, a in zip(self.abscissa_speeds_m_s, self.abscissa_1_s, strict=True)],
@@ -143,7 +146,7 @@ class DesignResult(ResultData):
         return grid if isinstance(grid.get("margin"), float) else {}
 
     def best_achievable(self) -> dict:
-        """The best design found when none is usable (issue 32 item 3): its K, layout and
+        """The best design found when none is usable: its K, layout and
         closed-loop critical speed under the stated limits, and every check it misses. It is
         reported, never written as ``controller.toml``."""
         b, s = self.best, self.settings
@@ -160,6 +163,15 @@ class DesignResult(ResultData):
                        f"{ver.stable_to_m_s:g} m/s (design range to {s.speed_max_m_s:g} m/s)")
         if not all(v.get("meets_damping", True) for v in b.variant_checks):
             why.append("a design variant misses zeta_min")
+        acc = self.extras.get("acceptance") or {}
+        if acc.get("status") in ("harm", "failed", "unresolved"):
+            rob = acc.get("robustness") or {}
+            why.append({"harm": f"acceptance harm: lowers the critical speed of "
+                                f"{rob.get('harmed_count', '?')} of {rob.get('variants', '?')} "
+                                "fresh bridge variants below their open-loop one",
+                        "failed": "acceptance failed: the independent closed loop disagrees",
+                        "unresolved": "acceptance unresolved: some fresh variant's crossing "
+                                      "is not verified"}[acc["status"]])
         if not why:
             why.append(f"not verified (Ipopt: {b.ipopt_status})")
         k = self.candidate.compensator if self.candidate else None

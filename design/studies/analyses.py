@@ -428,7 +428,7 @@ def design_settings(opts: Mapping, bridge: str | None):
 
 
 def _run_design(spec, opts, context) -> Outcome:
-    from design.control.driver import design
+    from design.assessment.accept import design
     from design.control.settings import quick_settings
 
     # an in-memory bridge goes to the design as its spec (settings.bridge: its name if that
@@ -441,16 +441,12 @@ def _run_design(spec, opts, context) -> Outcome:
     settings = design_settings({**opts, "bridge": name} if mem else opts, name)
     if context.quick:
         settings = quick_settings(settings)
+    # the design with the acceptance checks of `bridgeflap optimise`, folded into its status
+    # (harm is never "converged": design.assessment.accept)
     res = design(settings, progress=lambda msg: context.say(f"  design: {msg}"),
-                 bridge=context.bridge if mem else None)
+                 bridge=context.bridge if mem else None, quick_checks=context.quick,
+                 check_workers=context.workers)
     s = res.summary()
-    if res.controller is not None:  # the checks of `bridgeflap optimise` (acceptance)
-        from design.assessment.acceptance import AcceptanceOptions, acceptance, design_closed_loop
-
-        opts_a = AcceptanceOptions.for_quick() if context.quick else AcceptanceOptions()
-        s["acceptance"], _ = acceptance(
-            res.controller, settings, opts_a, closed_loop=design_closed_loop(res, settings),
-            progress=lambda msg: context.say(f"  design: {msg}"))
     figs = {}
     if context.figures and res.controller is not None:
         context.say("  design: closed-loop root locus and buffeting (Fig. 5)")

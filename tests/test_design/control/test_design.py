@@ -259,10 +259,11 @@ def test_select_start_ranks_verified_starts_by_objective():
             _rec(2, -1e-5, 3.0, False, 0.60, objective=1.0)]
     best, status = select_start(recs, 15.0)
     assert status == "converged" and best.start == 0
-    # a NaN objective ranks last; equal objectives fall back to the margin
+    # a NaN objective ranks last; equal objectives tie and the lower start index wins (a
+    # fixed rule: the margins of two starts on one optimum differ only in their last bits)
     recs = [_rec(0, -1e-5, 4.0, True, 0.50), _rec(1, -1e-5, 4.0, True, 0.40, objective=3.0),
             _rec(2, -1e-5, 4.0, True, 0.45, objective=3.0)]
-    assert select_start(recs, 15.0)[0].start == 2
+    assert select_start(recs, 15.0)[0].start == 1
 
 
 def test_a_phase_1_point_has_no_design_objective():
