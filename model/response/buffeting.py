@@ -37,6 +37,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from model.aero.gust import GustField, coherence_projection, gust_field
+from model.aeroelastic.controller_file import as_controller
+from model.arguments import flag, optional
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.grid import speed_grid
 from model.response.buffeting_inputs import LOADS, resolve_system
@@ -352,7 +354,7 @@ def _check_speeds(speeds) -> np.ndarray:
     return speed_grid(speeds, positive=True)
 
 
-@takes_bridge
+@takes_bridge(controller=optional(as_controller), allow_unstable=flag)
 def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
               coherence_decay=None, n_modes=DEFAULT_MODES, method="spectral", *, spec=None,
               turbulence_intensity=None, deck_height_m=None, length_scale_m=None,
