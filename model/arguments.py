@@ -25,13 +25,13 @@ from typing import Any
 import numpy as np
 
 from model.errors import BridgeflapInputError, BridgeflapTypeError
-from model.grid import MAX_GRID_VALUE
 from model.vocabulary import check_renamed
 
-__all__ = ["MAX_MODES", "MAX_MODES_PER_FAMILY", "MAX_WORKERS", "RULES", "check_bool",
-           "check_callable", "check_choice", "check_int", "check_mapping", "check_number",
-           "check_path", "check_strings", "check_text", "checked", "count", "describe", "flag",
-           "number", "one_of", "optional"]
+__all__ = ["MAX_GRID_VALUE", "MAX_MODES", "MAX_MODES_PER_FAMILY", "MAX_WORKERS", "RULES",
+           "argv_list", "cases_list", "check_bool", "check_callable", "check_choice", "check_int",
+           "check_mapping", "check_number", "check_path", "check_strings", "check_text",
+           "checked", "count", "counts", "describe", "flag", "instance_or_path", "number",
+           "numbers", "one_of", "optional"]
 
 #: most retained vertical + torsional modes: the state grows by 6 per mode (2 structural and
 #: 4 aerodynamic lags), and one eigenvalue problem at 100 modes (about 600 states) takes 0.1 s,
@@ -40,6 +40,9 @@ MAX_MODES = 100
 #: most modes kept of each family by ``modes_per_family``: the Humber FE model has 662 modes in
 #: all (about 220 a family), so 1000 keeps every mode of any built-in bridge
 MAX_MODES_PER_FAMILY = 1000
+#: largest grid value: no wind speed [m/s] (and no fraction) comes near it; far below the
+#: overflow of U^2 terms (:mod:`model.grid` reads grids with it)
+MAX_GRID_VALUE = 1.0e4
 #: most worker processes (the CLI's ``--workers`` bound too)
 MAX_WORKERS = 1024
 
@@ -180,6 +183,59 @@ def flag(value: Any, field: str) -> bool:
     return check_bool(value, field)
 
 
+def instance_or_path(cls: type, what: str) -> Callable:
+    """Rule: a ``cls`` (``what`` names its reader) or a path to read one from."""
+
+    def rule(value, field):
+        if isinstance(value, cls):
+            return value
+        if isinstance(value, str | os.PathLike):
+            return check_path(value, field)
+        raise BridgeflapTypeError(field, f"must be a {cls.__name__} ({what}) or a file path, "
+                                         f"got {describe(value)}")
+
+    return rule
+
+
+def argv_list(value: Any, field: str) -> list:
+    """Rule: a list of command-line words (a lone string is not one)."""
+    if isinstance(value, str | bytes) or not isinstance(value, list | tuple):
+        raise BridgeflapTypeError(field, "must be a list of command-line words such as "
+                                         f"['flutter', 'humber'], got {describe(value)}")
+    return list(value)
+
+
+def cases_list(value: Any, field: str) -> list:
+    """Rule: a sequence of cases, each a mapping of parameter names to values."""
+    if isinstance(value, str | bytes | Mapping) or not isinstance(value, list | tuple):
+        raise BridgeflapTypeError(field, f"must be a list of dicts, got {describe(value)}")
+    for case in value:
+        if not isinstance(case, Mapping):
+            raise BridgeflapTypeError(field, f"must be a list of dicts, holds {describe(case)}")
+    return value
+
+
+def numbers(value: Any, field: str) -> tuple[float, ...]:
+    """Rule: a sequence of finite numbers (a lone number or a string is not one)."""
+    if isinstance(value, str | bytes | Mapping) or not isinstance(value, list | tuple | np.ndarray):
+        raise BridgeflapTypeError(field, f"must be a list of numbers, got {describe(value)}")
+    return tuple(check_number(v, field) for v in value)
+
+
+def counts(minimum: int = 1, maximum: int | None = None) -> Callable:
+    """Rule: a non-empty sequence of integers in ``[minimum, maximum]``."""
+
+    def rule(value, field):
+        if isinstance(value, str | bytes | Mapping) or not isinstance(
+                value, list | tuple | range | np.ndarray):
+            raise BridgeflapTypeError(field, f"must be a list of integers, got {describe(value)}")
+        if len(value) == 0:
+            raise BridgeflapInputError(field, "must hold at least one integer")
+        return tuple(check_int(v, field, minimum, maximum) for v in value)
+
+    return rule
+
+
 def optional(rule: Callable) -> Callable:
     """Rule: ``None`` or what ``rule`` accepts."""
     return lambda value, field: None if value is None else rule(value, field)
@@ -197,6 +253,7 @@ RULES: dict[str, Callable] = {
     "critical_only": flag,
     "verify_static": flag,
     "out_dir": check_path,
+    "progress": optional(check_callable),
     "path": check_path,
 }
 

@@ -31,7 +31,8 @@ from model.errors import BridgeflapTypeError
 if TYPE_CHECKING:
     from model.structure.spec import BridgeSpec
 
-__all__ = ["BRIDGE_RULES", "BridgeArg", "as_bridge", "as_rfa", "takes_bridge"]
+__all__ = ["BRIDGE_RULES", "BridgeArg", "as_bridge", "as_rfa", "check_bridge_kind", "check_system",
+           "takes_bridge"]
 
 #: what a ``bridge`` argument may be: a built-in name, a bridge TOML path or a spec
 BridgeArg = Union[str, os.PathLike, "BridgeSpec"]  # noqa: UP007 - a forward reference
@@ -60,6 +61,26 @@ def as_bridge(bridge, field: str = "bridge"):
                                      f"BridgeSpec, got {describe(bridge)}")
 
 
+def check_system(value, field: str = "system"):
+    """``value`` if it is an aeroelastic system (``A(U)`` and a basis)."""
+    if not _is_system(value):
+        raise BridgeflapTypeError(field, "must be an aeroelastic system (model.bridge_system), "
+                                         f"got {describe(value)}")
+    return value
+
+
+def check_bridge_kind(bridge, field: str = "bridge"):
+    """``bridge`` if it is a name or a path (read later, by the caller) or a spec."""
+    from model.structure.spec import BridgeSpec
+
+    if isinstance(bridge, str | os.PathLike):
+        return check_path(bridge, field)
+    if isinstance(bridge, BridgeSpec):
+        return bridge
+    raise BridgeflapTypeError(field, "must be a built-in bridge name, a bridge .toml path or a "
+                                     f"BridgeSpec, got {describe(bridge)}")
+
+
 def as_rfa(value, field: str = "rfa"):
     """``value`` if it names a rational approximation (:data:`model.aero.rfa.RFA_NAMES`) or is
     a :class:`~model.aero.rfa.RationalApprox`."""
@@ -70,12 +91,23 @@ def as_rfa(value, field: str = "rfa"):
     return check_choice(value, field, RFA_NAMES)
 
 
+def _modal(value, field: str = "modal"):
+    from model.structure.modes import ModalModel
+
+    if not isinstance(value, ModalModel):
+        raise BridgeflapTypeError(field, "must be a ModalModel (model.modal_model), got "
+                                         f"{describe(value)}")
+    return value
+
+
 #: the rules of a bridge function's other arguments beyond the vocabulary's (model.arguments)
 BRIDGE_RULES = {
     "rfa": as_rfa,
     "order": one_of("modal", "full"),  # model.aeroelastic.assembly.ORDERS (a test holds them equal)
     "erection_gj_factor": number(0.0, 1.0, strict=True),
     "side_spans": optional(check_text),
+    "modal": optional(_modal),
+    "system": optional(check_system),
 }
 
 
