@@ -178,6 +178,8 @@ SURVEY = [
     (lambda: design.main("flutter humber"), "argv", BridgeflapTypeError),
     (lambda: model.flutter("humber", _S, nmodes=8), "flutter", BridgeflapTypeError),
     (lambda: model.modal_model(), "modal_model", BridgeflapTypeError),
+    (lambda: model.pk_sweep(_SYSTEM, _S, True), "speed_tol", BridgeflapTypeError),
+    (lambda: model.closed_loop_functions("model.toml"), "model", BridgeflapTypeError),
 ]
 
 
