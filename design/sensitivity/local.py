@@ -191,7 +191,12 @@ def check_parameters(parameters: Sequence[str]) -> tuple[str, ...]:
     return parameters
 
 
-@takes_bridge(parameters=check_strings, check=flag, rel_step=number(0.0, 0.5, strict=True),
+def _parameters(value, field: str) -> tuple[str, ...]:
+    """Rule: parameter paths, as a list or as one comma-separated string (the CLI's)."""
+    return check_parameters(value if isinstance(value, str) else check_strings(value, field))
+
+
+@takes_bridge(parameters=_parameters, check=flag, rel_step=number(0.0, 0.5, strict=True),
               fd_step=number(0.0, 0.5, strict=True), progress=optional(check_callable))
 def local_sensitivity(bridge: BridgeArg, parameters: Sequence[str] = DEFAULT_PARAMETERS,
                       speeds="0:120:1", n_modes: int = DEFAULT_MODES, rfa: str = "rfa4",
