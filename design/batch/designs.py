@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from model.arguments import check_text, checked
 from model.errors import BridgeflapInputError
 
 __all__ = [
@@ -212,6 +213,7 @@ DESIGN_KINDS: dict[str, Callable[..., list[dict]]] = {
 }
 
 
+@checked(kind=check_text)
 def make_design(kind: str, **options: Any) -> list[dict]:
     """Build a design by name, e.g. from a run configuration.
 

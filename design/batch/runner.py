@@ -73,6 +73,17 @@ from design.io.outputs import (
     temporary_sibling,
     write_marker,
 )
+from model.arguments import (
+    cases_list,
+    check_callable,
+    check_mapping,
+    check_text,
+    checked,
+    count,
+    flag,
+    number,
+    optional,
+)
 from model.errors import BridgeflapInputError
 from model.results import ResultData
 from model.workers import check_main_guard
@@ -210,6 +221,10 @@ def _load_reusable(path: Path, params: dict, digest: str) -> tuple[dict | None, 
     return stored, False
 
 
+@checked(fn=check_callable, cases=cases_list, scheduler=optional(check_text), resume=flag,
+         timeout_s=optional(number(0.0, 1.0e7, strict=True)), progress=flag,
+         retries=count(0, 100), fingerprint=optional(check_text), files=optional(check_mapping),
+         kind=check_text, definition=optional(check_text))
 def run_batch(
     fn: Callable[[dict], Mapping],
     cases: Sequence[Mapping],

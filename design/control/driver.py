@@ -80,6 +80,7 @@ from design.control.start import (  # noqa: F401 - re-exported (tests, API)
     sobol_starts,
     solve_fixed_layout,
 )
+from design.io.api_args import check_design_args
 from model.aeroelastic.control import Compensator, Controller
 from model.structure.loader import load_bridge
 from model.vocabulary import renamed
@@ -133,6 +134,7 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
         :func:`design.control.critical_speed.critical_speed_design`, which calls this with its
         chosen inner design.
     """
+    check_design_args(settings, progress, bridge, warm_start, progress_bar, records)
     spec = None if bridge is None else load_bridge(bridge)  # a name, a file or a BridgeSpec
     if records is None and settings.objective == "critical_speed":
         from design.control.critical_speed import critical_speed_design

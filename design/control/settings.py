@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from design.io.api_args import check_load_settings_args, check_settings
 from model.aeroelastic.actuator_limits import (
     ACTUATOR_DEFAULTS,
     ACTUATOR_FIELDS,
@@ -337,6 +338,7 @@ def load_settings(path: str | os.PathLike | None = "default", **overrides) -> De
     BridgeflapInputError
         Unknown key, bad value, missing or unreadable file.
     """
+    check_load_settings_args(path, overrides)
     data = {}
     if isinstance(path, str) and path == "default":
         path = DEFAULT_CARD
@@ -415,6 +417,7 @@ def quick_settings(settings: DesignSettings) -> DesignSettings:
     The critical-speed search (``objective = "critical_speed"``) bisects to 2.5 m/s (at most
     half its step) instead of ``critical_speed_tol_m_s``.
     """
+    check_settings(settings)
     tol = max(settings.critical_speed_tol_m_s, min(2.5, 0.5 * settings.critical_speed_step_m_s))
     return replace(settings, starts=1, design_step_m_s=max(settings.design_step_m_s, 10.0),
                    cutting_plane_rounds=2, min_flap_counts=(25, 13, 5), pareto=False,

@@ -47,10 +47,19 @@ from design.io.options import (
 )
 from design.studies.analyses import ANALYSES
 from design.studies.cases import ERECTED_FRACTION, analysis_case
+from model.arguments import (
+    check_mapping,
+    check_path,
+    check_text,
+    checked,
+    flag,
+    instance_or_path,
+    optional,
+)
 from model.errors import BridgeflapInputError
 from model.results import ResultData
+from model.structure.bridge_arg import check_bridge_kind
 from model.structure.spec import PARAMETER_PATHS
-from model.vocabulary import renamed
 
 __all__ = ["DOE_ANALYSES", "MAX_DOE_CASES", "DoeConfig", "DoeParameter", "DoeResult",
            "doe_fingerprint", "doe_from_dict", "load_doe", "run_doe"]
@@ -136,6 +145,7 @@ class DoeConfig:
                                  **self.options)
 
 
+@checked(path=check_path, quick=flag, bridge=optional(check_bridge_kind))
 def load_doe(path: str | os.PathLike, quick: bool = False, bridge: Any = None) -> DoeConfig:
     """Read and validate a DOE TOML file; ``bridge`` (a name, a bridge TOML path or a
     :class:`~model.structure.spec.BridgeSpec`) replaces the file's own ``bridge``.
@@ -171,6 +181,7 @@ def load_doe(path: str | os.PathLike, quick: bool = False, bridge: Any = None) -
     return doe_from_dict(data, base=base, quick=quick, source=source)
 
 
+@checked(data=check_mapping, base=optional(check_path), quick=flag, source=check_text)
 def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
                   source: str = "<dict>") -> DoeConfig:
     """Build a :class:`DoeConfig` from parsed TOML (see :func:`load_doe`)."""
@@ -347,7 +358,9 @@ def doe_fingerprint(config: DoeConfig) -> str:
     return json.dumps(payload, sort_keys=True, default=repr)
 
 
-@renamed
+@checked(config=instance_or_path(DoeConfig, "design.load_doe"), out_dir=optional(check_path),
+         scheduler=optional(check_text), resume=flag, quick=flag, progress=flag,
+         bridge=optional(check_bridge_kind))
 def run_doe(config: DoeConfig | str | os.PathLike,
             out_dir: str | os.PathLike | None = None,
             workers: int = 1, scheduler: str | None = None, resume: bool = False,

@@ -23,6 +23,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from model.arguments import check_mapping, check_text, checked, optional
 from model.errors import BridgeflapInputError
 from model.structure.builtin_bridges import BUILTIN_BRIDGES, BUILTIN_FILES
 from model.structure.limits import check_section_geometry, to_float
@@ -122,6 +123,7 @@ def _check_keys(table: dict, allowed, where: str) -> None:
         raise BridgeflapInputError(f"{where}.{unknown[0]}", "unknown key")
 
 
+@checked(data=check_mapping, origin=check_text, variant=optional(check_text))
 def spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = None) -> BridgeSpec:
     """Build a :class:`BridgeSpec` from parsed TOML, recording each value's source.
 
