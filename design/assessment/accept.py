@@ -25,11 +25,13 @@ import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from model.errors import BridgeflapInputError
+from model.errors import BridgeflapInputError, BridgeflapTypeError
 from model.results import ResultData
 
 __all__ = ["ACCEPTANCE_STATUS", "AcceptanceResult", "accept", "design"]
 
+#: most fresh variants of one validation (a million rows would take days on a workstation)
+MAX_SAMPLES = 100_000
 #: the design's status for an acceptance verdict (``passed`` and ``not_run`` keep it)
 ACCEPTANCE_STATUS = {"harm": "harm", "failed": "failed_checks", "unresolved": "unresolved"}
 
@@ -67,10 +69,16 @@ class AcceptanceResult(ResultData):
 def _options(checks, samples, workers, quick, seed):
     from design.assessment.acceptance import AcceptanceOptions, parse_checks
 
-    names = parse_checks(checks) if isinstance(checks, str) else parse_checks(",".join(checks))
+    from model.arguments import check_int
+
+    if not isinstance(checks, str | list | tuple):
+        raise BridgeflapTypeError("checks", "must be all, none or a list of check names, got "
+                                            f"{type(checks).__name__}")
+    names = parse_checks(checks) if isinstance(checks, str) else parse_checks(
+        ",".join(str(c) for c in checks) or "none")
     for name, v in (("samples", samples), ("workers", workers)):
-        if v is not None and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
-            raise BridgeflapInputError(name, f"must be a positive integer, got {v!r}")
+        if v is not None:
+            check_int(v, name, 1, MAX_SAMPLES if name == "samples" else 1024)
     w = 1 if workers is None else workers
     if quick:
         return AcceptanceOptions.for_quick(names, w, samples)
@@ -116,13 +124,16 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
     if isinstance(controller, str | Path):
         controller = load_controller(controller)
     if not isinstance(controller, Controller):
-        raise BridgeflapInputError("controller", "must be a Controller or the path of a "
-                                   f"controller file, got {type(controller).__name__}")
+        raise BridgeflapTypeError("controller", "must be a Controller or the path of a "
+                                  f"controller file, got {type(controller).__name__}")
     if settings is None or isinstance(settings, str | Path):
         settings = load_settings("default" if settings is None else settings)
     if not isinstance(settings, DesignSettings):
-        raise BridgeflapInputError("settings", "must be DesignSettings or a card path, got "
-                                               f"{type(settings).__name__}")
+        raise BridgeflapTypeError("settings", "must be DesignSettings or a card path, got "
+                                              f"{type(settings).__name__}")
+    if progress is not None and not callable(progress):
+        raise BridgeflapTypeError("progress", "must be callable (str -> None), got "
+                                              f"{type(progress).__name__}")
     opts = _options(checks, samples, workers, quick, seed)
     if not opts.checks:
         return AcceptanceResult("not_run", {"checks": [], "status": "not_run"})
@@ -166,11 +177,9 @@ def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=N
         ``controller`` is None unless the status is ``converged``.
     """
     from design.control.driver import design as run_design
-    from design.control.settings import DesignSettings
+    from design.io.api_args import check_design_args
 
-    if not isinstance(settings, DesignSettings):
-        raise BridgeflapInputError("settings", "must be DesignSettings (design.load_settings"
-                                               f"(card)), got {type(settings).__name__}")
+    check_design_args(settings, progress, bridge, warm_start, progress_bar, records)
     opts = _options(checks, check_samples, check_workers, quick_checks, None)  # before work
     res = run_design(settings, progress=progress, bridge=bridge, warm_start=warm_start,
                      progress_bar=progress_bar, records=records)

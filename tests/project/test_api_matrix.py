@@ -28,6 +28,7 @@ from model.errors import BridgeflapError, BridgeflapInputError, BridgeflapTypeEr
 CHECKED_INSIDE = {
     "model.load_bridge": "its one argument is read by load_bridge's own checks",
     "design.design": "design.io.api_args.check_design_args on its first line",
+    "design.accept": "its controller, settings, checks and counts on its first lines",
     "design.quick_settings": "design.io.api_args.check_settings on its first line",
     "design.load_settings": "design.io.api_args.check_load_settings_args on its first line",
 }
@@ -136,6 +137,13 @@ SURVEY = [
     (lambda: model.load_controller(123), "path", BridgeflapTypeError),
     (lambda: model.save_controller("c.toml", "x.toml"), "controller", BridgeflapTypeError),
     (lambda: design.design({"n_modes": 8}), "settings", BridgeflapTypeError),
+    (lambda: design.accept(42), "controller", BridgeflapTypeError),
+    (lambda: design.accept(_CONTROLLER, checks="everything"), "checks", BridgeflapInputError),
+    (lambda: design.accept(_CONTROLLER, checks=3), "checks", BridgeflapTypeError),
+    (lambda: design.accept(_CONTROLLER, samples=0), "samples", BridgeflapInputError),
+    (lambda: design.accept(_CONTROLLER, samples=2.5), "samples", BridgeflapTypeError),
+    (lambda: design.accept(_CONTROLLER, settings=7), "settings", BridgeflapTypeError),
+    (lambda: design.design(design.load_settings(), checks="x"), "checks", BridgeflapInputError),
     (lambda: design.quick_settings("card.toml"), "settings", BridgeflapTypeError),
     (lambda: design.load_settings(42), "path", BridgeflapTypeError),
     (lambda: design.design(design.load_settings(), warm_start="ctrl.toml"), "warm_start",
