@@ -296,8 +296,8 @@ def run_batch(
         raise BridgeflapInputError("fn", "the analysis must be callable")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise BridgeflapInputError("workers", f"must be an integer >= 1, got {workers!r}")
-    if scheduler is None:  # a local cluster's nannies spawn: they re-run an unguarded script
-        check_main_guard(workers, "spawn")
+    if scheduler is None:  # a local cluster's nannies spawn: they re-run an unguarded script,
+        check_main_guard(max(2, workers), "spawn")  # one nanny, for workers=1, included
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise BridgeflapInputError("retries", f"must be an integer >= 0, got {retries!r}")
     if timeout_s is not None:
