@@ -1,4 +1,5 @@
-"""A script without ``if __name__ == "__main__":`` that starts worker processes: the spawned workers would re-run it ("lock held", "Nanny failed to start"); the batch
+"""A script without ``if __name__ == "__main__":`` that starts worker processes: the spawned
+workers would re-run it ("lock held", "Nanny failed to start"); the batch
 refuses before starting any, in one line naming the fix (:mod:`model.workers`)."""
 
 from __future__ import annotations
