@@ -34,7 +34,7 @@ _PUBLIC = {
     "make_design": "design.batch.designs",
     "main": "design.cli.main",
 }
-#: The flat modules before the rooms (issue 31) and where they went: importing one gives
+#: The flat modules before the rooms and where they went: importing one gives
 #: a one-line ModuleNotFoundError naming its new home (model.lazy.moved_modules).
 _MOVED = {
     "acceptance": "design.assessment.acceptance",

@@ -112,7 +112,7 @@ def table_text(frame, fmt: str = "github", floatfmt: str = ".6g") -> str:
                     missingval="")
 
 
-#: longest ``repr`` of a result [characters] (issue 29: "repr of each result under 2 kB")
+#: longest ``repr`` of a result [characters] (a notebook shows it whole: under 2 kB)
 REPR_LIMIT = 2000
 _VALUE_LIMIT = 60  # characters of one headline value in the repr
 
