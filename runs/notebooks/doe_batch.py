@@ -46,7 +46,7 @@ table = pd.read_csv(doe.table_path)
 cols = [c for c in table.columns if c.endswith(("gj_nm2", "main_sag_m"))
         or c in ("status", "flutter_speed_m_s", "divergence_speed_m_s")]
 print(table[cols].to_string(index=False))
-ax = doe.plot(output="divergence_speed_m_s")
+fig = doe.plot(output="divergence_speed_m_s")
 
 # %% [markdown]
 # ## Checks
