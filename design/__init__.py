@@ -31,6 +31,7 @@ _PUBLIC = {
     "load_doe": "design.studies.experiments", "run_doe": "design.studies.experiments",
     "doe_from_dict": "design.studies.experiments",
     "run_batch": "design.batch.runner",
+    "open_run": "design.studies.runs", "RunRecord": "design.studies.runs",
     "make_design": "design.batch.designs",
     "main": "design.cli.main",
 }

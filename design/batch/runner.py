@@ -124,6 +124,12 @@ class BatchResult(ResultData):
                 "reused": self.reused, "status": "ok" if not self.failed else
                 f"{self.failed} failed", "table": str(self.table_path)}
 
+    def to_xarray(self):
+        """The cases on the dimension ``case`` (:func:`design.batch.table.cases_dataset`)."""
+        from design.batch.table import cases_dataset
+
+        return cases_dataset(self.rows)
+
     def plot(self, ax=None, output: str | None = None):
         """One numeric output per case (default: the first), failed cases as red crosses
         (:func:`design.batch.plots.batch_cases`)."""

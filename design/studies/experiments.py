@@ -293,6 +293,14 @@ class DoeResult(ResultData):
 
         return flat_case_rows(self.rows)
 
+    def to_xarray(self):
+        """The cases on the dimension ``case``: parameters as coordinates, each scalar result a
+        variable (:func:`design.batch.table.cases_dataset`); ``ds.set_index`` or
+        ``ds.to_dataframe()`` for a grid."""
+        from design.batch.table import cases_dataset
+
+        return cases_dataset(self.rows)
+
     def plot(self, ax=None, output: str | None = None):
         """Scatter of an output over the first two parameters (failed cases as crosses)."""
         import matplotlib.pyplot as plt
