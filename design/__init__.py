@@ -32,10 +32,11 @@ _PUBLIC = {
     "load_doe": "design.studies.experiments", "run_doe": "design.studies.experiments",
     "doe_from_dict": "design.studies.experiments",
     "run_batch": "design.batch.runner",
+    "open_run": "design.studies.runs", "RunRecord": "design.studies.runs",
     "make_design": "design.batch.designs",
     "main": "design.cli.main",
 }
-#: The flat modules before the rooms (issue 31) and where they went: importing one gives
+#: The flat modules before the rooms and where they went: importing one gives
 #: a one-line ModuleNotFoundError naming its new home (model.lazy.moved_modules).
 _MOVED = {
     "acceptance": "design.assessment.acceptance",

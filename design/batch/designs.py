@@ -233,7 +233,7 @@ def make_design(kind: str, **options: Any) -> list[dict]:
     if kind not in DESIGN_KINDS:
         known = ", ".join(sorted(DESIGN_KINDS))
         canonical = str(kind).replace("-", "_") if isinstance(kind, str) else None
-        if canonical in DESIGN_KINDS:  # the spelling of DOE files before issue 29
+        if canonical in DESIGN_KINDS:  # the spelling of DOE files of earlier versions
             raise BridgeflapInputError("kind", f"{kind!r} is spelled {canonical!r} "
                                                "(docs/api_vocabulary.md)")
         raise BridgeflapInputError("kind", f"unknown design kind {kind!r} (known: {known})")

@@ -135,6 +135,12 @@ class BatchResult(ResultData):
                 "reused": self.reused, "status": "ok" if not self.failed else
                 f"{self.failed} failed", "table": str(self.table_path)}
 
+    def to_xarray(self):
+        """The cases on the dimension ``case`` (:func:`design.batch.table.cases_dataset`)."""
+        from design.batch.table import cases_dataset
+
+        return cases_dataset(self.rows)
+
     def plot(self, ax=None, output: str | None = None):
         """One numeric output per case (default: the first), failed cases as red crosses
         (:func:`design.batch.plots.batch_cases`)."""
@@ -311,8 +317,8 @@ def run_batch(
         raise BridgeflapInputError("fn", "the analysis must be callable")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise BridgeflapInputError("workers", f"must be an integer >= 1, got {workers!r}")
-    if scheduler is None:  # a local cluster's nannies spawn: they re-run an unguarded script
-        check_main_guard(workers, "spawn")
+    if scheduler is None:  # a local cluster's nannies spawn: they re-run an unguarded script,
+        check_main_guard(max(2, workers), "spawn")  # one nanny, for workers=1, included
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise BridgeflapInputError("retries", f"must be an integer >= 0, got {retries!r}")
     if timeout_s is not None:

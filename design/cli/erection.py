@@ -1,6 +1,6 @@
 """``bridgeflap erection``: flutter/divergence against the erected fraction (seed Fig. 3
 right), and with ``--controller`` the closed loop of each stage with the flaps on its deck
-(issue 27 item 4, :mod:`design.assessment.erection_control`)."""
+(:mod:`design.assessment.erection_control`)."""
 
 from __future__ import annotations
 

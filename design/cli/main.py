@@ -74,7 +74,7 @@ def cmd_modes(args):
     if args.count > len(modal.modes) and not imported:
         raise BridgeflapInputError("count", f"{args.count} requested, but this model has only "
                                             f"{len(modal.modes)} modes")
-    modes = modal.table()[: args.count]
+    modes = modal.mode_records()[: args.count]
     if imported:
         from design.cli.imported import imported_modes
 

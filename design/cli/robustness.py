@@ -1,4 +1,4 @@
-"""``bridgeflap robustness``: do no harm -- a controller on fresh bridge variants (issue 28).
+"""``bridgeflap robustness``: do no harm -- a controller on fresh bridge variants.
 
 ``bridgeflap robustness --controller controller.toml [--samples 200] [--seed 11] [--modes 30]
 [--speed-max 85] [--workers 2] [--method fast|reference] [--screen-modes 16] [--out table.csv]

@@ -228,7 +228,7 @@ def local_sensitivity(bridge: BridgeArg, parameters: Sequence[str] = DEFAULT_PAR
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     parameters = check_parameters(parameters)
     u = speed_grid(speeds)  # "lo:hi:step" text or numbers [m/s]
-    if any(p.startswith("mode.") for p in parameters):  # imported modal data (issue 13)
+    if any(p.startswith("mode.") for p in parameters):  # imported modal data
         from design.sensitivity.modal import modal_sensitivity
 
         return modal_sensitivity(spec, parameters, u, n_modes, check, rel_step, fd_step,

@@ -218,11 +218,11 @@ def check_options(kind: str, opts: Mapping, what: str | None = None) -> None:
             check(value, f"{what}.{key}")
 
 
-def figure_of(ax):
-    """The figure of an axis or of the first of several axes."""
-    if isinstance(ax, list | tuple | np.ndarray):
-        return np.ravel(ax)[0].figure
-    return ax.figure
+def figure_of(drawn):
+    """The figure of a plot: a figure, an axis or the first of several axes."""
+    from model.results import figure_of as _figure_of
+
+    return _figure_of(drawn)
 
 
 def _figures(context: RunContext, name: str, result) -> dict:
@@ -248,7 +248,7 @@ def _run_modes(spec, opts, context) -> Outcome:
     modal = modal_model(spec)
     s = {"cable_horizontal_tension_n": modal.structure.statics.horizontal_tension_n,
          "cable_main_sag_m": modal.structure.statics.main_sag_m,
-         "modes": modal.table()[: int(opts["count"])], "table1": compare_table1(modal)}
+         "modes": modal.mode_records()[: int(opts["count"])], "table1": compare_table1(modal)}
     freq = np.array([m["frequency_hz"] for m in s["modes"]])
     # mode shapes along the deck (model.structure.modes.ModalModel.deck_shapes), the listed modes
     # only

@@ -72,7 +72,7 @@ __all__ = ["DOE_ANALYSES", "MAX_DOE_CASES", "DoeConfig", "DoeParameter", "DoeRes
 DOE_ANALYSES = tuple(name for name, entry in ANALYSES.items() if entry.case is not None)
 
 #: a DOE file's ``[design] kind``: the canonical names (those of :func:`design.make_design`)
-#: and, read as them, the spellings of files written before issue 29 (a published format:
+#: and, read as them, the spellings of files written by earlier versions (a published format:
 #: runs/doe_gj_sag/doe.toml and users' files; the fingerprint is of the canonical name)
 _DESIGN_ALIASES = {"full_factorial": "full_factorial", "latin_hypercube": "latin_hypercube",
                    "sobol": "sobol", "full-factorial": "full_factorial",
@@ -303,6 +303,14 @@ class DoeResult(ResultData):
         from design.batch.runner import flat_case_rows
 
         return flat_case_rows(self.rows)
+
+    def to_xarray(self):
+        """The cases on the dimension ``case``: parameters as coordinates, each scalar result a
+        variable (:func:`design.batch.table.cases_dataset`); ``ds.set_index`` or
+        ``ds.to_dataframe()`` for a grid."""
+        from design.batch.table import cases_dataset
+
+        return cases_dataset(self.rows)
 
     def plot(self, ax=None, output: str | None = None):
         """Scatter of an output over the first two parameters (failed cases as crosses)."""

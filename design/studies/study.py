@@ -317,6 +317,15 @@ def _run_one(kind: str, spec, opts: Mapping, config: StudyConfig, say) -> Outcom
     return Outcome(outcome.status, summary, outcome.arrays, outcome.figures, outcome.result)
 
 
+def _labelled(result) -> bool:
+    """The result has labelled arrays of its own (a sweep's ``to_xarray``), not only the
+    generic table-as-dataset every result has."""
+    from model.results import ResultData
+
+    method = getattr(type(result), "to_xarray", None)
+    return callable(method) and method is not ResultData.to_xarray
+
+
 def _write_outcome(kind: str, outcome: Outcome, folder: Path) -> tuple[dict, list[str]]:
     """Write the results, arrays, figures (and a designed controller) of one analysis."""
     summary = dict(outcome.summary)
@@ -329,7 +338,7 @@ def _write_outcome(kind: str, outcome: Outcome, folder: Path) -> tuple[dict, lis
     atomic_write_json(folder / "results" / f"{kind}.json", summary)
     if outcome.arrays:
         atomic_savez(folder / "results" / f"{kind}.npz", **outcome.arrays)
-    if callable(getattr(outcome.result, "to_xarray", None)):  # sweeps as labelled arrays
+    if _labelled(outcome.result):  # sweeps as labelled arrays
         atomic_save_netcdf(folder / "results" / f"{kind}.nc", outcome.result.to_xarray())
     return summary, _save_figures(outcome.figures, folder / "figures")
 

@@ -78,7 +78,7 @@ def load_bridge(name_or_path: str | Path | BridgeSpec) -> BridgeSpec:
     loads = spec.derivatives
     if loads is not None and hasattr(loads, "table"):
         # the derivative table is read (and checked: finite, increasing) at load, so that a
-        # study or DOE on a bridge with a bad table is refused before it writes (issue 30)
+        # study or DOE on a bridge with a bad table is refused before it writes
         loads.table(2.0 * spec.deck.half_chord_m)
     return spec
 

@@ -1,4 +1,4 @@
-"""The default design's flap layout against its neighbouring integer layouts (issue 32 item 5).
+"""The default design's flap layout against its neighbouring integer layouts.
 
 The default card (``runs/humber_flaps.toml``) places its flaps by rounding relaxed weights
 at 0.5 and re-optimises K(s) on the rounded layout. This script re-optimises and verifies
@@ -35,7 +35,7 @@ from design.io.files import atomic_write_json, atomic_write_text, ensure_writabl
 from design.io.manifest import build_manifest
 
 DEFINITION = Path(__file__).resolve().parents[1] / "humber_flaps.toml"
-#: The default design as recorded in the README (issue 32): K (b2, b1, b0, a2, a1) and layout.
+#: The default design as recorded in the README: K (b2, b1, b0, a2, a1) and layout.
 DEFAULT_THETA = (-1.0520, 0.7242, -4.9907, 0.2457, 0.1963)
 DEFAULT_POSITIONS_M = tuple(s * 56.4 * k for k in range(4, 13) for s in (-1, 1))
 #: The quick model (numerics only: the code paths of the full run, small matrices). The

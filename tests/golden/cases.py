@@ -1,6 +1,6 @@
 """Golden-number cases: fixed CLI commands whose ``--json`` output pins today's numbers.
 
-Recorded before the "one physics path" redesign (issue 10) by
+Recorded before the "one physics path" redesign by
 ``cd tests && python -m golden.record`` and compared after every change by
 ``tests/test_golden.py`` to 1e-9 relative. A number that changes on purpose is a named fix:
 re-record and say so in the commit.
@@ -43,7 +43,7 @@ CASES = [
                "--scheduler", "serial", "--out", "{out}/doe"], False),
     ("optimise_quick", ["optimise", "--quick", "--out", "{out}/opt"], True),
     # the built-in b = 14.25 m Humber, evenly spaced 25 pairs, the older quick settings: failed
-    # its checks (exit 1) before issue 27's model updating; converges since (86.39 m/s)
+    # its checks (exit 1) before the model updating; converges since (86.39 m/s)
     ("optimise_quick_b1425", ["optimise", str(HERE / "humber_b1425_flaps.toml"), "--quick",
                               "--out", "{out}/opt"], True),
 ]

@@ -1,4 +1,4 @@
-"""Notebook views of every public result (issue 29 item 4): a short ``repr`` (under 2 kB: the
+"""Notebook views of every public result: a short ``repr`` (under 2 kB: the
 dataclass default printed every eigenvalue, 165 kB for a FlutterResult), an HTML table for
 Jupyter, and ``.plot()`` drawing data.
 

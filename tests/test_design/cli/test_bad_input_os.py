@@ -1,5 +1,5 @@
-"""The OS refusing a write, Ctrl-C, a bare ``bridgeflap`` and warnings before an error (issue 30
-items 2-4), as bad-input cases of the contract of tests/test_bad_input.py.
+"""The OS refusing a write, Ctrl-C, a bare ``bridgeflap`` and warnings before an error,
+as bad-input cases of the contract of tests/test_bad_input.py.
 
 * **OS errors** -- no space left (``ENOSPC``), permission (``EACCES``), read-only file system
   (``EROFS``), a name too long (``ENAMETOOLONG``): exit status 2 and one error line naming the

@@ -1,4 +1,4 @@
-"""Fault tests of the output folders (issue 11 C): foreign folders, kills, concurrent runs,
+"""Fault tests of the output folders: foreign folders, kills, concurrent runs,
 stale resumes, busy ports, unreachable schedulers, oversized designs.
 
 The commands run as subprocesses where a process must die or two must overlap; the studies are
