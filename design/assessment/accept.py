@@ -25,7 +25,7 @@ import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from model.errors import BridgeflapInputError, BridgeflapTypeError
+from model.errors import BridgeflapTypeError
 from model.results import ResultData
 
 __all__ = ["ACCEPTANCE_STATUS", "AcceptanceResult", "accept", "design"]
@@ -68,7 +68,6 @@ class AcceptanceResult(ResultData):
 
 def _options(checks, samples, workers, quick, seed):
     from design.assessment.acceptance import AcceptanceOptions, parse_checks
-
     from model.arguments import check_int
 
     if not isinstance(checks, str | list | tuple):
@@ -90,7 +89,7 @@ def _options(checks, samples, workers, quick, seed):
 
 def accept(controller, settings=None, *, checks="all", samples: int | None = None,
            workers: int | None = None, quick: bool = False, seed: int | None = None,
-           closed_loop=None, progress=None) -> AcceptanceResult:
+           closed_loop=None, progress=None, bridge=None) -> AcceptanceResult:
     """The acceptance checks of ``controller`` (module :mod:`design.assessment.acceptance`).
 
     Parameters
@@ -115,6 +114,9 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
         ``settings`` and ``controller`` by the design's own model path).
     progress : callable, optional
         ``str -> None``, one line per step.
+    bridge : BridgeSpec, name or path, optional
+        The bridge the controller was designed for (default ``settings.bridge``): the fresh
+        variants are drawn about it.
     """
     from design.assessment.acceptance import acceptance
     from design.control.settings import DesignSettings, load_settings
@@ -141,14 +143,14 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
         from design.control.problem_model import build_model
 
         _, model = build_model(settings, n_modes=settings.verification_modes,
-                               positions=controller.flap_strip_positions_m)
+                               positions=controller.flap_strip_positions_m, spec=bridge)
         closed_loop = model.system(controller.compensator)
     with tempfile.TemporaryDirectory(prefix="bridgeflap-accept-") as tmp:
         # the checks read the controller as a user reads it back from its file
         path = Path(tmp) / "controller.toml"
         save_controller(controller, path)
         block, results = acceptance(load_controller(path), settings, opts,
-                                    closed_loop=closed_loop, progress=progress)
+                                    closed_loop=closed_loop, progress=progress, bridge=bridge)
     return AcceptanceResult(block["status"], block, results)
 
 
@@ -192,7 +194,8 @@ def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=N
 
     acc = accept(res.controller, settings, checks=opts.checks, samples=opts.samples,
                  workers=opts.workers, quick=quick_checks, seed=opts.seed,
-                 closed_loop=design_closed_loop(res, settings), progress=progress)
+                 closed_loop=design_closed_loop(res, settings),
+                 progress=progress, bridge=bridge)
     extras = {**res.extras, "acceptance": acc.block, "acceptance_results": acc.results}
     status = ACCEPTANCE_STATUS.get(acc.status)
     if status is None:

@@ -147,7 +147,7 @@ def _independent_loop(spec, controller, speed, n_modes, system):
     return np.vstack([top, bottom])
 
 
-def independent_check(controller, settings, closed_loop, speeds=None) -> dict:
+def independent_check(controller, settings, closed_loop, speeds=None, bridge=None) -> dict:
     """The design's closed-loop eigenvalues against an independent closing of its exported
     plant (module docstring), at ``speeds`` [m/s] (default :data:`CHECK_SPEED_FRACTIONS` of the
     design speed)."""
@@ -156,7 +156,7 @@ def independent_check(controller, settings, closed_loop, speeds=None) -> dict:
     from model.structure.loader import load_bridge
     from model.structure.modes import solve
 
-    spec = load_bridge(settings.bridge)
+    spec = load_bridge(settings.bridge if bridge is None else bridge)
     n = int(settings.verification_modes)  # the modes of design_closed_loop
     system = statespace.spec_system(spec, solve(assemble(spec)).structural_basis(n))
     u = ([f * settings.speed_max_m_s for f in CHECK_SPEED_FRACTIONS] if speeds is None
@@ -184,33 +184,33 @@ def independent_check(controller, settings, closed_loop, speeds=None) -> dict:
             "speeds": rows}
 
 
-def _robustness(controller, settings, opts, say):
+def _robustness(controller, settings, opts, say, bridge):
     from design.assessment.harm import do_no_harm
 
-    res = do_no_harm(controller, settings.bridge, count=opts.samples, seed=opts.seed,
+    res = do_no_harm(controller, bridge, count=opts.samples, seed=opts.seed,
                      n_modes=settings.fresh_variant_modes,
                      speed_max_m_s=settings.speed_max_m_s, workers=opts.workers, progress=say,
                      sampling=opts.sampling)
     return res, {**res.summary(), "rows": [dict(r) for r in res.rows]}
 
 
-def _failures(controller, settings, opts, say):
+def _failures(controller, settings, opts, say, bridge):
     from design.assessment.failsafe import single_pair_failures
 
-    res = single_pair_failures(controller, settings.bridge,
+    res = single_pair_failures(controller, bridge,
                                n_modes=settings.verification_modes,
                                speed_max_m_s=settings.speed_max_m_s, workers=opts.workers,
                                progress=say)
     return res, res.summary()
 
 
-def _actuators(controller, settings, opts, say):
+def _actuators(controller, settings, opts, say, bridge):
     from design.assessment.actuator_study import actuator_study
     from model.aeroelastic.actuator_limits import ActuatorLimits
     from model.structure.loader import load_bridge
 
     limits = ActuatorLimits(settings.flap_angle_limit_deg, settings.flap_rate_limit_deg_s)
-    res = actuator_study(load_bridge(settings.bridge), controller, opts.actuator_speeds_m_s,
+    res = actuator_study(load_bridge(bridge), controller, opts.actuator_speeds_m_s,
                          limits, duration_s=opts.actuator_duration_s,
                          records=opts.actuator_records, n_modes=opts.actuator_modes,
                          progress=say)
@@ -218,17 +218,19 @@ def _actuators(controller, settings, opts, say):
 
 
 def acceptance(controller, settings, options: AcceptanceOptions | None = None, *,
-               closed_loop=None, progress=None) -> tuple[dict, dict]:
+               closed_loop=None, progress=None, bridge=None) -> tuple[dict, dict]:
     """Run the checks of ``options`` on ``controller`` designed with ``settings``.
 
     Returns ``(block, results)``: the strict-JSON-ready block (module docstring) and the
     result objects by check name (for their tables). ``closed_loop``: the design's own
     closed-loop system, needed by the independent check (skipped without it). A check that
     meets a :class:`~model.errors.BridgeflapError` (e.g. flutter-derivative decks have no
-    actuator simulation) reports ``status: "error"`` with the reason.
+    actuator simulation) reports ``status: "error"`` with the reason. ``bridge``: the bridge
+    the controller was designed for (a spec, name or path; default ``settings.bridge``).
     """
     opts = AcceptanceOptions() if options is None else options
     say = progress or (lambda _msg: None)
+    bridge = settings.bridge if bridge is None else bridge
     block, results = {"checks": list(opts.checks)}, {}
     runners = {"robustness": _robustness, "failures": _failures, "actuators": _actuators}
     for name in opts.checks:
@@ -239,9 +241,11 @@ def acceptance(controller, settings, options: AcceptanceOptions | None = None, *
                 if closed_loop is None:
                     block[name] = {"status": "skipped", "reason": "no design closed loop"}
                     continue
-                block[name] = independent_check(controller, settings, closed_loop)
+                block[name] = independent_check(controller, settings, closed_loop,
+                                                bridge=bridge)
             else:
-                results[name], block[name] = runners[name](controller, settings, opts, say)
+                results[name], block[name] = runners[name](controller, settings, opts, say,
+                                                           bridge)
         except BridgeflapInputError:
             raise
         except BridgeflapError as exc:

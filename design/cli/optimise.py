@@ -59,7 +59,7 @@ def _design_and_write(args, settings, out):
     """Run the design and replace ``out`` by its complete folder (crash-safe swap)."""
     from design.assessment.accept import design
     from design.assessment.acceptance import design_closed_loop, parse_checks
-    from design.io.files import atomic_write_text, naming_os_errors
+    from design.io.files import atomic_write_text, naming_os_errors, to_jsonable
     from design.io.outputs import swap_into_place, temporary_sibling, write_marker
     from model.aeroelastic.controller_file import save_controller
 
@@ -84,18 +84,24 @@ def _design_and_write(args, settings, out):
             matplotlib.use("Agg")
             import matplotlib.pyplot as plt
 
+            from model.results import figure_of
             from model.stability.sweeps import sweep
 
             for name, fn in (("bode.png", result.plot_bode), ("margins.png", result.plot_margins)):
-                ax = fn()
-                save_figure(ax[0].figure, tmp / name)
-                plt.close(ax[0].figure)
+                fig = figure_of(fn())
+                save_figure(fig, tmp / name)
+                plt.close(fig)
             cl = design_closed_loop(result, settings)
             sw = sweep(cl, settings.check_speeds())
-            ax = sw.plot(title="closed loop")
-            save_figure(ax[0].figure, tmp / "root_locus.png")
-            plt.close(ax[0].figure)
+            fig = figure_of(sw.plot(title=f"closed loop (design {result.status})"))
+            save_figure(fig, tmp / "root_locus.png")
+            plt.close(fig)
         payload["acceptance"] = _acceptance_tables(args, result, tmp)
+        payload["controller_file"] = (str(ctrl_file) if result.controller is not None
+                                      else None)
+        # what --json prints, in the folder too (design.open_run reads it back)
+        atomic_write_text(tmp / "summary.json",
+                          json.dumps(to_jsonable(payload), allow_nan=False))
         swap_into_place(tmp, out)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

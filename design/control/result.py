@@ -253,10 +253,13 @@ class DesignResult(ResultData):
         from design.control.figures import bode
 
         st = self.settings
-        return bode(self.candidate.compensator, st.gain_limit, ax,
-                    (st.omega_min_rad_s, st.omega_max_rad_s),
-                    title="designed compensator K(s)" if self.controller is not None else
-                    f"candidate K(s) of a design that is {self.status} (not usable)")
+        from model.results import figure_of
+
+        return figure_of(bode(self.candidate.compensator, st.gain_limit, ax,
+                              (st.omega_min_rad_s, st.omega_max_rad_s),
+                              title="designed compensator K(s)" if self.controller is not None
+                              else f"candidate K(s) of a design that is {self.status} "
+                                   "(not usable)"))
 
     def plot_margins(self, ax=None):
         """Spectral abscissa, smallest damping ratio of the movable branches with
@@ -270,4 +273,34 @@ class DesignResult(ResultData):
             spec = load_bridge(self.settings.bridge)
         except BridgeflapError:  # the layout is then drawn without towers
             spec = None
-        return margins(self, ax, spec)
+        from model.results import figure_of
+
+        return figure_of(margins(self, ax, spec))
+
+    # ---- headline numbers (the same as in summary(); NaN when not computed)
+    @property
+    def closed_loop_critical_speed_m_s(self) -> float:
+        """Closed-loop critical speed [m/s] on the verification model (flutter or divergence,
+        whichever comes first; ``closed_loop_limits``)."""
+        v = (self.extras.get("closed_loop_limits") or {}).get("critical_speed_m_s")
+        return float(v) if isinstance(v, int | float) else NAN
+
+    @property
+    def closed_loop_critical_mechanism(self) -> str | None:
+        """``flutter`` or ``divergence`` (None when not computed)."""
+        return (self.extras.get("closed_loop_limits") or {}).get("critical_mechanism")
+
+    @property
+    def open_loop_critical_speed_m_s(self) -> float:
+        """Open-loop critical speed [m/s] on the verification model."""
+        lim = self.extras.get("closed_loop_limits") or {}
+        vals = [v for v in (lim.get("open_loop_flutter_speed_m_s"),
+                            lim.get("open_loop_divergence_speed_m_s"))
+                if isinstance(v, int | float) and v == v]
+        return float(min(vals)) if vals else NAN
+
+    @property
+    def acceptance_status(self) -> str:
+        """The acceptance verdict (``passed``, ``harm``, ``failed``, ``unresolved``,
+        ``not_run``)."""
+        return (self.extras.get("acceptance") or {}).get("status", "not_run")

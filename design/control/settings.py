@@ -330,7 +330,7 @@ def load_settings(path: str | os.PathLike | None = "default", **overrides) -> De
     """A design card (TOML) overridden by keyword arguments.
 
     ``path``: a card file; ``"default"`` (the default) is :data:`DEFAULT_CARD`, the card
-    ``bridgeflap optimise`` runs without ``--definition``; ``None`` starts from the embedded
+    ``bridgeflap optimise`` runs without a card argument; ``None`` starts from the embedded
     :class:`DesignSettings` defaults alone (docs/api_vocabulary.md).
 
     Raises
