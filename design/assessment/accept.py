@@ -27,6 +27,7 @@ from pathlib import Path
 
 from model.errors import BridgeflapTypeError
 from model.results import ResultData
+from model.vocabulary import renamed
 
 __all__ = ["ACCEPTANCE_STATUS", "AcceptanceResult", "accept", "design"]
 
@@ -59,11 +60,29 @@ class AcceptanceResult(ResultData):
         return {"status": self.status, **{k: v for k, v in self.block.items()
                                           if k != "status"}}
 
+    _HEADLINE_KEYS = ("status", "checks")
+
     def table(self, fmt: str = "simple") -> str:
         """One line per check."""
         from design.assessment.acceptance import acceptance_text
 
         return acceptance_text(self.block)
+
+    def plot(self, ax=None):
+        """The do-no-harm histogram of the fresh variants (closed over open critical speed;
+        :meth:`design.assessment.harm.HarmResult.plot`), or an empty figure when the
+        robustness check did not run."""
+        from model.results import figure_of
+
+        rob = self.results.get("robustness")
+        if rob is not None:
+            return figure_of(rob.plot(ax))
+        import matplotlib.pyplot as plt
+
+        fig = ax.figure if ax is not None else plt.figure()
+        (ax or fig.add_subplot()).text(0.5, 0.5, f"acceptance {self.status}: no robustness "
+                                                 "check", ha="center")
+        return fig
 
 
 def _options(checks, samples, workers, quick, seed):
@@ -154,6 +173,7 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
     return AcceptanceResult(block["status"], block, results)
 
 
+@renamed
 def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=None,
            records=None, *, checks="all", check_samples: int | None = None,
            check_workers: int | None = None, quick_checks: bool = False):

@@ -98,6 +98,7 @@ class DesignSettings:
     n_modes: int = 16
     verification_modes: int = 16
     flap_count: int = 25
+    flap_positions_m: tuple = ()
     flap_width_m: float = 56.4          # spanwise length of each flap pair: 1410 m / 25
     flap_chord_m: float = 3.0           # chordwise, inside the 22 m deck chord (seed §6)
     leading_edge: bool = True
@@ -194,6 +195,16 @@ class DesignSettings:
                 raise BridgeflapInputError(name, f"must be a pair [low, high], got {b!r}")
             if _num(name, b[0]) >= _num(name, b[1]):
                 raise BridgeflapInputError(name, f"low must be below high, got {b!r}")
+        pos = self.flap_positions_m
+        if not isinstance(pos, tuple | list):
+            raise BridgeflapInputError("flap_positions_m", f"must be a list of flap centres [m], "
+                                                           f"got {pos!r}")
+        for v in pos:
+            _num("flap_positions_m", v)
+        if len(set(float(v) for v in pos)) != len(pos):
+            raise BridgeflapInputError("flap_positions_m", "has a flap centre twice")
+        if len(pos) > 200:
+            raise BridgeflapInputError("flap_positions_m", f"at most 200 flaps, got {len(pos)}")
         for v in self.min_flap_counts:
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise BridgeflapInputError("min_flap_counts",
@@ -298,7 +309,10 @@ class DesignSettings:
                                            "robust_speeds_m_s)")
 
     def positions(self, count: int | None = None) -> np.ndarray:
-        """Evenly spaced, touching flap centres from the main-span mid-point [m]."""
+        """Flap centres from the main-span mid-point [m]: ``flap_positions_m`` when given (and
+        ``count`` is not), else ``count`` (default ``flap_count``) evenly spaced, touching."""
+        if count is None and self.flap_positions_m:
+            return np.sort(np.asarray(self.flap_positions_m, float))
         count = self.flap_count if count is None else int(count)
         return (np.arange(count) - 0.5 * (count - 1)) * self.flap_width_m
 
@@ -370,7 +384,7 @@ def load_settings(path: str | os.PathLike | None = "default", **overrides) -> De
             f" (the {len(_TOML_KEYS)} known ones: design.control.settings.DesignSettings, "
             "documented in runs/humber_flaps.toml)"))
     for key in ("a2_bounds", "a1_bounds", "min_flap_counts", "robust_speeds_m_s", "variant_fixed",
-                "variant_corners",
+                "variant_corners", "flap_positions_m",
                 "robust_design_speeds_m_s", "buffeting_speeds_m_s"):
         if key in flat:
             if not isinstance(flat[key], list | tuple):

@@ -203,8 +203,9 @@ def open_run(folder: str | os.PathLike) -> RunRecord:
     >>> run.kind, run.statuses()["flutter"]           # doctest: +SKIP
     """
     from design.io.outputs import read_marker
+    from model.arguments import check_path
 
-    path = Path(folder)
+    path = Path(check_path(folder, "folder"))
     if not path.is_dir():
         raise BridgeflapInputError("folder", f"no such folder: {path}")
     marker = read_marker(path)

@@ -92,9 +92,10 @@ def as_rfa(value, field: str = "rfa"):
 
 
 def _modal(value, field: str = "modal"):
+    from model.structure.modal_model import ImportedModalModel
     from model.structure.modes import ModalModel
 
-    if not isinstance(value, ModalModel):
+    if not isinstance(value, ModalModel | ImportedModalModel):
         raise BridgeflapTypeError(field, "must be a ModalModel (model.modal_model), got "
                                          f"{describe(value)}")
     return value

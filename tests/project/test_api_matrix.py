@@ -29,6 +29,7 @@ CHECKED_INSIDE = {
     "model.load_bridge": "its one argument is read by load_bridge's own checks",
     "design.design": "design.io.api_args.check_design_args on its first line",
     "design.accept": "its controller, settings, checks and counts on its first lines",
+    "design.open_run": "model.arguments.check_path on its folder, then the folder's marker",
     "design.quick_settings": "design.io.api_args.check_settings on its first line",
     "design.load_settings": "design.io.api_args.check_load_settings_args on its first line",
 }
@@ -138,6 +139,7 @@ SURVEY = [
     (lambda: model.save_controller("c.toml", "x.toml"), "controller", BridgeflapTypeError),
     (lambda: design.design({"n_modes": 8}), "settings", BridgeflapTypeError),
     (lambda: design.accept(42), "controller", BridgeflapTypeError),
+    (lambda: design.open_run(42), "folder", BridgeflapTypeError),
     (lambda: design.accept(_CONTROLLER, checks="everything"), "checks", BridgeflapInputError),
     (lambda: design.accept(_CONTROLLER, checks=3), "checks", BridgeflapTypeError),
     (lambda: design.accept(_CONTROLLER, samples=0), "samples", BridgeflapInputError),

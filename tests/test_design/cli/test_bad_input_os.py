@@ -233,8 +233,9 @@ def test_optimise_out_of_space_is_one_line_and_removes_its_temporary(tmp_path, c
     import design.control.driver
 
     fake = types.SimpleNamespace(summary=lambda: {"status": "failed"}, history=lambda: [],
-                                 candidate=None, controller=None)
-    monkeypatch.setattr(design.control.driver, "design", lambda settings, progress=None: fake)
+                                 candidate=None, controller=None, extras={})
+    monkeypatch.setattr(design.control.driver, "design",
+                        lambda settings, progress=None, **kw: fake)
     out = tmp_path / "opt"
     _enospc_after(monkeypatch, 2)  # the marker written, then no room for the history
     line = _error(capsys, main(["optimise", "--quick", "--out", str(out), "--json"]))

@@ -73,11 +73,14 @@ def test_ladder_does_not_stop_at_the_first_small_step(coarse_humber):
     assert "labels" not in s["rows"][0]
 
 
-@pytest.mark.parametrize("counts", [(16,), (16, 8), (0, 8), ("a", 8)])
-def test_bad_ladders_name_the_field(coarse_humber, counts):
+@pytest.mark.parametrize("counts,field", [((16,), "modes"), ((16, 8), "modes"),
+                                          ((0, 8), "counts"), (("a", 8), "counts")])
+def test_bad_ladders_name_the_field(coarse_humber, counts, field):
+    # a count that is no positive integer is refused at the door naming the argument; a ladder
+    # of valid counts that is too short or not rising names the ladder of modes
     with pytest.raises(BridgeflapInputError) as exc:
         mode_convergence(coarse_humber, SPEEDS, counts=counts)
-    assert exc.value.field == "modes"
+    assert exc.value.field == field
 
 
 def test_bad_reference_count_names_the_field(coarse_humber):
