@@ -54,10 +54,10 @@ def analyses(coarse_humber):
 
 def records(fl) -> dict:
     """The batch, design and study records, from their constructors."""
+    from design.assessment.accept import AcceptanceResult
     from design.assessment.erection_control import ErectionControlResult
     from design.assessment.failsafe import FailSafeResult
     from design.assessment.harm import HarmResult
-    from design.assessment.accept import AcceptanceResult
     from design.batch.runner import BatchResult
     from design.sensitivity.local import SensitivityResult
     from design.studies.screening import GlobalSensitivityResult
