@@ -82,7 +82,7 @@ suppress_warnings = ["myst.xref_missing", "myst.domains"]
 # --- HTML ---------------------------------------------------------------------------------------
 html_theme = "pydata_sphinx_theme"
 html_title = f"bridgeflap {release}"
-html_static_path = ["_static"]
+html_static_path: list[str] = []  # no static files of our own
 html_theme_options = {
     "navigation_with_keys": False,
     "show_toc_level": 2,
