@@ -205,6 +205,15 @@ class DesignSettings:
             raise BridgeflapInputError("flap_positions_m", "has a flap centre twice")
         if len(pos) > 200:
             raise BridgeflapInputError("flap_positions_m", f"at most 200 flaps, got {len(pos)}")
+        if pos:     # a subset of the candidates: placement, flap counts and checks share them
+            grid = self.positions(self.flap_count) if isinstance(self.flap_count, int) and \
+                self.flap_count > 0 else np.zeros(0)
+            off = [float(v) for v in pos if not np.any(np.abs(grid - float(v)) < 1e-6)]
+            if off:
+                raise BridgeflapInputError(
+                    "flap_positions_m", f"{off[0]:g} m is not a candidate position of "
+                    f"{self.flap_count} flaps {self.flap_width_m:g} m wide about mid-span "
+                    "(flap_positions_m = [] fits every candidate)")
         for v in self.min_flap_counts:
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise BridgeflapInputError("min_flap_counts",

@@ -43,6 +43,7 @@ DEFAULT_POSITIONS_M = tuple(s * 56.4 * k for k in range(4, 13) for s in (-1, 1))
 #: at Maximum_Iterations_Exceeded (not verified) on an AMD EPYC (OpenBLAS SkylakeX kernel),
 #: though it had verified on the machines before; with 80 it ends Solve_Succeeded there.
 QUICK = {"bridge": "humber:box", "n_modes": 6, "verification_modes": 6, "flap_count": 3,
+         "flap_positions_m": (),
          "robust_design_speeds_m_s": (30.0, 60.0), "n_robust_omega": 8,
          "design_step_m_s": 10.0, "cutting_plane_rounds": 1, "placement_cut_rounds": 0,
          "max_iter": 20, "resolve_max_iter": 80, "robust_speeds_m_s": (30.0, 60.0),
