@@ -25,7 +25,7 @@ from model.structure.loader import load_bridge
 @pytest.fixture(scope="module")
 def card():
     # 8 modes and 5 flap pairs: the scenario path at a test's cost
-    return load_settings("default", n_modes=8, flap_count=5, variants=2)
+    return load_settings("default", n_modes=8, flap_count=5, flap_positions_m=(), variants=2)
 
 
 def test_corners_and_draws(card):
