@@ -1,4 +1,4 @@
-"""Benchmark of the DOE batch runner on a 64-case flutter DOE (issue 16 goal 4).
+"""Benchmark of the DOE batch runner on a 64-case flutter DOE.
 
 Coarse mesh (50 m elements) and 8 modes keep one case at ~0.2 s. Measures, best of
 ``--repeat`` runs each:

@@ -1,4 +1,4 @@
-"""Start-up of the ``bridgeflap`` CLI (issue 16 goal 5): import time, wall time, what loads.
+"""Start-up of the ``bridgeflap`` CLI: import time, wall time, what loads.
 
 For each command, in a fresh interpreter, best of ``--repeat``: the wall time of the whole
 command, the import time (``python -X importtime``: the sum of the top-level cumulative times)

@@ -1,4 +1,4 @@
-"""Benchmark of ``bridgeflap study`` (issue 16 goal 4): wall time, and where it goes.
+"""Benchmark of ``bridgeflap study``: wall time, and where it goes.
 
 Runs the CLI (``python -m design.cli.main study [--quick] --workers N``) in a fresh process for each
 setting, best of ``--repeat``, and prints one table: the study's wall time, each analysis' own

@@ -18,7 +18,7 @@ from design.io.options import parse_range
 from design.studies.analyses import DEFAULT_SPEEDS
 from model.stability import sweeps as stability
 
-#: agreement of the fast and dense speeds, relative (issue 16); the dense Brent tolerance is
+#: agreement of the fast and dense speeds, relative; the dense Brent tolerance is
 #: 1e-3 m/s, 1.4e-5 of a 70 m/s flutter speed
 REL_TOL = 1e-4
 

@@ -22,7 +22,8 @@ _PUBLIC = {
     "parse_range": "design.io.options",
     "DesignSettings": "design.control.settings", "load_settings": "design.control.settings",
     "quick_settings": "design.control.settings",
-    "design": "design.control.driver",
+    "design": "design.assessment.accept", "accept": "design.assessment.accept",
+    "AcceptanceResult": "design.assessment.accept",
     "DesignResult": "design.control.result",
     "local_sensitivity": "design.sensitivity.local",
     "global_sensitivity": "design.studies.screening",
@@ -31,10 +32,11 @@ _PUBLIC = {
     "load_doe": "design.studies.experiments", "run_doe": "design.studies.experiments",
     "doe_from_dict": "design.studies.experiments",
     "run_batch": "design.batch.runner",
+    "open_run": "design.studies.runs", "RunRecord": "design.studies.runs",
     "make_design": "design.batch.designs",
     "main": "design.cli.main",
 }
-#: The flat modules before the rooms (issue 31) and where they went: importing one gives
+#: The flat modules before the rooms and where they went: importing one gives
 #: a one-line ModuleNotFoundError naming its new home (model.lazy.moved_modules).
 _MOVED = {
     "acceptance": "design.assessment.acceptance",

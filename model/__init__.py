@@ -55,7 +55,7 @@ _PUBLIC = {
     "closed_loop_functions": "model.aeroelastic.symbolic",
     "section_basis": "model.cases.section", "typical_section": "model.cases.section",
 }
-#: The flat modules before the rooms (issue 31) and where they went: importing one gives
+#: The flat modules before the rooms and where they went: importing one gives
 #: a one-line ModuleNotFoundError naming its new home (model.lazy.moved_modules).
 _MOVED = {
     "actuator_limits": "model.aeroelastic.actuator_limits",

@@ -20,7 +20,9 @@ import numpy as np
 
 from model.aeroelastic import statespace
 from model.aeroelastic.control import Controller
+from model.aeroelastic.controller_file import as_controller
 from model.aeroelastic.flaps import closed_loop_model
+from model.arguments import optional
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.results import ResultData, finite_extreme
 from model.stability.sweeps import StabilitySweep, check_speeds, sweep
@@ -529,7 +531,7 @@ class ClosedLoopFlutterResult(ResultData):
                                     reference=self.open_loop.sweep)
 
 
-@takes_bridge
+@takes_bridge(controller=as_controller)
 def closed_loop_flutter(bridge: BridgeArg, controller: Controller, speeds,
                         n_modes: int = DEFAULT_MODES,
                         flap_chord_m: float | None = None,
@@ -568,7 +570,7 @@ def closed_loop_flutter(bridge: BridgeArg, controller: Controller, speeds,
     return ClosedLoopFlutterResult(base, ol, controller, static)
 
 
-@takes_bridge
+@takes_bridge(controller=optional(as_controller))
 def pk_flutter(bridge: BridgeArg, speeds, n_modes: int = DEFAULT_MODES,
                controller: Controller | None = None) -> dict:
     """Summary of the exact-Theodorsen p-k check on the same generalised coordinates as

@@ -1,8 +1,9 @@
 """Typed exceptions of bridgeflap.
 
 Every user-facing error is a :class:`BridgeflapInputError` (bad input: the message names the
-field and the reason, one line) or a :class:`BridgeflapError` (anything else the package
-refuses to do). The CLI turns both into one line on stderr and exit status 2.
+field and the reason, one line; :class:`BridgeflapTypeError` for an argument of the wrong type or
+kind) or a :class:`BridgeflapError` (anything else the package refuses to do). The CLI turns
+both into one line on stderr and exit status 2.
 """
 
 
@@ -25,6 +26,15 @@ class BridgeflapInputError(BridgeflapError, ValueError):
         self.field = field
         self.reason = reason
         super().__init__(f"{field}: {reason}")
+
+
+class BridgeflapTypeError(BridgeflapInputError, TypeError):
+    """An argument of the wrong type or kind (a path where a controller is expected, a number
+    where a bridge is): one line naming the argument, what it must be and what it got.
+
+    A :class:`BridgeflapInputError` (so every handler of bad input catches it) and a
+    :class:`TypeError` (what Python raises for a wrong type).
+    """
 
 
 class BatchFailedError(BridgeflapError):

@@ -13,6 +13,13 @@ from typing import Any
 
 import numpy as np
 
+from model.arguments import (  # MAX_GRID_VALUE: the checks' bound, stated there
+    MAX_GRID_VALUE,
+    check_text,
+    checked,
+    number,
+    optional,
+)
 from model.errors import BridgeflapInputError
 
 __all__ = ["MAX_GRID_POINTS", "MAX_GRID_VALUE", "grid", "parse_range", "speed_grid"]
@@ -20,9 +27,7 @@ __all__ = ["MAX_GRID_POINTS", "MAX_GRID_VALUE", "grid", "parse_range", "speed_gr
 #: most points of one grid: a flutter sweep costs about 1 ms per point at 16 modes (an
 #: eigenvalue problem of 96 states), so 20000 points is already half a minute
 MAX_GRID_POINTS = 20000
-#: largest grid value: no wind speed [m/s] (and no fraction) comes near it; far below the
-#: overflow of U^2 terms
-MAX_GRID_VALUE = 1.0e4
+@checked(field=check_text, minimum=optional(number()), maximum=optional(number()))
 def parse_range(text: str, field: str, minimum: float | None = None,
                 maximum: float | None = MAX_GRID_VALUE) -> np.ndarray:
     """Parse ``start:stop:step`` (inclusive of ``stop``) or a comma list into an array.

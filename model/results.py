@@ -10,7 +10,12 @@ design records, ...) mixes in :class:`ResultData` and so has
   (:func:`jsonable`);
 * ``to_dataframe()`` -- a :class:`pandas.DataFrame` for anything tabular, every numeric column
   named with its unit (``speed_m_s``, ``frequency_hz``, ``damping_ratio``, ``real_part_1_s``);
-* ``table(fmt)`` -- that frame as text (:mod:`tabulate`; ``"github"`` Markdown by default).
+* ``table(fmt)`` -- that frame as text (:mod:`tabulate`; ``"github"`` Markdown by default);
+* ``summary()`` -- the headline numbers in plain Python types (``float``, ``int``, ``str``,
+  ``None``, lists and dicts of them; never a numpy scalar), each also an attribute of the result
+  (``result.flutter_speed_m_s``; a misspelt name raises :class:`AttributeError`);
+* ``to_xarray()`` -- an :class:`xarray.Dataset` of the labelled data (the table's by default);
+* ``plot()`` -- a :class:`matplotlib.figure.Figure`, whatever number of axes it draws.
 
 Sweeps are also ``xarray.Dataset`` objects (:func:`sweep_dataset`: coordinates ``speed_m_s`` and
 ``branch``, units in ``attrs``), written as NetCDF-3 with xarray's scipy engine
@@ -30,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["REPR_LIMIT", "ResultData", "UNITLESS_COLUMNS", "finite_extreme", "jsonable",
-           "sweep_dataset", "strict_json", "sweep_frame", "table_text"]
+__all__ = ["REPR_LIMIT", "ResultData", "UNITLESS_COLUMNS", "figure_of", "finite_extreme",
+           "jsonable", "plain", "sweep_dataset", "strict_json", "sweep_frame", "table_text"]
 
 #: Column names that carry no unit because they are labels, statuses or counts.
 UNITLESS_COLUMNS = frozenset({
@@ -93,6 +98,59 @@ def jsonable(obj: Any) -> Any:
     raise TypeError(f"cannot convert an object of type {type(obj).__name__} to JSON")
 
 
+def plain(obj: Any) -> Any:
+    """``obj`` with every numpy scalar a Python scalar, inside dicts, lists and tuples too.
+
+    Unlike :func:`jsonable` it keeps NaN a float NaN and leaves arrays and other objects as they
+    are: what ``summary()`` returns (a ``np.float64`` prints as ``np.float64(69.5)`` and is not
+    a ``float`` to every library).
+    """
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, dict):
+        return {k: plain(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple) and not hasattr(obj, "_fields"):
+        return type(obj)(plain(v) for v in obj)
+    return obj
+
+
+def figure_of(drawn: Any):
+    """The :class:`matplotlib.figure.Figure` of what a plot drew: a figure, an axes, or an
+    array, list or tuple of axes (their first one's figure)."""
+    if hasattr(drawn, "savefig"):
+        return drawn
+    if isinstance(drawn, list | tuple | np.ndarray):
+        return figure_of(np.ravel(np.asarray(drawn, dtype=object))[0])
+    figure = getattr(drawn, "figure", None)
+    if figure is None:
+        raise TypeError(f"not a figure or axes: {type(drawn).__name__}")
+    return figure
+
+
+def _plain_summary(method):
+    import functools
+
+    @functools.wraps(method)
+    def summary(self, *args, **kwargs):
+        return plain(method(self, *args, **kwargs))
+
+    summary._plain = True
+    return summary
+
+
+def _figure_plot(method):
+    import functools
+
+    @functools.wraps(method)
+    def plot(self, *args, **kwargs):
+        return figure_of(method(self, *args, **kwargs))
+
+    plot._figure = True
+    if plot.__doc__:
+        plot.__doc__ = plot.__doc__.rstrip() + "\n\n(Returns the matplotlib Figure.)"
+    return plot
+
+
 def strict_json(method):
     """Decorator: the method's return value through :func:`jsonable` (strict JSON)."""
     import functools
@@ -112,7 +170,7 @@ def table_text(frame, fmt: str = "github", floatfmt: str = ".6g") -> str:
                     missingval="")
 
 
-#: longest ``repr`` of a result [characters] (issue 29: "repr of each result under 2 kB")
+#: longest ``repr`` of a result [characters] (a notebook shows it whole: under 2 kB)
 REPR_LIMIT = 2000
 _VALUE_LIMIT = 60  # characters of one headline value in the repr
 
@@ -158,6 +216,12 @@ class ResultData:
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
+        # one face for every result: summary() in plain Python types, plot() a Figure
+        own = cls.__dict__
+        if callable(own.get("summary")) and not getattr(own["summary"], "_plain", False):
+            cls.summary = _plain_summary(own["summary"])
+        if callable(own.get("plot")) and not getattr(own["plot"], "_figure", False):
+            cls.plot = _figure_plot(own["plot"])
         # @dataclass writes a field-by-field __repr__ (165 kB for a FlutterResult: every
         # eigenvalue) unless the class defines one itself: give each subclass the short one
         if "__repr__" not in cls.__dict__:
@@ -193,8 +257,39 @@ class ResultData:
                 f"<tbody>{rows}</tbody></table>")
 
     def plot(self, ax=None, **kwargs):
-        """Draw the result on ``ax`` (new figure when None); returns the axes."""
+        """Draw the result on ``ax`` (new figure when None); returns the Figure."""
         raise TypeError(f"{type(self).__name__} has nothing to plot")
+
+    def __getattr__(self, name: str):
+        # only for names no attribute, field or method has: the summary's scalar entries
+        if name.startswith("_"):
+            raise AttributeError(name)
+        summary = type(self).__dict__.get("summary") or getattr(type(self), "summary", None)
+        if callable(summary):
+            values = summary(self)
+            if name in values and _is_scalar(values[name]):
+                return values[name]
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r} "
+                             f"(headline numbers: {', '.join(self._headline_names()) or 'none'})")
+
+    def _headline_names(self) -> list[str]:
+        summary = getattr(type(self), "summary", None)
+        if not callable(summary):
+            return []
+        try:
+            return [k for k, v in summary(self).items() if _is_scalar(v)]
+        except Exception:  # a view must not raise: no names then
+            return []
+
+    def __dir__(self):
+        return sorted(set(super().__dir__()) | set(self._headline_names()))
+
+    def to_xarray(self):
+        """The result's table as an :class:`xarray.Dataset` (one ``row`` per table row);
+        labelled results override it with their own coordinates."""
+        import xarray as xr
+
+        return xr.Dataset.from_dataframe(self.to_dataframe().rename_axis("row"))
 
     def to_dict(self) -> dict:
         """Strict-JSON dict (units in the key names, NaN/inf as ``None``)."""

@@ -98,7 +98,8 @@ def check_main_guard(workers: int, start_method: str | None = None) -> None:
     Parameters
     ----------
     workers : int
-        Worker processes about to be started (nothing is checked for 1 or fewer).
+        Worker processes about to be started (nothing is checked for 1 or fewer: a caller
+        that starts one spawned process, a Dask nanny or a pool of one, passes at least 2).
     start_method : str, optional
         How they start: ``"spawn"`` (Dask's nannies), ``"forkserver"`` or ``"fork"``; default
         the ``multiprocessing`` default of this platform. A forked worker does not re-import

@@ -2,7 +2,8 @@
 uncertainty (``harm``, ``harm_fast``, ``harm_verdict``), one failed flap pair (``failsafe``),
 actuator limits in turbulent wind (``actuator_study``), the erection stages with flaps
 (``erection_control``) and the acceptance checks ``bridgeflap optimise`` runs on its own
-controller file (``acceptance``).
+controller file (``acceptance``), and the design with its verdict folded into its status and
+the public ``accept`` of any controller (``accept``).
 
 May import: :mod:`model` and the design layers below it (``io``, ``batch``, ``control``,
 ``sensitivity``).

@@ -1,4 +1,5 @@
-"""The acceptance checks of a designed controller, run by ``bridgeflap optimise`` (issue 28).
+"""The acceptance checks of a designed controller, run by ``bridgeflap optimise`` and
+:func:`design.assessment.accept.accept`.
 
 A controller is judged on the bridges it was not designed on (the brief's "do no harm"), with
 its flaps failed and its actuators limited, and its exported plant is re-closed by an
@@ -21,14 +22,17 @@ independent path. :func:`acceptance` runs, for one controller and its design car
     plain feedback formula here, against the design's own closed loop: the eigenvalues at a few
     speeds agree to :data:`EIGENVALUE_RTOL`.
 
-Each check reports its own ``status``; the block's ``status`` is ``passed`` when the
-independent check agrees and the controller harms no variant, ``harm`` when it lowers some
-variant's critical speed below its open-loop one, ``failed`` when the independent check
-disagrees, ``unresolved`` otherwise (a crossing not verified). The fraction stable to the
-design speed, the failure and the actuator verdicts are reported, not folded into the status:
-they are properties of the bridge and the flap authority as much as of the design (the GJ range
-of the uncertainty set alone puts 12.5 % of the variants beyond any 3 m-flap controller's reach,
-``runs/robust_limit``).
+Each check reports its own ``status``; the block's ``status`` is ``passed`` when the independent
+check agrees and the controller harms no variant, ``harm`` when it lowers some variant's
+critical speed below its open-loop one (whatever else is unresolved), ``failed`` when the
+independent check disagrees, ``unresolved`` otherwise (a crossing not verified). The fresh
+variants are independent uniform draws (``sampling = "random"``, seed 11: none is a design
+scenario), so the robustness block carries a one-sided 95 % Clopper-Pearson upper bound on the
+probability of harm (``harm_probability_upper_95``: 0.30 % for 0 harmed of 1000). The fraction
+stable to the design speed, the failure and the actuator verdicts are reported, not folded into
+the status: they are properties of the bridge and the flap authority as much as of the design
+(the GJ range of the uncertainty set alone puts 12.5 % of the variants beyond any 3 m-flap
+controller's reach, ``runs/robust_limit``).
 """
 
 from __future__ import annotations
@@ -62,8 +66,10 @@ class AcceptanceOptions:
     CI sizes of ``--quick``)."""
 
     checks: tuple = CHECKS
-    samples: int = 200
+    samples: int = 1000
     seed: int = 11
+    #: independent uniform draws: the Clopper-Pearson certificate needs them
+    sampling: str = "random"
     workers: int = 1
     actuator_speeds_m_s: tuple = (10.0, 20.0, 25.0)
     actuator_records: int = 4
@@ -141,7 +147,7 @@ def _independent_loop(spec, controller, speed, n_modes, system):
     return np.vstack([top, bottom])
 
 
-def independent_check(controller, settings, closed_loop, speeds=None) -> dict:
+def independent_check(controller, settings, closed_loop, speeds=None, bridge=None) -> dict:
     """The design's closed-loop eigenvalues against an independent closing of its exported
     plant (module docstring), at ``speeds`` [m/s] (default :data:`CHECK_SPEED_FRACTIONS` of the
     design speed)."""
@@ -150,7 +156,7 @@ def independent_check(controller, settings, closed_loop, speeds=None) -> dict:
     from model.structure.loader import load_bridge
     from model.structure.modes import solve
 
-    spec = load_bridge(settings.bridge)
+    spec = load_bridge(settings.bridge if bridge is None else bridge)
     n = int(settings.verification_modes)  # the modes of design_closed_loop
     system = statespace.spec_system(spec, solve(assemble(spec)).structural_basis(n))
     u = ([f * settings.speed_max_m_s for f in CHECK_SPEED_FRACTIONS] if speeds is None
@@ -178,32 +184,33 @@ def independent_check(controller, settings, closed_loop, speeds=None) -> dict:
             "speeds": rows}
 
 
-def _robustness(controller, settings, opts, say):
+def _robustness(controller, settings, opts, say, bridge):
     from design.assessment.harm import do_no_harm
 
-    res = do_no_harm(controller, settings.bridge, count=opts.samples, seed=opts.seed,
+    res = do_no_harm(controller, bridge, count=opts.samples, seed=opts.seed,
                      n_modes=settings.fresh_variant_modes,
-                     speed_max_m_s=settings.speed_max_m_s, workers=opts.workers, progress=say)
+                     speed_max_m_s=settings.speed_max_m_s, workers=opts.workers, progress=say,
+                     sampling=opts.sampling)
     return res, {**res.summary(), "rows": [dict(r) for r in res.rows]}
 
 
-def _failures(controller, settings, opts, say):
+def _failures(controller, settings, opts, say, bridge):
     from design.assessment.failsafe import single_pair_failures
 
-    res = single_pair_failures(controller, settings.bridge,
+    res = single_pair_failures(controller, bridge,
                                n_modes=settings.verification_modes,
                                speed_max_m_s=settings.speed_max_m_s, workers=opts.workers,
                                progress=say)
     return res, res.summary()
 
 
-def _actuators(controller, settings, opts, say):
+def _actuators(controller, settings, opts, say, bridge):
     from design.assessment.actuator_study import actuator_study
     from model.aeroelastic.actuator_limits import ActuatorLimits
     from model.structure.loader import load_bridge
 
     limits = ActuatorLimits(settings.flap_angle_limit_deg, settings.flap_rate_limit_deg_s)
-    res = actuator_study(load_bridge(settings.bridge), controller, opts.actuator_speeds_m_s,
+    res = actuator_study(load_bridge(bridge), controller, opts.actuator_speeds_m_s,
                          limits, duration_s=opts.actuator_duration_s,
                          records=opts.actuator_records, n_modes=opts.actuator_modes,
                          progress=say)
@@ -211,17 +218,19 @@ def _actuators(controller, settings, opts, say):
 
 
 def acceptance(controller, settings, options: AcceptanceOptions | None = None, *,
-               closed_loop=None, progress=None) -> tuple[dict, dict]:
+               closed_loop=None, progress=None, bridge=None) -> tuple[dict, dict]:
     """Run the checks of ``options`` on ``controller`` designed with ``settings``.
 
     Returns ``(block, results)``: the strict-JSON-ready block (module docstring) and the
     result objects by check name (for their tables). ``closed_loop``: the design's own
     closed-loop system, needed by the independent check (skipped without it). A check that
     meets a :class:`~model.errors.BridgeflapError` (e.g. flutter-derivative decks have no
-    actuator simulation) reports ``status: "error"`` with the reason.
+    actuator simulation) reports ``status: "error"`` with the reason. ``bridge``: the bridge
+    the controller was designed for (a spec, name or path; default ``settings.bridge``).
     """
     opts = AcceptanceOptions() if options is None else options
     say = progress or (lambda _msg: None)
+    bridge = settings.bridge if bridge is None else bridge
     block, results = {"checks": list(opts.checks)}, {}
     runners = {"robustness": _robustness, "failures": _failures, "actuators": _actuators}
     for name in opts.checks:
@@ -232,9 +241,11 @@ def acceptance(controller, settings, options: AcceptanceOptions | None = None, *
                 if closed_loop is None:
                     block[name] = {"status": "skipped", "reason": "no design closed loop"}
                     continue
-                block[name] = independent_check(controller, settings, closed_loop)
+                block[name] = independent_check(controller, settings, closed_loop,
+                                                bridge=bridge)
             else:
-                results[name], block[name] = runners[name](controller, settings, opts, say)
+                results[name], block[name] = runners[name](controller, settings, opts, say,
+                                                           bridge)
         except BridgeflapInputError:
             raise
         except BridgeflapError as exc:
@@ -273,8 +284,11 @@ def acceptance_text(acc: dict) -> str:
     if r and "variants" in r:
         out.append(f"  do no harm: {r['variants']} fresh variants, "
                    f"{100 * r['fraction_stable_to_design_speed']:.1f} % stable to "
-                   f"{r['design_speed_m_s']:g} m/s, {100 * r['fraction_harmed']:.1f} % harmed, "
-                   f"worst closed/open {f(r['worst_closed_over_open'], '.4f')}: {r['status']}")
+                   f"{r['design_speed_m_s']:g} m/s, {r.get('harmed_count', '?')} harmed "
+                   f"({100 * r['fraction_harmed']:.1f} %; 95 % upper bound on the harm "
+                   f"probability {f(r.get('harm_probability_upper_95'), '.2%')}), "
+                   f"{r['unresolved_variants']} unresolved, worst closed/open "
+                   f"{f(r['worst_closed_over_open'], '.4f')}: {r['status']}")
     fl = acc.get("failures")
     if fl and "worst_single_failure" in fl:
         w = fl["worst_single_failure"]
@@ -289,7 +303,10 @@ def acceptance_text(acc: dict) -> str:
             f"rms {s['rms_flap_angle_deg']:.2f} deg, peak {s['peak_flap_angle_deg']:.2f} deg, "
             f"saturated {100 * s['angle_saturated_fraction']:.2f} %" if s["status"] == "ok"
             else s["status"]) for s in a["speeds"]]
-        out.append(f"  actuators: {'; '.join(parts)}: {a['status']}")
+        out.append(f"  actuators: {'; '.join(parts)}: {a['status']}; the saturated loop "
+                   f"holds to {f(a.get('saturated_loop_holds_to_m_s'), '.1f')} m/s of those "
+                   f"checked (linear closed-loop critical speed "
+                   f"{f(a.get('closed_loop_critical_speed_m_s'), '.2f')} m/s)")
     for name in ("independent_check", "robustness", "failures", "actuators"):
         c = acc.get(name) or {}
         if c.get("status") in ("error", "skipped"):

@@ -51,7 +51,17 @@ class ActuatorStudyResult:
         st = {r["status"] for r in self.rows}
         status = "diverged" if "diverged" in st else "unstable_speed" if "unstable" in st \
             else "ok"
-        return {**self.inputs, "status": status, "speeds": list(self.rows)}
+        holds = None      # the speeds checked in order: the last one before a failure
+        for r in sorted(self.rows, key=lambda r: r["speed_m_s"]):
+            if r["status"] != "ok":
+                break
+            holds = float(r["speed_m_s"])
+        return {**self.inputs, "status": status,
+                # the saturated loop's verdict beside the linear closed-loop critical speed
+                "saturated_loop_holds_to_m_s": holds,
+                "saturated_loop_checked_speeds_m_s": sorted(float(r["speed_m_s"])
+                                                            for r in self.rows),
+                "speeds": list(self.rows)}
 
     def csv_text(self) -> str:
         """The rows as CSV (header: :data:`COLUMNS`)."""

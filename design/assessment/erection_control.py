@@ -1,4 +1,4 @@
-"""Erection with flaps (issue 27 item 4, beyond the seed): the closed-loop critical speed of
+"""Erection with flaps (beyond the seed): the closed-loop critical speed of
 each erection stage with the flaps that sit on the erected deck.
 
 A stage (:meth:`model.structure.spec.BridgeSpec.erected`) carries the main-span deck from mid-span
@@ -6,7 +6,7 @@ outwards over ``fraction`` of the span. A flap strip of the controller is fitted
 strip lies on that deck (``|x| + w/2 <= fraction L/2``, ``L`` the main span); the others are not
 yet hung. With no strip on the deck the stage runs open loop (reported as such). The compensator
 is the controller file's, unchanged: a controller designed for the completed bridge, judged on
-the stages it was not designed on (do no harm, issue 28), with the same flutter/divergence
+the stages it was not designed on (do no harm), with the same flutter/divergence
 statuses as :func:`model.analysis.flutter`.
 """
 
@@ -153,7 +153,7 @@ def stage_flap_count(spec: BridgeSpec, fraction: float, flap_width_m: float) -> 
 
 def design_for_stage(spec: BridgeSpec, fraction: float, card=None, progress=None,
                      side_spans: str | None = None, **overrides):
-    """A controller designed for one erection stage (issue 27 item 4): the card's flaps and
+    """A controller designed for one erection stage: the card's flaps and
     limits (gain, chord, damping, margin_min), the strips that fit on the erected deck as the
     layout, and :data:`STAGE_DESIGN` (maximise the closed-loop critical speed); ``overrides``
     are further card keys. Returns the :class:`design.control.result.DesignResult` (its status as

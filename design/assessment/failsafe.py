@@ -1,4 +1,4 @@
-"""Fail-safe flaps: the closed loop with each single flap pair failed (issue 28 item 2).
+"""Fail-safe flaps: the closed loop with each single flap pair failed.
 
 A *flap pair* is the LE+TE flaps at one strip of the controller's layout (one pitch input, one
 drive angle ``beta_f = K alpha_f``; :mod:`model.aeroelastic.flaps`). For every pair ``f``:

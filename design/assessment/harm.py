@@ -1,4 +1,4 @@
-"""Do no harm: a controller judged on bridges it was not designed on (issue 28 item 1).
+"""Do no harm: a controller judged on bridges it was not designed on.
 
 For each of ``count`` fresh variants sampled (Sobol', :func:`design.batch.designs.sobol`) over the
 uncertainty set of the estimated inputs
@@ -43,8 +43,9 @@ from design.assessment.harm_verdict import (  # the verdict of one row, also ser
 from model.errors import BridgeflapInputError
 from model.results import ResultData
 
-__all__ = ["DEFAULT_SCREEN_MODES", "HARM_METHODS", "HARM_TOL_REL", "SCREEN_MARGIN_REL",
-           "HarmResult", "do_no_harm", "harm_row", "near_decision"]
+__all__ = ["DEFAULT_SCREEN_MODES", "HARM_METHODS", "HARM_TOL_REL", "SAMPLINGS",
+           "SCREEN_MARGIN_REL", "HarmResult", "clopper_pearson_upper", "do_no_harm", "harm_row",
+           "near_decision"]
 
 #: ``method`` of :func:`do_no_harm` and :func:`harm_row`: ``"fast"`` (default) or the
 #: ``"reference"`` (the module docstring)
@@ -59,6 +60,27 @@ DEFAULT_SCREEN_MODES = 16
 #: uncertainty of one bridge (the flap chord and positions are fixed to it), and the coherence
 #: decay enters buffeting only
 DEFAULT_FIXED = ("deck.half_chord_m", "aero.coherence_decay")
+
+
+#: ``sampling`` of :func:`do_no_harm`: ``"sobol"`` (scrambled Sobol', even coverage of the box:
+#: the design's scenarios and the screening) or ``"random"`` (independent uniform draws, the
+#: basis of the Clopper-Pearson certificate of :func:`clopper_pearson_upper`)
+SAMPLINGS = ("sobol", "random")
+
+
+def clopper_pearson_upper(harmed: int, n: int, confidence: float = 0.95) -> float | None:
+    """One-sided Clopper-Pearson upper bound [-] on a probability from ``harmed`` events in
+    ``n`` independent draws: ``1 - (1 - confidence)^(1/n)`` for 0 events (0.30 % for 0 of
+    1000 at 95 %), else the ``confidence`` quantile of Beta(harmed + 1, n - harmed)."""
+    if n <= 0:
+        return None
+    if harmed >= n:
+        return 1.0
+    if harmed == 0:
+        return float(1.0 - (1.0 - confidence) ** (1.0 / n))
+    from scipy.stats import beta
+
+    return float(beta.ppf(confidence, harmed + 1, n - harmed))
 
 
 def _check_method(method) -> None:
@@ -108,6 +130,8 @@ class HarmResult(ResultData):
     screen_modes: int | None = None
     #: the a-posteriori check of the screening (:func:`do_no_harm`)
     screen_check: dict = field(default_factory=dict)
+    #: how the variants were drawn (:data:`SAMPLINGS`)
+    sampling: str = "sobol"
 
     def summary(self) -> dict:
         """Fractions, the worst ratio and its variant (strict-JSON ready)."""
@@ -129,7 +153,16 @@ class HarmResult(ResultData):
             "worst_closed_loop_critical_speed_m_s": min(
                 (r["closed_loop_critical_speed_m_s"] for r in self.rows
                  if r["closed_loop_critical_speed_m_s"] is not None), default=None),
-            "status": ("unresolved" if unresolved else "harm" if harmed else "no_harm"),
+            # a harm outranks "unresolved": a harmed variant is never hidden behind another's
+            # unverified crossing
+            "status": ("harm" if harmed else "unresolved" if unresolved else "no_harm"),
+            "harmed_count": len(harmed),
+            "harm_probability_upper_95": clopper_pearson_upper(len(harmed), len(self.rows)),
+            "harm_probability_bound": "one-sided 95 % Clopper-Pearson upper bound on the "
+                                      "probability that a bridge drawn from the ranges is "
+                                      "harmed (independent draws: sampling "
+                                      f"{self.sampling!r})",
+            "sampling": self.sampling,
             "ranges": {k: list(v) for k, v in self.ranges.items()},
             "method": self.method, "screen_modes": self.screen_modes,
             "variants_on_all_modes": sum(_on(r, self.n_modes) for r in self.rows),
@@ -154,12 +187,20 @@ class HarmResult(ResultData):
         return pd.DataFrame([{"variant": i, **r} for i, r in enumerate(self.rows)])
 
 
-def _sample(spec, ranges: dict, count: int, seed: int) -> list[tuple[dict, object]]:
-    from design.batch.designs import sobol
+def _sample(spec, ranges: dict, count: int, seed: int,
+            sampling: str = "sobol") -> list[tuple[dict, object]]:
+    if sampling == "random":    # independent uniform draws, inputs in the ranges' order
+        rng = np.random.default_rng(int(seed))
+        u = rng.random((int(count), len(ranges)))
+        cases = [{k: lo + (hi - lo) * float(x) for (k, (lo, hi)), x
+                  in zip(ranges.items(), row, strict=True)} for row in u]
+    else:
+        from design.batch.designs import sobol
 
+        cases = sobol(ranges, int(count), int(seed))
     return [({k: float(v) for k, v in case.items() if k in ranges},
              spec.replace(**{k: v for k, v in case.items() if k in ranges}))
-            for case in sobol(ranges, int(count), int(seed))]
+            for case in cases]
 
 
 def _rows_of(chunk, controller, speeds, n_modes, speed_max, method="reference",
@@ -178,7 +219,8 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
                n_modes: int = 30, speed_max_m_s: float = 85.0, speeds=None,
                ranges: dict | None = None, fixed=DEFAULT_FIXED, workers: int = 1,
                progress=None, method: str = "fast",
-               screen_modes: int | None = DEFAULT_SCREEN_MODES) -> HarmResult:
+               screen_modes: int | None = DEFAULT_SCREEN_MODES,
+               sampling: str = "sobol") -> HarmResult:
     """Open- against closed-loop critical speed of ``controller`` on ``count`` fresh variants.
 
     Parameters
@@ -203,6 +245,8 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
         Processes (one variant per task).
     method : {"fast", "reference"}
         :data:`HARM_METHODS` (the module docstring).
+    sampling : {"sobol", "random"}
+        :data:`SAMPLINGS`: ``"random"`` for a certificate (independent draws).
     screen_modes : int or None
         ``method="fast"``: screen every variant on this many modes first (ignored unless
         below ``n_modes``). A row near a decision (:func:`near_decision`) and every row near
@@ -222,6 +266,8 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
     if not (np.isfinite(speed_max_m_s) and speed_max_m_s > 0):
         raise BridgeflapInputError("speed_max_m_s", f"must be positive, got {speed_max_m_s}")
     _check_method(method)
+    if sampling not in SAMPLINGS:
+        raise BridgeflapInputError("sampling", f"must be one of {SAMPLINGS}, got {sampling!r}")
     if screen_modes is not None and (isinstance(screen_modes, bool)
                                      or not isinstance(screen_modes, int) or screen_modes < 1):
         raise BridgeflapInputError("screen_modes",
@@ -234,7 +280,7 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
         ranges = {k: v for k, v in DEFAULT_UNCERTAIN_RANGES.items() if k not in set(fixed)}
     u = (np.arange(0.0, 1.5 * speed_max_m_s + 1e-9, 0.5) if speeds is None
          else np.asarray(speeds, dtype=float))
-    samples = _sample(spec, dict(ranges), count, seed)
+    samples = _sample(spec, dict(ranges), count, seed, sampling)
     say = progress or (lambda msg: None)
     say(f"do no harm: {count} variants x 2 sweeps ({n_modes} modes"
         f"{f', screened on {screen}' if screen else ''}, 0..{u[-1]:g} m/s, {method})")
@@ -246,7 +292,7 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
     return HarmResult(bridge=str(name), count=count, n_modes=int(n_modes),
                       speed_max_m_s=float(speed_max_m_s), speeds_max_m_s=float(u[-1]),
                       seed=int(seed), ranges=dict(ranges), rows=tuple(rows), method=method,
-                      screen_modes=screen, screen_check=check)
+                      screen_modes=screen, screen_check=check, sampling=sampling)
 
 
 class _Runner:

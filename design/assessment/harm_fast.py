@@ -1,5 +1,4 @@
-"""The fast do-no-harm row (:func:`design.assessment.harm.harm_row`, ``method="fast"``; issue 28
-item 5).
+"""The fast do-no-harm row (:func:`design.assessment.harm.harm_row`, ``method="fast"``).
 
 Per variant, one modal model of the retained modes (``modes.solve(..., n_modes)``: the lowest
 ``n_modes`` of each family hold the lowest ``n_modes`` of both together, so the basis, labels and

@@ -85,8 +85,9 @@ def cluster_client(workers: int, scheduler: str | None):
 
     cluster = None
     if scheduler is None:
-        check_main_guard(workers, dask.config.get("distributed.worker.multiprocessing-method",
-                                                  "spawn"))
+        # even one worker is a spawned nanny that re-runs an unguarded script
+        check_main_guard(max(2, workers),
+                         dask.config.get("distributed.worker.multiprocessing-method", "spawn"))
         # allowed-failures 0: a worker death surfaces at once as KilledWorker, and retries
         # are ours (counted per case); saturation 1.0 keeps at most one task per worker thread,
         # so a dying worker takes no innocent queued case with it.

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from model.arguments import check_text, checked
 from model.errors import BridgeflapInputError
 
 __all__ = [
@@ -212,6 +213,7 @@ DESIGN_KINDS: dict[str, Callable[..., list[dict]]] = {
 }
 
 
+@checked(kind=check_text)
 def make_design(kind: str, **options: Any) -> list[dict]:
     """Build a design by name, e.g. from a run configuration.
 
@@ -231,7 +233,7 @@ def make_design(kind: str, **options: Any) -> list[dict]:
     if kind not in DESIGN_KINDS:
         known = ", ".join(sorted(DESIGN_KINDS))
         canonical = str(kind).replace("-", "_") if isinstance(kind, str) else None
-        if canonical in DESIGN_KINDS:  # the spelling of DOE files before issue 29
+        if canonical in DESIGN_KINDS:  # the spelling of DOE files of earlier versions
             raise BridgeflapInputError("kind", f"{kind!r} is spelled {canonical!r} "
                                                "(docs/api_vocabulary.md)")
         raise BridgeflapInputError("kind", f"unknown design kind {kind!r} (known: {known})")

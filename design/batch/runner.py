@@ -73,6 +73,17 @@ from design.io.outputs import (
     temporary_sibling,
     write_marker,
 )
+from model.arguments import (
+    cases_list,
+    check_callable,
+    check_mapping,
+    check_text,
+    checked,
+    count,
+    flag,
+    number,
+    optional,
+)
 from model.errors import BridgeflapInputError
 from model.results import ResultData
 from model.workers import check_main_guard
@@ -123,6 +134,12 @@ class BatchResult(ResultData):
         return {"cases": self.cases, "succeeded": self.succeeded, "failed": self.failed,
                 "reused": self.reused, "status": "ok" if not self.failed else
                 f"{self.failed} failed", "table": str(self.table_path)}
+
+    def to_xarray(self):
+        """The cases on the dimension ``case`` (:func:`design.batch.table.cases_dataset`)."""
+        from design.batch.table import cases_dataset
+
+        return cases_dataset(self.rows)
 
     def plot(self, ax=None, output: str | None = None):
         """One numeric output per case (default: the first), failed cases as red crosses
@@ -210,6 +227,10 @@ def _load_reusable(path: Path, params: dict, digest: str) -> tuple[dict | None, 
     return stored, False
 
 
+@checked(fn=check_callable, cases=cases_list, scheduler=optional(check_text), resume=flag,
+         timeout_s=optional(number(0.0, 1.0e7, strict=True)), progress=flag,
+         retries=count(0, 100), fingerprint=optional(check_text), files=optional(check_mapping),
+         kind=check_text, definition=optional(check_text))
 def run_batch(
     fn: Callable[[dict], Mapping],
     cases: Sequence[Mapping],
@@ -296,8 +317,8 @@ def run_batch(
         raise BridgeflapInputError("fn", "the analysis must be callable")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise BridgeflapInputError("workers", f"must be an integer >= 1, got {workers!r}")
-    if scheduler is None:  # a local cluster's nannies spawn: they re-run an unguarded script
-        check_main_guard(workers, "spawn")
+    if scheduler is None:  # a local cluster's nannies spawn: they re-run an unguarded script,
+        check_main_guard(max(2, workers), "spawn")  # one nanny, for workers=1, included
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise BridgeflapInputError("retries", f"must be an integer >= 0, got {retries!r}")
     if timeout_s is not None:

@@ -8,7 +8,7 @@ import io
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-__all__ = ["flat_case_rows", "table_text", "with_branch_flags"]
+__all__ = ["cases_dataset", "flat_case_rows", "table_text", "with_branch_flags"]
 
 STATUS_OK = "ok"
 
@@ -28,6 +28,39 @@ def flat_case_rows(rows) -> list[dict]:
                     **{(f"result.{k}" if k in taken else k): v for k, v in r.items()},
                     "elapsed_s": row.get("elapsed_s"), "error": row.get("error")})
     return out
+
+
+def cases_dataset(rows):
+    """The case records as an :class:`xarray.Dataset` on the dimension ``case`` (coordinate: the
+    case ids): one variable per parameter (``params.<path>``; its values also as a coordinate
+    named by the path) and per scalar result, plus ``status``, ``elapsed_s`` and ``error``.
+    A failed case holds NaN (numbers) or an empty string (text)."""
+    import numpy as np
+    import xarray as xr
+
+    flat = flat_case_rows(rows)
+    params = []
+    for row in rows:
+        p: dict = {}
+        _flatten(row.get("params") or {}, "", p)
+        params.extend(k for k in p if k not in params)
+    names = list(dict.fromkeys(k for r in flat for k in r if k != "case_id"))
+    ids = [r["case_id"] for r in flat]
+    data, coords = {}, {"case": ids}
+    for name in names:
+        values = [r.get(name) for r in flat]
+        numeric = all(v is None or (isinstance(v, int | float) and not isinstance(v, bool))
+                      for v in values)
+        if numeric:
+            array = np.array([np.nan if v is None else float(v) for v in values])
+        else:
+            array = np.array(["" if v is None else str(v) for v in values], dtype=object)
+        if name in params:
+            coords[name] = ("case", array)
+        else:
+            data[name] = ("case", array)
+    return xr.Dataset(data, coords=coords,
+                      attrs={"parameters": ", ".join(params), "cases": len(ids)})
 
 
 def _flatten(value: Any, prefix: str, out: dict) -> None:

@@ -1,4 +1,4 @@
-"""``bridgeflap actuators``: flap demand and saturation in turbulent wind (issue 28, item 3).
+"""``bridgeflap actuators``: flap demand and saturation in turbulent wind.
 
 ``bridgeflap actuators --controller controller.toml [--speeds 10,20,25] [--near-critical 0.95]
 [--duration-s 600] [--records 4] [--seed 0] [--modes 16] [--card FILE]

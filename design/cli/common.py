@@ -16,8 +16,6 @@ import os
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from design.io.files import atomic_write, to_jsonable
 from design.io.text import speed_text
 from model.errors import BridgeflapInputError
@@ -295,8 +293,9 @@ def save_plot(result, path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    ax = result.plot()
-    fig = (np.ravel(ax)[0] if isinstance(ax, list | tuple | np.ndarray) else ax).figure
+    from model.results import figure_of
+
+    fig = figure_of(result.plot())  # a Figure (results), or axes (older plotting helpers)
     save_figure(fig, path)
     plt.close(fig)
     log(f"figure written: {path}")

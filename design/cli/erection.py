@@ -1,6 +1,6 @@
 """``bridgeflap erection``: flutter/divergence against the erected fraction (seed Fig. 3
 right), and with ``--controller`` the closed loop of each stage with the flaps on its deck
-(issue 27 item 4, :mod:`design.assessment.erection_control`)."""
+(:mod:`design.assessment.erection_control`)."""
 
 from __future__ import annotations
 
@@ -88,6 +88,7 @@ def _design_stage(args, spec):
     (design.assessment.erection_control)."""
     from design.assessment.erection_control import design_for_stage, erection_closed_loop
     from design.cli.main import _run
+    from model.arguments import check_number
     from model.errors import BridgeflapInputError
 
     _no_plot(args, "--design-stage")
@@ -98,6 +99,13 @@ def _design_stage(args, spec):
     speeds = parse_range(args.speeds, "speeds", 0.0)
     side = args.side_spans or None
     worst_open = None
+    if args.design_stage != "worst":  # checked before any work or progress line
+        try:
+            fraction = check_number(float(args.design_stage), "--design-stage", 0.0, 1.0,
+                                    strict=True)
+        except (ValueError, BridgeflapInputError):
+            raise BridgeflapInputError("--design-stage", "'worst' or an erected fraction in "
+                                       f"(0, 1], got {args.design_stage!r}") from None
     if args.design_stage == "worst":
         ol = _run("erection", spec, fractions=args.fractions, speeds=args.speeds,
                   modes=args.modes, side_spans=args.side_spans or "", workers=args.workers)
@@ -108,12 +116,6 @@ def _design_stage(args, spec):
                                        "the --speeds grid: give a fraction")
         i = int(crit.idxmin())
         fraction, worst_open = float(rows["erected_fraction"][i]), float(crit[i])
-    else:
-        try:
-            fraction = float(args.design_stage)
-        except ValueError:
-            raise BridgeflapInputError("--design-stage", "'worst' or an erected fraction in "
-                                       f"(0, 1], got {args.design_stage!r}") from None
     log(f"designing for the stage erected {fraction:g} (critical-speed objective)")
     res = design_for_stage(spec, fraction, card=args.card, progress=log, side_spans=side)
     summ = res.summary()

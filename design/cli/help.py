@@ -3,8 +3,8 @@
 :func:`finish` runs on the built parser (:func:`design.cli.main.build_parser`): an option without a
 metavar gets the one :data:`FORMS` gives its destination (``--speeds LO:HI:STEP``, ``--modes
 N``), an option without help the help there, and every text shown by ``--help`` loses its
-Sphinx markup (roles such as ``:func:`x``` and double backticks, :func:`plain`). Issue 29
-item 5; ``tests/test_cli_help.py`` checks every command.
+Sphinx markup (roles such as ``:func:`x``` and double backticks, :func:`plain`).
+``tests/test_design/cli/test_cli_help.py`` checks every command.
 """
 
 from __future__ import annotations
@@ -104,8 +104,15 @@ def finish(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     return parser
 
 
+#: the part of ``--bridge``'s help that holds only where the command takes ``--controller``
+_CONTROLLER_CLAUSE = "; with --controller, the bridge the controller file was designed on"
+
+
 def _finish_options(command: str, parser: argparse.ArgumentParser) -> None:
+    has_controller = "--controller" in parser._option_string_actions
     for action in parser._actions:
+        if action.dest == "bridge" and action.help and not has_controller:
+            action.help = action.help.replace(_CONTROLLER_CLAUSE, "")
         if isinstance(action, argparse._HelpAction | argparse._VersionAction
                       | argparse._SubParsersAction):
             continue

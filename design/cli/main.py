@@ -49,6 +49,7 @@ from design.io.options import MAX_GRID_VALUE, MAX_MODES, check_int, check_number
 from design.io.text import number_text, speed_text
 from design.studies.analyses import ANALYSES, DEFAULT_MODES, RunContext
 from model.aero.rfa import RFA_NAMES
+from model.arguments import argv_list, checked, optional
 from model.errors import BridgeflapInputError
 from model.results import table_text
 from model.structure.spec import SIDE_SPAN_SEQUENCES, check_fraction
@@ -73,7 +74,7 @@ def cmd_modes(args):
     if args.count > len(modal.modes) and not imported:
         raise BridgeflapInputError("count", f"{args.count} requested, but this model has only "
                                             f"{len(modal.modes)} modes")
-    modes = modal.table()[: args.count]
+    modes = modal.mode_records()[: args.count]
     if imported:
         from design.cli.imported import imported_modes
 
@@ -510,6 +511,7 @@ def _check_args(args) -> None:
         args.bridge = default_bridge(args)
 
 
+@checked(argv=optional(argv_list))
 def main(argv=None) -> int:
     """Entry point of the ``bridgeflap`` console script (:func:`design.cli.run.run`).
 

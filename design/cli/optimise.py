@@ -57,13 +57,16 @@ def cmd_optimise(args):
 
 def _design_and_write(args, settings, out):
     """Run the design and replace ``out`` by its complete folder (crash-safe swap)."""
-    from design.assessment.acceptance import design_closed_loop
-    from design.control.driver import design
-    from design.io.files import atomic_write_text, naming_os_errors
+    from design.assessment.accept import design
+    from design.assessment.acceptance import design_closed_loop, parse_checks
+    from design.io.files import atomic_write_text, naming_os_errors, to_jsonable
     from design.io.outputs import swap_into_place, temporary_sibling, write_marker
     from model.aeroelastic.controller_file import save_controller
 
-    result = design(settings, progress=log)
+    # the acceptance checks are part of the design's status (design.assessment.accept)
+    result = design(settings, progress=log, checks=parse_checks(args.checks) or "none",
+                    check_samples=args.check_samples, check_workers=args.workers,
+                    quick_checks=args.quick)
     tmp = temporary_sibling(out)
     try:
         tmp.mkdir()
@@ -81,19 +84,24 @@ def _design_and_write(args, settings, out):
             matplotlib.use("Agg")
             import matplotlib.pyplot as plt
 
+            from model.results import figure_of
             from model.stability.sweeps import sweep
 
             for name, fn in (("bode.png", result.plot_bode), ("margins.png", result.plot_margins)):
-                ax = fn()
-                save_figure(ax[0].figure, tmp / name)
-                plt.close(ax[0].figure)
+                fig = figure_of(fn())
+                save_figure(fig, tmp / name)
+                plt.close(fig)
             cl = design_closed_loop(result, settings)
             sw = sweep(cl, settings.check_speeds())
-            ax = sw.plot(title="closed loop")
-            save_figure(ax[0].figure, tmp / "root_locus.png")
-            plt.close(ax[0].figure)
-        if result.controller is not None:
-            payload["acceptance"] = _acceptance(args, settings, result, tmp)
+            fig = figure_of(sw.plot(title=f"closed loop (design {result.status})"))
+            save_figure(fig, tmp / "root_locus.png")
+            plt.close(fig)
+        payload["acceptance"] = _acceptance_tables(args, result, tmp)
+        payload["controller_file"] = (str(ctrl_file) if result.controller is not None
+                                      else None)
+        # what --json prints, in the folder too (design.open_run reads it back)
+        atomic_write_text(tmp / "summary.json",
+                          json.dumps(to_jsonable(payload), allow_nan=False))
         swap_into_place(tmp, out)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -101,7 +109,8 @@ def _design_and_write(args, settings, out):
     def g(value, spec):  # strict-JSON numbers: None is "not a number"
         return "nan" if value is None else format(value, spec)
 
-    lines = [f"status {payload['status']}; K(s) coefficients {payload['coefficients']}",
+    lines = [f"status {payload['status']} (acceptance {payload['acceptance']['status']}); "
+             f"K(s) coefficients {payload['coefficients']}",
              f"flaps {payload['flap_count']}, max gain {g(payload['max_gain'], '.3g')} "
              f"(limit {settings.gain_limit}), robust margin {g(payload['robust_margin'], '.4g')} "
              f"(worst at {g(payload['robust_margin_worst_speed_m_s'], '.4g')} m/s), "
@@ -135,11 +144,15 @@ def _design_and_write(args, settings, out):
 
         lines.append(acceptance_text(acc))
     emit(args, payload, "\n".join(lines))
-    if acc and acc["status"] in ("harm", "failed"):
-        log(f"bridgeflap: acceptance {acc['status']}: "
-            + ("the controller lowers the critical speed of a bridge variant below its open-loop"
-               " value (JSON acceptance.robustness)" if acc["status"] == "harm" else
-               "the independent closed loop disagrees (JSON acceptance.independent_check)"))
+    if acc and acc["status"] in ("harm", "failed", "unresolved"):
+        log(f"bridgeflap: design {result.status}: "
+            + {"harm": "the controller lowers the critical speed of a bridge variant below its"
+                       " open-loop value (JSON acceptance.robustness); controller.toml not "
+                       "written",
+               "failed": "the independent closed loop disagrees (JSON "
+                         "acceptance.independent_check); controller.toml not written",
+               "unresolved": "a fresh variant's crossing is not verified (JSON "
+                             "acceptance.robustness); controller.toml not written"}[acc["status"]])
         return 1
     if result.controller is None:
         # the design failed its checks: its candidate is in the JSON (for diagnosis), but no
@@ -152,32 +165,16 @@ def _design_and_write(args, settings, out):
     return 0
 
 
-def _acceptance(args, settings, result, folder) -> dict:
-    """The acceptance checks (:mod:`design.assessment.acceptance`) of the written controller; their
-    tables
-    as CSV beside it."""
-    from design.assessment.acceptance import (
-        AcceptanceOptions,
-        acceptance,
-        design_closed_loop,
-        parse_checks,
-    )
+def _acceptance_tables(args, result, folder) -> dict:
+    """The design's acceptance block (:mod:`design.assessment.accept`) with each check's table
+    written as CSV into ``folder``."""
     from design.io.files import atomic_write_text
-    from model.aeroelastic.controller_file import load_controller
 
-    checks = parse_checks(args.checks)
-    if not checks:
-        return {"checks": [], "status": "not_run"}
-    opts = (AcceptanceOptions.for_quick(checks, args.workers, args.check_samples) if args.quick
-            else AcceptanceOptions(checks=checks, workers=args.workers,
-                                   samples=args.check_samples or 200))
-    controller = load_controller(folder / "controller.toml")  # as a user reads it back
-    block, results = acceptance(controller, settings, opts,
-                                closed_loop=design_closed_loop(result, settings), progress=log)
-    for name, res in results.items():
+    block = dict(result.extras.get("acceptance") or {"checks": [], "status": "not_run"})
+    for name, res in (result.extras.get("acceptance_results") or {}).items():
         text = res.csv_text() if name == "actuators" else res.to_dataframe().to_csv(index=False)
         atomic_write_text(folder / f"{name}.csv", text)
-        block[name]["table"] = str(Path(args.out) / f"{name}.csv")
+        block[name] = {**block[name], "table": str(Path(args.out) / f"{name}.csv")}
     return block
 
 
@@ -201,6 +198,6 @@ def arguments(sp) -> None:
                          "list of independent_check, robustness, failures, actuators")
     sp.add_argument("--check-samples", dest="check_samples", type=int, default=None,
                     metavar="N", help="fresh bridge variants of the robustness check "
-                                      "(default 200; 8 with --quick)")
+                                      "(default 1000; 8 with --quick)")
     sp.add_argument("--workers", type=int, default=default_workers(),
                     help="worker processes of the checks (default: min(2, CPUs))")

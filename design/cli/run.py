@@ -8,7 +8,8 @@
 * **One line for a refusal.** Warning and note lines (``bridgeflap: warning: ...``) are held
   back until the command shows progress, prints its result or ends
   (:func:`design.cli.common.log`); a refused input drops them, so it prints its error line only.
-* **Ctrl-C.** While a command runs, SIGINT raises :class:`KeyboardInterrupt` once in this
+* **Ctrl-C, SIGTERM.** While a command runs, SIGINT (and SIGTERM alike, exit status 143)
+  raises :class:`KeyboardInterrupt` once in this
   process (every ``finally`` then removes its temporaries and releases its lock) and ends as
   the one line ``bridgeflap: interrupted``, exit status 130; a second Ctrl-C during that
   clean-up ends the process at once. Worker processes forked meanwhile (process pools) end
@@ -50,14 +51,16 @@ _STATE = {"pid": None, "interrupted": False, "caught": False, "timers": []}
 
 
 def _on_sigint(signum, frame):
-    """SIGINT while a command runs: :class:`KeyboardInterrupt`; during the clean-up after it
-    (once :func:`run` has caught it), end at once."""
+    """SIGINT (or SIGTERM) while a command runs: :class:`KeyboardInterrupt`; during the
+    clean-up after it (once :func:`run` has caught it), end at once."""
+    status = 128 + int(signum) if signum == signal.SIGTERM else EXIT_INTERRUPTED
     if os.getpid() != _STATE["pid"]:  # a forked child that kept the handler: end quietly
-        os._exit(EXIT_INTERRUPTED)
-    if _STATE["caught"]:  # a second Ctrl-C while cleaning up
+        os._exit(status)
+    if _STATE["caught"]:  # a second signal while cleaning up
         os.write(2, (INTERRUPTED + "\n").encode())
-        os._exit(EXIT_INTERRUPTED)
+        os._exit(status)
     _STATE["interrupted"] = True
+    _STATE["status"] = status
     raise KeyboardInterrupt
 
 
@@ -92,6 +95,7 @@ def _child_after_fork() -> None:
     if _STATE["pid"] is not None and os.getpid() != _STATE["pid"]:
         try:
             signal.signal(signal.SIGINT, signal.SIG_DFL)
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
         except (ValueError, OSError):  # not the main thread: _on_sigint ends it instead
             pass
 
@@ -107,7 +111,8 @@ def run(argv: list[str], debug: bool, *, build_parser, check_args, command_names
     argument checks and its command names), so that this module does not import the CLI back."""
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, _on_sigint) if main_thread else None
-    _STATE.update(pid=os.getpid(), interrupted=False, caught=False)
+    previous_term = signal.signal(signal.SIGTERM, _on_sigint) if main_thread else None
+    _STATE.update(pid=os.getpid(), interrupted=False, caught=False, status=EXIT_INTERRUPTED)
     hook, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
     hold_warnings()
     try:
@@ -123,6 +128,7 @@ def run(argv: list[str], debug: bool, *, build_parser, check_args, command_names
         sys.unraisablehook = hook
         if main_thread:
             signal.signal(signal.SIGINT, previous)
+            signal.signal(signal.SIGTERM, previous_term)
 
 
 def _run(argv: list[str], debug: bool, build_parser, check_args, command_names) -> int:
@@ -170,7 +176,7 @@ def _interrupted() -> int:
     _STATE["caught"] = True
     drop_warnings()
     log(INTERRUPTED)
-    return EXIT_INTERRUPTED
+    return _STATE.get("status", EXIT_INTERRUPTED)
 
 
 def short_usage(command_names) -> str:

@@ -49,6 +49,14 @@ def cmd_study(args):
     lines.append(f"  flutter {f(r['flutter_speed_m_s'])} m/s (paper 65), divergence "
                  f"{f(r['divergence_speed_m_s'])} m/s (paper 74); report {s['report']}")
     emit(args, s, "\n".join(lines))
+    design_status = s["statuses"].get("design")
+    if design_status is not None and design_status not in ("ok", "converged"):
+        # the designed controller is not usable (harm, failed checks, not verified): the
+        # study says so in its exit status as well as in its report's first lines
+        log(f"bridgeflap: study {s['study']}: design {design_status}: no usable controller "
+            f"(report {s['report']})")
+        return 1
+    return 0
 
 
 def cmd_doe(args):

@@ -99,7 +99,7 @@ class BuffetingCost(ca.Callback):
 
 
 class SymbolicBuffeting:
-    """``J_buf(theta, w)`` as the CasADi spectral integral of the design card (issue 14 item 6).
+    """``J_buf(theta, w)`` as the CasADi spectral integral of the design card.
 
     Per buffeting speed ``U``, :func:`model.aeroelastic.symbolic.buffeting_rms_function` on the
     closed-loop functions ``A_cl(U, theta, w)``, ``B_gust(U, theta, w)`` of the one assembly: the

@@ -250,7 +250,7 @@ MARGIN_SPEED_XTOL_M_S = 0.01
 
 def margin_on_speed_grid(settings: DesignSettings, controller: Controller, spec=None,
                          gamma_T=None) -> dict:
-    """The small-gain margin over the whole speed range (issue 32 item 2), not only at
+    """The small-gain margin over the whole speed range, not only at
     ``robust_speeds_m_s``: ``1 / max sigma_max(T)`` every :data:`MARGIN_GRID_STEP_M_S` from
     that step to ``speed_max_m_s`` (and at the robust speeds), the worst grid speed refined by
     a bounded scalar search over its two neighbouring intervals, on the design model of the

@@ -1,4 +1,4 @@
-"""Maximise the closed-loop critical speed subject to a robust margin (issue 14 item 2).
+"""Maximise the closed-loop critical speed subject to a robust margin.
 
 ``objective = "critical_speed"`` in :class:`design.control.settings.DesignSettings`. The critical
 speed is the lower of closed-loop flutter and divergence
@@ -300,15 +300,15 @@ def critical_speed_design(settings: DesignSettings, progress=None, spec=None, wa
     search does not import the driver back; ``records``). Returns a
     :class:`design.control.result.DesignResult` whose ``status`` is the search's (``controller``
     only when ``converged``) and ``extras["critical_speed"]`` the search record."""
-    from design.control.checks import sample_variants
     from design.control.problem_model import NOMINAL_START, warm_start_theta
+    from design.control.scenarios import scenario_specs
     from model.structure.loader import load_bridge
 
     t0 = time.perf_counter()
     log = progress or (lambda msg: None)
     theta_init = NOMINAL_START if warm_start is None else warm_start_theta(warm_start)
     base = load_bridge(settings.bridge if spec is None else spec)
-    variants = sample_variants(settings, base, settings.variants, settings.variant_seed)
+    variants = scenario_specs(settings, base)
     u_max = search_limit_m_s(settings)
 
     def evaluate(u, warm):
@@ -344,7 +344,7 @@ def critical_speed_design(settings: DesignSettings, progress=None, spec=None, wa
     lim = res.extras.get("closed_loop_limits", {})
     status = srch.status if srch.status != "converged" or res.status == "converged" \
         else res.status
-    # issue 32 item 2: the margin constraint is checked over the whole speed range too (the
+    # the margin constraint is checked over the whole speed range too (the
     # inner designs check it at the robust speeds only)
     grid = res.margin_grid()
     grid_ok = (bool(grid["margin"] >= settings.margin_min * (1.0 - settings.robust_cut_tol))

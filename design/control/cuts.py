@@ -13,6 +13,7 @@ from dataclasses import replace
 import numpy as np
 
 from design.control import variants
+from design.control.loop_algebra import compensator_damped
 from design.control.nlp_tolerances import (
     GAIN_BACKOFF,
     ROBUST_CLUSTER_STEP,
@@ -68,14 +69,15 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
             n_gain_points=len(prob.omega_grid()), new_speeds=0, new_gain_cuts=0,
             new_robust_cuts=0, eig_time_per_speed_s=ph1.eig_time_per_speed_s,
             placement="phase 1 (feasibility, no robust epigraph)", history=ph1.history))
-        # the phase-1 point is a fallback candidate when it meets damping and gain (issue 32
-        # item 3): re-solves that diverge from it under the robust cuts must not turn a
+        # the phase-1 point is a fallback candidate when it meets damping and gain:
+        # re-solves that diverge from it under the robust cuts must not turn a
         # feasible point into "infeasible"; used only when no round is feasible, and as the
         # restart point after a divergence then (b = 14.25 m Humber, 3 m flaps: every round
         # of the rounded layout diverged or broke the gain limit, its phase-1 point held both)
         # Not with design variants: their lazy sets are grown by the rounds' checks only.
         ph1_kept = None
         if (ver1.max_violation_1_s <= VIOLATION_TOL and ver1.max_gain <= s.gain_limit
+                and compensator_damped(ph1.theta, s.compensator_damping_min)
                 and not getattr(prob, "variants", ())):
             rob1 = (prob.robust_margin(ph1.theta, speeds=prob.robust_check_speeds(),
                                        weights=ph1.weights, peaks=ROBUST_CUTS_PER_SPEED)
@@ -109,7 +111,10 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
         vvers, new_variant = variants.round_checks(prob, theta, w, sorted(speeds),
                                                    VIOLATION_TOL, _worst_per_run)
         eig_ok = all(vv.max_violation_1_s <= VIOLATION_TOL for vv in [ver, *vvers])
-        gain_ok = ver.max_gain <= s.gain_limit
+        # the compensator's pole damping (an algebraic NLP constraint, met to Ipopt's
+        # tolerance) counts with the gain: a round that breaks it is not feasible
+        gain_ok = (ver.max_gain <= s.gain_limit
+                   and compensator_damped(theta, s.compensator_damping_min))
         rob_ok, new_rob = True, []
         rob = None
         if use_rob and _a2_ok(theta):
@@ -171,7 +176,7 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
             theta, w = bres.theta, bres.weights
             gamma = bres.gamma_T if use_rob else None
         # No early stop for a re-solve that ran out of iterations with a worse dense peak
-        # (issue 16 goal 3 lever, tried): on the default design it never fired (548 Ipopt
+        # (a speed lever, tried): on the default design it never fired (548 Ipopt
         # iterations with and without it), and a capped round can be followed by converging
         # ones (the earlier code's start 1: rounds 3-5 after a capped round 2, margin 0.357).
         # no new cut: stop, unless the solve ran out of iterations short of the checks --

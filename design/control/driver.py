@@ -22,11 +22,11 @@ Every result reports the closed-loop flutter and divergence limits and mechanism
 variants sampled over the estimated-input ranges, fresh variants checked a posteriori.
 
 Parallel starts use a process pool (:func:`model.workers.process_pool`), not the Dask cluster of
-the DOE (:mod:`design.batch.cluster`; issue 15 item 7). A design runs two to four long tasks once,
+the DOE (:mod:`design.batch.cluster`). A design runs two to four long tasks once,
 inside one call, on the local machine: the executor starts in 0.16 s, while a Dask
 ``LocalCluster`` of two workers took 10.0 s to start and 2.3 s to close on the loaded
 2-core machine (load 11), a fifth of the 60 s budget, and would import dask/distributed on a
-command that otherwise does not (issue 16 goal 5). Dask's retries, time limits and remote
+command that otherwise does not. Dask's retries, time limits and remote
 schedulers serve batches of many short cases; a failed start here is already a record.
 """
 
@@ -67,6 +67,7 @@ from design.control.records import (
     BuffetingComparison,
 )
 from design.control.result import DesignResult
+from design.control.scenarios import scenario_specs
 from design.control.settings import DesignSettings
 from design.control.start import (  # noqa: F401 - re-exported (tests, API)
     SCREEN_FACTOR,
@@ -79,6 +80,7 @@ from design.control.start import (  # noqa: F401 - re-exported (tests, API)
     sobol_starts,
     solve_fixed_layout,
 )
+from design.io.api_args import check_design_args
 from model.aeroelastic.control import Compensator, Controller
 from model.structure.loader import load_bridge
 from model.vocabulary import renamed
@@ -132,6 +134,7 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
         :func:`design.control.critical_speed.critical_speed_design`, which calls this with its
         chosen inner design.
     """
+    check_design_args(settings, progress, bridge, warm_start, progress_bar, records)
     spec = None if bridge is None else load_bridge(bridge)  # a name, a file or a BridgeSpec
     if records is None and settings.objective == "critical_speed":
         from design.control.critical_speed import critical_speed_design
@@ -145,7 +148,7 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     # start, the others Sobol
     first = NOMINAL_START if warm_start is None else warm_start_theta(warm_start)
     base = load_bridge(settings.bridge if spec is None else spec)
-    variants = sample_variants(settings, base, settings.variants, settings.variant_seed)
+    variants = scenario_specs(settings, base)  # corners, then Sobol draws
     given = records is not None
     starts0 = [] if given else np.vstack(
         [first, screened_starts(settings, settings.starts - 1, spec=spec)])[:settings.starts]
@@ -158,7 +161,7 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
         tp[0] = now
 
     mark("screening starts")
-    if not given:  # minutes of Ipopt before the next line: say what runs (issue 29 item 5)
+    if not given:  # minutes of Ipopt before the next line: say what runs
         log(f"{n} start(s), each at most {settings.iteration_cap()} Ipopt iterations ...")
     if given:
         records = list(records)
@@ -182,7 +185,7 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     mark("starts (Ipopt, cuts, verification)")
     best, status = select_start(records, settings.gain_limit)
     extras, controller = {}, None
-    if settings.layout_neighbours:  # issue 32 item 5 (design.control.layout_search)
+    if settings.layout_neighbours:  # design.control.layout_search
         from design.control.layout_search import design_step
 
         best, status, extras["layout_neighbours"] = design_step(settings, best, status, spec,
@@ -203,7 +206,7 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
                                 flap_chord_m=settings.flap_chord_m,
                                 plant=plant_record(settings.bridge, settings.n_modes, spec))
         ok = status in ("converged", "unverified")
-        # issue 16 goal 3: the closed-loop limits, the buffeting comparison and the fresh
+        # the closed-loop limits, the buffeting comparison and the fresh
         # variants (two halves) run in two worker processes while this one checks the chosen
         # design; the flap counts follow them in the same workers (phase times: each task's
         # own time, marked "worker")

@@ -339,7 +339,7 @@ def inverse_iteration(A, lam) -> tuple[np.ndarray, np.ndarray]:
     (``vl[:, i]^H A = lam_i vl[:, i]^H``, as ``scipy.linalg.eig(left=True)``).
 
     ``eigvals`` plus this for the few eigenpairs the constraints need costs ~0.6 of one
-    ``eig`` with both eigenvector sets on the 146-state design model (issue 16 goal 3).
+    ``eig`` with both eigenvector sets on the 146-state design model.
     """
     A = np.asarray(A)
     n = A.shape[0]
@@ -445,7 +445,7 @@ class PolynomialStructuralDamping(PolynomialTopRealParts):
     copies of the RFA lag poles ``-p_i U / b`` (the lag states of modes the flaps and the
     other modes do not couple to) and the copies of the compensator poles (per-flap
     compensators beyond the rank of the plant). They are stable and fixed; the spectral
-    abscissa of the closed loop is often one of them (issue 14), so a constraint on it does
+    abscissa of the closed loop is often one of them, so a constraint on it does
     no work. This callback removes them (:func:`fixed_pole_copies`) and returns, per speed,
     the ``m`` largest damping measures :func:`damping_measure` of the remaining eigenvalues
     in the upper half-plane (the structural branches, plus the coupled lag and compensator

@@ -57,7 +57,7 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
     best = None
     misses = 0
     own = pool is None and workers > 1
-    if own:                     # issue 16 goal 3: the counts in two processes, in order
+    if own:                     # the counts in two processes, in order
         from model.workers import process_pool
 
         pool = process_pool(workers)

@@ -3,7 +3,7 @@
 With ``optimise_placement`` the relaxed weights ``w = S z`` (one ``z`` per mirror pair with
 ``symmetric_layout``) choose the layout by rounding (:func:`round_layout`), then K(s) is
 re-optimised on the rounded layout (:func:`design.control.start.solve_fixed_layout`). Rounding at
-0.5 is a heuristic; issue 32 item 5 asks how far it is from the neighbouring integer layouts.
+0.5 is a heuristic; this module measures how far it is from the neighbouring integer layouts.
 :func:`compare_layouts` answers that at re-optimised K: every layout one group flip away
 (a mirror pair, or the centre flap, added or removed; :func:`neighbour_layouts`) and the
 contiguous centred blocks of about the same size are re-optimised and verified by

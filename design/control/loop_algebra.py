@@ -29,3 +29,23 @@ def _loop_block(Kr, Ki, Nr, Ni):
     Mr = ca.DM.eye(Nr.shape[0]) - (Kr * Nr - Ki * Ni)
     Mi = -(Kr * Ni + Ki * Nr)
     return ca.vertcat(ca.horzcat(Mr, -Mi), ca.horzcat(Mi, Mr))
+
+
+#: The compensator's pole damping may fall short of ``compensator_damping_min`` by this
+#: (relative): Ipopt meets the constraint to its ``constr_viol_tol`` (1e-6, relative as written
+#: in :mod:`design.control.nlp`), so 1e-5 separates a met constraint from a violated one.
+COMPENSATOR_DAMPING_RTOL = 1e-5
+
+
+def compensator_damping_ratio(theta) -> float:
+    """Damping ratio [-] of the compensator's poles, ``a2 s^2 + a1 s + 1 = 0``:
+    ``a1 / (2 sqrt(a2))`` (>= 1: two real poles)."""
+    a2, a1 = float(theta[3]), float(theta[4])
+    return a1 / (2.0 * a2 ** 0.5) if a2 > 0 else float("nan")
+
+
+def compensator_damped(theta, zeta_min: float) -> bool:
+    """Whether the compensator's poles meet ``zeta_min`` (within
+    :data:`COMPENSATOR_DAMPING_RTOL`); always true for ``zeta_min = 0`` and a stable K."""
+    z = compensator_damping_ratio(theta)
+    return bool(z >= zeta_min * (1.0 - COMPENSATOR_DAMPING_RTOL)) if zeta_min > 0 else True

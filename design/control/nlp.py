@@ -11,6 +11,7 @@ Problem (docs/methods.md#compensator-design)::
                  ||T(j omega_k, U_j)||_F^2 <= gamma_T^2    robust speeds U_j x frequency grid
                  |K(j omega_k)|^2 <= gain_limit^2          on a frequency grid (and omega -> inf)
                  a2 >= a2_min > 0,  a1 >= a1_min > 0       (stable, proper K)
+                 a1 >= 2 zeta_c sqrt(a2)                   (compensator poles damped >= zeta_c)
 
 Robustness: ``T`` is the input complementary sensitivity of the flap loop; the NLP bounds its
 Frobenius norm (an upper bound of ``sigma_max``) at ``robust_design_speeds_m_s`` and
@@ -18,7 +19,7 @@ Frobenius norm (an upper bound of ``sigma_max``) at ``robust_design_speeds_m_s``
 ``1/gamma_T`` is a guaranteed lower bound of the small-gain margin at those points
 (:mod:`design.control.robust`); the true margin is checked on a dense grid (:meth:`robust_margin`).
 
-Damping (issue 14). The constraint is a minimum damping ratio ``zeta_min`` (default 0.5 %) of
+Damping. The constraint is a minimum damping ratio ``zeta_min`` (default 0.5 %) of
 every eigenvalue the flaps can move, written ``Re lambda + zeta_min |lambda| <= 0`` (continuous
 through ``lambda = 0``, where divergence crosses; a real stable root always meets it). The
 copies of the RFA lag poles ``-p_i U / b`` (up to 16 identical ones, the spectral abscissa at
@@ -418,6 +419,15 @@ class DesignProblem:
         g.append(th[0] * th[0] / (th[3] * th[3] * L2) - 1.0)
         lbg.append(np.full(len(oms) + 2, -np.inf))
         ubg.append(np.zeros(len(oms) + 2))
+        if s.compensator_damping_min > 0:
+            # the compensator's own poles (a2 s^2 + a1 s + 1 = 0) damped at least
+            # compensator_damping_min: a1 >= 2 zeta_c sqrt(a2), written relative to a1 so that
+            # constr_viol_tol bounds the relative damping error. A lightly damped compensator
+            # pole beside a structural frequency is a resonance that helps the nominal bridge
+            # and harms a variant whose mode moves into it (docs/methods.md)
+            g.append(2.0 * s.compensator_damping_min * ca.sqrt(th[3]) / th[4] - 1.0)
+            lbg.append(np.array([-np.inf]))
+            ubg.append(np.zeros(1))
         f = s.weight_regularisation * ca.sumsqr(th / THETA_SCALE)
         n_rob = 0
         if (s.weight_robust > 0 and (s.robust_design_speeds_m_s or self.robust_cuts)

@@ -21,7 +21,7 @@ VIOLATION_TOL = 1e-6
 #: the a posteriori check ``max_gain <= gain_limit`` needs no tolerance of its own.
 GAIN_BACKOFF = 1e-6
 #: Default ``DesignSettings.robust_cut_tol``: robust cuts until ``sigma_max(T) <= gamma_T (1 +
-#: tol)`` on the dense grid (verified margin within 1 % of the optimiser's, issue 14 item 4).
+#: tol)`` on the dense grid (verified margin within 1 % of the optimiser's).
 #: Default card (``python -m bench.design``): 1e-3 took 563 Ipopt iterations in 6 rounds, 93 s,
 #: margin 0.3230; 1e-2 362 in 4 rounds, 76 s, margin 0.3226 (-0.13 %), one design per start.
 ROBUST_CUT_TOL = 1e-2

@@ -1,4 +1,4 @@
-"""Design for one-pair failure: each one-pair-failed plant as an extra model (issue 28 item 2).
+"""Design for one-pair failure: each one-pair-failed plant as an extra model.
 
 ``design_for_pair_failure = true`` on a design card adds, for every flap pair ``f`` of the
 fixed layout whose K(s) is optimised (the card's layout, or the rounded one of a placement),
@@ -43,9 +43,14 @@ def extra_models(settings, model, spec, variants, positions=None) -> list:
     with ``design_for_pair_failure``, one :class:`FailedPairProblem` per flap pair of ``model``
     (the nominal bridge)."""
     from design.control.problem_model import build_model
+    from design.control.scenarios import scenario_settings
 
-    out = [DesignProblem(settings, build_model(settings, positions=positions, spec=v)[1], spec=v)
-           for v in variants]
+    out = []
+    for v in variants:
+        m = build_model(settings, positions=positions, spec=v)[1]
+        sv = scenario_settings(settings, v, m)   # no_harm: held below its own critical speed
+        if sv is not None:
+            out.append(DesignProblem(sv, m, spec=v))
     if getattr(settings, "design_for_pair_failure", False):
         out += [FailedPairProblem(settings, model, f, spec=spec) for f in range(model.n_flaps)]
     return out

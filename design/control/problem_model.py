@@ -15,6 +15,26 @@ from design.control.records import Verification
 from design.control.settings import DesignSettings
 from model.aeroelastic.control import Compensator
 
+#: Test hook: when set, every design model is built on the bridge with its stiffnesses and
+#: torsional inertia scaled by ``1 +- value`` (e.g. ``1e-12``: last-bit differences in every
+#: model matrix), so that a test can show that a design's discrete choices (layout, start) do
+#: not depend on the last bits (``tests/test_design/control/test_reproducible.py``).
+PERTURB_ENV = "BRIDGEFLAP_PERTURB_REL"
+
+
+def perturbed(spec):
+    """``spec`` as :data:`PERTURB_ENV` asks (unchanged when it is unset or 0)."""
+    import os
+
+    rel = float(os.environ.get(PERTURB_ENV, "0") or 0.0)
+    if rel == 0.0:
+        return spec
+    d = spec.deck
+    return spec.replace(**{"deck.gj_nm2": d.gj_nm2 * (1.0 + rel),
+                           "deck.ei_vertical_nm2": d.ei_vertical_nm2 * (1.0 - rel),
+                           "deck.mass_inertia_kgm2_per_m": d.mass_inertia_kgm2_per_m * (1.0 + rel)})
+
+
 #: Nominal first start (b2, b1, b0, a2, a1): static gain -1 (flap against pitch), mild rate.
 NOMINAL_START = np.array([0.0, 0.5, -1.0, 0.05, 0.5])
 
@@ -45,7 +65,7 @@ def build_model(settings: DesignSettings, count=None, modal=None, n_modes=None,
     from model.aeroelastic.flaps import closed_loop_model
     from model.structure.loader import load_bridge
 
-    spec = load_bridge(settings.bridge if spec is None else spec)
+    spec = perturbed(load_bridge(settings.bridge if spec is None else spec))
     pos = settings.positions(count) if positions is None else np.asarray(positions, float)
     return spec, closed_loop_model(spec, pos, settings.flap_width_m,
                                    settings.n_modes if n_modes is None else int(n_modes),

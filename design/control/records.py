@@ -236,7 +236,7 @@ class StartRecord:
         Optimiser's epigraph value [-].
     objective : float
         The NLP objective at the chosen round's solution [-] (the design's own objective: the
-        starts are ranked by it, issue 32 item 4); NaN for a phase-1 point.
+        starts are ranked by it); NaN for a phase-1 point.
     phase_1_point : bool
         The cuts kept the phase-1 (feasibility) point, whose objective is not the design's.
     dense_t_peak_check_speeds : float
@@ -284,6 +284,10 @@ class StartRecord:
     #: Ipopt's objective value of the chosen round [-] (not serialised:
     # design.control.layout_search)
     nlp_objective: float = NAN
+    #: damping ratio of the compensator's own poles [-] (design.control.loop_algebra)
+    compensator_damping_ratio: float = NAN
+    #: how a placement's layout was rounded (design.control.start.choose_layout)
+    layout_choice: dict | None = None
 
     @property
     def failed(self) -> bool:
@@ -306,6 +310,8 @@ class StartRecord:
         out = {"start": self.start, "theta0": list(self.theta0)}
         if self.weights_continuous is not None:
             out["weights_continuous"] = list(self.weights_continuous)
+        if self.layout_choice is not None:
+            out["layout_choice"] = dict(self.layout_choice)
         if self.variant_checks:
             out["variant_checks"] = list(self.variant_checks)
         if self.failed:
@@ -319,6 +325,7 @@ class StartRecord:
             "max_violation_1_s": self.max_violation_1_s, "stable_to_m_s": self.stable_to_m_s,
             "stable_everywhere": self.stable_everywhere, "max_gain": self.max_gain,
             "meets_damping": self.meets_damping, "gain_ok": self.gain_ok,
+            "compensator_damping_ratio": self.compensator_damping_ratio,
             "verified": self.verified, "gamma_T_frobenius": self.gamma_T_frobenius,
             "objective": self.objective, "phase_1_point": self.phase_1_point,
             "dense_T_peak_check_speeds": self.dense_t_peak_check_speeds,
@@ -352,6 +359,7 @@ class StartRecord:
                 "gamma_T_frobenius": self.gamma_T_frobenius, "max_gain": self.max_gain,
                 "meets_damping": bool(self.meets_damping),
                 "stable_to_m_s": self.stable_to_m_s,
+                "compensator_damping_ratio": self.compensator_damping_ratio,
                 "verified": bool(self.verified), "chosen": bool(chosen)}
 
 

@@ -23,7 +23,9 @@ class DesignResult(ResultData):
     ----------
     status : str
         ``converged``, ``unverified``, ``infeasible`` or ``failed``
-        (:func:`design.control.driver.select_start`).
+        (:func:`design.control.driver.select_start`); after the acceptance checks of
+        :func:`design.assessment.accept.design` also ``harm``, ``failed_checks`` or
+        ``unresolved``. Only ``converged`` carries a ``controller``.
     settings : DesignSettings
     controller : model.aeroelastic.control.Controller or None
         The designed compensator and layout, **only when** ``status == "converged"`` (it met
@@ -102,6 +104,7 @@ class DesignResult(ResultData):
             "pareto": self.extras.get("pareto", {}),
             "fresh_variants": self.extras.get("fresh_variants", {}),
             "closed_loop_limits": self.extras.get("closed_loop_limits", {}),
+            "acceptance": self.extras.get("acceptance", {"status": "not_run", "checks": []}),
             "spectral_abscissa_by_speed": [
                 {"speed_m_s": float(u), "abscissa_1_s": float(a)}
                 for u, a in zip(self.abscissa_speeds_m_s, self.abscissa_1_s, strict=True)],
@@ -143,7 +146,7 @@ class DesignResult(ResultData):
         return grid if isinstance(grid.get("margin"), float) else {}
 
     def best_achievable(self) -> dict:
-        """The best design found when none is usable (issue 32 item 3): its K, layout and
+        """The best design found when none is usable: its K, layout and
         closed-loop critical speed under the stated limits, and every check it misses. It is
         reported, never written as ``controller.toml``."""
         b, s = self.best, self.settings
@@ -160,6 +163,15 @@ class DesignResult(ResultData):
                        f"{ver.stable_to_m_s:g} m/s (design range to {s.speed_max_m_s:g} m/s)")
         if not all(v.get("meets_damping", True) for v in b.variant_checks):
             why.append("a design variant misses zeta_min")
+        acc = self.extras.get("acceptance") or {}
+        if acc.get("status") in ("harm", "failed", "unresolved"):
+            rob = acc.get("robustness") or {}
+            why.append({"harm": f"acceptance harm: lowers the critical speed of "
+                                f"{rob.get('harmed_count', '?')} of {rob.get('variants', '?')} "
+                                "fresh bridge variants below their open-loop one",
+                        "failed": "acceptance failed: the independent closed loop disagrees",
+                        "unresolved": "acceptance unresolved: some fresh variant's crossing "
+                                      "is not verified"}[acc["status"]])
         if not why:
             why.append(f"not verified (Ipopt: {b.ipopt_status})")
         k = self.candidate.compensator if self.candidate else None
@@ -241,10 +253,13 @@ class DesignResult(ResultData):
         from design.control.figures import bode
 
         st = self.settings
-        return bode(self.candidate.compensator, st.gain_limit, ax,
-                    (st.omega_min_rad_s, st.omega_max_rad_s),
-                    title="designed compensator K(s)" if self.controller is not None else
-                    f"candidate K(s) of a design that is {self.status} (not usable)")
+        from model.results import figure_of
+
+        return figure_of(bode(self.candidate.compensator, st.gain_limit, ax,
+                              (st.omega_min_rad_s, st.omega_max_rad_s),
+                              title="designed compensator K(s)" if self.controller is not None
+                              else f"candidate K(s) of a design that is {self.status} "
+                                   "(not usable)"))
 
     def plot_margins(self, ax=None):
         """Spectral abscissa, smallest damping ratio of the movable branches with
@@ -258,4 +273,34 @@ class DesignResult(ResultData):
             spec = load_bridge(self.settings.bridge)
         except BridgeflapError:  # the layout is then drawn without towers
             spec = None
-        return margins(self, ax, spec)
+        from model.results import figure_of
+
+        return figure_of(margins(self, ax, spec))
+
+    # ---- headline numbers (the same as in summary(); NaN when not computed)
+    @property
+    def closed_loop_critical_speed_m_s(self) -> float:
+        """Closed-loop critical speed [m/s] on the verification model (flutter or divergence,
+        whichever comes first; ``closed_loop_limits``)."""
+        v = (self.extras.get("closed_loop_limits") or {}).get("critical_speed_m_s")
+        return float(v) if isinstance(v, int | float) else NAN
+
+    @property
+    def closed_loop_critical_mechanism(self) -> str | None:
+        """``flutter`` or ``divergence`` (None when not computed)."""
+        return (self.extras.get("closed_loop_limits") or {}).get("critical_mechanism")
+
+    @property
+    def open_loop_critical_speed_m_s(self) -> float:
+        """Open-loop critical speed [m/s] on the verification model."""
+        lim = self.extras.get("closed_loop_limits") or {}
+        vals = [v for v in (lim.get("open_loop_flutter_speed_m_s"),
+                            lim.get("open_loop_divergence_speed_m_s"))
+                if isinstance(v, int | float) and v == v]
+        return float(min(vals)) if vals else NAN
+
+    @property
+    def acceptance_status(self) -> str:
+        """The acceptance verdict (``passed``, ``harm``, ``failed``, ``unresolved``,
+        ``not_run``)."""
+        return (self.extras.get("acceptance") or {}).get("status", "not_run")

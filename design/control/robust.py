@@ -181,7 +181,7 @@ def analytic_robust_data(Pa, X, weights):
     ``T = K C diag(d) D`` (``C = Phi_a V``, ``D = V^{-1} X W``) and ``||T||_F^2 = |K|^2 d^H H
     d`` with ``H = (C^H C) o conj(D D^H)`` (Hadamard product, Hermitian). One eigen-
     decomposition per point, once; the NLP evaluates an ``O(n_modes^2)`` expression of
-    ``(Re K, Im K)`` instead of a ``2 n_modes`` real solve (issue 16 goal 3).
+    ``(Re K, Im K)`` instead of a ``2 n_modes`` real solve.
 
     Parameters
     ----------

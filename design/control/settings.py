@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from design.io.api_args import check_load_settings_args, check_settings
 from model.aeroelastic.actuator_limits import (
     ACTUATOR_DEFAULTS,
     ACTUATOR_FIELDS,
@@ -32,6 +33,11 @@ THETA_NAMES = ("b2", "b1", "b0", "a2", "a1")
 #: Design objectives (``DesignSettings.objective``): the robust margin subject to stability up
 #: to the design speed, or the closed-loop critical speed subject to a robust margin.
 OBJECTIVES = ("margin", "critical_speed")
+#: Rules of the design variants (``DesignSettings.variant_rule``): ``"no_harm"``, each variant's
+#: closed loop damped (``zeta_min``) at every speed below its own open-loop critical speed (up
+#: to the do-no-harm check's grid end, 1.5 ``speed_max_m_s``); ``"stable"``, damped 0 ..
+#: ``speed_max_m_s`` like the nominal bridge.
+VARIANT_RULES = ("no_harm", "stable")
 #: Settings of the critical-speed search only (left out of a margin design's JSON summary).
 CRITICAL_SPEED_FIELDS = ("objective", "margin_min", "critical_speed_step_m_s",
                          "critical_speed_tol_m_s", "critical_speed_max_m_s",
@@ -92,6 +98,7 @@ class DesignSettings:
     n_modes: int = 16
     verification_modes: int = 16
     flap_count: int = 25
+    flap_positions_m: tuple = ()
     flap_width_m: float = 56.4          # spanwise length of each flap pair: 1410 m / 25
     flap_chord_m: float = 3.0           # chordwise, inside the 22 m deck chord (seed §6)
     leading_edge: bool = True
@@ -138,6 +145,10 @@ class DesignSettings:
     variant_seed: int = 7
     variant_fixed: tuple = ("deck.half_chord_m", "aero.coherence_decay")
     variant_speeds: str = "lazy"
+    variant_rule: str = "stable"
+    variant_corners: tuple = ()
+    compensator_damping_min: float = 0.0
+    layout_dead_band: float = 0.05
     design_for_pair_failure: bool = False
     pareto_step: int = 2
     objective: str = "margin"
@@ -184,6 +195,25 @@ class DesignSettings:
                 raise BridgeflapInputError(name, f"must be a pair [low, high], got {b!r}")
             if _num(name, b[0]) >= _num(name, b[1]):
                 raise BridgeflapInputError(name, f"low must be below high, got {b!r}")
+        pos = self.flap_positions_m
+        if not isinstance(pos, tuple | list):
+            raise BridgeflapInputError("flap_positions_m", f"must be a list of flap centres [m], "
+                                                           f"got {pos!r}")
+        for v in pos:
+            _num("flap_positions_m", v)
+        if len(set(float(v) for v in pos)) != len(pos):
+            raise BridgeflapInputError("flap_positions_m", "has a flap centre twice")
+        if len(pos) > 200:
+            raise BridgeflapInputError("flap_positions_m", f"at most 200 flaps, got {len(pos)}")
+        if pos:     # a subset of the candidates: placement, flap counts and checks share them
+            grid = self.positions(self.flap_count) if isinstance(self.flap_count, int) and \
+                self.flap_count > 0 else np.zeros(0)
+            off = [float(v) for v in pos if not np.any(np.abs(grid - float(v)) < 1e-6)]
+            if off:
+                raise BridgeflapInputError(
+                    "flap_positions_m", f"{off[0]:g} m is not a candidate position of "
+                    f"{self.flap_count} flaps {self.flap_width_m:g} m wide about mid-span "
+                    "(flap_positions_m = [] fits every candidate)")
         for v in self.min_flap_counts:
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise BridgeflapInputError("min_flap_counts",
@@ -197,7 +227,7 @@ class DesignSettings:
             for v in getattr(self, name):
                 _num(name, v, positive=True)
             if self.weight_robust > 0 and name.startswith("robust") and not getattr(self, name):
-                # an empty list ran the design 30 s, then failed on a broadcast (issue 30)
+                # an empty list ran the design 30 s, then failed on a broadcast
                 raise BridgeflapInputError(name, "needs at least one speed while weight_robust "
                                                  "> 0 (or set weight_robust = 0)")
         for name in ("optimise_placement", "leading_edge", "trailing_edge", "parallel",
@@ -232,6 +262,27 @@ class DesignSettings:
             raise BridgeflapInputError("variant_speeds", "must be 'lazy' (constraint generation "
                                        "over variant and speed, design.control.variants) or 'all', "
                                        f"got {self.variant_speeds!r}")
+        if self.variant_rule not in VARIANT_RULES:
+            raise BridgeflapInputError("variant_rule", "must be 'no_harm' (each variant damped "
+                                       "below its own open-loop critical speed) or 'stable' "
+                                       f"(damped 0..speed_max_m_s), got {self.variant_rule!r}")
+        from design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
+
+        for v in self.variant_corners:
+            if v not in DEFAULT_UNCERTAIN_RANGES or v in self.variant_fixed:
+                raise BridgeflapInputError("variant_corners", "must name uncertain inputs ("
+                                           + ", ".join(k for k in DEFAULT_UNCERTAIN_RANGES
+                                                       if k not in self.variant_fixed)
+                                           + f"), got {v!r}")
+        if len(self.variant_corners) > 4:
+            raise BridgeflapInputError("variant_corners", "at most 4 inputs (16 corners), got "
+                                       f"{len(self.variant_corners)}")
+        if not 0 <= _num("compensator_damping_min", self.compensator_damping_min) < 1:
+            raise BridgeflapInputError("compensator_damping_min", "must be in [0, 1), got "
+                                       f"{self.compensator_damping_min!r}")
+        if not 0 <= _num("layout_dead_band", self.layout_dead_band) < 0.5:
+            raise BridgeflapInputError("layout_dead_band", "must be in [0, 0.5), got "
+                                       f"{self.layout_dead_band!r}")
         if self.buffeting_term not in ("modal", "callback", "casadi"):
             raise BridgeflapInputError("buffeting_term", "must be 'modal' (CasADi spectral "
                                        "integral in modal coordinates), 'casadi' (on the state "
@@ -267,7 +318,10 @@ class DesignSettings:
                                            "robust_speeds_m_s)")
 
     def positions(self, count: int | None = None) -> np.ndarray:
-        """Evenly spaced, touching flap centres from the main-span mid-point [m]."""
+        """Flap centres from the main-span mid-point [m]: ``flap_positions_m`` when given (and
+        ``count`` is not), else ``count`` (default ``flap_count``) evenly spaced, touching."""
+        if count is None and self.flap_positions_m:
+            return np.sort(np.asarray(self.flap_positions_m, float))
         count = self.flap_count if count is None else int(count)
         return (np.arange(count) - 0.5 * (count - 1)) * self.flap_width_m
 
@@ -299,7 +353,7 @@ def load_settings(path: str | os.PathLike | None = "default", **overrides) -> De
     """A design card (TOML) overridden by keyword arguments.
 
     ``path``: a card file; ``"default"`` (the default) is :data:`DEFAULT_CARD`, the card
-    ``bridgeflap optimise`` runs without ``--definition``; ``None`` starts from the embedded
+    ``bridgeflap optimise`` runs without a card argument; ``None`` starts from the embedded
     :class:`DesignSettings` defaults alone (docs/api_vocabulary.md).
 
     Raises
@@ -307,6 +361,7 @@ def load_settings(path: str | os.PathLike | None = "default", **overrides) -> De
     BridgeflapInputError
         Unknown key, bad value, missing or unreadable file.
     """
+    check_load_settings_args(path, overrides)
     data = {}
     if isinstance(path, str) and path == "default":
         path = DEFAULT_CARD
@@ -338,6 +393,7 @@ def load_settings(path: str | os.PathLike | None = "default", **overrides) -> De
             f" (the {len(_TOML_KEYS)} known ones: design.control.settings.DesignSettings, "
             "documented in runs/humber_flaps.toml)"))
     for key in ("a2_bounds", "a1_bounds", "min_flap_counts", "robust_speeds_m_s", "variant_fixed",
+                "variant_corners", "flap_positions_m",
                 "robust_design_speeds_m_s", "buffeting_speeds_m_s"):
         if key in flat:
             if not isinstance(flat[key], list | tuple):
@@ -370,7 +426,7 @@ def packaged_card(name) -> Path:
 
 def quick_settings(settings: DesignSettings) -> DesignSettings:
     """Reduced settings for CI/--quick: one start, coarser design grid, two cut rounds,
-    fewer flap counts.
+    fewer flap counts, and of a scenario design the corners only (no Sobol' draws).
 
     Two rounds, not one: on humber:box the first re-solve after the cuts can stop at its
     iteration cap 4.6e-6 1/s short of the damping at a design speed (measured after the
@@ -384,7 +440,8 @@ def quick_settings(settings: DesignSettings) -> DesignSettings:
     The critical-speed search (``objective = "critical_speed"``) bisects to 2.5 m/s (at most
     half its step) instead of ``critical_speed_tol_m_s``.
     """
+    check_settings(settings)
     tol = max(settings.critical_speed_tol_m_s, min(2.5, 0.5 * settings.critical_speed_step_m_s))
     return replace(settings, starts=1, design_step_m_s=max(settings.design_step_m_s, 10.0),
                    cutting_plane_rounds=2, min_flap_counts=(25, 13, 5), pareto=False,
-                   critical_speed_tol_m_s=tol)
+                   critical_speed_tol_m_s=tol, variants=0)

@@ -13,6 +13,7 @@ from dataclasses import replace
 import numpy as np
 
 from design.control.checks import nlp_active_speeds
+from design.control.loop_algebra import compensator_damped, compensator_damping_ratio
 from design.control.nlp import EIG_SCALE, DesignProblem
 from design.control.problem_model import build_model, verify_layout
 from design.control.records import RobustMargin, StartRecord
@@ -27,7 +28,8 @@ def round_layout(S, z, budget=0) -> np.ndarray:
 
     The groups (mirror pairs with ``symmetric_layout``) are taken largest ``z`` first: with a
     ``budget`` > 0 while the flap count stays within it, otherwise every group with
-    ``z > 0.5``; at least the largest group is kept, so a layout never loses every flap.
+    ``z > 0.5``; at least the largest group is kept (of groups within 1e-6 of the largest, the
+    first), so a layout never loses every flap.
     The rounded layout stays symmetric because whole groups are kept.
     """
     S = np.asarray(S, float)
@@ -43,9 +45,91 @@ def round_layout(S, z, budget=0) -> np.ndarray:
             break
         keep[j] = True
         count += sizes[j]
-    if not keep.any():
-        keep[int(np.argmax(z))] = True
+    if not keep.any():      # the largest group; near-equal ones (1e-6) by the lower index
+        keep[int(np.flatnonzero(z >= z.max() - 1e-6)[0])] = True
     return (S @ keep.astype(float) > 0.5).astype(float)
+
+
+#: Layouts whose scores (:func:`choose_layout`) lie within this relative distance of the best
+#: count as equal, and the rule decides among them (fewer flaps, then the positions in
+#: lexicographic order). Converged solves on other BLAS kernels agree to ~1e-4 relative (the
+#: default card, OpenBLAS SkylakeX/Haswell/Sandybridge/Nehalem): 1 % is 100 times that.
+LAYOUT_TIE_REL = 0.01
+#: At most this many groups inside the dead band are decided by evaluating both roundings
+#: (2^3 = 8 layouts); any further ones (the farthest from 0.5) are rounded at 0.5.
+DEAD_BAND_GROUPS = 3
+
+
+def layout_candidates(S, z, dead_band, budget=0) -> list[np.ndarray]:
+    """The 0/1 flap weights a relaxed solution ``z`` may round to: :func:`round_layout`, and
+    with no ``budget`` every choice of the groups within ``dead_band`` of 0.5 (at most
+    :data:`DEAD_BAND_GROUPS` of them, the closest to 0.5), each such group in or out."""
+    z = np.asarray(z, float)
+    base = round_layout(S, z, budget)
+    if budget > 0 or dead_band <= 0:
+        return [base]
+    near = np.flatnonzero(np.abs(z - 0.5) < dead_band)
+    near = near[np.argsort(np.abs(z[near] - 0.5), kind="stable")][:DEAD_BAND_GROUPS]
+    if not near.size:
+        return [base]
+    S = np.asarray(S, float)
+    keep0 = (z > 0.5).astype(float)
+    out = []
+    for bits in range(2 ** near.size):
+        keep = keep0.copy()
+        keep[near] = [(bits >> i) & 1 for i in range(near.size)]
+        if keep.any():
+            out.append((S @ keep > 0.5).astype(float))
+    return out
+
+
+def choose_layout(settings, prob, res, w_cont) -> tuple[np.ndarray, dict]:
+    """The rounded layout of a relaxed placement solve and how it was chosen.
+
+    A layout is chosen only from a converged relaxed solution (Ipopt converged, the chosen
+    round meets the damping and is not the phase-1 point); otherwise every candidate pair is
+    kept (a fixed rule, not the unconverged weights). Groups within ``layout_dead_band`` of the
+    0.5 threshold are decided by evaluating both roundings (:func:`layout_candidates`) at the
+    relaxed K on the candidates' model: meeting the damping on the check grid first, then the
+    larger dense robust margin at ``robust_speeds_m_s``; scores within
+    :data:`LAYOUT_TIE_REL` tie and the rule decides (fewer flaps, then lexicographic positions).
+    """
+    S = prob.symmetry
+    z = prob.z_of(w_cont)
+    chosen_round = res.rounds[res.chosen_round] if res.rounds else None
+    converged = bool(res.solve.success and res.verification.meets_damping
+                     and not (chosen_round is not None and chosen_round.placement
+                              and chosen_round.placement.startswith("phase 1")))
+    info = {"relaxed_converged": converged, "weights_near_threshold": [
+        float(v) for v in z if abs(v - 0.5) < settings.layout_dead_band]}
+    if not converged:
+        return np.ones(S.shape[0]), {**info, "rule": "relaxed solve not converged: every "
+                                                     "candidate pair kept"}
+    cands = layout_candidates(S, z, settings.layout_dead_band, settings.flap_budget)
+    if len(cands) == 1:
+        return cands[0], {**info, "rule": "rounded at 0.5 (no weight in the dead band)"}
+    pos = settings.positions()
+    rows = []
+    for w in cands:
+        ver = prob.verify(res.theta, w, refined=True)
+        margin = (prob.robust_margin(res.theta, weights=w).margin
+                  if settings.weight_robust > 0 and settings.robust_speeds_m_s else 0.0)
+        rows.append({"flap_positions_m": [float(x) for x in pos[w > 0.5]],
+                     "meets_damping": bool(ver.meets_damping), "robust_margin": float(margin)})
+    best = max((r["robust_margin"] for r in rows if r["meets_damping"]), default=None)
+
+    def rank(i):
+        r = rows[i]
+        top = (best is not None and r["meets_damping"]
+               and r["robust_margin"] >= best * (1.0 - LAYOUT_TIE_REL))
+        return (not top, not r["meets_damping"], len(r["flap_positions_m"]),
+                tuple(r["flap_positions_m"]))
+
+    i = min(range(len(rows)), key=rank)
+    return cands[i], {**info, "rule": f"dead band: {len(cands)} roundings evaluated at the "
+                                      f"relaxed K (damping, then margin within "
+                                      f"{LAYOUT_TIE_REL:g}, then fewer flaps)",
+                      "candidates": rows, "chosen_candidate": int(i)}
 
 
 #: Candidates screened per Sobol start (:func:`screened_starts`).
@@ -66,6 +150,8 @@ def sobol_starts(settings: DesignSettings, count: int) -> np.ndarray:
     th[:, 4] = 10 ** (lo_a1 + (hi_a1 - lo_a1) * pts[:, 4])
     th[:, 0] = np.clip(th[:, 0], -0.5 * settings.gain_limit * th[:, 3],
                        0.5 * settings.gain_limit * th[:, 3])
+    # the compensator's poles damped as the NLP asks (a1 >= 2 zeta_c sqrt(a2)), 10 % over
+    th[:, 4] = np.maximum(th[:, 4], 2.2 * settings.compensator_damping_min * np.sqrt(th[:, 3]))
     return th
 
 
@@ -149,14 +235,14 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
             bar.set_postfix_str(f"objective {f:.4g}", refresh=False)
         prob.on_iteration = tick
     theta0 = tuple(float(v) for v in theta0)
-    w_cont = None
+    w_cont = layout_choice = None
     try:
         res = prob.solve_with_cuts(np.asarray(theta0))
         rounds = list(res.rounds)
         positions = settings.positions()
         if settings.optimise_placement:
             w_cont = tuple(float(v) for v in res.solve.weights)
-            rounded = round_layout(prob.symmetry, prob.z_of(w_cont), settings.flap_budget)
+            rounded, layout_choice = choose_layout(settings, prob, res, w_cont)
             positions = positions[rounded > 0.5]
             prob, res = solve_fixed_layout(settings, positions, res.theta, spec, variants,
                                            prob.on_iteration)
@@ -169,8 +255,8 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
                            weights_continuous=w_cont)
     if bar is not None:
         bar.close()
-    return _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_cont,
-                         spec)
+    rec = _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_cont, spec)
+    return replace(rec, layout_choice=layout_choice) if settings.optimise_placement else rec
 
 
 def solve_fixed_layout(settings: DesignSettings, positions, theta0, spec=None, variants=(),
@@ -223,6 +309,7 @@ def _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_c
     ver16 = (verify_layout(settings, theta, positions, spec=spec)
              if settings.verification_modes != settings.n_modes else ver)
     gain_ok = bool(ver.max_gain <= settings.gain_limit)
+    comp_ok = compensator_damped(theta, settings.compensator_damping_min)
     # the design variants on the refined check grid (the dense check's decisions: damping
     # met, first unstable speed; the smallest damping ratio over the speeds checked)
     vchecks = [q.verify(theta, refined=True) for q in prob.variants]
@@ -235,8 +322,9 @@ def _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_c
         stable_to_m_s=ver.stable_to_m_s, stable_everywhere=ver.stable_everywhere,
         max_gain=ver.max_gain, meets_damping=ver.meets_damping, gain_ok=gain_ok,
         # verified: every a posteriori check holds, whatever Ipopt's exit status
-        verified=bool(ver.meets_damping and gain_ok and ver16.stable_everywhere
+        verified=bool(ver.meets_damping and gain_ok and comp_ok and ver16.stable_everywhere
                       and variants_ok),
+        compensator_damping_ratio=compensator_damping_ratio(theta),
         gamma_T_frobenius=res.solve.gamma_T, phase_1_point=_phase_1(res),
         objective=NAN if _phase_1(res) else float(res.solve.objective),
         dense_t_peak_check_speeds=res.robust.peak if res.robust is not None else float("nan"),
@@ -246,7 +334,8 @@ def _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_c
         design_speeds_m_s=res.design_speeds_m_s, weights_continuous=w_cont,
         nlp_active_speeds_m_s=nlp_active_speeds(res.solve, res.design_speeds_m_s,
                                                 settings.n_eig),
-        variant_checks=tuple({**pair_label(q), "meets_damping": v.meets_damping,
+        variant_checks=tuple({**pair_label(q), "speed_limit_m_s": q.settings.speed_max_m_s,
+                              "meets_damping": v.meets_damping,
                               "min_damping_ratio": v.min_damping_ratio,
                               "stable_to_m_s": v.stable_to_m_s}
                              for q, v in zip(prob.variants, vchecks, strict=True)),
@@ -254,7 +343,7 @@ def _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_c
 
 
 def _phase_1(res) -> bool:
-    """The cuts kept the phase-1 point (its objective is not the design's, issue 32 item 4)."""
+    """The cuts kept the phase-1 point (its objective is not the design's)."""
     lab = res.rounds[res.chosen_round].placement if res.rounds else None
     return bool(lab and lab.startswith("phase 1"))
 
@@ -263,7 +352,7 @@ def _margin_at(rob, speeds):
     """The dense margin at ``speeds`` [m/s] taken from a check ``rob`` (RobustMargin) of the
     same design on a superset of speeds (the cutting-plane check at the design and reported
     speeds: same per-speed grid and peak polishing), or None when ``rob`` lacks a speed --
-    not recomputed (issue 16 goal 3)."""
+    not recomputed."""
     if rob is None:
         return None
     have = {float(u): i for i, u in enumerate(rob.speeds_m_s)}
@@ -279,23 +368,40 @@ def _margin_at(rob, speeds):
 
 
 
+#: Verified starts whose NLP objectives lie within this relative distance of the lowest tie:
+#: the one with fewer flaps, then the lower start index, is chosen. Two starts that converge
+#: to one design agree to ~1e-4 (other BLAS kernels); distinct local optima 0.27 % apart were
+#: ranked by last-bit differences before (the default card on four OpenBLAS kernels).
+START_TIE_REL = 0.01
+
+
 def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
     """Chosen start and design status from the per-start records of :func:`run_start`.
 
     ``converged``: the *verified* start (damping on the design model's dense grid, true peak
-    gain ``max_gain <= gain_limit`` -- no tolerance, the NLP backs off by ``GAIN_BACKOFF`` --,
-    stable on the verification model) with the lowest NLP objective (the design's own
-    objective, issue 32 item 4; after them the starts without one -- a phase-1 point, NaN --
-    and ties, by the larger margin), whatever its
-    Ipopt exit status; ``unverified``: feasible on the design model only; ``infeasible``: no
-    start meets the damping and the gain limit (the least violating is reported, never as
-    converged); ``failed``: no start produced a design.
+    gain ``max_gain <= gain_limit`` -- no tolerance, the NLP backs off by ``GAIN_BACKOFF``
+    --, stable on the verification model) with the lowest NLP objective (the design's own
+    objective); objectives within :data:`START_TIE_REL` of the lowest tie, and the tie goes
+    to fewer flaps, then the lower start index; after them the starts without an objective
+    (a phase-1 point, NaN) by the larger margin; whatever its Ipopt exit status;
+    ``unverified``: feasible on the design model only; ``infeasible``: no start meets the
+    damping and the gain limit (the least violating is reported, never as converged);
+    ``failed``: no start produced a design.
     """
     feasible = [r for r in records if r.meets_damping and r.max_gain <= gain_limit]
     verified = [r for r in feasible if r.verified]
     if verified:
-        return min(verified, key=lambda r: (r.objective if np.isfinite(r.objective)
-                                            else np.inf, -r.robust_margin)), "converged"
+        best = min((r.objective for r in verified if np.isfinite(r.objective)),
+                   default=np.inf)
+        tie = best + START_TIE_REL * abs(best) if np.isfinite(best) else np.inf
+
+        def rank(r):    # ties (START_TIE_REL) by fewer flaps, then the lower start index
+            ok = np.isfinite(r.objective) and r.objective <= tie
+            return (not ok, len(r.flap_positions_m) if ok else 0,
+                    r.start if ok else r.objective if np.isfinite(r.objective) else np.inf,
+                    -r.robust_margin, r.start)
+
+        return min(verified, key=rank), "converged"
     if feasible:
         return max(feasible, key=lambda r: r.verification.stable_to_m_s), "unverified"
     cands = [r for r in records if not r.failed]

@@ -14,7 +14,7 @@ DEFAULT_UNCERTAIN_RANGES = {
     "deck.mass_inertia_kgm2_per_m": (5.1e5, 6.9e5),
     # GJ updated to TS1, 5.905e11, +-20 % (the unweighted fit to all three torsional modes,
     # 4.74e11, lies at the lower end; initial Bredt estimate 4.7e11). Centred on the old
-    # updated value 4.74e11 before issue 27's model updating
+    # updated value 4.74e11 before the VS1/TS1 model updating
     "deck.gj_nm2": (4.7e11, 7.1e11),
     # EI updated to VS1, 2.976e12, +20 % and down to the unweighted fit to all six vertical
     # modes (1.97e12); initial estimate ~1e12 (was 1.0e12-2.5e12 about the old 1.98e12)

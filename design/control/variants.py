@@ -55,8 +55,16 @@ def speeds_of(variant, speeds) -> np.ndarray:
     """The design speeds [m/s] whose damping constraints ``variant`` (a variant problem)
     carries in the NLP: its own set when lazy, else every design speed ``speeds``."""
     if not lazy(variant):
-        return np.asarray(speeds, float)
+        return _within(variant, np.asarray(speeds, float))
     return np.array(variant.lazy_speeds, float)
+
+
+def _within(variant, speeds) -> np.ndarray:
+    """The ``speeds`` [m/s] within ``variant``'s own range (its ``speed_max_m_s``: below its
+    open-loop critical speed with ``variant_rule = "no_harm"``,
+    :mod:`design.control.scenarios`)."""
+    U = np.asarray(speeds, float)
+    return U[U <= variant.settings.speed_max_m_s]
 
 
 def _add(variant, speeds) -> int:
@@ -73,7 +81,11 @@ def seed(prob, theta, w, speeds, nominal) -> float:
     if not prob.variants:
         return -np.inf
     U = np.asarray(speeds, float)
-    vals = np.array([v.constraint_values(theta, U, w) for v in prob.variants])
+    vals = np.full((len(prob.variants), U.size), -np.inf)
+    for i, v in enumerate(prob.variants):   # each variant on its own range
+        inside = U <= v.settings.speed_max_m_s
+        if inside.any():
+            vals[i, inside] = v.constraint_values(theta, U[inside], w)
     if lazy(prob):
         worst = np.argmax(vals, axis=0)
         for j, u in enumerate(U):
@@ -98,7 +110,8 @@ def round_checks(prob, theta, w, speeds, tol, worst_per_run) -> tuple[list, int]
     for v, ver in zip(prob.variants, vers, strict=True):
         bad = ver.violation_1_s > tol
         cand = worst_per_run(ver.speeds_m_s, bad, ver.violation_1_s) if bad.any() else []
-        near = U[_near_active(v, theta, w, U)]
+        Uv = _within(v, U)
+        near = Uv[_near_active(v, theta, w, Uv)] if Uv.size else []
         new += _add(v, [*cand, *near])
     return vers, new
 

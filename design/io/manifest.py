@@ -28,7 +28,10 @@ __all__ = ["build_info", "build_manifest", "git_info", "ipopt_version", "package
            "provenance"]
 
 UNKNOWN = "unknown"
-_PACKAGES = ("bridgeflap", "numpy", "scipy", "casadi", "matplotlib", "dask", "distributed")
+#: Every scientific dependency whose version can change a number, a table or a figure (the
+#: optional python-control included: "unknown" when it is not installed).
+_PACKAGES = ("bridgeflap", "numpy", "scipy", "casadi", "matplotlib", "pandas", "xarray",
+             "SALib", "control", "dask", "distributed", "tqdm", "threadpoolctl", "tabulate")
 _GIT_TIMEOUT_S = 5.0
 _ROOT = Path(__file__).resolve().parents[2]
 #: The build record setup.py writes into the model package.

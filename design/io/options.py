@@ -13,8 +13,13 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from model.arguments import (  # the checks of the API, shared so the messages match
+    MAX_MODES,
+    check_bool,
+    check_choice,
+    check_int,
+    check_number,
+)
 from model.errors import BridgeflapInputError
 from model.grid import MAX_GRID_POINTS, MAX_GRID_VALUE, grid, parse_range
 
@@ -29,56 +34,9 @@ __all__ = ["MAX_DOE_CASES", "MAX_GRID_POINTS", "MAX_GRID_VALUE", "MAX_MODES", "c
            "parse_range", "plain_name", "read_definition", "read_toml", "resolve_bridge",
            "table"]
 
-#: most retained vertical + torsional modes: the state grows by 6 per mode (2 structural and
-#: 4 aerodynamic lags), and one eigenvalue problem at 100 modes (about 600 states) takes 0.1 s,
-#: so a 171-point sweep about 20 s; the truncation study (bench/stability.py) converged at 16-24
-MAX_MODES = 100
 #: most cases of one DOE (a full factorial grows as levels^parameters): a case takes about a
 #: second, so 100000 cases is already a day on one core
 MAX_DOE_CASES = 100000
-
-
-def check_int(value: Any, field: str, minimum: int = 1, maximum: int | None = None) -> int:
-    """``value`` if it is an integer (not a bool) in ``[minimum, maximum]``."""
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < minimum:
-        raise BridgeflapInputError(field, f"must be an integer >= {minimum}, got {value!r}")
-    if maximum is not None and value > maximum:
-        raise BridgeflapInputError(field, f"{value} is more than the limit of {maximum}")
-    return int(value)
-
-
-def check_number(value: Any, field: str, minimum: float | None = None,
-                 maximum: float | None = None, strict: bool = False) -> float:
-    """``value`` as a float if it is a finite number (not a bool) in range.
-
-    ``strict``: ``minimum`` itself is excluded (``value > minimum``).
-    """
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise BridgeflapInputError(field, f"must be a number, got {value!r}")
-    v = float(value)
-    if not np.isfinite(v):
-        raise BridgeflapInputError(field, f"must be finite, got {value!r}")
-    if minimum is not None and (v <= minimum if strict else v < minimum):
-        raise BridgeflapInputError(field, f"must be {'>' if strict else '>='} {minimum:g}, "
-                                          f"got {value!r}")
-    if maximum is not None and v > maximum:
-        raise BridgeflapInputError(field, f"must be <= {maximum:g}, got {value!r}")
-    return v
-
-
-def check_bool(value: Any, field: str) -> bool:
-    """``value`` if it is true or false (TOML booleans; no strings, no numbers)."""
-    if not isinstance(value, bool | np.bool_):
-        raise BridgeflapInputError(field, f"must be true or false, got {value!r}")
-    return bool(value)
-
-
-def check_choice(value: Any, field: str, choices) -> str:
-    """``value`` if it is one of ``choices``."""
-    if not isinstance(value, str) or value not in choices:
-        raise BridgeflapInputError(field, f"must be one of {', '.join(map(repr, choices))}, "
-                                          f"got {value!r}")
-    return value
 
 
 def check_option_names(kind: str, names, allowed: tuple | None, what: str) -> None:

@@ -23,8 +23,9 @@ Output *folders* (``study``, ``doe``, batch folders) follow four rules, all here
   copy and archive badly; the rename pair plus recovery keeps plain folders.)
 * **Stale temporaries.** Temporary folders ``.<name>.tmp-<pid>-<random>``
   (:func:`temporary_sibling`) carry the writer's pid in their name and the marker; the next
-  run deletes those whose process is gone (same host: the marker's host, or, for one killed
-  before its marker was written, the pid in its name). The
+  run deletes those named exactly so, marked, whose process is gone (one killed before its
+  marker was written only if it is empty); a folder of the user's is never deleted, whatever
+  its name. The
   half-written ``.<file>.<random>.tmp`` files of :func:`design.io.files.atomic_write` that a killed
   batch leaves in its folder are deleted by the next run under the lock
   (:func:`remove_stale_file_temporaries`).
@@ -142,6 +143,10 @@ def check_replaceable(target: str | os.PathLike, field: str = "out",
         return folder
     if not folder.is_dir():
         raise BridgeflapInputError(field, f"{folder} exists and is not a folder")
+    if os.name == "posix" and (not os.access(folder, os.W_OK | os.X_OK)
+                               or not folder.stat().st_mode & 0o200):  # root: the mode bits
+        raise BridgeflapInputError(field, f"{folder} is a read-only folder; refusing to replace "
+                                          "it (make it writable, or choose another --out)")
     try:
         with os.scandir(folder) as entries:
             empty = next(entries, None) is None
@@ -188,19 +193,17 @@ def _pid_alive(pid: Any) -> bool:
         return True
 
 
-def _dead_writer(folder: Path, name_pid: int | None = None, marked: bool = True) -> bool:
-    """A temporary or backup whose writing process (on this host) is gone.
+def _dead_writer(folder: Path, name_pid: int | None) -> bool:
+    """A temporary or backup of ours whose writing process (on this host) is gone.
 
-    ``name_pid``: the pid in the folder's name (our naming scheme). With ``marked`` the folder
-    must also carry the marker (a backup always does); a temporary killed between its
-    ``mkdir`` and its marker is recognised by the pid in its name alone.
+    Ours: named exactly as bridgeflap names it (``name_pid``, the pid in the name, not
+    ``None``) and carrying the marker; a folder without the marker, or named otherwise, is
+    never ours, whatever its name looks like.
     """
     tag = read_marker(folder)
-    if tag is None:
-        return not marked and name_pid is not None and not _pid_alive(name_pid)
-    if name_pid is not None:
-        return not _pid_alive(name_pid)
-    return tag.get("host") == socket.gethostname() and not _pid_alive(tag.get("pid"))
+    if tag is None or name_pid is None:
+        return False
+    return not _pid_alive(name_pid)
 
 
 def temporary_sibling(target: Path) -> Path:
@@ -208,11 +211,14 @@ def temporary_sibling(target: Path) -> Path:
     return target.parent / f".{target.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}"
 
 
+_OUR_SUFFIX = re.compile(r"^([1-9][0-9]{0,9})-[0-9a-f]{8}$")  # <pid>-<8 hex>: ours exactly
+
+
 def _name_pid(path: Path, target: Path, tag: str) -> int | None:
-    """The pid in ``.<name>.<tag>-<pid>-<random>``, ``None`` for another spelling."""
-    rest = path.name[len(f".{target.name}.{tag}-"):]
-    head, sep, _ = rest.partition("-")
-    return int(head) if sep and head.isdigit() else None
+    """The pid in ``.<name>.<tag>-<pid>-<random>`` spelt exactly as bridgeflap spells it
+    (``<random>`` 8 hex digits), ``None`` for any other spelling (a user's own folder)."""
+    match = _OUR_SUFFIX.match(path.name[len(f".{target.name}.{tag}-"):])
+    return int(match.group(1)) if match else None
 
 
 def _siblings(target: Path, tag: str) -> list[Path]:
@@ -230,10 +236,12 @@ def recover_output(target: str | os.PathLike, say: Callable[[str], None] | None 
     * target missing, a marked backup ``.<name>.old-<pid>-*`` of a dead swapper present: the
       newest backup is renamed back to ``target`` (the previous output is recovered);
     * other marked backups of dead swappers (the target exists): deleted;
-    * marked temporaries ``.<name>.tmp-*`` whose writer is gone: deleted.
+    * marked temporaries ``.<name>.tmp-*`` whose writer is gone: deleted; an unmarked one
+      named exactly as ours (``.<name>.tmp-<pid>-<8 hex>``, killed between its ``mkdir`` and
+      its marker) only if it is empty (:func:`os.rmdir`: nothing in it can be lost).
 
-    Unmarked folders are never touched. Returns the actions as one-line texts (also given to
-    ``say``).
+    Unmarked folders are never deleted with their content. Returns the actions as one-line
+    texts (also given to ``say``).
     """
     target = Path(target).expanduser().absolute()
     actions = []
@@ -249,9 +257,15 @@ def recover_output(target: str | os.PathLike, say: Callable[[str], None] | None 
         shutil.rmtree(stale, ignore_errors=True)
         actions.append(f"removed the stale backup {stale.name}")
     for stale in _siblings(target, "tmp"):
-        if _dead_writer(stale, _name_pid(stale, target, "tmp"), marked=False):
+        pid = _name_pid(stale, target, "tmp")
+        if _dead_writer(stale, pid):
             shutil.rmtree(stale, ignore_errors=True)
             actions.append(f"removed the temporary folder {stale.name} of a run that died")
+        elif pid is not None and not _pid_alive(pid) and read_marker(stale) is None:
+            with contextlib.suppress(OSError):  # not empty: not provably ours, kept
+                os.rmdir(stale)
+                actions.append(f"removed the empty temporary folder {stale.name} of a run "
+                               "that died")
     for text in actions:
         (say or _stderr)(f"bridgeflap: {text}")
     return actions
@@ -316,6 +330,9 @@ def claim_output(target: str | os.PathLike, field: str = "out",
         return
     ensure_writable_dir(folder.parent, field)
     lock = _RunLock(lock_file)
+    if lock_file.is_symlink():
+        raise BridgeflapInputError(field, f"the lock {lock_file} is a symbolic link; refusing to "
+                                          "follow it (remove it)")
     try:
         held = lock.acquire()
     except OSError as exc:
@@ -362,7 +379,9 @@ class _RunLock:
             except Timeout:
                 return False
             return True
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        # never through a symbolic link: a planted .<name>.lock link would otherwise make us
+        # create a file at its target, outside the output folder's parent
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:

@@ -70,6 +70,7 @@ from design.sensitivity.ift import (  # the IFT core, also served from here (des
 )
 from model.aeroelastic import statespace
 from model.analysis import DEFAULT_MODES, bridge_system, modal_model
+from model.arguments import check_callable, check_strings, flag, number, optional
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.grid import speed_grid
 from model.stability.sweeps import oscillation_tolerance
@@ -190,7 +191,13 @@ def check_parameters(parameters: Sequence[str]) -> tuple[str, ...]:
     return parameters
 
 
-@takes_bridge
+def _parameters(value, field: str) -> tuple[str, ...]:
+    """Rule: parameter paths, as a list or as one comma-separated string (the CLI's)."""
+    return check_parameters(value if isinstance(value, str) else check_strings(value, field))
+
+
+@takes_bridge(parameters=_parameters, check=flag, rel_step=number(0.0, 0.5, strict=True),
+              fd_step=number(0.0, 0.5, strict=True), progress=optional(check_callable))
 def local_sensitivity(bridge: BridgeArg, parameters: Sequence[str] = DEFAULT_PARAMETERS,
                       speeds="0:120:1", n_modes: int = DEFAULT_MODES, rfa: str = "rfa4",
                       order: str = "modal", check: bool = True,
@@ -221,7 +228,7 @@ def local_sensitivity(bridge: BridgeArg, parameters: Sequence[str] = DEFAULT_PAR
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     parameters = check_parameters(parameters)
     u = speed_grid(speeds)  # "lo:hi:step" text or numbers [m/s]
-    if any(p.startswith("mode.") for p in parameters):  # imported modal data (issue 13)
+    if any(p.startswith("mode.") for p in parameters):  # imported modal data
         from design.sensitivity.modal import modal_sensitivity
 
         return modal_sensitivity(spec, parameters, u, n_modes, check, rel_step, fd_step,

@@ -1,4 +1,4 @@
-"""Sensitivities of the flutter and divergence speeds to imported modal data (issue 13).
+"""Sensitivities of the flutter and divergence speeds to imported modal data.
 
 Parameters ``mode.<label>.<quantity>`` with ``quantity`` one of :data:`MODAL_QUANTITIES`: the
 natural frequency ``f_j`` [Hz], the damping ratio ``zeta_j`` [-] or the generalised mass

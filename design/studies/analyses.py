@@ -218,11 +218,11 @@ def check_options(kind: str, opts: Mapping, what: str | None = None) -> None:
             check(value, f"{what}.{key}")
 
 
-def figure_of(ax):
-    """The figure of an axis or of the first of several axes."""
-    if isinstance(ax, list | tuple | np.ndarray):
-        return np.ravel(ax)[0].figure
-    return ax.figure
+def figure_of(drawn):
+    """The figure of a plot: a figure, an axis or the first of several axes."""
+    from model.results import figure_of as _figure_of
+
+    return _figure_of(drawn)
 
 
 def _figures(context: RunContext, name: str, result) -> dict:
@@ -248,7 +248,7 @@ def _run_modes(spec, opts, context) -> Outcome:
     modal = modal_model(spec)
     s = {"cable_horizontal_tension_n": modal.structure.statics.horizontal_tension_n,
          "cable_main_sag_m": modal.structure.statics.main_sag_m,
-         "modes": modal.table()[: int(opts["count"])], "table1": compare_table1(modal)}
+         "modes": modal.mode_records()[: int(opts["count"])], "table1": compare_table1(modal)}
     freq = np.array([m["frequency_hz"] for m in s["modes"]])
     # mode shapes along the deck (model.structure.modes.ModalModel.deck_shapes), the listed modes
     # only
@@ -428,7 +428,7 @@ def design_settings(opts: Mapping, bridge: str | None):
 
 
 def _run_design(spec, opts, context) -> Outcome:
-    from design.control.driver import design
+    from design.assessment.accept import design
     from design.control.settings import quick_settings
 
     # an in-memory bridge goes to the design as its spec (settings.bridge: its name if that
@@ -441,16 +441,12 @@ def _run_design(spec, opts, context) -> Outcome:
     settings = design_settings({**opts, "bridge": name} if mem else opts, name)
     if context.quick:
         settings = quick_settings(settings)
+    # the design with the acceptance checks of `bridgeflap optimise`, folded into its status
+    # (harm is never "converged": design.assessment.accept)
     res = design(settings, progress=lambda msg: context.say(f"  design: {msg}"),
-                 bridge=context.bridge if mem else None)
+                 bridge=context.bridge if mem else None, quick_checks=context.quick,
+                 check_workers=context.workers)
     s = res.summary()
-    if res.controller is not None:  # the checks of `bridgeflap optimise` (acceptance)
-        from design.assessment.acceptance import AcceptanceOptions, acceptance, design_closed_loop
-
-        opts_a = AcceptanceOptions.for_quick() if context.quick else AcceptanceOptions()
-        s["acceptance"], _ = acceptance(
-            res.controller, settings, opts_a, closed_loop=design_closed_loop(res, settings),
-            progress=lambda msg: context.say(f"  design: {msg}"))
     figs = {}
     if context.figures and res.controller is not None:
         context.say("  design: closed-loop root locus and buffeting (Fig. 5)")

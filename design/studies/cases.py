@@ -72,7 +72,7 @@ def analysis_case(params: Mapping, analysis: str, bridge: str | BridgeSpec = "hu
 def check_applicable(bridge: str, values: Mapping) -> None:
     """Each parameter applied alone to ``bridge`` before a batch runs: an FE parameter on a
     modal bridge (or a value the bridge refuses) is refused in one line naming
-    ``parameters.<path>``, not recorded as the failure of every case (issue 30 item 3)."""
+    ``parameters.<path>``, not recorded as the failure of every case."""
     if not isinstance(bridge, str | Path | BridgeSpec):
         raise BridgeflapInputError(
             "bridge", f"a batch takes a built-in name, a bridge TOML path or a BridgeSpec, got "

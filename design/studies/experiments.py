@@ -47,10 +47,19 @@ from design.io.options import (
 )
 from design.studies.analyses import ANALYSES
 from design.studies.cases import ERECTED_FRACTION, analysis_case
+from model.arguments import (
+    check_mapping,
+    check_path,
+    check_text,
+    checked,
+    flag,
+    instance_or_path,
+    optional,
+)
 from model.errors import BridgeflapInputError
 from model.results import ResultData
+from model.structure.bridge_arg import check_bridge_kind
 from model.structure.spec import PARAMETER_PATHS
-from model.vocabulary import renamed
 
 __all__ = ["DOE_ANALYSES", "MAX_DOE_CASES", "DoeConfig", "DoeParameter", "DoeResult",
            "doe_fingerprint", "doe_from_dict", "load_doe", "run_doe"]
@@ -63,7 +72,7 @@ __all__ = ["DOE_ANALYSES", "MAX_DOE_CASES", "DoeConfig", "DoeParameter", "DoeRes
 DOE_ANALYSES = tuple(name for name, entry in ANALYSES.items() if entry.case is not None)
 
 #: a DOE file's ``[design] kind``: the canonical names (those of :func:`design.make_design`)
-#: and, read as them, the spellings of files written before issue 29 (a published format:
+#: and, read as them, the spellings of files written by earlier versions (a published format:
 #: runs/doe_gj_sag/doe.toml and users' files; the fingerprint is of the canonical name)
 _DESIGN_ALIASES = {"full_factorial": "full_factorial", "latin_hypercube": "latin_hypercube",
                    "sobol": "sobol", "full-factorial": "full_factorial",
@@ -136,6 +145,7 @@ class DoeConfig:
                                  **self.options)
 
 
+@checked(path=check_path, quick=flag, bridge=optional(check_bridge_kind))
 def load_doe(path: str | os.PathLike, quick: bool = False, bridge: Any = None) -> DoeConfig:
     """Read and validate a DOE TOML file; ``bridge`` (a name, a bridge TOML path or a
     :class:`~model.structure.spec.BridgeSpec`) replaces the file's own ``bridge``.
@@ -171,6 +181,7 @@ def load_doe(path: str | os.PathLike, quick: bool = False, bridge: Any = None) -
     return doe_from_dict(data, base=base, quick=quick, source=source)
 
 
+@checked(data=check_mapping, base=optional(check_path), quick=flag, source=check_text)
 def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
                   source: str = "<dict>") -> DoeConfig:
     """Build a :class:`DoeConfig` from parsed TOML (see :func:`load_doe`)."""
@@ -293,6 +304,14 @@ class DoeResult(ResultData):
 
         return flat_case_rows(self.rows)
 
+    def to_xarray(self):
+        """The cases on the dimension ``case``: parameters as coordinates, each scalar result a
+        variable (:func:`design.batch.table.cases_dataset`); ``ds.set_index`` or
+        ``ds.to_dataframe()`` for a grid."""
+        from design.batch.table import cases_dataset
+
+        return cases_dataset(self.rows)
+
     def plot(self, ax=None, output: str | None = None):
         """Scatter of an output over the first two parameters (failed cases as crosses)."""
         import matplotlib.pyplot as plt
@@ -347,7 +366,9 @@ def doe_fingerprint(config: DoeConfig) -> str:
     return json.dumps(payload, sort_keys=True, default=repr)
 
 
-@renamed
+@checked(config=instance_or_path(DoeConfig, "design.load_doe"), out_dir=optional(check_path),
+         scheduler=optional(check_text), resume=flag, quick=flag, progress=flag,
+         bridge=optional(check_bridge_kind))
 def run_doe(config: DoeConfig | str | os.PathLike,
             out_dir: str | os.PathLike | None = None,
             workers: int = 1, scheduler: str | None = None, resume: bool = False,

@@ -27,7 +27,8 @@ def _buffeting_line(ax, u, y, style, label):
 
 
 def fig5(sweep_cl, sweep_ol, ol_buffeting, cl_buffeting, controller,
-         open_loop_flutter_m_s: float | None = None, model_text: str = ""):
+         open_loop_flutter_m_s: float | None = None, model_text: str = "",
+         status: str | None = None):
     """Seed Fig. 5: closed-loop root locus over the open loop (left), vertical (middle) and
     torsional (right) buffeting with and without the flaps; the open-loop flutter speed
     marked is ``open_loop_flutter_m_s`` (the design result's), else ``sweep_ol``'s."""
@@ -36,9 +37,16 @@ def fig5(sweep_cl, sweep_ol, ol_buffeting, cl_buffeting, controller,
 
     axes = _new(1, 3, figsize=(18, 5))
     ax0, ax1, ax2 = axes
-    fl = (f"closed-loop flutter {sweep_cl.flutter.speed:.1f} m/s"
-          if sweep_cl.flutter.status == CONVERGED
+    # the closed loop's first crossing (flutter or divergence); "stable" only when neither
+    # crosses on the grid
+    found = [(c.speed, name) for name, c in (("flutter", sweep_cl.flutter),
+                                              ("divergence", getattr(sweep_cl, "divergence",
+                                                                     None)))
+             if c is not None and c.status == CONVERGED]
+    fl = (f"closed-loop {min(found)[1]} {min(found)[0]:.1f} m/s" if found
           else f"closed loop stable {sweep_cl.speeds[0]:g}-{sweep_cl.speeds[-1]:g} m/s")
+    if status is not None and status != "converged":
+        fl += f" (design {status}: not usable)"
     root_locus(sweep_cl, ax0, title=f"{controller.n_flaps} flap pairs: {fl}",
                reference=sweep_ol)
     if open_loop_flutter_m_s is None and sweep_ol.flutter.status == CONVERGED:

@@ -83,6 +83,8 @@ def study_document(res: StudyResult, figures: dict) -> Document:
                     "docs/humber_data.md (sag, cable spacing, deck inertia, half-chord; EI/GJ "
                     "updated to Table 1) are the built-in estimates; none was tuned to the "
                     "paper's speeds.")
+    if "design" in r:     # the controller's verdict first: harm is never a footnote
+        doc.paragraph(_design_verdict(r["design"]))
     doc.heading(2, "Solver and analysis statuses")
     doc.table(list(res.statuses.items()), ["analysis", "status"])
     solver = _solver_lines(r)
@@ -199,6 +201,35 @@ def _flutter_section(doc: Document, f: dict) -> None:
                   f"branch {f.get('second_critical_branch_label') or '-'} "
                   f"({f.get('second_flutter_status', '-')}, "
                   f"{_fmt(f.get('second_flutter_speed_m_s'))} m/s).")
+
+
+def _pc(x, spec=".2f") -> str:
+    """A fraction as a percentage (``-`` when absent)."""
+    return _fmt(None if x is None else 100.0 * x, spec)
+
+
+def _design_verdict(d: dict) -> str:
+    """One paragraph: the designed controller's status and its acceptance verdict."""
+    acc = d.get("acceptance") or {}
+    rob = acc.get("robustness") or {}
+    st = d.get("status")
+    usable = st == "converged" and acc.get("status") in ("passed", "not_run", None)
+    head = (f"**Controller: {st}, usable.**" if usable else
+            f"**Controller: {st}, NOT usable (no controller file written).**")
+    parts = [head, f"Acceptance: {acc.get('status', 'not_run')}"]
+    if "variants" in rob:
+        parts.append(f"do no harm on {rob['variants']} fresh variants: "
+                     f"{rob.get('harmed_count', '?')} harmed (95 % upper bound on the harm "
+                     f"probability {_pc(rob.get('harm_probability_upper_95'))} %), "
+                     f"worst closed/open {_fmt(rob.get('worst_closed_over_open'), '.3f')}, "
+                     f"{_pc(rob.get('fraction_stable_to_design_speed'), '.1f')}"
+                     f" % stable to {_fmt(rob.get('design_speed_m_s'), 'g')} m/s")
+    lim = d.get("closed_loop_limits") or {}
+    if lim.get("critical_speed_m_s") is not None:
+        parts.append(f"nominal closed-loop critical speed "
+                     f"{_fmt(lim.get('critical_speed_m_s'), '.2f')} m/s "
+                     f"({lim.get('critical_mechanism', '-')})")
+    return "; ".join(parts) + "."
 
 
 def _design_section(doc: Document, d: dict) -> None:

@@ -31,8 +31,10 @@ import numpy as np
 
 from design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES  # also served from here
 from design.io.files import atomic_write_text
+from model.arguments import check_mapping, check_text, checked, count, flag, optional
 from model.errors import BridgeflapInputError
 from model.results import ResultData
+from model.structure.bridge_arg import check_bridge_kind
 from model.structure.spec import PARAMETER_PATHS
 
 __all__ = ["DEFAULT_UNCERTAIN_RANGES", "GlobalSensitivityResult", "global_sensitivity"]
@@ -173,6 +175,9 @@ def _band(y: np.ndarray) -> dict:
             "finite": int(y.size)}
 
 
+@checked(bridge=check_bridge_kind, ranges=optional(check_mapping), method=check_text,
+         n=count(1, 100000), seed=count(0, 2**32 - 1), scheduler=optional(check_text),
+         resume=flag, case_options=optional(check_mapping), progress=flag)
 def global_sensitivity(bridge="humber",
                        ranges: Mapping[str, tuple[float, float]] | None = None,
                        method: str = "morris", n: int = 8, seed: int = 1,

@@ -75,9 +75,19 @@ from design.io.outputs import (
 )
 from design.studies.analyses import ANALYSES, Outcome, RunContext
 from design.studies.report import PAPER, study_report, study_report_html
+from model.arguments import (
+    check_callable,
+    check_mapping,
+    check_path,
+    check_text,
+    checked,
+    flag,
+    instance_or_path,
+    optional,
+)
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.results import ResultData
-from model.vocabulary import renamed
+from model.structure.bridge_arg import check_bridge_kind
 
 __all__ = [
     "StudyConfig",
@@ -143,6 +153,7 @@ class StudyConfig:
         return spec
 
 
+@checked(path=optional(check_path), quick=flag, bridge=optional(check_bridge_kind))
 def load_study(path: str | os.PathLike | None = None, quick: bool = False,
                bridge: Any = None) -> StudyConfig:
     """Read and validate a study TOML (the built-in default when ``path`` is ``None``);
@@ -161,6 +172,7 @@ def load_study(path: str | os.PathLike | None = None, quick: bool = False,
     return study_from_dict(data, base=base, quick=quick, source=source)
 
 
+@checked(data=check_mapping, base=optional(check_path), quick=flag, source=check_text)
 def study_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
                     source: str = "<dict>") -> StudyConfig:
     """Build a :class:`StudyConfig` from parsed TOML (see the module docstring)."""
@@ -305,6 +317,15 @@ def _run_one(kind: str, spec, opts: Mapping, config: StudyConfig, say) -> Outcom
     return Outcome(outcome.status, summary, outcome.arrays, outcome.figures, outcome.result)
 
 
+def _labelled(result) -> bool:
+    """The result has labelled arrays of its own (a sweep's ``to_xarray``), not only the
+    generic table-as-dataset every result has."""
+    from model.results import ResultData
+
+    method = getattr(type(result), "to_xarray", None)
+    return callable(method) and method is not ResultData.to_xarray
+
+
 def _write_outcome(kind: str, outcome: Outcome, folder: Path) -> tuple[dict, list[str]]:
     """Write the results, arrays, figures (and a designed controller) of one analysis."""
     summary = dict(outcome.summary)
@@ -317,12 +338,13 @@ def _write_outcome(kind: str, outcome: Outcome, folder: Path) -> tuple[dict, lis
     atomic_write_json(folder / "results" / f"{kind}.json", summary)
     if outcome.arrays:
         atomic_savez(folder / "results" / f"{kind}.npz", **outcome.arrays)
-    if callable(getattr(outcome.result, "to_xarray", None)):  # sweeps as labelled arrays
+    if _labelled(outcome.result):  # sweeps as labelled arrays
         atomic_save_netcdf(folder / "results" / f"{kind}.nc", outcome.result.to_xarray())
     return summary, _save_figures(outcome.figures, folder / "figures")
 
 
-@renamed
+@checked(config=optional(instance_or_path(StudyConfig, "design.load_study")),
+         out_dir=optional(check_path), quick=flag, progress=optional(check_callable))
 def run_study(config: StudyConfig | str | os.PathLike | None = None,
               out_dir: str | os.PathLike | None = None, quick: bool = False,
               progress: Callable[[str], None] | None = None, workers: int = 1) -> StudyResult:

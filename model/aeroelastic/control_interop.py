@@ -31,11 +31,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from model.aeroelastic.control_plant import INPUTS, MAX_FLAPS
+from model.aeroelastic.controller_file import as_controller
 from model.aeroelastic.python_control import (  # noqa: F401 - the conversions, public here too
     _control,
     compensator_tf,
     controller_statespace,
 )
+from model.arguments import count, one_of, optional
 from model.errors import BridgeflapInputError
 from model.grid import speed_grid
 from model.structure.bridge_arg import takes_bridge
@@ -44,7 +47,7 @@ from model.vocabulary import DEFAULT_MODES
 __all__ = ["closed_loop", "compensator_tf", "controller_statespace", "plant_family"]
 
 
-@takes_bridge
+@takes_bridge(controller=as_controller, inputs=None)
 def closed_loop(bridge, speed: float, controller, n_modes: int = DEFAULT_MODES,
                 flap_chord_m: float | None = None):
     """The package's closed loop at ``speed`` [m/s] as a named ``control.StateSpace``.
@@ -63,10 +66,11 @@ def closed_loop(bridge, speed: float, controller, n_modes: int = DEFAULT_MODES,
     p = closed_loop_plant(bridge, controller, U, int(n_modes), flap_chord_m)
     return _control().ss(p.A, p.B, p.C, p.D, inputs=list(p.input_names),
                          outputs=list(p.output_names), states=list(p.state_names),
-                         name=f"bridgeflap_closed_loop_U{U:g}")
+                         name="bridgeflap_closed_loop_U" + f"{U:g}".replace(".", "p"))
 
 
-@takes_bridge
+@takes_bridge(controller=optional(as_controller), inputs=one_of(*INPUTS),
+              flaps=count(1, MAX_FLAPS))
 def plant_family(bridge, speeds, inputs: str = "gust", n_modes: int = DEFAULT_MODES,
                  **options) -> dict:
     """``{speed [m/s]: control.StateSpace}``: :func:`model.plant` at each of ``speeds``.

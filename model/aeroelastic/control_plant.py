@@ -38,6 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from model.aeroelastic.assembly import rfa_parts
+from model.aeroelastic.controller_file import as_controller
+from model.arguments import count, one_of, optional
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.results import ResultData
 from model.structure.bridge_arg import takes_bridge
@@ -160,7 +162,7 @@ def to_control(p: Plant):
                               "'bridgeflap[control]' (or pip install control)") from exc
     return control.ss(p.A, p.B, p.C, p.D, inputs=list(p.input_names),
                       outputs=list(p.output_names), states=list(p.state_names),
-                      name=f"bridgeflap_plant_U{p.wind_speed_m_s:g}")
+                      name="bridgeflap_plant_U" + f"{p.wind_speed_m_s:g}".replace(".", "p"))
 
 
 def even_flap_layout(spec, count: int) -> tuple[np.ndarray, float]:
@@ -185,7 +187,8 @@ def _flap_columns(system, flaps_le_te, U: float):
     return cols[:, 0::3], cols[:, 1::3], cols[:, 2::3]
 
 
-@takes_bridge
+@takes_bridge(controller=optional(as_controller), inputs=one_of(*INPUTS),
+              flaps=count(1, MAX_FLAPS))
 def plant_data(bridge, speed: float, inputs: str = "gust", n_modes: int = DEFAULT_MODES,
                controller=None, flaps: int = 5, flap_chord_m: float | None = None,
                system=None) -> Plant:
@@ -277,7 +280,7 @@ def plant_data(bridge, speed: float, inputs: str = "gust", n_modes: int = DEFAUL
                  flap_x_m=fx, flap_position_m=fpos, flap_width_m=fwidth, inputs=inputs)
 
 
-@takes_bridge
+@takes_bridge(controller=as_controller)
 def closed_loop_plant(spec, controller, speed: float, n_modes: int = DEFAULT_MODES,
                       flap_chord_m: float | None = None) -> Plant:
     """The package's closed loop (``controller``'s K(s) fed back, :mod:`model.aeroelastic.flaps`)
@@ -311,7 +314,8 @@ def basis_mid(spec) -> float:
         lengths[spec.main_span_index])
 
 
-@takes_bridge
+@takes_bridge(controller=optional(as_controller), inputs=one_of(*INPUTS),
+              flaps=count(1, MAX_FLAPS))
 def plant(bridge, speed: float, inputs: str = "gust", n_modes: int = DEFAULT_MODES,
           **options):
     """:func:`plant_data` as a ``control.StateSpace`` (``bridge``: a name, a file or a spec).

@@ -13,21 +13,23 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import os
 import re
 import sys
 from importlib import resources
 from pathlib import Path
 
 from model.aeroelastic.control import Compensator, Controller, PlantRecord, _check_number
-from model.errors import BridgeflapInputError
+from model.arguments import check_path, checked, describe
+from model.errors import BridgeflapInputError, BridgeflapTypeError
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover - exercised only on Python 3.10
     import tomli as tomllib
 
-__all__ = ["bridge_sha256", "check_controller_plant", "load_controller", "plant_record",
-           "save_controller", "split_bridge"]
+__all__ = ["as_controller", "bridge_sha256", "check_controller_plant", "load_controller",
+           "plant_record", "save_controller", "split_bridge"]
 
 
 def split_bridge(bridge: str) -> tuple[str, str]:
@@ -180,6 +182,19 @@ MAX_COEFFICIENT = 1.0e6
 MIN_DENOMINATOR_COEFFICIENT = {"a1": 1.0e-6, "a2": 1.0e-12}
 
 
+def as_controller(value, field: str = "controller") -> Controller:
+    """``value`` if it is a :class:`Controller`; a controller file's path is loaded
+    (:func:`load_controller`); anything else is a
+    :class:`~model.errors.BridgeflapTypeError` naming ``field``."""
+    if isinstance(value, Controller):
+        return value
+    if isinstance(value, str | os.PathLike):
+        return load_controller(value)
+    raise BridgeflapTypeError(field, "must be a Controller or a controller .toml path "
+                                     f"(model.load_controller), got {describe(value)}")
+
+
+@checked(path=check_path)
 def load_controller(path) -> Controller:
     """Read a controller definition from a TOML file.
 
@@ -238,6 +253,10 @@ def load_controller(path) -> Controller:
             raise BridgeflapInputError(f"controller.{missing[0]}",
                                        f"missing in {path} (the plant record is "
                                        f"{', '.join(_PLANT_KEYS)}: all or none)")
+        if "flap_chord_m" not in data:  # written with the plant, so with the chord it closed on
+            raise BridgeflapInputError("controller.flap_chord_m",
+                                       f"missing in {path} (a file with the plant record "
+                                       "records the flap chord it was designed with)")
         plant = PlantRecord(**{k: data[k] for k in _PLANT_KEYS})
     compensator = Compensator(*(data[k] for k in _COMPENSATOR_KEYS))
     layout = {k: data[k] for k in _LAYOUT_KEYS if k in data}
@@ -259,6 +278,13 @@ _CONTROLLER_HEADER = """\
 """
 
 
+def _a_controller(value, field: str) -> Controller:
+    if not isinstance(value, Controller):
+        raise BridgeflapTypeError(field, f"must be a Controller, got {describe(value)}")
+    return value
+
+
+@checked(controller=_a_controller, path=check_path)
 def save_controller(controller: Controller, path) -> Path:
     """Write a controller definition as TOML (readable by :func:`load_controller`).
 

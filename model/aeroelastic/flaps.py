@@ -48,7 +48,9 @@ from model.aeroelastic import statespace
 from model.aeroelastic.assembly import OpenPieces, dynamic_matrices, open_pieces, rfa_parts
 from model.aeroelastic.backend import is_symbolic
 from model.aeroelastic.control import DEFAULT_FLAP_CHORD_M, Compensator, Controller
+from model.aeroelastic.controller_file import as_controller
 from model.aeroelastic.statespace import AeroelasticSystem, StateIndex
+from model.arguments import flag, number, numbers
 from model.errors import BridgeflapInputError
 from model.spectrum import polynomial_abscissa
 from model.structure.bridge_arg import takes_bridge
@@ -300,7 +302,8 @@ def controller_flaps(spec, basis: StructuralBasis, controller: Controller,
                     chord, controller.leading_edge, controller.trailing_edge)
 
 
-@takes_bridge
+@takes_bridge(positions_m=numbers, width_m=number(0.0, 1.0e4, strict=True),
+              leading_edge=flag, trailing_edge=flag)
 def closed_loop_model(bridge, positions_m, width_m, n_modes: int = DEFAULT_MODES,
                       flap_chord_m: float = DEFAULT_FLAP_CHORD_M, leading_edge: bool = True,
                       trailing_edge: bool = True, modal=None) -> ClosedLoopModel:
@@ -329,7 +332,7 @@ def section_model(basis: StructuralBasis, half_chord: float, air_density: float,
     return ClosedLoopModel(system, flaps)
 
 
-@takes_bridge
+@takes_bridge(controller=as_controller)
 def closed_loop_system(spec, controller: Controller, n_modes: int = DEFAULT_MODES,
                        flap_chord_m: float | None = None) -> AeroelasticSystem:
     """Closed-loop system with the AeroelasticSystem interface (``A(U)``, ``B_gust(U)``,
@@ -342,7 +345,7 @@ def closed_loop_system(spec, controller: Controller, n_modes: int = DEFAULT_MODE
     return model.system(controller.compensator)
 
 
-@takes_bridge
+@takes_bridge(controller=as_controller)
 def closed_loop_state_space(bridge, controller: Controller, speed: float,
                             n_modes: int = DEFAULT_MODES,
                             flap_chord_m: float | None = None):

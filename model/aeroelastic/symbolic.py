@@ -56,7 +56,8 @@ from model.aero.rfa import RationalApprox, get_rfa
 from model.aero.strips import strip_aero
 from model.aeroelastic.assembly import open_pieces, rfa_parts
 from model.aeroelastic.control import canonical_realisation
-from model.errors import BridgeflapInputError
+from model.arguments import checked, describe
+from model.errors import BridgeflapInputError, BridgeflapTypeError
 from model.spectral import trapezoid_weights
 from model.structure.bridge_arg import BridgeArg, takes_bridge
 from model.structure.fe import assemble
@@ -180,6 +181,16 @@ def build_symbolic(bridge: BridgeArg, n_modes: int, rfa: RationalApprox | str = 
                          n_modes=n, labels=nominal.labels, n_states=int(A0.shape[0]))
 
 
+def _flap_model(value, field: str):
+    """A flap model (:class:`~model.aeroelastic.flaps.ClosedLoopModel`, known by what it has:
+    the flaps room imports this one)."""
+    if not all(hasattr(value, name) for name in ("pieces", "open_loop", "n_flaps")):
+        raise BridgeflapTypeError(field, "must be a flap model (model.closed_loop_model), got "
+                                         f"{describe(value)}")
+    return value
+
+
+@checked(model=_flap_model)
 def closed_loop_functions(model) -> dict:
     """``{"A_parts": (theta, w) -> (A0, A1, A2), "A_cl": (U, theta, w) -> A}`` of a flap model.
 

@@ -3,7 +3,7 @@
 Each case is solved twice on the same structure and strip loads: by the RFA state space
 (:func:`model.stability.sweeps.sweep`) and by the exact-Theodorsen p-k
 (:func:`model.stability.sweeps.pk_sweep`), so the gap between the two flutter speeds is the RFA's
-own error (issue 27 item 5). Cases:
+own error. Cases:
 
 ============== =================================================================================
 ``hp-1``       Hodges & Pierce typical section (a = -1/5, e = -1/10, mu = 20, r^2 = 6/25,

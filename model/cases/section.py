@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from model.aero.basis import StructuralBasis
+from model.arguments import checked, number
 from model.errors import BridgeflapInputError
 
 
@@ -21,6 +22,14 @@ def _pos(name, v):
         raise BridgeflapInputError(name, f"must be a positive number, got {v!r}")
 
 
+#: a positive physical quantity: mass, inertia, density, ratios of them
+_POSITIVE = number(0.0, 1.0e9, strict=True)
+
+
+@checked(mass_kg_per_m=_POSITIVE, inertia_kgm2_per_m=_POSITIVE,
+         f_heave_hz=number(0.0, 1.0e3, strict=True), f_torsion_hz=number(0.0, 1.0e3, strict=True),
+         half_chord_m=number(0.0, 1.0e3, strict=True), damping_ratio=number(0.0, 1.0),
+         elastic_axis_a=number(-1.0, 1.0), x_theta=number(-1.0e3, 1.0e3))
 def section_basis(mass_kg_per_m: float, inertia_kgm2_per_m: float, f_heave_hz: float,
                   f_torsion_hz: float, half_chord_m: float, damping_ratio: float = 0.0,
                   elastic_axis_a: float = 0.0, x_theta: float = 0.0) -> StructuralBasis:
@@ -67,6 +76,10 @@ def section_basis(mass_kg_per_m: float, inertia_kgm2_per_m: float, f_heave_hz: f
                            labels=("heave", "pitch"))
 
 
+@checked(mu=_POSITIVE, r2=_POSITIVE, sigma=_POSITIVE, a=number(-1.0, 1.0),
+         x_theta=number(-1.0e3, 1.0e3),
+         half_chord_m=number(0.0, 1.0e3, strict=True), omega_theta=_POSITIVE,
+         air_density=_POSITIVE)
 def typical_section(mu: float, r2: float, sigma: float, a: float, x_theta: float,
                     half_chord_m: float = 1.0, omega_theta: float = 1.0,
                     air_density: float = 1.0) -> StructuralBasis:

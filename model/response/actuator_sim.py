@@ -1,4 +1,4 @@
-"""Time-domain closed loop in turbulent wind with flap angle and rate limits (issue 28, item 3).
+"""Time-domain closed loop in turbulent wind with flap angle and rate limits.
 
 Conventions: :mod:`model` (SI units, radians inside; degrees only in the limits' names).
 

@@ -37,6 +37,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from model.aero.gust import GustField, coherence_projection, gust_field
+from model.aeroelastic.controller_file import as_controller
+from model.arguments import count, flag, number, optional
 from model.errors import BridgeflapError, BridgeflapInputError
 from model.grid import speed_grid
 from model.response.buffeting_inputs import LOADS, resolve_system
@@ -352,7 +354,17 @@ def _check_speeds(speeds) -> np.ndarray:
     return speed_grid(speeds, positive=True)
 
 
-@takes_bridge
+@takes_bridge(controller=optional(as_controller), allow_unstable=flag,
+              turbulence_intensity=optional(number(0.0, 1.0, strict=True)),
+              deck_height_m=optional(number(0.0, 1.0e4, strict=True)),
+              length_scale_m=optional(number(0.0, 1.0e5, strict=True)),
+              half_chord_m=optional(number(0.0, 1.0e3, strict=True)),
+              coherence_decay=optional(number(0.0, 1.0e3)),
+              omega_max=optional(number(0.0, 1.0e6, strict=True)),
+              n_base=count(1, 100000), peaks_per_mode=count(1, 10001),
+              half_widths=number(0.0, 1.0e3, strict=True),
+              convergence_tol=number(0.0, 1.0, strict=True), mc_records=count(1, 10000),
+              mc_seed=count(0, 2**32 - 1), mc_points=optional(count(2, 1000000)))
 def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
               coherence_decay=None, n_modes=DEFAULT_MODES, method="spectral", *, spec=None,
               turbulence_intensity=None, deck_height_m=None, length_scale_m=None,

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from model.aeroelastic import statespace
+from model.arguments import MAX_MODES, counts, number
 from model.errors import BridgeflapInputError
 from model.results import ResultData
 from model.stability.sweeps import CONVERGED, check_speeds, sweep
@@ -206,7 +207,7 @@ class ConvergenceResult(ResultData):
         return ax
 
 
-@takes_bridge
+@takes_bridge(counts=counts(1, MAX_MODES), tolerance_pct=number(0.0, 100.0, strict=True))
 def mode_convergence(bridge: BridgeArg, speeds, counts=DEFAULT_MODE_COUNTS,
                      tolerance_pct: float = TOLERANCE_PCT, order: str = "modal",
                      rfa: str = "rfa4") -> ConvergenceResult:

@@ -24,6 +24,7 @@ from scipy.optimize import brentq
 
 from model.aero.theodorsen import theodorsen
 from model.aeroelastic.statespace import AeroelasticSystem, exact_dynamic_matrix
+from model.arguments import checked, flag
 from model.results import ResultData
 from model.stability.pk_kernel import BranchMemory, kernel_for
 from model.stability.tracking import (
@@ -41,6 +42,7 @@ from model.stability.tracking import (
     continue_adaptive,
     oscillation_tolerance,
 )
+from model.structure.bridge_arg import check_system
 
 if TYPE_CHECKING:
     from model.aeroelastic.control import Compensator
@@ -229,6 +231,7 @@ def pk_residual(frozen, p: complex, U: float) -> float:
     return float(s[-1] / max(np.linalg.norm(A, 2), abs(p), 1e-300))
 
 
+@checked(system=check_system, full_grid=flag)
 def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
              full_grid: bool = False) -> PKResult:
     """p-k solution with the exact Theodorsen function on the same coordinates.

@@ -1,4 +1,4 @@
-"""Verified static divergence of an open or closed loop (issue 28 item 4).
+"""Verified static divergence of an open or closed loop.
 
 The static equilibrium of a system ``A(U) = A0 + U A1 + U^2 A2`` is ``K_ae(U) q = f`` with
 ``K_ae(U) = K - U^2 Q`` (:func:`model.aeroelastic.statespace.static_aero_stiffness`: ``C(0) = 1``

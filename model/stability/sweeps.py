@@ -54,6 +54,7 @@ from model.aeroelastic.statespace import (  # noqa: F401 - divergence_mechanism 
     divergence_mechanism,
     divergence_speed_static,
 )
+from model.arguments import checked
 from model.errors import BridgeflapInputError
 from model.stability.crossings import (
     _critical_vector,
@@ -98,6 +99,7 @@ from model.stability.tracking import (  # noqa: F401 - statuses and helpers are 
     oscillation_tolerance,
     static_status,
 )
+from model.structure.bridge_arg import check_system
 
 # ------------------------------------------------------------------ the sweep
 
@@ -107,6 +109,7 @@ from model.stability.tracking import (  # noqa: F401 - statuses and helpers are 
 SWEEP_METHODS = ("dense", "fast")
 
 
+@checked(system=check_system)
 def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
           method: str = "dense", critical_only: bool = False) -> StabilitySweep:
     """Eigenvalue sweep with branch tracking and refined, verified flutter/divergence speeds.

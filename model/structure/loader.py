@@ -23,6 +23,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from model.arguments import check_mapping, check_text, checked, optional
 from model.errors import BridgeflapInputError
 from model.structure.builtin_bridges import BUILTIN_BRIDGES, BUILTIN_FILES
 from model.structure.limits import check_section_geometry, to_float
@@ -77,7 +78,7 @@ def load_bridge(name_or_path: str | Path | BridgeSpec) -> BridgeSpec:
     loads = spec.derivatives
     if loads is not None and hasattr(loads, "table"):
         # the derivative table is read (and checked: finite, increasing) at load, so that a
-        # study or DOE on a bridge with a bad table is refused before it writes (issue 30)
+        # study or DOE on a bridge with a bad table is refused before it writes
         loads.table(2.0 * spec.deck.half_chord_m)
     return spec
 
@@ -122,6 +123,7 @@ def _check_keys(table: dict, allowed, where: str) -> None:
         raise BridgeflapInputError(f"{where}.{unknown[0]}", "unknown key")
 
 
+@checked(data=check_mapping, origin=check_text, variant=optional(check_text))
 def spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = None) -> BridgeSpec:
     """Build a :class:`BridgeSpec` from parsed TOML, recording each value's source.
 

@@ -104,9 +104,21 @@ class ImportedModalModel:
         """Refused: an imported model carries its damping ratios per mode."""
         raise _needs_fe(self.spec.name, "Rayleigh damping coefficients")
 
-    def table(self) -> list[dict]:
-        """Modes as JSON-ready dicts, sorted by frequency."""
+    def mode_records(self) -> list[dict]:
+        """Modes as JSON-ready dicts, sorted by frequency (the rows of :meth:`table`)."""
         return [m.as_dict() for m in self.modes]
+
+    def to_dataframe(self):
+        """The modes as a :class:`pandas.DataFrame` (one row per mode, unit-named columns)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.mode_records())
+
+    def table(self, fmt: str = "github") -> str:
+        """:meth:`to_dataframe` as text (``fmt``: any :mod:`tabulate` format)."""
+        from model.results import table_text
+
+        return table_text(self.to_dataframe(), fmt)
 
     def find(self, label: str):
         """The mode with a label such as ``"TS1"``."""
@@ -169,6 +181,13 @@ class ImportedModalModel:
         return basis, self.strip_shapes["lateral"][:, cols]
 
     def plot(self, labels=None, ax=None, per_family: int = 3):
+        """Mode shapes by family (as :meth:`model.structure.modes.ModalModel.plot`); returns the
+        Figure."""
+        from model.results import figure_of
+
+        return figure_of(self._plot_axes(labels, ax, per_family))
+
+    def _plot_axes(self, labels=None, ax=None, per_family: int = 3):
         """Imported deck shapes, one panel per family, the main-span ends marked
         (:func:`model.structure.plots.imported_mode_shapes`)."""
         from model.structure.plots import imported_mode_shapes

@@ -51,18 +51,18 @@ class ModalModel(ResultData):
         """The bridge definition."""
         return self.structure.spec
 
-    def table(self) -> list[dict]:
-        """Modes as JSON-ready dicts, sorted by frequency."""
+    def mode_records(self) -> list[dict]:
+        """Modes as JSON-ready dicts, sorted by frequency (the rows of :meth:`table`)."""
         return [m.as_dict() for m in self.modes]
 
     def _rows(self) -> list[dict]:
-        return self.table()
+        return self.mode_records()
 
     def to_dict(self) -> dict:
         """Strict-JSON ``{"bridge", "erected_fraction", "modes"}`` (shapes: :meth:`deck_shapes`)."""
         return jsonable({"bridge": self.spec.name,
                          "erected_fraction": self.spec.erected_fraction,
-                         "modes": self.table()})
+                         "modes": self.mode_records()})
 
     def _headline(self) -> dict:
         """Bridge, stage, mode count and the lowest mode of each family."""

@@ -45,9 +45,9 @@ def main():
     if args.quick:
         spec = spec.replace(**{"mesh.element_length_m": 47.0})
     shape = flutter_mode_shape(spec, parse_range("0:85:0.5", "speeds", 0.0), DEFAULT_MODES)
-    axes = shape.plot()
-    axes[0].figure.savefig(out / "flutter_mode_shape.png", dpi=120)
-    plt.close(axes[0].figure)
+    fig = shape.plot()
+    fig.savefig(out / "flutter_mode_shape.png", dpi=120)
+    plt.close(fig)
     picked = ratio_modes(spec, first_symmetric_deck_mode, (0.2, 0.5, 0.8, 1.0))
     axes = plot_ratio_modes(picked)
     axes[0].figure.savefig(out / "ratio_modes.png", dpi=120)

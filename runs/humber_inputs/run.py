@@ -1,4 +1,4 @@
-"""Where the Humber headline numbers move with each correction of the built-in inputs (issue 12).
+"""Where the Humber headline numbers move with each correction of the built-in inputs.
 
 For each combination of the deck mass/inertia reading (the first landing's steel-only 7,660 kg/m
 with m r^2 = 3.75e5 kg m^2/m, or the lumped section of humber.toml) and the half-chord reading

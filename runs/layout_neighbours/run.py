@@ -1,4 +1,4 @@
-"""The default design's flap layout against its neighbouring integer layouts (issue 32 item 5).
+"""The default design's flap layout against its neighbouring integer layouts.
 
 The default card (``runs/humber_flaps.toml``) places its flaps by rounding relaxed weights
 at 0.5 and re-optimises K(s) on the rounded layout. This script re-optimises and verifies
@@ -35,7 +35,7 @@ from design.io.files import atomic_write_json, atomic_write_text, ensure_writabl
 from design.io.manifest import build_manifest
 
 DEFINITION = Path(__file__).resolve().parents[1] / "humber_flaps.toml"
-#: The default design as recorded in the README (issue 32): K (b2, b1, b0, a2, a1) and layout.
+#: The default design as recorded in the README: K (b2, b1, b0, a2, a1) and layout.
 DEFAULT_THETA = (-1.0520, 0.7242, -4.9907, 0.2457, 0.1963)
 DEFAULT_POSITIONS_M = tuple(s * 56.4 * k for k in range(4, 13) for s in (-1, 1))
 #: The quick model (numerics only: the code paths of the full run, small matrices). The
@@ -43,6 +43,7 @@ DEFAULT_POSITIONS_M = tuple(s * 56.4 * k for k in range(4, 13) for s in (-1, 1))
 #: at Maximum_Iterations_Exceeded (not verified) on an AMD EPYC (OpenBLAS SkylakeX kernel),
 #: though it had verified on the machines before; with 80 it ends Solve_Succeeded there.
 QUICK = {"bridge": "humber:box", "n_modes": 6, "verification_modes": 6, "flap_count": 3,
+         "flap_positions_m": (),
          "robust_design_speeds_m_s": (30.0, 60.0), "n_robust_omega": 8,
          "design_step_m_s": 10.0, "cutting_plane_rounds": 1, "placement_cut_rounds": 0,
          "max_iter": 20, "resolve_max_iter": 80, "robust_speeds_m_s": (30.0, 60.0),

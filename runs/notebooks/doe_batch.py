@@ -14,7 +14,9 @@
 # A 2 x 2 full-factorial design through the fault-tolerant batch runner
 # (`design.studies.experiments.run_doe`, the engine of `bridgeflap doe`): every case is its own
 # file, a failed case is a row with its status, and the table loads straight into pandas. Cheap
-# settings: 6 modes, a 2 m/s grid.
+# settings: 6 modes, a 2 m/s grid. `scheduler="serial"` runs the cases in this process, so the
+# file also runs as a plain script (`python runs/notebooks/doe_batch.py`); `workers=2` instead
+# starts a local Dask cluster, which in a script needs an `if __name__ == "__main__":` guard.
 
 # %%
 # %matplotlib inline
@@ -33,7 +35,7 @@ config = design.doe_from_dict({
     "design": {"kind": "full_factorial", "levels": 2},
     "parameters": {"deck.gj_nm2": [4.7e11, 7.1e11], "cable.main_sag_m": [110.0, 125.0]}})
 out = Path(tempfile.mkdtemp()) / "gj_sag"
-doe = design.run_doe(config, out_dir=out, progress=False)
+doe = design.run_doe(config, out_dir=out, scheduler="serial", progress=False)
 doe  # the summary table
 
 # %% [markdown]
@@ -44,7 +46,7 @@ table = pd.read_csv(doe.table_path)
 cols = [c for c in table.columns if c.endswith(("gj_nm2", "main_sag_m"))
         or c in ("status", "flutter_speed_m_s", "divergence_speed_m_s")]
 print(table[cols].to_string(index=False))
-ax = doe.plot(output="divergence_speed_m_s")
+fig = doe.plot(output="divergence_speed_m_s")
 
 # %% [markdown]
 # ## Checks

@@ -40,7 +40,7 @@ res  # the headline numbers
 # of the input: the tornado plot ranks the inputs.
 
 # %%
-ax = res.plot()
+fig = res.plot()
 
 # %% [markdown]
 # ## Checks

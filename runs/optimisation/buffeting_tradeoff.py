@@ -1,4 +1,4 @@
-"""Buffeting trade-off of the compensator design (issue 14 item 6): weight_buffeting swept.
+"""Buffeting trade-off of the compensator design: weight_buffeting swept.
 
 For each buffeting weight the default design (``runs/humber_flaps.toml``: its starts, cuts
 and checks; the CasADi spectral buffeting integral in modal coordinates

@@ -1,6 +1,6 @@
 """How far the 4-lag RFA of Theodorsen's C(k) moves flutter speeds, and the band-weighted fit.
 
-Issue 27 item 5: the default ``rfa4`` (unweighted least squares on 1e-3 <= k <= 3) reads up to
+The default ``rfa4`` (unweighted least squares on 1e-3 <= k <= 3) reads up to
 0.13 % high on the 2-D flat-plate cases and 0.18 % on Humber. ``rfa4-band`` is the same form
 and lag count, fitted with weight 10 on the bridge-flutter band 0.05 <= k <= 0.5
 (:data:`model.aero.rfa.FLUTTER_BAND_K`, :data:`model.aero.rfa.BAND_WEIGHT`). This run prints and

@@ -1,4 +1,4 @@
-"""How far a single design can reach on the do-no-harm uncertainty set (issue 28 item 1).
+"""How far a single design can reach on the do-no-harm uncertainty set.
 
 The default design is stable to 85 m/s on 73 % of 200 fresh variants, and every variant that
 misses 85 m/s has GJ below the nominal (README, "Control"). This asks whether *any* design with

@@ -54,18 +54,18 @@ def main():
     local = local_sensitivity(spec, params, speeds=speeds, n_modes=modes)
     print(local.table())
     atomic_write_json(out / "local.json", local.summary())
-    ax = local.plot()
-    ax.figure.savefig(out / "tornado.png", dpi=110, bbox_inches="tight")
-    plt.close(ax.figure)
+    fig = local.plot()
+    fig.savefig(out / "tornado.png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
 
     case_options = {"speeds": speeds, "modes": modes}
     gsa = global_sensitivity("humber", DEFAULT_UNCERTAIN_RANGES, method=args.method, n=n,
                              out_dir=out / "gsa", workers=args.workers, scheduler=args.scheduler,
                              case_options=case_options, progress=False)
     atomic_write_json(out / "global.json", gsa.summary())
-    axes = gsa.plot()
-    axes[0].figure.savefig(out / "global.png", dpi=110, bbox_inches="tight")
-    plt.close(axes[0].figure)
+    fig = gsa.plot()
+    fig.savefig(out / "global.png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
     print(json.dumps({"band": gsa.band, "cases": gsa.cases, "failed": gsa.failed},
                      default=float, indent=1))
 

@@ -1,4 +1,4 @@
-"""No import cycle in ``model`` and ``design`` (issue 31 item 2).
+"""No import cycle in ``model`` and ``design``.
 
 Every import counts: a module-level one and a lazy one inside a function (a lazy import still
 ties the two modules together; it only hides the cycle from the interpreter). The graph is read
@@ -126,7 +126,7 @@ def test_the_walker_skips_type_checking_imports():
 
 
 def test_no_import_cycle():
-    # issue 31 item 2: none anywhere (model/ had one of 21 modules, design/ 8, one of 17);
+    # none anywhere (model/ had one of 21 modules, design/ 8, one of 17);
     # each was cut by moving a shared concept into a module of its own, not by hiding an edge
     found = [sorted(c) for c in cycles(import_graph())]
     assert not found, f"import cycles: {found}"

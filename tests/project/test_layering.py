@@ -1,4 +1,4 @@
-"""The layering of the subpackages (issue 31 item 2): each may import only itself and the
+"""The layering of the subpackages: each may import only itself and the
 layers below it, so the architecture reads bottom-up and no cycle can form between rooms.
 
 model/ (physics), bottom to top:

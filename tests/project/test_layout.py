@@ -1,4 +1,4 @@
-"""Code layout rules (issues 10 and 31): file sizes, documented rooms, the public face, the
+"""Code layout rules: file sizes, documented rooms, the public face, the
 tests' mirror of the rooms, the CasADi boundary."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 @pytest.mark.parametrize("package", ["model", "design"])
 def test_no_module_above_600_lines(package):
-    # one job per file (issue 10): 600 lines is the stated ceiling
+    # one job per file: 600 lines is the stated ceiling
     big = {str(p.relative_to(ROOT)): n for p in (ROOT / package).rglob("*.py")
            if (n := len(p.read_text().splitlines())) > 600}
     assert not big, big
@@ -28,7 +28,7 @@ def _subpackages(package):
 
 @pytest.mark.parametrize("package", ["model", "design"])
 def test_every_room_says_what_lives_there_and_what_it_may_import(package):
-    # issue 31 item 1: a newcomer reads a room's __init__ docstring to know where code goes
+    # a newcomer reads a room's __init__ docstring to know where code goes
     rooms = _subpackages(package)
     assert len(rooms) >= 6, rooms
     for room in rooms:
@@ -48,7 +48,7 @@ def test_every_module_has_a_docstring(package):
 
 
 def test_tests_mirror_the_rooms():
-    # issue 31 item 4: tests/test_<package>/<room>/ for every room that has tests; a room's
+    # tests/test_<package>/<room>/ for every room that has tests; a room's
     # tests live nowhere else but there or in tests/project (cross-cutting)
     for package in ("model", "design"):
         rooms = {r.name for r in _subpackages(package)}

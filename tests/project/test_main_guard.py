@@ -1,5 +1,5 @@
-"""A script without ``if __name__ == "__main__":`` that starts worker processes (issue 29
-item 4): the spawned workers would re-run it ("lock held", "Nanny failed to start"); the batch
+"""A script without ``if __name__ == "__main__":`` that starts worker processes: the spawned
+workers would re-run it ("lock held", "Nanny failed to start"); the batch
 refuses before starting any, in one line naming the fix (:mod:`model.workers`)."""
 
 from __future__ import annotations
@@ -28,12 +28,14 @@ def _run(script: str, tmp_path: Path) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=60, cwd=tmp_path)
 
 
-def test_unguarded_batch_is_refused_in_one_line(tmp_path):
-    proc = _run("""
+@pytest.mark.parametrize("workers", [1, 2])
+def test_unguarded_batch_is_refused_in_one_line(tmp_path, workers):
+    """One worker too: a local Dask cluster of one worker is a spawned nanny all the same."""
+    proc = _run(f"""
         import sys
         import design
 
-        design.run_batch(dict, [{"x": 1.0}, {"x": 2.0}], sys.argv[1], workers=2,
+        design.run_batch(dict, [{{"x": 1.0}}, {{"x": 2.0}}], sys.argv[1], workers={workers},
                          progress=False)
         print("ran")
         """, tmp_path)
@@ -44,6 +46,18 @@ def test_unguarded_batch_is_refused_in_one_line(tmp_path):
     assert "Nanny" not in proc.stderr and "lock" not in proc.stderr
     assert proc.stderr.count("Traceback") == 1
     assert not (tmp_path / "out").exists()
+
+
+def test_unguarded_serial_batch_runs(tmp_path):
+    """``scheduler="serial"`` starts no process: an unguarded script may run it."""
+    proc = _run("""
+        import sys
+        import design
+
+        design.run_batch(dict, [{"x": 1.0}], sys.argv[1], scheduler="serial", progress=False)
+        print("ran")
+        """, tmp_path)
+    assert proc.returncode == 0 and "ran" in proc.stdout, proc.stderr
 
 
 def test_guard_reads_the_script(tmp_path):

@@ -1,7 +1,7 @@
 """The example notebooks (runs/notebooks/*.py, jupytext percent format) execute and their own
 checks hold: each ends in assertions against the CLI or an independent API path, so a notebook
-that runs but computes something else fails here (issue 15). They use the public API only
-(``import model, design``) and show their figures inline (issue 29 item 4); the kernel runs
+that runs but computes something else fails here. They use the public API only
+(``import model, design``) and show their figures inline; the kernel runs
 with the ``[notebook]`` extra, which the ``[test]`` one includes."""
 
 import ast

@@ -1,4 +1,4 @@
-"""One process-pool mechanism (issue 29 item 6): every local pool of worker processes is made
+"""One process-pool mechanism: every local pool of worker processes is made
 by :func:`model.workers.process_pool`, which checks the ``if __name__ == "__main__":`` guard
 before any process starts (:mod:`model.workers`; tests/test_main_guard.py)."""
 

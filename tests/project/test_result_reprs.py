@@ -1,4 +1,4 @@
-"""Notebook views of every public result (issue 29 item 4): a short ``repr`` (under 2 kB: the
+"""Notebook views of every public result: a short ``repr`` (under 2 kB: the
 dataclass default printed every eigenvalue, 165 kB for a FlutterResult), an HTML table for
 Jupyter, and ``.plot()`` drawing data.
 
@@ -54,6 +54,7 @@ def analyses(coarse_humber):
 
 def records(fl) -> dict:
     """The batch, design and study records, from their constructors."""
+    from design.assessment.accept import AcceptanceResult
     from design.assessment.erection_control import ErectionControlResult
     from design.assessment.failsafe import FailSafeResult
     from design.assessment.harm import HarmResult
@@ -99,6 +100,11 @@ def records(fl) -> dict:
             {"flutter_speed_m_s": {"p05": 55.0, "p50": 60.0, "p95": 65.0}}, 4, 4, 0, "out",
             outputs={"flutter_speed_m_s": np.array([55.0, 58.0, 62.0, 65.0])}),
         "harm": HarmResult("humber", 4, 8, 85.0, 127.5, 11, {}, harm_rows),
+        "acceptance": AcceptanceResult(
+            "harm", {"checks": ["robustness"], "status": "harm",
+                     "robustness": HarmResult("humber", 4, 8, 85.0, 127.5, 11, {},
+                                              harm_rows).summary()},
+            {"robustness": HarmResult("humber", 4, 8, 85.0, 127.5, 11, {}, harm_rows)}),
         "failsafe": FailSafeResult("humber", 8, 85.0, 127.5, 20.0, "both",
                                    {**crit, "critical_speed_m_s": 90.0}, crit, crit, pairs, ()),
         "erection_control": ErectionControlResult(
@@ -123,7 +129,8 @@ def _figure_has_data(out) -> bool:
 
 NAMES = ["flutter", "sweep", "modal", "erection", "frequency_ratio", "buffeting", "plant",
          "closed_loop", "convergence", "pk", "mode_shape", "design", "batch", "doe",
-         "sensitivity", "global_sensitivity", "harm", "failsafe", "erection_control", "study"]
+         "sensitivity", "global_sensitivity", "harm", "acceptance", "failsafe",
+         "erection_control", "study"]
 
 
 @pytest.mark.parametrize("name", NAMES)

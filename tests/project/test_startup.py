@@ -1,4 +1,4 @@
-"""Start-up stays lean (issue 16, goal 5): a command imports only what it uses.
+"""Start-up stays lean: a command imports only what it uses.
 
 Each command runs in a fresh interpreter (a subprocess, so that nothing the test session has
 already imported counts) and reports which heavy packages ended up in ``sys.modules``. No

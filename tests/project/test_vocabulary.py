@@ -1,4 +1,4 @@
-"""One vocabulary of the scripting API (issue 29 item 2): docs/api_vocabulary.md is the contract.
+"""One vocabulary of the scripting API: docs/api_vocabulary.md is the contract.
 
 The table's canonical names and their old names are read from the doc; every public function
 of ``model.__all__`` and ``design.__all__`` is checked with :func:`inspect.signature`, and each

@@ -1,4 +1,4 @@
-"""Do no harm (issue 28 item 1): a controller judged against each bridge's own open loop.
+"""Do no harm: a controller judged against each bridge's own open loop.
 
 The verdict must be able to fail: the same fixed compensator with its sign reversed drives the
 flaps the wrong way and lowers the Humber critical speed below the open-loop one (flutter
@@ -67,7 +67,13 @@ def test_summary_counts_unresolved_apart():
     assert s["harmed_variants"] == [1] and s["unresolved_variants"] == 1
     # the worst ratio is over resolved rows only: the unresolved 50/70 is not a number to trust
     assert s["worst_closed_over_open"] == pytest.approx(60 / 70) and s["worst_variant"] == 1
-    assert s["status"] == "unresolved"
+    # a harm outranks "unresolved": a harmed variant is never hidden behind another's
+    # unverified crossing; without the harmed row the block is unresolved, not no_harm
+    assert s["status"] == "harm" and s["harmed_count"] == 1
+    s2 = HarmResult("humber", 2, 8, 85.0, 127.5, 11, {}, rows[::2]).summary()
+    assert s2["status"] == "unresolved"
+    s3 = HarmResult("humber", 1, 8, 85.0, 127.5, 11, {}, rows[:1]).summary()
+    assert s3["status"] == "no_harm"
     assert s["fraction_stable_to_design_speed"] == pytest.approx(1 / 3)
     json.dumps(s, allow_nan=False)
 

@@ -1,4 +1,4 @@
-"""DOE and batch output folders written aside and swapped in (issue 30 item 2).
+"""DOE and batch output folders written aside and swapped in.
 
 A batch writes straight into its folder only when the folder is new (or empty) or, with
 ``resume``, holds this very run; over any other previous output it writes a temporary sibling

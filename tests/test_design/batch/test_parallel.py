@@ -1,4 +1,4 @@
-"""The parallel paths give the serial numbers (issue 16 goal 4): erection stages in worker
+"""The parallel paths give the serial numbers: erection stages in worker
 processes, a study's analyses in worker processes, DOE cases on Dask workers.
 
 Each parallel run is compared with the serial one field by field, exactly: the same function

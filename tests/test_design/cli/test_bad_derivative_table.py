@@ -1,4 +1,4 @@
-"""A bridge whose flutter-derivative table holds a NaN is refused at load (issue 30): `flutter`,
+"""A bridge whose flutter-derivative table holds a NaN is refused at load: `flutter`,
 a study and a DOE on it exit 2 in one line naming the field, and nothing is written."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Bad-input matrix: every ``bridgeflap`` command refuses bad input the same way.
 
-The contract (design/cli/main.py, issue 11 B): an input fault gives exit status 2, exactly one line
+The contract (design/cli/main.py): an input fault gives exit status 2, exactly one line
 ``bridgeflap: error: <field>: <reason>`` on stderr, no traceback, nothing on stdout (also with
 ``--json``, as tests/test_cli.py fixes), nothing written in the output location and an earlier
 result there left byte-identical. An internal fault (anything that is not a
@@ -246,7 +246,7 @@ CASES = [
     ("derivatives-extra-positional", ["derivatives", "extra"], "arguments"),
     ("flutter-section-case-controller", ["flutter", B, "iabse-1.1a", "--controller",
                                          "{d}/no.toml"], "controller"),
-    # a flutter-derivative bridge's buffeting is quasi-steady (issue 13): thin-aerofoil refused
+    # a flutter-derivative bridge's buffeting is quasi-steady: thin-aerofoil refused
     ("buffeting-derivative-loads", ["buffeting", B, "iabse-2a:bb3", "--loads", "thin-aerofoil"],
      "loads"),
     # ---- rfa

@@ -1,4 +1,4 @@
-"""More bad-input cases (issue 30): each once ended in "internal error ... a bug" (exit 1).
+"""More bad-input cases: each once ended in "internal error ... a bug" (exit 1).
 
 Modal files with a wrong-typed ``units`` or holding just ``null``, a ``strip_length_m`` giving
 1e12 strips, an ``.npz`` that is no zip, mode frequencies of 1e300 / 1e-300 Hz, controller

@@ -1,5 +1,5 @@
-"""The OS refusing a write, Ctrl-C, a bare ``bridgeflap`` and warnings before an error (issue 30
-items 2-4), as bad-input cases of the contract of tests/test_bad_input.py.
+"""The OS refusing a write, Ctrl-C, a bare ``bridgeflap`` and warnings before an error,
+as bad-input cases of the contract of tests/test_bad_input.py.
 
 * **OS errors** -- no space left (``ENOSPC``), permission (``EACCES``), read-only file system
   (``EROFS``), a name too long (``ENAMETOOLONG``): exit status 2 and one error line naming the
@@ -233,8 +233,9 @@ def test_optimise_out_of_space_is_one_line_and_removes_its_temporary(tmp_path, c
     import design.control.driver
 
     fake = types.SimpleNamespace(summary=lambda: {"status": "failed"}, history=lambda: [],
-                                 candidate=None, controller=None)
-    monkeypatch.setattr(design.control.driver, "design", lambda settings, progress=None: fake)
+                                 candidate=None, controller=None, extras={})
+    monkeypatch.setattr(design.control.driver, "design",
+                        lambda settings, progress=None, **kw: fake)
     out = tmp_path / "opt"
     _enospc_after(monkeypatch, 2)  # the marker written, then no room for the history
     line = _error(capsys, main(["optimise", "--quick", "--out", str(out), "--json"]))

@@ -1,4 +1,4 @@
-"""Every function that takes a bridge takes a name, a file or a BridgeSpec (issue 29 item 1).
+"""Every function that takes a bridge takes a name, a file or a BridgeSpec.
 
 Scripted from the public API only (``model``, ``design``): a global sensitivity and a DOE on
 an in-memory modified spec (which once failed every case with "unknown bridge

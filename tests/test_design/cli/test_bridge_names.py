@@ -1,5 +1,5 @@
-"""Every bridge name that the CLI takes is taken in study and DOE files too (issue 29 item 1,
-issue 30): built-in names with a variant (``humber:box``, ``iabse-2a:bb3``), built-ins whose
+"""Every bridge name that the CLI takes is taken in study and DOE files too:
+built-in names with a variant (``humber:box``, ``iabse-2a:bb3``), built-ins whose
 file name differs from their name (``great-belt``, ``iabse-2a``), and a TOML path with a
 variant; and a parameter the bridge cannot take is refused when the file is loaded."""
 

@@ -95,7 +95,7 @@ def test_flutter_json_matches_library(capsys):
     # the CLI is a thin layer over model.analysis.flutter with the same defaults: the same
     # deterministic computation, so the same number to roundoff (JSON keeps 17 digits)
     lib = flutter(load_bridge("humber"), parse_range(DEFAULT_SPEEDS, "speeds"),
-                  sweep_method="fast").summary()  # the CLI's default sweep (issue 16)
+                  sweep_method="fast").summary()  # the CLI's default sweep
     assert r["flutter_speed_m_s"] == pytest.approx(lib["flutter_speed_m_s"], rel=1e-12)
     assert r["divergence_speed_m_s"] == pytest.approx(lib["divergence_speed_m_s"], rel=1e-12)
 
@@ -259,7 +259,7 @@ def test_flutter_pk_check_agrees_with_the_rfa_state_space(capsys):
 
 
 def test_version_flag(capsys):
-    """``bridgeflap --version``: one line naming the package, exit 0 (issue 29 item 5)."""
+    """``bridgeflap --version``: one line naming the package, exit 0."""
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
     assert exc.value.code == 0

@@ -1,4 +1,4 @@
-"""``bridgeflap <command> --help`` (issue 29 item 5): every option says its form, no markup.
+"""``bridgeflap <command> --help``: every option says its form, no markup.
 
 Pure text checks of the built parser and of the ``bridgeflap`` logger (no physics runs, so no
 numerical tolerances).

@@ -1,4 +1,4 @@
-"""The text output never prints "nan m/s" for a limit that was not found (issue 14 note)."""
+"""The text output never prints "nan m/s" for a limit that was not found."""
 
 import math
 

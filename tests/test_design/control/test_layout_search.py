@@ -90,6 +90,7 @@ def test_neighbour_set_edge_cases():
 #: A small placement card (humber:box, 6 modes, 3 candidates, short solves): the code paths
 #: of the default design in ~7 s per start.
 SMALL = {"bridge": "humber:box", "n_modes": 6, "verification_modes": 6, "flap_count": 3,
+         "flap_positions_m": (),
          "robust_design_speeds_m_s": (30.0, 60.0), "n_robust_omega": 8,
          "optimise_placement": True, "design_step_m_s": 10.0, "cutting_plane_rounds": 1,
          "placement_cut_rounds": 0, "max_iter": 20, "resolve_max_iter": 20,
@@ -129,7 +130,7 @@ def test_rounded_row_reproduces_the_designs_own_record(small_design):
 def test_gap_and_ranking(monkeypatch):
     # (c) margins chosen per layout: the gap is 100 (m - m0) / m0 against the rounded row,
     # only verified rows are ranked, the best verified neighbour is reported
-    s = load_settings(flap_count=5, optimise_placement=True)
+    s = load_settings(flap_count=5, flap_positions_m=(), optimise_placement=True)
     # 5 candidates, all fitted: the rounded layout (5 flaps), the centre removed (4), the
     # +-56.4 m pair removed (3, outer), the +-112.8 m pair removed (3, the inner block)
     margins = {5: 0.40, 4: 0.50, 3: 0.30}              # flap count -> margin
@@ -164,7 +165,7 @@ def test_gap_and_ranking(monkeypatch):
 def test_failed_solve_is_a_row(monkeypatch):
     # (d) every neighbour's solve raises: each is a row "failed: ...", with its layout; the
     # rounded layout (the design's record) stays the best; strict JSON throughout
-    s = load_settings(flap_count=5, optimise_placement=True)
+    s = load_settings(flap_count=5, flap_positions_m=(), optimise_placement=True)
 
     def boom(*args, **kw):
         raise RuntimeError("solver exploded")
@@ -187,8 +188,8 @@ def test_design_step_adopts_only_when_asked(monkeypatch):
     # the optimise step: the rounded row is the design's record (not re-solved); adoption
     # replaces the chosen start by the better neighbour (start index kept) only with the key
     # parallel off: the monkeypatched solver is a local function (no worker process)
-    s = load_settings(flap_count=5, optimise_placement=True, layout_neighbours=True,
-                      parallel=False)
+    s = load_settings(flap_count=5, flap_positions_m=(), optimise_placement=True,
+                      layout_neighbours=True, parallel=False)
     best = _record(s.positions(), 0.4, start=3)
 
     def fake(settings, positions, theta0, index=0, spec=None, variants=()):
@@ -199,7 +200,8 @@ def test_design_step_adopts_only_when_asked(monkeypatch):
     assert got is best and status == "unverified" and table["adopted"] is False
     assert table["best_layout_is_rounded"] is False
     got, status, table = design_step(load_settings(
-        flap_count=5, optimise_placement=True, layout_neighbours=True, layout_adopt=True,
+        flap_count=5, flap_positions_m=(), optimise_placement=True, layout_neighbours=True,
+        layout_adopt=True,
         parallel=False),
         best, "converged")
     assert table["adopted"] is True and status == "converged"

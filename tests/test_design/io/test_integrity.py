@@ -1,4 +1,4 @@
-"""Fault tests of the output folders (issue 11 C): foreign folders, kills, concurrent runs,
+"""Fault tests of the output folders: foreign folders, kills, concurrent runs,
 stale resumes, busy ports, unreachable schedulers, oversized designs.
 
 The commands run as subprocesses where a process must die or two must overlap; the studies are
@@ -178,20 +178,25 @@ def test_stale_temporaries_of_dead_runs_are_cleaned_and_nothing_else(tmp_path):
     study = _study(tmp_path)
     out = tmp_path / "out"
     gone = _dead_pid()
-    dead, unmarked_dead, alive, foreign = (
-        tmp_path / f".out.tmp-{tag}" for tag in ("dead", f"{gone}-ab12", "alive", "foreign"))
-    for folder in (dead, unmarked_dead, alive, foreign):
+    # ours: named .<name>.tmp-<pid>-<8 hex> and marked (or empty: killed before its marker)
+    dead, empty_dead = (tmp_path / f".out.tmp-{gone}-{tag}" for tag in ("0123abcd", "4567cdef"))
+    # not provably ours, whatever the name looks like: a user's folder is never deleted
+    unmarked_dead, users, oddly_named, alive = (
+        tmp_path / f".out.tmp-{tag}" for tag in (f"{gone}-89abcdef", f"{gone}-mine", "dead",
+                                                  f"{os.getpid()}-0a0b0c0d"))
+    for folder in (dead, unmarked_dead, users, oddly_named, alive):
         folder.mkdir()
         (folder / "half.json").write_text("{")
-    write_marker(dead, "study")
-    write_marker(alive, "study")
-    for folder, pid in ((dead, gone), (alive, os.getpid())):
+    empty_dead.mkdir()
+    for folder, pid in ((dead, gone), (oddly_named, gone), (alive, os.getpid())):
+        write_marker(folder, "study")
         tag = json.loads((folder / OUTPUT_MARKER).read_text())
         (folder / OUTPUT_MARKER).write_text(json.dumps({**tag, "pid": pid}))
     run_study(study, out_dir=out, quick=True)
-    assert not dead.exists()  # marked, its process is gone
-    assert not unmarked_dead.exists()  # killed before its marker: the pid in its name
-    assert alive.is_dir() and foreign.is_dir()  # a live writer's, and one that is not ours
+    assert not dead.exists()  # ours, marked, its process is gone
+    assert not empty_dead.exists()  # ours, killed before its marker: empty, nothing lost
+    for kept in (unmarked_dead, users, oddly_named, alive):  # content and all
+        assert (kept / "half.json").read_text() == "{", kept.name
 
 
 # --------------------------------------------------------------------------- C3 one run at a time

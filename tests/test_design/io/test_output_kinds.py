@@ -1,4 +1,4 @@
-"""Typed output folders (issue 30 item 2): one command's output is never replaced by another's.
+"""Typed output folders: one command's output is never replaced by another's.
 
 Every bridgeflap output folder carries a marker naming the command that wrote it
 (:func:`design.io.outputs.write_marker`). ``study --out``, ``optimise --out`` and ``doe --out``

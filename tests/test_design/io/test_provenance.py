@@ -1,4 +1,4 @@
-"""Provenance (issue 15): version and commit recorded at build time, in every manifest."""
+"""Provenance: version and commit recorded at build time, in every manifest."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Results as data (issue 15): strict-JSON ``to_dict``, unit-named ``to_dataframe``, xarray/NetCDF.
+"""Results as data: strict-JSON ``to_dict``, unit-named ``to_dataframe``, xarray/NetCDF.
 
 Every check here is exact (JSON round trip with ``allow_nan=False``; NetCDF stores float64
 bit for bit), so no tolerances are needed beyond ``np.testing.assert_array_equal``.
@@ -134,7 +134,7 @@ def test_design_result_is_strict_json():
     ctrl = Controller(Compensator(0.0, 0.1, -0.5, 0.01, 0.2), (-56.4, 0.0, 56.4), 56.4)
     res = DesignResult("failed", DesignSettings(), None, ctrl, (), None, np.array([0.0, 1.0]),
                        np.array([np.nan, -1.0]), None, 1.0)
-    s = res.summary()  # no NaN even before json.dumps (issue 15)
+    s = res.summary()  # no NaN even before json.dumps
     assert strict_round_trip(s)["max_gain"] is None
     assert strict_round_trip(res.to_dict()) == strict_round_trip(s)
     bode = res.compensator_response([0.1, 1.0])

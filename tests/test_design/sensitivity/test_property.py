@@ -1,4 +1,4 @@
-"""Property-based test of the stability contract over the estimated-input ranges (issue 11).
+"""Property-based test of the stability contract over the estimated-input ranges.
 
 Random bridges from :data:`design.studies.screening.DEFAULT_UNCERTAIN_RANGES` (the estimated
 Humber inputs; ``aero.coherence_decay`` enters buffeting only and is left out), random erection

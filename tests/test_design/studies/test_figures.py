@@ -57,7 +57,7 @@ def _inside(ax, x=None, y=None):
 
 def test_vg_vf_axes_hold_every_branch_and_name_it(sweep):
     assert sweep.flutter.status == "converged"  # so that TS1 runs negative past flutter
-    ax0, ax1, ax2 = sweep.plot()
+    ax0, ax1, ax2 = sweep.plot().axes[:3]  # the colour bar of the root locus is the 4th
     z = 100 * sweep.damping_ratios()
     assert np.nanmin(z) < -1.0  # the branch that used to run off the old -5 % axis
     _inside(ax1, y=z)  # unclipped: the old axis was fixed at -5 .. 15 %
@@ -79,7 +79,7 @@ def test_root_locus_one_unit_system_and_open_loop_overlay(sweep):
 
 def test_mode_shapes_one_panel_per_family_with_towers(coarse_humber):
     modal = modal_model(coarse_humber)
-    axes = modal.plot()
+    axes = modal.plot().axes
     assert len(axes) == 3
     for ax, fam in zip(axes, ("vertical", "torsional", "lateral"), strict=True):
         assert ax.get_ylabel().startswith(fam)
@@ -99,7 +99,7 @@ def test_erection_completed_bridge_is_its_own_marker():
            "divergence_speed_m_s": 50.0} for f in (0.4, 0.7, 1.0)]
     res = ErectionResult("b", tuple(st), {"flutter_speed_m_s": 70.0,
                                           "divergence_speed_m_s": 75.0}, "bare")
-    ax = res.plot()
+    ax = res.plot().axes[0]
     done = [ln for ln in ax.get_lines() if "completed" in ln.get_label()]
     assert len(done) == 2 and all(len(ln.get_xdata()) == 1 for ln in done)
     erecting = [ln for ln in ax.get_lines() if "erecting" in ln.get_label()]
@@ -207,7 +207,7 @@ def test_document_renders_the_same_cells_twice(tmp_path):
 def test_imported_mode_shapes_by_family_with_the_main_span_ends():
     from model.structure.loader import load_bridge
 
-    axes = modal_model(load_bridge("iabse-2a")).plot()
+    axes = modal_model(load_bridge("iabse-2a")).plot().axes
     assert [ax.get_ylabel().split("\n")[0] for ax in axes] == ["vertical", "torsional",
                                                                  "lateral"]
     for ax in axes:

@@ -1,4 +1,4 @@
-"""One design (issue 27 item 3): `bridgeflap study` and `bridgeflap optimise` design the same
+"""One design: `bridgeflap study` and `bridgeflap optimise` design the same
 controller because the study's design step runs the packaged card `optimise` runs."""
 
 from __future__ import annotations

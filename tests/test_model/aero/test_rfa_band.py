@@ -1,4 +1,4 @@
-"""The band-weighted 4-lag RFA ``rfa4-band`` (issue 27 item 5) and the unchanged default ``rfa4``.
+"""The band-weighted 4-lag RFA ``rfa4-band`` and the unchanged default ``rfa4``.
 
 ``rfa4-band`` is the lag form of :mod:`model.aero.rfa` with the same 4 lags, least squares weighted
 10 on the bridge-flutter band 0.05 <= k <= 0.5 (:data:`model.aero.rfa.FLUTTER_BAND_K`). Checks:

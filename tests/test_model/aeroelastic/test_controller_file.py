@@ -1,4 +1,4 @@
-"""controller.toml records the loop it closes (issue 32 item 1): the flap chord, width, strip
+"""controller.toml records the loop it closes: the flap chord, width, strip
 positions and edges, and the plant it was designed on (bridge, variant, name, sha256 of the
 bridge file, design modes); ``--controller`` re-checks on the file's flaps, warns on another
 bridge and exits 2 where the flaps do not fit (model/aeroelastic/control.py,
@@ -24,7 +24,7 @@ from model.structure.loader import load_bridge
 #: K(s) of ``bridgeflap optimise design/studies/humber_b1425_flaps5m.toml`` (built-in Humber,
 #: b = 14.25 m, 25 touching 56.4 m flap pairs with 5 m chord; run 2026-12-03 on this branch,
 #: converged, max gain 1.70, closed-loop governing speed 90.88 m/s, divergence, on the
-#: stiffnesses before issue 27's VS1/TS1 model updating): a fixed compensator, so the test
+#: stiffnesses before the VS1/TS1 model updating): a fixed compensator, so the test
 #: needs no optimisation. On the updated bridge the same K gives 78.48 m/s (5 m) and
 #: 73.03 m/s (3 m flaps), both flutter, 16 modes
 K_5M = Compensator(-1.1668156764187112, -0.03901371153086817, -1.6746219244786549,

@@ -51,7 +51,7 @@ def test_bb3_system_is_the_derivative_state_space_on_12_modes(bb3):
 
 
 def test_bb3_rfa_flutter_within_2_percent_of_the_reference(bb3):
-    """2 % (issue 13, step 2a). What it covers: the reference is given to 3 figures (0.07 %);
+    """2 %. What it covers: the reference is given to 3 figures (0.07 %);
     the RFA's load error near the flutter reduced frequency (K = 0.45-0.75) is at most 3.8 %
     of the largest term of each load (1.7 % at K = 0.61), A2 within 1.3 %, and gives 0.3 %
     against the exact p-k below; the strip (12 m) vs node (trapezoid) integration 0.1 % (the
@@ -107,7 +107,7 @@ def test_flat_plate_iabse_2a_is_unchanged():
     gold = json.loads((Path(__file__).resolve().parents[2] / "golden" / "flutter_iabse_2a.json")
                       .read_text("utf-8"))
     gold = gold["stdout"]
-    # the golden case is the CLI's flutter, whose default is the fast sweep (issue 16)
+    # the golden case is the CLI's flutter, whose default is the fast sweep
     r = flutter(spec, np.arange(0.0, 85.01, 0.5), sweep_method="fast").summary()
     assert r["flutter_speed_m_s"] == pytest.approx(gold["flutter_speed_m_s"], rel=1e-9)
     assert r["rfa"] == "rfa4"

@@ -1,4 +1,4 @@
-"""Flap actuator limits and the saturated closed loop in turbulence (issue 28, item 3).
+"""Flap actuator limits and the saturated closed loop in turbulence.
 
 Every test here can fail: the unsaturated simulation must be the project's linear closed loop
 (eigenvalues, and the spectral buffeting RMS within the Monte-Carlo error), the limits must

@@ -257,7 +257,7 @@ def test_casadi_gradient_against_finite_differences(casadi_case):
 # ----------------------------------------------------------------------------------------------
 @pytest.mark.slow
 def test_rms_grows_to_flutter_then_nan(humber):
-    # built-in Humber: flutter at 69.50 m/s governs (16 modes; issue 27's model updating;
+    # built-in Humber: flutter at 69.50 m/s governs (16 modes; the model updating;
     # spectral abscissa -3.4e-4 1/s at 69.4 m/s, +1.7e-3 at 70 m/s, measured)
     speeds = [40.0, 50.0, 60.0, 64.0, 66.0, 68.0, 69.0, 69.4, 70.0, 75.0]
     res = buffeting(humber, speeds, n_modes=16)  # the 16-mode numbers above (default: 30)

@@ -1,4 +1,4 @@
-"""Divergence named by its mechanism (issue 27 item 5).
+"""Divergence named by its mechanism.
 
 The static aerodynamic work of a divergence eigenvector ``q`` (``K q = U_D^2 Q q``,
 :func:`model.aeroelastic.statespace.static_aero_stiffness`) splits over the coordinates whose

@@ -25,7 +25,7 @@ from model.errors import BridgeflapInputError
 from model.stability import crossings, hopf
 from model.stability import sweeps as stability
 
-#: agreement of the fast and dense speeds, relative (issue 16, as bench/sweep_cases.py's, which
+#: agreement of the fast and dense speeds, relative (as bench/sweep_cases.py's, which
 #: the tests cannot import: CI runs them against the installed wheel, which does not ship
 #: bench/); the dense Brent tolerance is 1e-3 m/s, 1.4e-5 of a 70 m/s flutter speed
 REL_TOL = 1e-4
@@ -48,7 +48,7 @@ SAME = ("flutter_status", "divergence_status", "second_flutter_status", "critica
         "divergence_static_status", "speed_min_m_s", "speed_max_m_s")
 SPEEDS = ("flutter_speed_m_s", "divergence_speed_m_s", "second_flutter_speed_m_s",
           "flutter_frequency_hz")
-#: fewer eigen-solutions than dense by at least this factor (a count; issue 16's target is 5x).
+#: fewer eigen-solutions than dense by at least this factor (a count; the target is 5x).
 #: Measured on 16 modes: 1.1a 425/14, 2a 183/13, 2a:bb3 184/13, Humber 197/15, Great Belt
 #: 382/23 (16x: 10 stated), Great Belt bb3 494/79 (6.3x: its unverified divergence is located
 #: on the 0.5 m/s grid speeds of a coarse bracket, Brent and its checks as the dense sweep's),
@@ -82,7 +82,7 @@ def test_fast_matches_dense(cases, name):
     for k in SAME + tuple(k for k in dense if k.endswith(("_bracket_m_s", "_reason"))):
         assert fast[k] == dense[k], k
     for k in SPEEDS:
-        # issue 16: 1e-4 relative; the dense Brent tolerance is 1e-3 m/s (2e-5 of these speeds)
+        # 1e-4 relative; the dense Brent tolerance is 1e-3 m/s (2e-5 of these speeds)
         if np.isfinite(dense[k]):
             assert fast[k] == pytest.approx(dense[k], rel=REL_TOL), k
         else:
@@ -92,7 +92,7 @@ def test_fast_matches_dense(cases, name):
         assert fast["flutter_re_lambda_slope_per_m"] == pytest.approx(
             dense["flutter_re_lambda_slope_per_m"], rel=1e-3)
         assert fast["critical_participation"].keys() == dense["critical_participation"].keys()
-    # issue 16 target: at least 5x fewer eigen-solutions (FACTOR)
+    # the target: at least 5x fewer eigen-solutions (FACTOR)
     assert FACTOR.get(name, 5) * fast["eigen_solutions"] <= dense["eigen_solutions"]
 
 
@@ -169,7 +169,7 @@ def test_divergence_newton_residual(cases):
 def test_fallback_when_tracking_is_unsure(cases, monkeypatch):
     """No tracking sub-step allowed: every ambiguous coarse step is forced, so the fast path
     must not trust its branches (IABSE 2a needs sub-steps at the coarse step: a forced step at
-    17 m/s; the built-in Humber needs none since issue 27's model updating)."""
+    17 m/s; the built-in Humber needs none since the model updating)."""
     monkeypatch.setattr(hopf, "TRACKING_BUDGET_MIN", 0)
     _, system, speeds = cases["iabse-2a"]
     sw = stability.sweep(system, speeds, method="fast")

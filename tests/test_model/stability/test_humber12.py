@@ -1,4 +1,4 @@
-"""Issue 12 leftovers: mode-count convergence, the flutter mode shape, the frequency-ratio modes.
+"""Humber checks: mode-count convergence, the flutter mode shape, the frequency-ratio modes.
 
 * model/stability/convergence.py: the truncation error falls with the mode count; the ladder's
   criterion does not stop at the first small step (Humber: 8 -> 12 moves U_F by 2e-4 %, 12 -> 16 by
@@ -39,7 +39,7 @@ def test_truncation_error_falls_with_the_mode_count(humber):
         assert e["reference_modes"] == e["n_modes"] + 8
     assert e30["flutter_truncation_error_pct"] < e8["flutter_truncation_error_pct"]
     assert e30["divergence_truncation_error_pct"] <= e8["divergence_truncation_error_pct"]
-    # measured 0.94 % (3.3 % before issue 27's model updating) and far below 0.01 %: the bounds
+    # measured 0.94 % (3.3 % before the model updating) and far below 0.01 %: the bounds
     # sit a factor 2 and more inside either side
     assert e8["flutter_truncation_error_pct"] > 0.5
     assert e30["flutter_truncation_error_pct"] < 0.01
@@ -64,7 +64,7 @@ def test_ladder_does_not_stop_at_the_first_small_step(coarse_humber):
     assert r.status == CONVERGED
     assert r.first_small_step_modes == 8
     assert r.converged_modes == 16
-    # TS2 enters between 12 and 16: 0.93 % measured (3.3 % before issue 27's model updating)
+    # TS2 enters between 12 and 16: 0.93 % measured (3.3 % before the model updating)
     assert r.row(12)["flutter_step_change_pct"] > 0.5
     assert "TS2" in r.row(16)["added_modes"]
     assert r.error_at_pct(16) < 0.05 and r.error_at_pct(8) > 0.5
@@ -73,11 +73,14 @@ def test_ladder_does_not_stop_at_the_first_small_step(coarse_humber):
     assert "labels" not in s["rows"][0]
 
 
-@pytest.mark.parametrize("counts", [(16,), (16, 8), (0, 8), ("a", 8)])
-def test_bad_ladders_name_the_field(coarse_humber, counts):
+@pytest.mark.parametrize("counts,field", [((16,), "modes"), ((16, 8), "modes"),
+                                          ((0, 8), "counts"), (("a", 8), "counts")])
+def test_bad_ladders_name_the_field(coarse_humber, counts, field):
+    # a count that is no positive integer is refused at the door naming the argument; a ladder
+    # of valid counts that is too short or not rising names the ladder of modes
     with pytest.raises(BridgeflapInputError) as exc:
         mode_convergence(coarse_humber, SPEEDS, counts=counts)
-    assert exc.value.field == "modes"
+    assert exc.value.field == field
 
 
 def test_bad_reference_count_names_the_field(coarse_humber):

@@ -120,7 +120,7 @@ def test_fast_pk_equals_the_reference_on_the_cli_grid(name, grid):
 def test_fast_pk_statuses_without_a_crossing_and_unstable_at_first():
     system, _ = section_system("iabse-1.1a")
     below = np.linspace(0.0, 60.0, 31)  # flutter at 77.48 m/s
-    fast, ref = stability.pk_sweep(system, below), stability.pk_sweep(system, below, True)
+    fast, ref = stability.pk_sweep(system, below), stability.pk_sweep(system, below, full_grid=True)
     assert fast.flutter.status == ref.flutter.status == stability.NO_CROSSING
     assert fast.branches.shape == ref.branches.shape
     _assert_same(fast, ref)

@@ -1,4 +1,4 @@
-"""Trustworthy stability answers (issue 11, A2/A3/A5/A6): verified crossings, grid-aware static
+"""Trustworthy stability answers: verified crossings, grid-aware static
 divergence, second-critical branch and damping slope, labels from U = 0, branch-switch flags.
 
 Kinds of check (STYLE.md): cross-grid agreement (a coarse grid gives the fine grid's crossing),

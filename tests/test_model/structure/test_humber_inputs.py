@@ -177,7 +177,7 @@ def test_frequency_ratio_rule_follows_the_deck_fundamental_through_hybrids():
     r = [s["ratio_half_gj"] for s in res.stages]
     assert abs(r[1] - r[0]) < 0.1 and abs(r[2] - r[1]) < 0.1, r
     assert r[4] < res.completed["ratio"], (r, res.completed)
-    # hybrids at 35 % (and, before issue 27's model updating raised GJ 24 %, at 100 %; the
+    # hybrids at 35 % (and, before the model updating raised GJ 24 %, at 100 %; the
     # closed deck's TS1 is no longer near the cable torsion there)
     assert res.stages[1]["torsional_hybrid"]
     for s in res.stages:  # the pick carries most of the deck fundamental of its stage

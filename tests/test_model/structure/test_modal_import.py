@@ -68,7 +68,7 @@ def test_humber_round_trip_reproduces_builtin_flutter(humber, tmp_path, suffix):
     r_fe, r_im = flutter(spec, SPEEDS).summary(), flutter(imported, SPEEDS).summary()
     for key in ("flutter_speed_m_s", "flutter_frequency_hz", "divergence_speed_m_s",
                 "divergence_static_speed_m_s"):
-        # issue 13: 1e-6 relative; the bases agree to rounding, so this is far from the limit
+        # 1e-6 relative; the bases agree to rounding, so this is far from the limit
         assert r_im[key] == pytest.approx(r_fe[key], rel=1e-6), key
     assert r_im["critical_branch"] == r_fe["critical_branch"]
     assert set(r_im) == set(r_fe)
@@ -200,7 +200,7 @@ def test_step2a_flat_plate_divergence_is_the_single_mode_formula(step2a):
     # couple statically (TS1/TA1 orthogonal over the strips to ~1e-3), so U_div = omega_T1S
     # sqrt(M / (pi rho b^2 sum l theta^2)) for the lowest; 1e-3 covers the TS1-TA1 overlap
     spec, mm = step2a
-    # a grid past the static speed: off the grid it is reported as null (issue 11, A3)
+    # a grid past the static speed: off the grid it is reported as null
     r = flutter(spec, np.arange(0.0, 100.01, 0.5)).summary()
     assert r["divergence_static_status"] == "converged"
     b, rho = spec.deck.half_chord_m, spec.aero.air_density_kg_m3
@@ -361,7 +361,7 @@ def test_step2a_tables_reproduce_the_benchmark_with_bb3_derivatives(step2a):
 
     This checks the data read out of wawi (modes from JSON, derivatives from the pickle by
     pickletools), not bridgeflap's aerodynamics: bridgeflap's thin-aerofoil loads are the flat
-    plate. 2 % (issue 13, step 2a) holds by far: measured 69.86 m/s, 0.08 % above the
+    plate. 2 % holds by far: measured 69.86 m/s, 0.08 % above the
     reference, which is itself given to 3 figures. The in-wind TS1 branch is held to wawi's
     own test tolerances (10 %, 15 % at 68 m/s). Without the lateral DOF (the P derivatives on
     the torsional modes' y components) the same tables give 68.3 m/s, 2.1 % below: a

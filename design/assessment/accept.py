@@ -1,0 +1,223 @@
+"""A design you can install: the compensator design with its acceptance checks folded into its
+status (:func:`design`), and the checks of any controller (:func:`accept`).
+
+:func:`design` runs :func:`design.control.driver.design` and then, when it produced a controller,
+the acceptance checks of :mod:`design.assessment.acceptance` on that controller as written to its
+file and read back. The verdict is part of the design's status:
+
+==================  =========================================================================
+``converged``       the design met every check of the design model and the acceptance checks
+                    passed (or were not asked for: ``checks="none"``, said in ``acceptance``)
+``harm``            the controller lowers some fresh variant's critical speed below its
+                    open-loop one (``DesignResult.controller`` is then None: never handed on)
+``failed_checks``   the independent closed loop disagrees with the design's own
+``unresolved``      no variant harmed, but some crossing could not be verified
+==================  =========================================================================
+
+and any status of the design itself (``unverified``, ``infeasible``, ``failed``) is kept as
+it is. The acceptance block is ``DesignResult.extras["acceptance"]`` (in ``summary()`` under
+``acceptance``), and the check results (tables) ``extras["acceptance_results"]``.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from model.errors import BridgeflapTypeError
+from model.results import ResultData
+from model.vocabulary import renamed
+
+__all__ = ["ACCEPTANCE_STATUS", "AcceptanceResult", "accept", "design"]
+
+#: most fresh variants of one validation (a million rows would take days on a workstation)
+MAX_SAMPLES = 100_000
+#: the design's status for an acceptance verdict (``passed`` and ``not_run`` keep it)
+ACCEPTANCE_STATUS = {"harm": "harm", "failed": "failed_checks", "unresolved": "unresolved"}
+
+
+@dataclass(frozen=True)
+class AcceptanceResult(ResultData):
+    """The acceptance checks of one controller (:func:`accept`).
+
+    Attributes
+    ----------
+    status : str
+        ``passed``, ``harm``, ``failed``, ``unresolved`` or ``not_run``.
+    block : dict
+        Strict-JSON block: one entry per check (:mod:`design.assessment.acceptance`).
+    results : dict
+        The check result objects by name (tables: ``to_dataframe``).
+    """
+
+    status: str
+    block: dict
+    results: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def summary(self) -> dict:
+        """The strict-JSON block (``status`` first)."""
+        return {"status": self.status, **{k: v for k, v in self.block.items()
+                                          if k != "status"}}
+
+    _HEADLINE_KEYS = ("status", "checks")
+
+    def table(self, fmt: str = "simple") -> str:
+        """One line per check."""
+        from design.assessment.acceptance import acceptance_text
+
+        return acceptance_text(self.block)
+
+    def plot(self, ax=None):
+        """The do-no-harm histogram of the fresh variants (closed over open critical speed;
+        :meth:`design.assessment.harm.HarmResult.plot`), or an empty figure when the
+        robustness check did not run."""
+        from model.results import figure_of
+
+        rob = self.results.get("robustness")
+        if rob is not None:
+            return figure_of(rob.plot(ax))
+        import matplotlib.pyplot as plt
+
+        fig = ax.figure if ax is not None else plt.figure()
+        (ax or fig.add_subplot()).text(0.5, 0.5, f"acceptance {self.status}: no robustness "
+                                                 "check", ha="center")
+        return fig
+
+
+def _options(checks, samples, workers, quick, seed):
+    from design.assessment.acceptance import AcceptanceOptions, parse_checks
+    from model.arguments import check_int
+
+    if not isinstance(checks, str | list | tuple):
+        raise BridgeflapTypeError("checks", "must be all, none or a list of check names, got "
+                                            f"{type(checks).__name__}")
+    names = parse_checks(checks) if isinstance(checks, str) else parse_checks(
+        ",".join(str(c) for c in checks) or "none")
+    for name, v in (("samples", samples), ("workers", workers)):
+        if v is not None:
+            check_int(v, name, 1, MAX_SAMPLES if name == "samples" else 1024)
+    w = 1 if workers is None else workers
+    if quick:
+        return AcceptanceOptions.for_quick(names, w, samples)
+    base = AcceptanceOptions()
+    return replace(base, checks=names, workers=w,
+                   samples=base.samples if samples is None else samples,
+                   seed=base.seed if seed is None else int(seed))
+
+
+def accept(controller, settings=None, *, checks="all", samples: int | None = None,
+           workers: int | None = None, quick: bool = False, seed: int | None = None,
+           closed_loop=None, progress=None, bridge=None) -> AcceptanceResult:
+    """The acceptance checks of ``controller`` (module :mod:`design.assessment.acceptance`).
+
+    Parameters
+    ----------
+    controller : model.aeroelastic.control.Controller or path
+        The controller (a path: its controller TOML file).
+    settings : DesignSettings or path, optional
+        The design card it answers to (bridge, speeds, modes, actuator limits; default: the
+        default card).
+    checks : str or sequence of str
+        ``"all"``, ``"none"`` or names of :data:`design.assessment.acceptance.CHECKS`.
+    samples : int, optional
+        Fresh variants of the robustness check (default 1000; 8 with ``quick``).
+    workers : int, optional
+        Processes of the checks (default 1).
+    quick : bool
+        The CI sizes (8 variants, one short actuator record per speed).
+    seed : int, optional
+        Seed of the fresh variants (default 11: independent of the design's scenarios).
+    closed_loop : model.aeroelastic.statespace system, optional
+        The design's own closed loop for the independent check (default: built from
+        ``settings`` and ``controller`` by the design's own model path).
+    progress : callable, optional
+        ``str -> None``, one line per step.
+    bridge : BridgeSpec, name or path, optional
+        The bridge the controller was designed for (default ``settings.bridge``): the fresh
+        variants are drawn about it.
+    """
+    from design.assessment.acceptance import acceptance
+    from design.control.settings import DesignSettings, load_settings
+    from model.aeroelastic.control import Controller
+    from model.aeroelastic.controller_file import load_controller, save_controller
+
+    if isinstance(controller, str | Path):
+        controller = load_controller(controller)
+    if not isinstance(controller, Controller):
+        raise BridgeflapTypeError("controller", "must be a Controller or the path of a "
+                                  f"controller file, got {type(controller).__name__}")
+    if settings is None or isinstance(settings, str | Path):
+        settings = load_settings("default" if settings is None else settings)
+    if not isinstance(settings, DesignSettings):
+        raise BridgeflapTypeError("settings", "must be DesignSettings or a card path, got "
+                                              f"{type(settings).__name__}")
+    if progress is not None and not callable(progress):
+        raise BridgeflapTypeError("progress", "must be callable (str -> None), got "
+                                              f"{type(progress).__name__}")
+    opts = _options(checks, samples, workers, quick, seed)
+    if not opts.checks:
+        return AcceptanceResult("not_run", {"checks": [], "status": "not_run"})
+    if closed_loop is None and "independent_check" in opts.checks:
+        from design.control.problem_model import build_model
+
+        _, model = build_model(settings, n_modes=settings.verification_modes,
+                               positions=controller.flap_strip_positions_m, spec=bridge)
+        closed_loop = model.system(controller.compensator)
+    with tempfile.TemporaryDirectory(prefix="bridgeflap-accept-") as tmp:
+        # the checks read the controller as a user reads it back from its file
+        path = Path(tmp) / "controller.toml"
+        save_controller(controller, path)
+        block, results = acceptance(load_controller(path), settings, opts,
+                                    closed_loop=closed_loop, progress=progress, bridge=bridge)
+    return AcceptanceResult(block["status"], block, results)
+
+
+@renamed
+def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=None,
+           records=None, *, checks="all", check_samples: int | None = None,
+           check_workers: int | None = None, quick_checks: bool = False):
+    """Design the compensator and judge it: :func:`design.control.driver.design`, then
+    :func:`accept` on its controller, the verdict folded into the status (module docstring).
+
+    Parameters
+    ----------
+    settings : DesignSettings
+        The design card (:func:`design.control.settings.load_settings`).
+    progress, bridge, warm_start, progress_bar, records
+        As :func:`design.control.driver.design`.
+    checks : str or sequence of str
+        Acceptance checks (``"all"``, the default; ``"none"`` skips them and says so).
+    check_samples, check_workers : int, optional
+        Fresh variants (default 1000) and processes (default 1) of the checks.
+    quick_checks : bool
+        The CI sizes of the checks.
+
+    Returns
+    -------
+    design.control.result.DesignResult
+        ``controller`` is None unless the status is ``converged``.
+    """
+    from design.control.driver import design as run_design
+    from design.io.api_args import check_design_args
+
+    check_design_args(settings, progress, bridge, warm_start, progress_bar, records)
+    opts = _options(checks, check_samples, check_workers, quick_checks, None)  # before work
+    res = run_design(settings, progress=progress, bridge=bridge, warm_start=warm_start,
+                     progress_bar=progress_bar, records=records)
+    if res.controller is None:
+        return res
+    if not opts.checks:
+        return replace(res, extras={**res.extras, "acceptance": {"checks": [],
+                                                                 "status": "not_run"}})
+    from design.assessment.acceptance import design_closed_loop
+
+    acc = accept(res.controller, settings, checks=opts.checks, samples=opts.samples,
+                 workers=opts.workers, quick=quick_checks, seed=opts.seed,
+                 closed_loop=design_closed_loop(res, settings),
+                 progress=progress, bridge=bridge)
+    extras = {**res.extras, "acceptance": acc.block, "acceptance_results": acc.results}
+    status = ACCEPTANCE_STATUS.get(acc.status)
+    if status is None:
+        return replace(res, extras=extras)
+    return replace(res, status=status, controller=None, extras=extras)

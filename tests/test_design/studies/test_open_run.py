@@ -1,0 +1,59 @@
+"""A finished run folder read back (``design.open_run``) and the results' common face."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import design
+from model.errors import BridgeflapInputError
+
+CHEAP = {"speeds": "0:120:4", "modes": 4, "truncation_check": False}
+
+
+@pytest.fixture(scope="module")
+def doe(tmp_path_factory):
+    config = design.doe_from_dict({
+        "name": "t", "bridge": "humber", "analysis": "flutter", "options": CHEAP,
+        "design": {"kind": "full_factorial", "levels": 2},
+        "parameters": {"deck.gj_nm2": [4.7e11, 7.1e11], "cable.main_sag_m": [110.0, 125.0]}})
+    out = tmp_path_factory.mktemp("doe") / "out"
+    return design.run_doe(config, out_dir=out, scheduler="serial", progress=False)
+
+
+def test_doe_to_xarray_has_cases_and_parameter_coordinates(doe):
+    ds = doe.to_xarray()
+    assert ds.sizes["case"] == 4
+    assert set(np.unique(ds["deck.gj_nm2"].values)) == {4.7e11, 7.1e11}
+    assert "divergence_speed_m_s" in ds and list(ds["status"].values) == ["ok"] * 4
+
+
+def test_open_run_reads_a_doe_folder_back(doe):
+    run = design.open_run(doe.out_dir)
+    assert run.kind == "doe" and run.cases == 4 and run.failed == 0
+    assert isinstance(run.summary()["cases"], int)
+    assert run.to_dataframe().shape[0] == 4
+    assert "| case_id" in run.table()
+    assert run.to_xarray().sizes["case"] == 4
+    assert hasattr(run.plot(), "savefig")
+    with pytest.raises(AttributeError, match="headline numbers"):
+        run.casess  # noqa: B018 - a misspelt headline name raises
+
+
+def test_open_run_refuses_a_folder_it_did_not_write(tmp_path):
+    (tmp_path / "mine.txt").write_text("x")
+    with pytest.raises(BridgeflapInputError, match="not a bridgeflap output folder"):
+        design.open_run(tmp_path)
+    with pytest.raises(BridgeflapInputError, match="no such folder"):
+        design.open_run(tmp_path / "missing")
+
+
+def test_summary_is_plain_python_and_plot_is_a_figure():
+    import model
+
+    res = model.flutter("humber", np.arange(0.0, 100.0, 2.0), n_modes=6, sweep_method="fast")
+    s = res.summary()
+    assert not any(isinstance(v, np.generic) for v in s.values())
+    assert res.critical_speed_m_s == s["critical_speed_m_s"] and res.critical_speed_m_s > 0
+    assert hasattr(res.plot(), "savefig")
+    assert isinstance(model.modal_model("humber").table(), str)
