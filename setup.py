@@ -1,10 +1,10 @@
 """Build hook: record the package version and the git commit it was built from.
 
 Everything else about the build is in ``pyproject.toml``. ``build_py`` writes
-``model/_build_info.json`` (``version``, ``commit``, ``dirty``, ``built_utc``) into the build
-tree, so every wheel says which source it came from; ``sdist`` writes the same file into the
+``bridgeflap/model/_build_info.json`` (``version``, ``commit``, ``dirty``, ``built_utc``) into the
+build tree, so every wheel says which source it came from; ``sdist`` writes the same file into the
 source archive, so a wheel built from the sdist (no ``.git``) still knows the commit.
-:func:`design.io.manifest.build_info` reads it and every run manifest records it.
+:func:`bridgeflap.design.io.manifest.build_info` reads it and every run manifest records it.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ from setuptools.command.build_py import build_py
 from setuptools.command.sdist import sdist
 
 ROOT = Path(__file__).resolve().parent
-INFO = Path("model") / "_build_info.json"
+INFO = Path("model") / "_build_info.json"  # in the source tree (and an sdist)
+BUILT_INFO = Path("bridgeflap") / INFO  # in the build tree (and a wheel)
 
 
 def _git(*args: str) -> str | None:
@@ -52,21 +53,33 @@ def build_info(version: str) -> dict:
             "built_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
 
 
-def _write(folder: str | Path, info: dict) -> None:
-    target = Path(folder) / INFO
+def _write(folder: str | Path, info: dict, name: Path = INFO) -> None:
+    target = Path(folder) / name
     target.parent.mkdir(parents=True, exist_ok=True)
     if target.exists():  # sdist release trees hard-link the sources: never write through
         target.unlink()
     target.write_text(json.dumps(info, indent=1) + "\n")
 
 
+def packages() -> list[str]:
+    """``bridgeflap`` and every package under ``model/`` and ``design/`` as
+    ``bridgeflap.model...`` / ``bridgeflap.design...`` (the folders stay at the root; the
+    mapping is ``[tool.setuptools] package-dir`` in pyproject.toml)."""
+    out = ["bridgeflap"]
+    for top in ("model", "design"):
+        for init in sorted((ROOT / top).rglob("__init__.py")):
+            if "__pycache__" not in init.parts:
+                out.append(".".join(("bridgeflap", *init.parent.relative_to(ROOT).parts)))
+    return out
+
+
 class BuildPyWithInfo(build_py):
-    """``build_py`` that also writes ``model/_build_info.json`` into the build tree."""
+    """``build_py`` that also writes ``bridgeflap/model/_build_info.json`` into the build tree."""
 
     def run(self):
         super().run()
         if not self.dry_run:
-            _write(self.build_lib, build_info(self.distribution.get_version()))
+            _write(self.build_lib, build_info(self.distribution.get_version()), BUILT_INFO)
 
 
 class SdistWithInfo(sdist):
@@ -77,4 +90,4 @@ class SdistWithInfo(sdist):
         _write(base_dir, build_info(self.distribution.get_version()))
 
 
-setup(cmdclass={"build_py": BuildPyWithInfo, "sdist": SdistWithInfo})
+setup(packages=packages(), cmdclass={"build_py": BuildPyWithInfo, "sdist": SdistWithInfo})

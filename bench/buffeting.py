@@ -5,8 +5,8 @@ Humber, 16 modes, 4-25 m/s (22 speeds), seed inputs (Busch-Panofsky, Liepmann, s
 
 * the numpy spectral path against the frequency-grid size (reference: 4x denser grid, twice
   the cluster width);
-* the CasADi expression (:func:`model.aeroelastic.symbolic.buffeting_rms_function`, build +
-  evaluation) of the maximum-heave and maximum-pitch strips at every speed;
+* the CasADi expression (:func:`bridgeflap.model.aeroelastic.symbolic.buffeting_rms_function`, build
+  + evaluation) of the maximum-heave and maximum-pitch strips at every speed;
 * Monte-Carlo at two speeds (independent check, with its standard error).
 
 Set ``OPENBLAS_NUM_THREADS=1`` on shared machines.
@@ -21,11 +21,11 @@ import time
 
 import numpy as np
 
-from model.aero.gust import gust_field
-from model.aeroelastic.symbolic import buffeting_rms_function, build_symbolic
-from model.analysis import bridge_system
-from model.response.buffeting import buffeting
-from model.structure.loader import load_bridge
+from bridgeflap.model.aero.gust import gust_field
+from bridgeflap.model.aeroelastic.symbolic import buffeting_rms_function, build_symbolic
+from bridgeflap.model.analysis import bridge_system
+from bridgeflap.model.response.buffeting import buffeting
+from bridgeflap.model.structure.loader import load_bridge
 
 SPEEDS = np.arange(4.0, 25.5, 1.0)
 REFERENCE = {"n_base": 480, "peaks_per_mode": 161, "half_widths": 60.0}

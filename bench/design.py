@@ -3,8 +3,8 @@
 Default: the full default ``optimise`` (the packaged design definition, every start, cuts,
 verification, closed-loop limits, buffeting comparison, then the acceptance checks with the
 1000-variant do-no-harm validation on ``--workers`` processes) through
-:func:`design.assessment.accept.design`: wall time (design and checks apart, against the 120 s
-target), Ipopt iterations per start and round, and the share
+:func:`bridgeflap.design.assessment.accept.design`: wall time (design and checks apart, against the
+120 s target), Ipopt iterations per start and round, and the share
 of the wall time per phase (``DesignResult.extras["phase_times_s"]``; inside the starts, the
 Ipopt share of each start; ``(worker)`` phases ran in worker processes alongside the others, so
 the shares add up to more than 1), the CPU time of the process and its workers, the design's result
@@ -37,9 +37,9 @@ def run(modes=(8, 12, 16), steps=(10.0, 5.0)) -> list[dict]:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     import casadi as ca
 
-    from design.control.driver import build_model
-    from design.control.nlp import DesignProblem
-    from design.control.settings import load_settings
+    from bridgeflap.design.control.driver import build_model
+    from bridgeflap.design.control.nlp import DesignProblem
+    from bridgeflap.design.control.settings import load_settings
 
     rows = []
     th = np.array([0.0, 0.5, -1.0, 0.05, 0.5])
@@ -120,9 +120,9 @@ def run_full(definition=None, quick=False, checks="all", check_samples=None,
     """One full default design with its acceptance checks (the 1000-variant validation on
     ``check_workers`` processes): wall time, Ipopt iterations, share of time per phase."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    from design.assessment.accept import design
-    from design.cli.optimise import DEFAULT_DEFINITION
-    from design.control.settings import load_settings, quick_settings
+    from bridgeflap.design.assessment.accept import design
+    from bridgeflap.design.cli.optimise import DEFAULT_DEFINITION
+    from bridgeflap.design.control.settings import load_settings, quick_settings
 
     s = load_settings(definition or DEFAULT_DEFINITION)
     if quick:

@@ -21,8 +21,8 @@ Coarse mesh (50 m elements) and 8 modes keep one case at ~0.2 s. Measures, best 
 * ``page_faults_per_case``: median minor page faults of a case inside its process (ditto).
   A worker far above the serial runner's few hundred runs with glibc's dynamic malloc
   thresholds switched off (``MALLOC_TRIM_THRESHOLD_``,
-  :data:`design.batch.cluster.LOCAL_WORKER_CONFIG`): every large array is mapped and unmapped again,
-  system time that ``cpu_share`` still counts.
+  :data:`bridgeflap.design.batch.cluster.LOCAL_WORKER_CONFIG`): every large array is mapped and
+  unmapped again, system time that ``cpu_share`` still counts.
 
 The machine is often shared: the load average before and after each run is printed.
 
@@ -83,7 +83,7 @@ def _startup(workers: int, fn, params: dict) -> float:
     """Start a local cluster of ``workers``, run ``fn(params)`` once on every worker (the
     imports and caches a worker's first case pays, as the untimed first ``bare`` case does),
     close it [s]."""
-    from design.batch.cluster import cluster_client
+    from bridgeflap.design.batch.cluster import cluster_client
 
     t = time.perf_counter()
     with cluster_client(workers, None) as client:
@@ -98,9 +98,9 @@ def main():
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    from design.batch.designs import latin_hypercube
-    from design.batch.runner import run_batch
-    from design.studies.cases import flutter_case
+    from bridgeflap.design.batch.designs import latin_hypercube
+    from bridgeflap.design.batch.runner import run_batch
+    from bridgeflap.design.studies.cases import flutter_case
 
     cases = [{**c, "mesh.element_length_m": 50.0}
              for c in latin_hypercube(RANGES, args.cases, seed=1)]

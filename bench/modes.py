@@ -3,11 +3,12 @@
 Run ``python -m bench.modes`` (table) or ``python -m bench.modes --json`` (one JSON object).
 
 For each element length the bridge (complete, default Humber) is assembled
-(:func:`model.structure.cable.dead_load` + :func:`model.structure.fe.assemble`) and the lowest ``k``
-modes of each family are computed three ways:
+(:func:`bridgeflap.model.structure.cable.dead_load` +
+:func:`bridgeflap.model.structure.fe.assemble`) and the lowest ``k`` modes of each family are
+computed three ways:
 
 * ``dense``: :func:`scipy.linalg.eigh` on the full generalised problem (what
-  :func:`model.structure.modes.solve` does; the reference);
+  :func:`bridgeflap.model.structure.modes.solve` does; the reference);
 * ``sparse``: :func:`scipy.sparse.linalg.eigsh` in shift-invert mode (``sigma = 0``) on the
   assembled matrices stored as CSC. The vertical and torsional stiffnesses carry Irvine's global
   rank-one cable-stretching term ``c g g^T``, so they are essentially *full*: the ``fill``
@@ -44,10 +45,10 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from design.io.files import to_jsonable
-from model.structure import cable, fe
-from model.structure.loader import load_bridge
-from model.structure.spec import BridgeSpec
+from bridgeflap.design.io.files import to_jsonable
+from bridgeflap.model.structure import cable, fe
+from bridgeflap.model.structure.loader import load_bridge
+from bridgeflap.model.structure.spec import BridgeSpec
 
 FAMILIES = ("vertical", "torsional", "lateral")
 

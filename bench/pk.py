@@ -3,22 +3,24 @@
 Run ``python -m bench.pk`` (a table) or ``python -m bench.pk --json`` (one JSON object), with
 ``OPENBLAS_NUM_THREADS=1`` on a shared machine. Per case, best of ``--repeat`` (default 5):
 
-* ``fast p-k``: :func:`model.stability.sweeps.pk_sweep` as the CLI calls it (the lean kernel of
-  :mod:`model.stability.pk_kernel`, branches marched speed by speed and stopped at the first
-  crossing);
+* ``fast p-k``: :func:`bridgeflap.model.stability.sweeps.pk_sweep` as the CLI calls it (the lean
+  kernel of
+  :mod:`bridgeflap.model.stability.pk_kernel`, branches marched speed by speed and stopped at the
+  first crossing);
 * ``reference p-k``: the same with ``full_grid=True`` (the whole grid, fixed-point k iteration
   on the frozen system's own matrices), best of ``--reference-repeat`` (default 1: it is slow);
-* ``rfa eigen``: :func:`model.stability.sweeps.sweep` on the RFA state space of the same case;
+* ``rfa eigen``: :func:`bridgeflap.model.stability.sweeps.sweep` on the RFA state space of the same
+  case;
 * ``wawi``: wawi's ``itflutter_cont_naive`` (optional, below), best of ``--repeat`` in its
   own process.
 
 Cases (``--cases``): the IABSE TG3.1 sections ``iabse-1.1a`` (flat plate) and ``iabse-1.1c``
-(PoliMi tables) on their CLI grid (:func:`model.cases.section_cases.default_speeds`, 0 to twice the
-reference speed in 401 points), the 12-mode step-2a bridges ``iabse-2a`` (flat plate) and
+(PoliMi tables) on their CLI grid (:func:`bridgeflap.model.cases.section_cases.default_speeds`, 0 to
+twice the reference speed in 401 points), the 12-mode step-2a bridges ``iabse-2a`` (flat plate) and
 ``iabse-2a:bb3`` (BB3 tables) on 0:100:0.5 [m/s], and on request ``humber`` (no wawi input,
 slow: its reference p-k takes about a minute) with the ``flutter --pk`` defaults
-(:func:`model.analysis.pk_flutter`: 30 modes, 0:85:0.5). ``--speed-tol`` (default 1e-3 m/s,
-the CLI's and wawi's tolerance) is bridgeflap's refinement tolerance. The system
+(:func:`bridgeflap.model.analysis.pk_flutter`: 30 modes, 0:85:0.5). ``--speed-tol`` (default 1e-3
+m/s, the CLI's and wawi's tolerance) is bridgeflap's refinement tolerance. The system
 build (fit, modes) is outside the timings, as wawi's is. The header gives the CPU count, the
 BLAS threads and the load average (the machine is shared: the best of several runs is the
 figure to quote).
@@ -35,9 +37,9 @@ damping, B = 31 m, rho = 1.22): wawi's ``itflutter_cont_naive`` (the call of its
 ``tests/test_IABSE_step11a.py``: V = 0.1, dV = 5, tol 1e-3 m/s) with its own ``flatplate_ads``
 for 1.1a, and for 1.1c derivative functions built in the wawi process from the shipped PoliMi
 CSV (linear ``interp1d`` in ``v = U/(B omega)``, end values held, the conversion of
-:func:`model.aero.derivatives.polimi_to_scanlan`): no pickle is loaded. Step 2a (``iabse-2a``,
-flat plate; ``iabse-2a:bb3``, the BB3 tables of ``step2a_bb3_derivatives.json`` with the
-conversion that file states and the sign flips of wawi's ``tests/test_IABSE_step2a.py``): the
+:func:`bridgeflap.model.aero.derivatives.polimi_to_scanlan`): no pickle is loaded. Step 2a
+(``iabse-2a``, flat plate; ``iabse-2a:bb3``, the BB3 tables of ``step2a_bb3_derivatives.json`` with
+the conversion that file states and the sign flips of wawi's ``tests/test_IABSE_step2a.py``): the
 12 modes of ``step2a_modes.json`` at their 71 nodes (wawi integrates by the trapezoid rule over
 the nodes, bridgeflap over its 12 m strips). wawi 0.0.19 calls ``np.trapz``, which numpy 2.4
 (what its unpinned requirements install) removed: the wawi process aliases it to
@@ -142,13 +144,13 @@ def _case_input(case) -> dict:
     import io
     from importlib import resources
 
-    d = json.loads(resources.files("model.bridges").joinpath(
+    d = json.loads(resources.files("bridgeflap.model.bridges").joinpath(
         "iabse", f"{case.name}.json").read_text("utf-8"))
     out = {"m": d["mass_kg_per_m"], "k": d["stiffness_n_per_m2"], "zeta": d["damping_ratio"],
            "dofs": d["dofs"], "B": d["chord_m"], "rho": d["air_density_kg_m3"],
            "kind": d["derivatives"]["kind"]}
     if out["kind"] == "polimi-table":
-        text = resources.files("model.bridges").joinpath(
+        text = resources.files("bridgeflap.model.bridges").joinpath(
             "iabse", d["derivatives"]["file"]).read_text("utf-8")
         rows = list(csv.DictReader(io.StringIO(
             "\n".join(s for s in text.splitlines() if not s.startswith("#")))))
@@ -204,19 +206,19 @@ def _best(fn, repeat: int):
 
 def _case_system(name: str):
     """``(system, speeds [m/s], wawi input or None, reference speed [m/s])`` of a case."""
-    from model.aeroelastic.derivative_system import derivative_system
-    from model.analysis import bridge_system
-    from model.cases.section_cases import case_fit, default_speeds, load_section_case
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.aeroelastic.derivative_system import derivative_system
+    from bridgeflap.model.analysis import bridge_system
+    from bridgeflap.model.cases.section_cases import case_fit, default_speeds, load_section_case
+    from bridgeflap.model.structure.loader import load_bridge
 
     if name in MODAL_CASES:
         spec = load_bridge(name)
         _, system = bridge_system(spec, 30)
         return system, np.arange(0.0, 100.01, 0.5), _modal_case_input(spec), MODAL_CASES[name]
     if name == "humber":
-        from design.io.options import parse_range
-        from design.studies.analyses import DEFAULT_SPEEDS
-        from model.analysis import DEFAULT_MODES
+        from bridgeflap.design.io.options import parse_range
+        from bridgeflap.design.studies.analyses import DEFAULT_SPEEDS
+        from bridgeflap.model.analysis import DEFAULT_MODES
 
         _, system = bridge_system(load_bridge("humber"), DEFAULT_MODES)
         return system, parse_range(DEFAULT_SPEEDS, "speeds", 0.0), None, float("nan")
@@ -245,7 +247,7 @@ def _wawi(python: str, wawi_input: dict, repeat: int):
 def run_case(name: str, repeat: int, reference_repeat: int, wawi_python: str | None,
              speed_tol: float = 1e-3) -> dict:
     """Rows and ratios of one case (module docstring)."""
-    from model.stability import sweeps as stability
+    from bridgeflap.model.stability import sweeps as stability
 
     system, speeds, wawi_input, ref = _case_system(name)
     fast, t_fast = _best(lambda: stability.pk_sweep(system, speeds, speed_tol), repeat)

@@ -8,7 +8,7 @@ form) in a subprocess under each of these settings, and compares every run with 
   product rounds differently; pass ``--kernel`` for another);
 * 2 BLAS threads (another summation order);
 * every model matrix perturbed by 1e-12 relative (the test hook
-  ``design.control.problem_model.PERTURB_ENV``).
+  ``bridgeflap.design.control.problem_model.PERTURB_ENV``).
 
 It prints, per run, the kernel that numpy reports (threadpoolctl), the status, the flap layout,
 K's largest relative difference from the reference, and the closed-loop critical speed's
@@ -41,7 +41,8 @@ def _run(card, quick, extra_env) -> dict:
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
            "MPLBACKEND": "Agg", **extra_env}
     with tempfile.TemporaryDirectory() as tmp:
-        argv = [sys.executable, "-m", "design.cli.main", "optimise", *([card] if card else []),
+        argv = [sys.executable, "-m", "bridgeflap.design.cli.main", "optimise",
+                *([card] if card else []),
                 "--checks", "none", "--json", "--out", os.path.join(tmp, "opt"),
                 *(["--quick"] if quick else [])]
         t0 = time.perf_counter()

@@ -1,9 +1,9 @@
 """Benchmark: the do-no-harm check (``python -m bench.robustness [--samples 200]
 [--reference-samples 20] [--workers 2] [--repeats 1] [--controller FILE] [--json]``).
 
-Times :func:`design.assessment.harm.do_no_harm` on Humber (30 modes, 0-127.5 m/s at 0.5 m/s, Sobol'
-seed 11) with ``method="fast"`` (screened on 16 modes) at ``--samples`` and with the reference
-``method="reference"`` at ``--reference-samples`` (the full reference at 200 samples takes
+Times :func:`bridgeflap.design.assessment.harm.do_no_harm` on Humber (30 modes, 0-127.5 m/s at 0.5
+m/s, Sobol' seed 11) with ``method="fast"`` (screened on 16 modes) at ``--samples`` and with the
+reference ``method="reference"`` at ``--reference-samples`` (the full reference at 200 samples takes
 ~10 min of two shared cores; its wall time per variant is scaled to ``--samples``, which the
 table says). Both methods also run on the reference's sample count, where their summaries are
 compared: verdicts equal, the worst closed/open ratio and the lowest closed-loop speed within
@@ -32,10 +32,10 @@ README_200 = {"status": "no_harm", "worst_closed_over_open": 1.144,
 
 
 def _controller(path=None):
-    from model.aeroelastic.control import Compensator, Controller
+    from bridgeflap.model.aeroelastic.control import Compensator, Controller
 
     if path:
-        from model.aeroelastic.controller_file import load_controller
+        from bridgeflap.model.aeroelastic.controller_file import load_controller
 
         return load_controller(path)
     k = Compensator(-1.0520215923792988, 0.724204088492299, -4.9906722869878095,
@@ -45,7 +45,7 @@ def _controller(path=None):
 
 
 def _one(controller, samples, method, workers) -> tuple[dict, float, float, object]:
-    from design.assessment.harm import do_no_harm
+    from bridgeflap.design.assessment.harm import do_no_harm
 
     cpu0, t0 = _cpu_s(), time.perf_counter()
     res = do_no_harm(controller, "humber", count=samples, workers=workers, method=method)

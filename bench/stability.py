@@ -7,13 +7,14 @@ dense ``eig`` calls can be slower by one to two orders of magnitude); the header
 One Humber wind-speed sweep (default ``0:85:0.5``, 171 speeds) with the same retained modes
 (default 16 vertical + torsional) by three methods:
 
-* ``modal``: :func:`model.aeroelastic.statespace.build` with ``order="modal"`` (4 lag states per
-  mode),
-  :func:`model.stability.sweeps.sweep` (dense ``eig`` per speed, branch tracking, Brent refinement);
+* ``modal``: :func:`bridgeflap.model.aeroelastic.statespace.build` with ``order="modal"`` (4 lag
+  states per mode),
+  :func:`bridgeflap.model.stability.sweeps.sweep` (dense ``eig`` per speed, branch tracking, Brent
+  refinement);
 * ``full``: the same with ``order="full"`` (4 lag states per aerodynamic strip), the reference
   assembly that the modal lag reduction must reproduce (docs/methods.md#state-space);
-* ``p-k``: :func:`model.stability.sweeps.pk_sweep` with the exact Theodorsen function on the same
-  modes (``states`` is the size ``2 n`` of the eigenproblem solved per p-k iteration; the
+* ``p-k``: :func:`bridgeflap.model.stability.sweeps.pk_sweep` with the exact Theodorsen function on
+  the same modes (``states`` is the size ``2 n`` of the eigenproblem solved per p-k iteration; the
   ``U = 0`` point is skipped, where ``k`` is undefined).
 
 Columns: build and sweep wall time (best of ``--repeat``, outside tracemalloc), peak traced
@@ -21,12 +22,12 @@ memory of the sweep (a separate run under :mod:`tracemalloc`: numpy array data a
 LAPACK workspaces allocated in C inside ``numpy.linalg`` are not), flutter speed, time ratio
 and flutter-speed difference against ``modal``.
 
-``--sweeps`` prints instead the dense against the fast sweep (:mod:`model.stability.hopf`) on the
-stated set of :func:`bench.sweep_cases.cases` (Humber open and closed loop, IABSE 1.1a, 1.1c, 2a,
-2a:bb3, Great Belt with its default and its bb3 derivatives): eigen-solution counts, times
-(best of ``--repeat``), their ratios and the agreement; ``--sampled N`` adds ``N`` bridges
-sampled from Humber's estimated-input ranges and erection stages, counted as agreements and
-disagreements (each disagreement listed).
+``--sweeps`` prints instead the dense against the fast sweep
+(:mod:`bridgeflap.model.stability.hopf`) on the stated set of :func:`bench.sweep_cases.cases`
+(Humber open and closed loop, IABSE 1.1a, 1.1c, 2a, 2a:bb3, Great Belt with its default and its bb3
+derivatives): eigen-solution counts, times (best of ``--repeat``), their ratios and the agreement;
+``--sampled N`` adds ``N`` bridges sampled from Humber's estimated-input ranges and erection stages,
+counted as agreements and disagreements (each disagreement listed).
 
 The modal truncation study repeats the modal sweep with 8 ... 30 retained modes (one
 eigen-solution of the structure is shared; its cost is reported once in the header).
@@ -47,13 +48,13 @@ from pathlib import Path
 import numpy as np
 import scipy
 
-from design.io.files import to_jsonable
-from design.io.options import parse_range
-from design.studies.analyses import DEFAULT_SPEEDS
-from model.aero.rfa import get_rfa
-from model.analysis import bridge_system, modal_model
-from model.stability import sweeps as stability
-from model.structure.loader import load_bridge
+from bridgeflap.design.io.files import to_jsonable
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.design.studies.analyses import DEFAULT_SPEEDS
+from bridgeflap.model.aero.rfa import get_rfa
+from bridgeflap.model.analysis import bridge_system, modal_model
+from bridgeflap.model.stability import sweeps as stability
+from bridgeflap.model.structure.loader import load_bridge
 
 TRUNCATION = (8, 12, 16, 20, 24, 30)
 

@@ -24,7 +24,7 @@ COMMANDS = (("modes", "--json"), ("flutter", "--json"), ("rfa", "--json"))
 HEAVY = ("casadi", "matplotlib", "dask", "distributed", "SALib", "pandas", "xarray",
          "scipy.optimize", "scipy.special")
 _PROBE = ("import sys, runpy; sys.argv = ['bridgeflap', *sys.argv[1:]]\n"
-          "try:\n    runpy.run_module('design.cli.main', run_name='__main__')\n"
+          "try:\n    runpy.run_module('bridgeflap.design.cli.main', run_name='__main__')\n"
           "except SystemExit:\n    pass\n"
           f"print('LOADED', ','.join(m for m in {HEAVY!r} if m in sys.modules), "
           "file=sys.stderr)\n")
@@ -36,7 +36,8 @@ def measure(tree: Path, argv: tuple, repeat: int) -> dict:
     walls, imports, loaded = [], [], ""
     for _ in range(repeat):
         t = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "design.cli.main", *argv], cwd=tree, env=env,
+        subprocess.run([sys.executable, "-m", "bridgeflap.design.cli.main", *argv], cwd=tree,
+                       env=env,
                        capture_output=True, check=True)
         walls.append(time.perf_counter() - t)
         p = subprocess.run([sys.executable, "-X", "importtime", "-c", _PROBE, *argv], cwd=tree,

@@ -1,9 +1,9 @@
 """Benchmark of ``bridgeflap study``: wall time, and where it goes.
 
-Runs the CLI (``python -m design.cli.main study [--quick] --workers N``) in a fresh process for each
-setting, best of ``--repeat``, and prints one table: the study's wall time, each analysis' own
-time (``results/<analysis>.json`` ``elapsed_s``: with several workers they overlap, so they
-sum to more than the wall time), the 1 -> N worker ratio, the CPU count, BLAS threads and the
+Runs the CLI (``python -m bridgeflap.design.cli.main study [--quick] --workers N``) in a fresh
+process for each setting, best of ``--repeat``, and prints one table: the study's wall time, each
+analysis' own time (``results/<analysis>.json`` ``elapsed_s``: with several workers they overlap, so
+they sum to more than the wall time), the 1 -> N worker ratio, the CPU count, BLAS threads and the
 load average before and after (the machine is often shared: a run under load is slower, and a
 quiet run may not be possible -- the load says which it was). Targets: default at most 90 s,
 ``--quick`` at most 30 s on 2 cores.
@@ -32,7 +32,8 @@ def _load() -> str:
 def run_once(quick: bool, workers: int, folder: Path) -> dict:
     """One ``bridgeflap study`` run: wall time [s], per-analysis times [s], statuses, load."""
     out = folder / f"{'quick' if quick else 'default'}-{workers}-{time.monotonic_ns()}"
-    argv = [sys.executable, "-m", "design.cli.main", "study", "--out", str(out), "--workers",
+    argv = [sys.executable, "-m", "bridgeflap.design.cli.main", "study", "--out", str(out),
+            "--workers",
             str(workers), "--json", *(["--quick"] if quick else [])]
     env = {**os.environ, "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1"),
            "MPLBACKEND": "Agg"}

@@ -3,9 +3,9 @@
 :func:`cases` builds the stated set (Humber open and closed loop, the IABSE cases, Great Belt
 with the default and the bb3 flutter derivatives);
 :func:`sampled_cases` draws bridges from Humber's estimated-input ranges
-(:data:`design.studies.screening.DEFAULT_UNCERTAIN_RANGES`) and erection stages; :func:`compare`
-runs both methods on one case and says whether they agree: the same statuses and labels, and the
-same flutter, divergence and second-flutter speeds to :data:`REL_TOL`.
+(:data:`bridgeflap.design.studies.screening.DEFAULT_UNCERTAIN_RANGES`) and erection stages;
+:func:`compare` runs both methods on one case and says whether they agree: the same statuses and
+labels, and the same flutter, divergence and second-flutter speeds to :data:`REL_TOL`.
 """
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ import time
 
 import numpy as np
 
-from design.io.options import parse_range
-from design.studies.analyses import DEFAULT_SPEEDS
-from model.stability import sweeps as stability
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.design.studies.analyses import DEFAULT_SPEEDS
+from bridgeflap.model.stability import sweeps as stability
 
 #: agreement of the fast and dense speeds, relative; the dense Brent tolerance is
 #: 1e-3 m/s, 1.4e-5 of a 70 m/s flutter speed
@@ -34,23 +34,23 @@ _CONTROLLER = ((0.0, 0.0, -1.0, 0.1, 0.5), tuple(np.arange(-400.0, 401, 100)), 2
 
 
 def _bridge(name, n_modes, speeds=DEFAULT_SPEEDS, spec=None):
-    from model.analysis import bridge_system
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.analysis import bridge_system
+    from bridgeflap.model.structure.loader import load_bridge
 
     _, system = bridge_system(spec if spec is not None else load_bridge(name), n_modes)
     return name, system, parse_range(speeds, "speeds", 0.0)
 
 
 def _section(name):
-    from model.cases.section_cases import section_system
+    from bridgeflap.model.cases.section_cases import section_system
 
     return (name, *section_system(name))
 
 
 def _closed_loop(n_modes):
-    from model.aeroelastic.control import Compensator
-    from model.aeroelastic.flaps import closed_loop_model
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.aeroelastic.control import Compensator
+    from bridgeflap.model.aeroelastic.flaps import closed_loop_model
+    from bridgeflap.model.structure.loader import load_bridge
 
     comp, pos, width = _CONTROLLER
     model = closed_loop_model(load_bridge("humber"), pos, width, n_modes)
@@ -70,7 +70,7 @@ def sampled_params(n: int, seed: int = 16):
     """``n`` parameter sets: uniform over the estimated-input ranges (coherence decay, which
     enters buffeting only, left out); every third one also an erection stage, erected
     fraction uniform on (0.1, 1)."""
-    from design.studies.screening import DEFAULT_UNCERTAIN_RANGES
+    from bridgeflap.design.studies.screening import DEFAULT_UNCERTAIN_RANGES
 
     rng = np.random.default_rng(seed)
     ranges = {k: v for k, v in DEFAULT_UNCERTAIN_RANGES.items() if k != "aero.coherence_decay"}
@@ -84,8 +84,8 @@ def sampled_params(n: int, seed: int = 16):
 
 
 def sampled_case(params, n_modes: int = 30):
-    from design.studies.cases import apply_parameters
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.studies.cases import apply_parameters
+    from bridgeflap.model.structure.loader import load_bridge
 
     spec = apply_parameters(load_bridge("humber"), params)
     return _bridge("humber sample", n_modes, spec=spec)

@@ -22,7 +22,7 @@ DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
 
 # The import names of the package, in one place: the API pages are generated from these.
-PACKAGES = ("model", "design")
+PACKAGES = ("bridgeflap.model", "bridgeflap.design")
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -119,7 +119,7 @@ def _api_pages() -> None:
                       "   :nosignatures:", ""]
             lines += [f"   {attr}" for attr in group] + [""]
         text = "\n".join(lines)
-        path = out / f"{name}.rst"
+        path = out / f"{name.rpartition('.')[2]}.rst"
         if not path.exists() or path.read_text() != text:
             path.write_text(text)
 

@@ -1,13 +1,14 @@
 """High-level analyses on a bridge definition: modes, flutter, erection, frequency ratio.
 
-Plain functions of a ``bridge`` (a name, a file or a :class:`~model.structure.spec.BridgeSpec`) and
-grids of wind speeds [m/s] and erected fractions [-] (``"0:85:0.5"`` text or numbers,
-:func:`model.grid.speed_grid`); the default grids belong to :mod:`design.studies.analyses`; the
-argument names are those of docs/api_vocabulary.md. Each returns a frozen result
-object with ``summary()`` (JSON-ready numbers with units in the key names and statuses) and
-``plot()``. Conventions: see :mod:`model`.
+Plain functions of a ``bridge`` (a name, a file or a
+:class:`~bridgeflap.model.structure.spec.BridgeSpec`) and grids of wind speeds [m/s] and erected
+fractions [-] (``"0:85:0.5"`` text or numbers,
+:func:`bridgeflap.model.grid.speed_grid`); the default grids belong to
+:mod:`bridgeflap.design.studies.analyses`; the argument names are those of docs/api_vocabulary.md.
+Each returns a frozen result object with ``summary()`` (JSON-ready numbers with units in the key
+names and statuses) and ``plot()``. Conventions: see :mod:`bridgeflap.model`.
 
->>> from model.structure.loader import load_bridge                  # doctest: +SKIP
+>>> from bridgeflap.model.structure.loader import load_bridge                  # doctest: +SKIP
 >>> res = flutter(load_bridge("humber"), np.arange(0.0, 85.5, 0.5))  # doctest: +SKIP
 >>> res.summary()["flutter_speed_m_s"]                     # doctest: +SKIP
 """
@@ -18,19 +19,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.aeroelastic import statespace
-from model.aeroelastic.control import Controller
-from model.aeroelastic.controller_file import as_controller
-from model.aeroelastic.flaps import closed_loop_model
-from model.arguments import optional
-from model.errors import BridgeflapError, BridgeflapInputError
-from model.results import ResultData, finite_extreme
-from model.stability.sweeps import StabilitySweep, check_speeds, sweep
-from model.structure.bridge_arg import BridgeArg, takes_bridge
-from model.structure.fe import assemble
-from model.structure.modes import ModalModel, solve
-from model.structure.spec import BridgeSpec, check_fraction
-from model.vocabulary import DEFAULT_MODES
+from bridgeflap.model.aeroelastic import statespace
+from bridgeflap.model.aeroelastic.control import Controller
+from bridgeflap.model.aeroelastic.controller_file import as_controller
+from bridgeflap.model.aeroelastic.flaps import closed_loop_model
+from bridgeflap.model.arguments import optional
+from bridgeflap.model.errors import BridgeflapError, BridgeflapInputError
+from bridgeflap.model.results import ResultData, finite_extreme
+from bridgeflap.model.stability.sweeps import StabilitySweep, check_speeds, sweep
+from bridgeflap.model.structure.bridge_arg import BridgeArg, takes_bridge
+from bridgeflap.model.structure.fe import assemble
+from bridgeflap.model.structure.modes import ModalModel, solve
+from bridgeflap.model.structure.spec import BridgeSpec, check_fraction
+from bridgeflap.model.vocabulary import DEFAULT_MODES
 
 
 @takes_bridge
@@ -56,7 +57,7 @@ def bridge_system(bridge: BridgeArg, n_modes: int = DEFAULT_MODES, order: str = 
         raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")
     modal = modal_model(spec) if modal is None else modal
     if getattr(spec, "derivatives", None) is not None:  # flutter-derivative tables (modal bridge)
-        from model.aeroelastic.derivative_system import derivative_bridge_system
+        from bridgeflap.model.aeroelastic.derivative_system import derivative_bridge_system
 
         return modal, derivative_bridge_system(spec, modal, int(n_modes))
     system = statespace.spec_system(spec, modal.structural_basis(int(n_modes)), order, rfa)
@@ -111,11 +112,11 @@ class FlutterResult(ResultData):
         return s
 
     def to_dataframe(self):
-        """The sweep, one row per speed x branch (:func:`model.results.sweep_frame`)."""
+        """The sweep, one row per speed x branch (:func:`bridgeflap.model.results.sweep_frame`)."""
         return self.sweep.to_dataframe()
 
     def to_xarray(self):
-        """The sweep as an ``xarray.Dataset`` (:func:`model.results.sweep_dataset`)."""
+        """The sweep as an ``xarray.Dataset`` (:func:`bridgeflap.model.results.sweep_dataset`)."""
         return self.sweep.to_xarray({"bridge": self.spec.name, "modes_retained": self.n_modes,
                                      "erected_fraction": self.spec.erected_fraction,
                                      "order": self.order, "rfa": self.rfa})
@@ -164,7 +165,7 @@ def flutter(bridge: BridgeArg, speeds, n_modes: int = DEFAULT_MODES,
 
     ``speed_tol`` [m/s] is the width to which each crossing is refined and ``sweep_method``
     (``"dense"``, the reference, or ``"fast"``, the CLI's default) the method of
-    :func:`model.stability.sweeps.sweep`.
+    :func:`bridgeflap.model.stability.sweeps.sweep`.
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     u = check_speeds(speeds)
@@ -278,11 +279,11 @@ def erection(bridge: BridgeArg, fractions, speeds, n_modes: int = DEFAULT_MODES,
              progress=None, side_spans: str | None = None, workers: int = 1) -> ErectionResult:
     """Flutter/divergence at each erected fraction [-] over a grid of wind speeds [m/s].
 
-    Each stage is :meth:`~model.structure.spec.BridgeSpec.erected`: the main-span deck from mid-span
-    outwards, half GJ and zero EI (temporary joints), the side spans as ``side_spans`` (default:
-    the bridge file's sequence); a fraction of 1 is the closed deck before its joints are made.
-    The completed bridge (:meth:`~model.structure.spec.BridgeSpec.completed`) is reported
-    separately.
+    Each stage is :meth:`~bridgeflap.model.structure.spec.BridgeSpec.erected`: the main-span deck
+    from mid-span outwards, half GJ and zero EI (temporary joints), the side spans as ``side_spans``
+    (default: the bridge file's sequence); a fraction of 1 is the closed deck before its joints are
+    made. The completed bridge (:meth:`~bridgeflap.model.structure.spec.BridgeSpec.completed`) is
+    reported separately.
 
     ``workers > 1`` runs the stages in that many worker processes (the same function on each
     stage, so the same numbers; processes, not threads: the sweeps hold the GIL between LAPACK
@@ -317,7 +318,7 @@ def _stages(specs, speeds, n_modes: int, workers: int, done) -> list[dict]:
             out.append(_stage(s, speeds, n_modes))
             done(i)
         return out
-    from model.workers import process_pool
+    from bridgeflap.model.workers import process_pool
 
     with process_pool(workers) as ex:
         futures = [ex.submit(_stage, s, speeds, n_modes) for s in specs]
@@ -398,8 +399,9 @@ def first_symmetric_deck_mode(modal: ModalModel, family: str):
 
     Selection rule: among the symmetric modes whose deck kinetic-energy share is at least
     :data:`DECK_SHARE_FACTOR` (one half) of the main span's uniform-motion share (its deck mass
-    over its deck-plus-cable mass, :attr:`model.structure.fe.FamilyMatrices.uniform_deck_share`;
-    this passes over the bare-cable modes of early erection stages), the one with the largest
+    over its deck-plus-cable mass,
+    :attr:`bridgeflap.model.structure.fe.FamilyMatrices.uniform_deck_share`; this passes over the
+    bare-cable modes of early erection stages), the one with the largest
     :func:`fundamental_content` (the most main-span deck fundamental in it). A selection by
     frequency order alone fails where the deck's TS1 hybridises with the torsion of a bare
     side-span cable of nearly the same frequency (Humber with bare side spans: at 35 % the
@@ -490,12 +492,14 @@ class ClosedLoopFlutterResult(ResultData):
     static: object = field(default=None, repr=False)
 
     def summary(self) -> dict:
-        """Same keys as :meth:`model.analysis.FlutterResult.summary`, plus closed-loop info.
+        """Same keys as :meth:`bridgeflap.model.analysis.FlutterResult.summary`, plus closed-loop
+        info.
 
         ``divergence_static_speed_m_s`` is the closed-loop static check (static flap loads of
         ``beta = K(0) alpha``), ``divergence_static_verified_*`` its verification
-        (:mod:`model.stability.static_divergence`: status, reason, direction of the real eigenvalue,
-        whether it is the stability limit); the open-loop values are under ``open_loop_*``.
+        (:mod:`bridgeflap.model.stability.static_divergence`: status, reason, direction of the real
+        eigenvalue, whether it is the stability limit); the open-loop values are under
+        ``open_loop_*``.
         """
         s = self.base.summary()
         ol = self.open_loop.summary()
@@ -543,12 +547,13 @@ def closed_loop_flutter(bridge: BridgeArg, controller: Controller, speeds,
 
     ``flap_chord_m`` [m] default: the controller's own (:attr:`Controller.chord_m`).
     ``verify_static``: the verified static divergence of the closed loop on the grid's range
-    (:func:`model.stability.static_divergence.static_divergence`, ~0.3 s on 30 modes).
+    (:func:`bridgeflap.model.stability.static_divergence.static_divergence`, ~0.3 s on 30 modes).
 
-    ``speeds`` [m/s]: any form of :func:`model.grid.speed_grid`; ``sweep_method`` that of
-    :func:`model.stability.sweeps.sweep` (``"dense"``, the reference, or ``"fast"``) for both, and
-    ``critical_only`` that sweep's option (the critical crossings alone, no second branch);
-    ``modal`` a modal model of ``bridge`` already solved (default: all modes of its FE model).
+    ``speeds`` [m/s]: any form of :func:`bridgeflap.model.grid.speed_grid`; ``sweep_method`` that of
+    :func:`bridgeflap.model.stability.sweeps.sweep` (``"dense"``, the reference, or ``"fast"``) for
+    both, and ``critical_only`` that sweep's option (the critical crossings alone, no second
+    branch); ``modal`` a modal model of ``bridge`` already solved (default: all modes of its FE
+    model).
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     u = check_speeds(speeds)
@@ -564,7 +569,7 @@ def closed_loop_flutter(bridge: BridgeArg, controller: Controller, speeds,
                        int(n_modes), "modal", "rfa4", system.n_states)
     static = None
     if verify_static:
-        from model.stability.static_divergence import static_divergence
+        from bridgeflap.model.stability.static_divergence import static_divergence
 
         static = static_divergence(cl, float(u[-1]))
     return ClosedLoopFlutterResult(base, ol, controller, static)
@@ -575,9 +580,9 @@ def pk_flutter(bridge: BridgeArg, speeds, n_modes: int = DEFAULT_MODES,
                controller: Controller | None = None) -> dict:
     """Summary of the exact-Theodorsen p-k check on the same generalised coordinates as
     :func:`flutter` (closed loop with the controller's exact ``K(p)`` when given):
-    :func:`model.stability.sweeps.pk_sweep`."""
+    :func:`bridgeflap.model.stability.sweeps.pk_sweep`."""
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
-    from model.stability.sweeps import pk_sweep
+    from bridgeflap.model.stability.sweeps import pk_sweep
 
     u = check_speeds(speeds)
     if controller is None:

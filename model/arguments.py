@@ -2,9 +2,9 @@
 
 Each check takes a value and the name of the argument (or field) and returns the value,
 normalised, or raises a typed error whose one-line message names the argument and the reason:
-:class:`~model.errors.BridgeflapTypeError` for the wrong type or kind,
-:class:`~model.errors.BridgeflapInputError` for a value out of its stated range. Nothing is
-truncated (``n_modes=2.5`` is refused, not run with 2 modes) and no negative count slips into a
+:class:`~bridgeflap.model.errors.BridgeflapTypeError` for the wrong type or kind,
+:class:`~bridgeflap.model.errors.BridgeflapInputError` for a value out of its stated range. Nothing
+is truncated (``n_modes=2.5`` is refused, not run with 2 modes) and no negative count slips into a
 slice.
 
 :func:`checked` decorates a public function with the rules of its arguments: the vocabulary's
@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from model.errors import BridgeflapInputError, BridgeflapTypeError
-from model.vocabulary import check_renamed
+from bridgeflap.model.errors import BridgeflapInputError, BridgeflapTypeError
+from bridgeflap.model.vocabulary import check_renamed
 
 __all__ = ["MAX_GRID_VALUE", "MAX_MODES", "MAX_MODES_PER_FAMILY", "MAX_WORKERS", "RULES",
            "argv_list", "cases_list", "check_bool", "check_callable", "check_choice", "check_int",
@@ -263,8 +263,8 @@ def checked(**rules: Callable | None) -> Callable:
 
     A rule is ``rule(value, name) -> value``; ``name=None`` drops a rule of :data:`RULES` for
     this function. A call that does not fit the signature (a missing or unexpected argument) is
-    a :class:`~model.errors.BridgeflapTypeError` naming the function, and a former keyword name
-    raises naming the new one (:func:`model.vocabulary.check_renamed`).
+    a :class:`~bridgeflap.model.errors.BridgeflapTypeError` naming the function, and a former
+    keyword name raises naming the new one (:func:`bridgeflap.model.vocabulary.check_renamed`).
     """
 
     def decorate(fn: Callable) -> Callable:

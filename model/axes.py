@@ -3,9 +3,10 @@
 :func:`new_axes` opens a figure, :func:`axes_or_new` draws on given axes or a new figure,
 :func:`data_limits` gives axis limits that enclose every finite value (nothing is clipped),
 :func:`number_or_nan` reads a table cell as a number to plot. The figures themselves live
-with their concept: mode shapes in :mod:`model.structure.plots`, root locus and V-g/V-f in
-:mod:`model.stability.plots`, buffeting in :mod:`model.response.plots`, the design's in
-design/.
+with their concept: mode shapes in :mod:`bridgeflap.model.structure.plots`, root locus and V-g/V-f
+in
+:mod:`bridgeflap.model.stability.plots`, buffeting in :mod:`bridgeflap.model.response.plots`, the
+design's in design/.
 
 May import: numpy and matplotlib (lazily, inside :func:`new_axes`) only -- nothing of
 model/'s subpackages, so every layer may use it.

@@ -4,7 +4,7 @@ The command line, study and DOE files and scripts give wind-speed grids (and ere
 fractions) as text (``start:stop:step``, ``stop`` included when on the grid, or a comma list)
 or as numbers; :func:`parse_range` reads the text, :func:`grid` either form, and
 :func:`speed_grid` is what every public function taking ``speeds`` [m/s] calls.
-:mod:`design.io.options` re-exports the first two.
+:mod:`bridgeflap.design.io.options` re-exports the first two.
 """
 
 from __future__ import annotations
@@ -13,14 +13,14 @@ from typing import Any
 
 import numpy as np
 
-from model.arguments import (  # MAX_GRID_VALUE: the checks' bound, stated there
+from bridgeflap.model.arguments import (  # MAX_GRID_VALUE: the checks' bound, stated there
     MAX_GRID_VALUE,
     check_text,
     checked,
     number,
     optional,
 )
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["MAX_GRID_POINTS", "MAX_GRID_VALUE", "grid", "parse_range", "speed_grid"]
 

@@ -1,7 +1,8 @@
 """The lazy public face of a package (PEP 562): names resolve on first use.
 
-``import model`` and ``import design`` then stay light (no CasADi, matplotlib or Dask) while a
-script can still write ``from model import load_bridge, flutter``.
+``from bridgeflap import model`` and ``from bridgeflap import design`` then stay light (no CasADi,
+matplotlib or Dask) while a script can still write ``from bridgeflap.model import load_bridge,
+flutter``.
 """
 
 from __future__ import annotations
@@ -30,11 +31,11 @@ def public_face(package: str, names: dict):
 class _PublicModule(types.ModuleType):
     """A package whose public functions are not replaced by submodules of the same name.
 
-    Importing ``model.response.buffeting`` (the module) sets the attribute ``buffeting`` of
-    ``model``; here that assignment is dropped when ``buffeting`` is a public name of another
-    module, so ``model.response.buffeting`` stays the function the docs promise (resolved by
-    ``__getattr__``). The submodule stays in :data:`sys.modules`: ``from model.response.buffeting
-    import BuffetingResult`` and
+    Importing ``bridgeflap.model.response.buffeting`` (the module) sets the attribute ``buffeting``
+    of ``model``; here that assignment is dropped when ``buffeting`` is a public name of another
+    module, so ``bridgeflap.model.response.buffeting`` stays the function the docs promise (resolved
+    by ``__getattr__``). The submodule stays in :data:`sys.modules`: ``from
+    bridgeflap.model.response.buffeting import BuffetingResult`` and
     :func:`importlib.import_module` work as before.
     """
 
@@ -63,7 +64,7 @@ class _MovedFinder(importlib.abc.MetaPathFinder):
         self.package, self.moved = package, moved
 
     def find_spec(self, fullname, path=None, target=None):
-        head, _, rest = fullname.partition(".")
+        head, _, rest = fullname.rpartition(".")  # package "bridgeflap.model"
         if head != self.package or rest not in self.moved:
             return None
         raise ModuleNotFoundError(

@@ -1,9 +1,10 @@
 """Results as data: strict-JSON dicts, pandas tables and xarray datasets of every result.
 
-Every result record (:class:`model.stability.sweeps.StabilitySweep`,
-:class:`model.analysis.FlutterResult`,
-:class:`model.structure.modes.ModalModel`, :class:`model.response.buffeting.BuffetingResult`, the
-design records, ...) mixes in :class:`ResultData` and so has
+Every result record (:class:`bridgeflap.model.stability.sweeps.StabilitySweep`,
+:class:`bridgeflap.model.analysis.FlutterResult`,
+:class:`bridgeflap.model.structure.modes.ModalModel`,
+:class:`bridgeflap.model.response.buffeting.BuffetingResult`, the design records, ...) mixes in
+:class:`ResultData` and so has
 
 * ``to_dict()`` -- plain JSON types with units in the key names; NaN and +-inf become ``None``
   (strict JSON, RFC 8259), numpy scalars and arrays Python numbers and lists
@@ -19,8 +20,8 @@ design records, ...) mixes in :class:`ResultData` and so has
 
 Sweeps are also ``xarray.Dataset`` objects (:func:`sweep_dataset`: coordinates ``speed_m_s`` and
 ``branch``, units in ``attrs``), written as NetCDF-3 with xarray's scipy engine
-(:func:`design.io.files.atomic_save_netcdf`; no netCDF4/h5netcdf dependency). pandas, xarray and
-tabulate are imported lazily, so importing the model stays cheap.
+(:func:`bridgeflap.design.io.files.atomic_save_netcdf`; no netCDF4/h5netcdf dependency). pandas,
+xarray and tabulate are imported lazily, so importing the model stays cheap.
 """
 
 from __future__ import annotations
@@ -55,7 +56,8 @@ UNIT_SUFFIXES = ("_m_s", "_hz", "_1_s", "_m", "_rad", "_s", "_ratio", "_share", 
 
 
 def jsonable(obj: Any) -> Any:
-    """``obj`` in plain JSON types; NaN/inf -> ``None`` (:func:`design.io.files.to_jsonable`).
+    """``obj`` in plain JSON types; NaN/inf -> ``None``
+    (:func:`bridgeflap.design.io.files.to_jsonable`).
 
     Numpy scalars become Python scalars, arrays nested lists, dataclasses dicts of their fields
     (or their ``to_dict()``), paths strings, enums their value, dates ISO strings, complex
@@ -329,7 +331,8 @@ def _sweep_fields(sweep) -> dict:
 
 
 def sweep_frame(sweep):
-    """Long table of a :class:`~model.stability.sweeps.StabilitySweep`: one row per speed x branch.
+    """Long table of a :class:`~bridgeflap.model.stability.sweeps.StabilitySweep`: one row per speed
+    x branch.
 
     Columns ``speed_m_s``, ``branch`` (its label at U = 0), ``frequency_hz``,
     ``damping_ratio`` [-], ``real_part_1_s`` and ``imag_part_1_s`` [1/s].

@@ -7,7 +7,7 @@ Eqs. (9)-(17)). The system is::
 
 with ``A`` (n, n) real, ``B`` (n, m) real mapping ``m`` input processes ``w`` (e.g. spanwise strip
 gust velocities [m/s]) to the state derivative, and ``C`` (p, n) real output selection.
-Units and sign conventions of the bridge quantities are those of :mod:`model` (see its
+Units and sign conventions of the bridge quantities are those of :mod:`bridgeflap.model` (see its
 docstring); this module is unit-agnostic beyond what is stated below.
 
 PSD convention (used by every function in this module)
@@ -32,20 +32,20 @@ PSD ``G0 = Q / pi``; :func:`white_noise_intensity` converts ``G0`` to ``Q``.
 References
 ----------
 The independent checks (Lyapunov covariance, Monte-Carlo simulation) are in
-:mod:`model.response.simulation`.
+:mod:`bridgeflap.model.response.simulation`.
 
 Place and imports
 -----------------
 A foundation module (it was ``model/response/spectral.py``): it is pure LTI random-response
 math, with no bridge, no aerodynamics and no state space of its own, and two layers use it --
-the numeric buffeting analysis (:mod:`model.response.buffeting`) and the CasADi form of the
-same integral (:mod:`model.aeroelastic.symbolic`, which sits below the response layer and may
-alone hold CasADi beside :mod:`model.aeroelastic.backend`). The integration limit
+the numeric buffeting analysis (:mod:`bridgeflap.model.response.buffeting`) and the CasADi form of
+the same integral (:mod:`bridgeflap.model.aeroelastic.symbolic`, which sits below the response layer
+and may alone hold CasADi beside :mod:`bridgeflap.model.aeroelastic.backend`). The integration limit
 (:data:`OMEGA_MAX_FACTOR`) and the row-space factor of an input or output matrix
 (:func:`row_factor`) are part of the same engine, shared by both, so they are here too
-(:mod:`model.response.buffeting` keeps both importable).
+(:mod:`bridgeflap.model.response.buffeting` keeps both importable).
 
-May import: numpy, scipy and :mod:`model.errors` only.
+May import: numpy, scipy and :mod:`bridgeflap.model.errors` only.
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = [
     "OMEGA_MAX_FACTOR",

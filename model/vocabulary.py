@@ -1,11 +1,12 @@
 """The one vocabulary of the scripting API (docs/api_vocabulary.md).
 
-The public functions of :mod:`model` and :mod:`design` name the same thing the same way:
-``bridge`` (a name, a TOML path or a :class:`~model.structure.spec.BridgeSpec`), ``speeds`` (a grid
-[m/s], read by :func:`model.grid.speed_grid`), ``speed`` (one speed [m/s]), ``n_modes``
-(vertical + torsional modes retained, default :data:`DEFAULT_MODES`), ``modes_per_family``,
-``out_dir``. :data:`RENAMED` lists the names they replaced; :func:`renamed` refuses one in one
-line naming the new name.
+The public functions of :mod:`bridgeflap.model` and :mod:`bridgeflap.design` name the same thing the
+same way: ``bridge`` (a name, a TOML path or a
+:class:`~bridgeflap.model.structure.spec.BridgeSpec`), ``speeds`` (a grid [m/s], read by
+:func:`bridgeflap.model.grid.speed_grid`), ``speed`` (one speed [m/s]), ``n_modes`` (vertical +
+torsional modes retained, default :data:`DEFAULT_MODES`), ``modes_per_family``, ``out_dir``.
+:data:`RENAMED` lists the names they replaced; :func:`renamed` refuses one in one line naming the
+new name.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from __future__ import annotations
 import functools
 import inspect
 
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["DEFAULT_MODES", "RENAMED", "RenamedArgumentError", "check_renamed", "renamed"]
 
@@ -39,7 +40,8 @@ RENAMED = {
 class RenamedArgumentError(BridgeflapInputError, TypeError):
     """A keyword argument given by a name the API no longer uses (the message names the new one).
 
-    A :class:`~model.errors.BridgeflapInputError` (one line, ``field`` the old name) and a
+    A :class:`~bridgeflap.model.errors.BridgeflapInputError` (one line, ``field`` the old name) and
+    a
     :class:`TypeError` (what Python raises for any other unexpected keyword).
     """
 

@@ -9,8 +9,8 @@ start"), errors that do not say what is wrong. Dask's local cluster always spawn
 from Python 3.14 uses forkserver).
 
 :func:`check_main_guard` is called by every public function that starts local worker processes,
-before it starts them. It raises one line, :class:`~model.errors.BridgeflapInputError` naming
-``workers``, when
+before it starts them. It raises one line, :class:`~bridgeflap.model.errors.BridgeflapInputError`
+naming ``workers``, when
 
 * this process is itself such a re-import (``multiprocessing``'s bootstrapping flag, the one
   behind its own "An attempt has been made to start a new process" error), or
@@ -25,7 +25,7 @@ counts, do-no-harm, fail-safe, erection stages, a study's analyses) is made by i
 skips the guard. It checks the guard before any process starts, keeps the platform's default
 start method (no package-wide context is set: fork on Linux up to Python 3.13), makes every
 worker end with the process that started it (:func:`_die_with_parent`) and starts at least
-one worker. Dask (:mod:`design.batch.cluster`) is for DOE batches only.
+one worker. Dask (:mod:`bridgeflap.design.batch.cluster`) is for DOE batches only.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ import os
 import sys
 from concurrent.futures import ProcessPoolExecutor
 
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["MAIN_GUARD_REASON", "check_main_guard", "process_pool"]
 

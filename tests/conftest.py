@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import pytest
 
-from model.structure.loader import load_bridge
-from model.structure.spec import BridgeSpec
+from bridgeflap.model.structure.loader import load_bridge
+from bridgeflap.model.structure.spec import BridgeSpec
 
 #: element length of the fast tests' coarse mesh [m]
 COARSE_ELEMENT_M = 47.0
@@ -38,8 +38,8 @@ def coarse_humber() -> BridgeSpec:
 def buffeting_problem():
     """``(settings, spec, model)`` of a small design with the buffeting term's code path:
     6 modes, 5 flaps, two buffeting speeds (the 16-mode design's path, seconds to build)."""
-    from design.control.driver import build_model
-    from design.control.settings import load_settings
+    from bridgeflap.design.control.driver import build_model
+    from bridgeflap.design.control.settings import load_settings
 
     s = load_settings(None, n_modes=6, verification_modes=6, flap_count=5,
                       robust_design_speeds_m_s=(30.0, 60.0), n_robust_omega=8,

@@ -5,6 +5,6 @@ actuator limits in turbulent wind (``actuator_study``), the erection stages with
 controller file (``acceptance``), and the design with its verdict folded into its status and
 the public ``accept`` of any controller (``accept``).
 
-May import: :mod:`model` and the design layers below it (``io``, ``batch``, ``control``,
+May import: :mod:`bridgeflap.model` and the design layers below it (``io``, ``batch``, ``control``,
 ``sensitivity``).
 """

@@ -1,9 +1,9 @@
 """A design you can install: the compensator design with its acceptance checks folded into its
 status (:func:`design`), and the checks of any controller (:func:`accept`).
 
-:func:`design` runs :func:`design.control.driver.design` and then, when it produced a controller,
-the acceptance checks of :mod:`design.assessment.acceptance` on that controller as written to its
-file and read back. The verdict is part of the design's status:
+:func:`design` runs :func:`bridgeflap.design.control.driver.design` and then, when it produced a
+controller, the acceptance checks of :mod:`bridgeflap.design.assessment.acceptance` on that
+controller as written to its file and read back. The verdict is part of the design's status:
 
 ==================  =========================================================================
 ``converged``       the design met every check of the design model and the acceptance checks
@@ -25,9 +25,9 @@ import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from model.errors import BridgeflapTypeError
-from model.results import ResultData
-from model.vocabulary import renamed
+from bridgeflap.model.errors import BridgeflapTypeError
+from bridgeflap.model.results import ResultData
+from bridgeflap.model.vocabulary import renamed
 
 __all__ = ["ACCEPTANCE_STATUS", "AcceptanceResult", "accept", "design"]
 
@@ -46,7 +46,7 @@ class AcceptanceResult(ResultData):
     status : str
         ``passed``, ``harm``, ``failed``, ``unresolved`` or ``not_run``.
     block : dict
-        Strict-JSON block: one entry per check (:mod:`design.assessment.acceptance`).
+        Strict-JSON block: one entry per check (:mod:`bridgeflap.design.assessment.acceptance`).
     results : dict
         The check result objects by name (tables: ``to_dataframe``).
     """
@@ -64,15 +64,15 @@ class AcceptanceResult(ResultData):
 
     def table(self, fmt: str = "simple") -> str:
         """One line per check."""
-        from design.assessment.acceptance import acceptance_text
+        from bridgeflap.design.assessment.acceptance import acceptance_text
 
         return acceptance_text(self.block)
 
     def plot(self, ax=None):
         """The do-no-harm histogram of the fresh variants (closed over open critical speed;
-        :meth:`design.assessment.harm.HarmResult.plot`), or an empty figure when the
+        :meth:`bridgeflap.design.assessment.harm.HarmResult.plot`), or an empty figure when the
         robustness check did not run."""
-        from model.results import figure_of
+        from bridgeflap.model.results import figure_of
 
         rob = self.results.get("robustness")
         if rob is not None:
@@ -86,8 +86,8 @@ class AcceptanceResult(ResultData):
 
 
 def _options(checks, samples, workers, quick, seed):
-    from design.assessment.acceptance import AcceptanceOptions, parse_checks
-    from model.arguments import check_int
+    from bridgeflap.design.assessment.acceptance import AcceptanceOptions, parse_checks
+    from bridgeflap.model.arguments import check_int
 
     if not isinstance(checks, str | list | tuple):
         raise BridgeflapTypeError("checks", "must be all, none or a list of check names, got "
@@ -109,17 +109,18 @@ def _options(checks, samples, workers, quick, seed):
 def accept(controller, settings=None, *, checks="all", samples: int | None = None,
            workers: int | None = None, quick: bool = False, seed: int | None = None,
            closed_loop=None, progress=None, bridge=None) -> AcceptanceResult:
-    """The acceptance checks of ``controller`` (module :mod:`design.assessment.acceptance`).
+    """The acceptance checks of ``controller`` (module
+    :mod:`bridgeflap.design.assessment.acceptance`).
 
     Parameters
     ----------
-    controller : model.aeroelastic.control.Controller or path
+    controller : bridgeflap.model.aeroelastic.control.Controller or path
         The controller (a path: its controller TOML file).
     settings : DesignSettings or path, optional
         The design card it answers to (bridge, speeds, modes, actuator limits; default: the
         default card).
     checks : str or sequence of str
-        ``"all"``, ``"none"`` or names of :data:`design.assessment.acceptance.CHECKS`.
+        ``"all"``, ``"none"`` or names of :data:`bridgeflap.design.assessment.acceptance.CHECKS`.
     samples : int, optional
         Fresh variants of the robustness check (default 1000; 8 with ``quick``).
     workers : int, optional
@@ -128,7 +129,7 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
         The CI sizes (8 variants, one short actuator record per speed).
     seed : int, optional
         Seed of the fresh variants (default 11: independent of the design's scenarios).
-    closed_loop : model.aeroelastic.statespace system, optional
+    closed_loop : bridgeflap.model.aeroelastic.statespace system, optional
         The design's own closed loop for the independent check (default: built from
         ``settings`` and ``controller`` by the design's own model path).
     progress : callable, optional
@@ -137,10 +138,10 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
         The bridge the controller was designed for (default ``settings.bridge``): the fresh
         variants are drawn about it.
     """
-    from design.assessment.acceptance import acceptance
-    from design.control.settings import DesignSettings, load_settings
-    from model.aeroelastic.control import Controller
-    from model.aeroelastic.controller_file import load_controller, save_controller
+    from bridgeflap.design.assessment.acceptance import acceptance
+    from bridgeflap.design.control.settings import DesignSettings, load_settings
+    from bridgeflap.model.aeroelastic.control import Controller
+    from bridgeflap.model.aeroelastic.controller_file import load_controller, save_controller
 
     if isinstance(controller, str | Path):
         controller = load_controller(controller)
@@ -159,7 +160,7 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
     if not opts.checks:
         return AcceptanceResult("not_run", {"checks": [], "status": "not_run"})
     if closed_loop is None and "independent_check" in opts.checks:
-        from design.control.problem_model import build_model
+        from bridgeflap.design.control.problem_model import build_model
 
         _, model = build_model(settings, n_modes=settings.verification_modes,
                                positions=controller.flap_strip_positions_m, spec=bridge)
@@ -177,15 +178,15 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
 def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=None,
            records=None, *, checks="all", check_samples: int | None = None,
            check_workers: int | None = None, quick_checks: bool = False):
-    """Design the compensator and judge it: :func:`design.control.driver.design`, then
+    """Design the compensator and judge it: :func:`bridgeflap.design.control.driver.design`, then
     :func:`accept` on its controller, the verdict folded into the status (module docstring).
 
     Parameters
     ----------
     settings : DesignSettings
-        The design card (:func:`design.control.settings.load_settings`).
+        The design card (:func:`bridgeflap.design.control.settings.load_settings`).
     progress, bridge, warm_start, progress_bar, records
-        As :func:`design.control.driver.design`.
+        As :func:`bridgeflap.design.control.driver.design`.
     checks : str or sequence of str
         Acceptance checks (``"all"``, the default; ``"none"`` skips them and says so).
     check_samples, check_workers : int, optional
@@ -195,11 +196,11 @@ def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=N
 
     Returns
     -------
-    design.control.result.DesignResult
+    bridgeflap.design.control.result.DesignResult
         ``controller`` is None unless the status is ``converged``.
     """
-    from design.control.driver import design as run_design
-    from design.io.api_args import check_design_args
+    from bridgeflap.design.control.driver import design as run_design
+    from bridgeflap.design.io.api_args import check_design_args
 
     check_design_args(settings, progress, bridge, warm_start, progress_bar, records)
     opts = _options(checks, check_samples, check_workers, quick_checks, None)  # before work
@@ -210,7 +211,7 @@ def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=N
     if not opts.checks:
         return replace(res, extras={**res.extras, "acceptance": {"checks": [],
                                                                  "status": "not_run"}})
-    from design.assessment.acceptance import design_closed_loop
+    from bridgeflap.design.assessment.acceptance import design_closed_loop
 
     acc = accept(res.controller, settings, checks=opts.checks, samples=opts.samples,
                  workers=opts.workers, quick=quick_checks, seed=opts.seed,

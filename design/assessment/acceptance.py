@@ -1,26 +1,27 @@
 """The acceptance checks of a designed controller, run by ``bridgeflap optimise`` and
-:func:`design.assessment.accept.accept`.
+:func:`bridgeflap.design.assessment.accept.accept`.
 
 A controller is judged on the bridges it was not designed on (the brief's "do no harm"), with
 its flaps failed and its actuators limited, and its exported plant is re-closed by an
 independent path. :func:`acceptance` runs, for one controller and its design card:
 
 ``robustness``
-    :func:`design.assessment.harm.do_no_harm`: ``samples`` fresh variants of the card's bridge over
-    the estimated-input ranges, each variant's closed-loop critical speed against its own open-loop
-    one (fraction stable to the design speed, fraction harmed, worst ratio, per-variant rows).
+    :func:`bridgeflap.design.assessment.harm.do_no_harm`: ``samples`` fresh variants of the card's
+    bridge over the estimated-input ranges, each variant's closed-loop critical speed against its
+    own open-loop one (fraction stable to the design speed, fraction harmed, worst ratio,
+    per-variant rows).
 ``failures``
-    :func:`design.assessment.failsafe.single_pair_failures`: each single flap pair stuck (at 0 and
-    at an angle) and the controller off, on the card's bridge.
+    :func:`bridgeflap.design.assessment.failsafe.single_pair_failures`: each single flap pair stuck
+    (at 0 and at an angle) and the controller off, on the card's bridge.
 ``actuators``
-    :func:`design.assessment.actuator_study.actuator_study`: the closed loop in Monte-Carlo
-    turbulence with the card's flap angle and rate limits at 10, 20, 25 m/s and 0.95 of the
-    closed-loop critical speed (RMS and peak angle and rate, fraction of time saturated).
+    :func:`bridgeflap.design.assessment.actuator_study.actuator_study`: the closed loop in
+    Monte-Carlo turbulence with the card's flap angle and rate limits at 10, 20, 25 m/s and 0.95 of
+    the closed-loop critical speed (RMS and peak angle and rate, fraction of time saturated).
 ``independent_check``
     :func:`independent_check`: the controller *as read back from its file* closed around the
-    exported open-loop plant (:func:`model.aeroelastic.control_plant.plant_data`, flap inputs) by a
-    plain feedback formula here, against the design's own closed loop: the eigenvalues at a few
-    speeds agree to :data:`EIGENVALUE_RTOL`.
+    exported open-loop plant (:func:`bridgeflap.model.aeroelastic.control_plant.plant_data`, flap
+    inputs) by a plain feedback formula here, against the design's own closed loop: the eigenvalues
+    at a few speeds agree to :data:`EIGENVALUE_RTOL`.
 
 Each check reports its own ``status``; the block's ``status`` is ``passed`` when the independent
 check agrees and the controller harms no variant, ``harm`` when it lowers some variant's
@@ -42,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.errors import BridgeflapError, BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapError, BridgeflapInputError
 
 __all__ = ["CHECKS", "EIGENVALUE_RTOL", "AcceptanceOptions", "acceptance", "design_closed_loop",
            "acceptance_text", "independent_check", "parse_checks"]
@@ -105,7 +106,7 @@ def design_closed_loop(result, settings):
     keep it)."""
     cl = result.extras.get("closed_loop")
     if cl is None:
-        from design.control.problem_model import build_model
+        from bridgeflap.design.control.problem_model import build_model
 
         _, model = build_model(settings, n_modes=settings.verification_modes,
                                positions=result.candidate.flap_strip_positions_m)
@@ -126,7 +127,7 @@ def _match_rel(a: np.ndarray, b: np.ndarray) -> float:
 def _independent_loop(spec, controller, speed, n_modes, system):
     """``A`` of the exported flap plant closed through ``controller`` (positive feedback: the
     drives are +-K(s) of each flap's pitch), by the general feedthrough formula."""
-    from model.aeroelastic.control_plant import plant_data
+    from bridgeflap.model.aeroelastic.control_plant import plant_data
 
     p = plant_data(spec, speed, inputs="flaps", n_modes=n_modes, controller=controller,
                    system=system)
@@ -151,10 +152,10 @@ def independent_check(controller, settings, closed_loop, speeds=None, bridge=Non
     """The design's closed-loop eigenvalues against an independent closing of its exported
     plant (module docstring), at ``speeds`` [m/s] (default :data:`CHECK_SPEED_FRACTIONS` of the
     design speed)."""
-    from model.aeroelastic import statespace
-    from model.structure.fe import assemble
-    from model.structure.loader import load_bridge
-    from model.structure.modes import solve
+    from bridgeflap.model.aeroelastic import statespace
+    from bridgeflap.model.structure.fe import assemble
+    from bridgeflap.model.structure.loader import load_bridge
+    from bridgeflap.model.structure.modes import solve
 
     spec = load_bridge(settings.bridge if bridge is None else bridge)
     n = int(settings.verification_modes)  # the modes of design_closed_loop
@@ -178,14 +179,14 @@ def independent_check(controller, settings, closed_loop, speeds=None, bridge=Non
     return {"status": "agrees" if ok else "disagrees", "modes": n,
             "tolerance_rel": EIGENVALUE_RTOL, "largest_difference_rel": worst,
             "method": "controller.toml read back, closed around "
-                      "model.aeroelastic.control_plant.plant_data"
+                      "bridgeflap.model.aeroelastic.control_plant.plant_data"
                       " (flap inputs) by the feedthrough formula; eigenvalues matched one to "
                       "one (Hungarian) against the design's closed loop",
             "speeds": rows}
 
 
 def _robustness(controller, settings, opts, say, bridge):
-    from design.assessment.harm import do_no_harm
+    from bridgeflap.design.assessment.harm import do_no_harm
 
     res = do_no_harm(controller, bridge, count=opts.samples, seed=opts.seed,
                      n_modes=settings.fresh_variant_modes,
@@ -195,7 +196,7 @@ def _robustness(controller, settings, opts, say, bridge):
 
 
 def _failures(controller, settings, opts, say, bridge):
-    from design.assessment.failsafe import single_pair_failures
+    from bridgeflap.design.assessment.failsafe import single_pair_failures
 
     res = single_pair_failures(controller, bridge,
                                n_modes=settings.verification_modes,
@@ -205,9 +206,9 @@ def _failures(controller, settings, opts, say, bridge):
 
 
 def _actuators(controller, settings, opts, say, bridge):
-    from design.assessment.actuator_study import actuator_study
-    from model.aeroelastic.actuator_limits import ActuatorLimits
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.assessment.actuator_study import actuator_study
+    from bridgeflap.model.aeroelastic.actuator_limits import ActuatorLimits
+    from bridgeflap.model.structure.loader import load_bridge
 
     limits = ActuatorLimits(settings.flap_angle_limit_deg, settings.flap_rate_limit_deg_s)
     res = actuator_study(load_bridge(bridge), controller, opts.actuator_speeds_m_s,
@@ -224,7 +225,7 @@ def acceptance(controller, settings, options: AcceptanceOptions | None = None, *
     Returns ``(block, results)``: the strict-JSON-ready block (module docstring) and the
     result objects by check name (for their tables). ``closed_loop``: the design's own
     closed-loop system, needed by the independent check (skipped without it). A check that
-    meets a :class:`~model.errors.BridgeflapError` (e.g. flutter-derivative decks have no
+    meets a :class:`~bridgeflap.model.errors.BridgeflapError` (e.g. flutter-derivative decks have no
     actuator simulation) reports ``status: "error"`` with the reason. ``bridge``: the bridge
     the controller was designed for (a spec, name or path; default ``settings.bridge``).
     """

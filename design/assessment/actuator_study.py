@@ -1,11 +1,13 @@
 """Flap demand and saturation in turbulent wind: the driver of ``bridgeflap actuators``.
 
 At each wind speed (and near the closed-loop critical speed) :func:`actuator_study` runs
-``records`` Monte-Carlo records of the saturated closed loop (:mod:`model.response.actuator_sim`)
-and reports RMS and peak flap angle and rate, the fraction of time at the angle and rate limits
-and the deck RMS heave and twist, with the linear closed loop's spectral RMS beside them
-(:func:`model.response.buffeting.reduced_response` on the same state space, no limits). Conventions:
-:mod:`model`; angles in the JSON in degrees, the deck twist in radians as in ``buffeting``.
+``records`` Monte-Carlo records of the saturated closed loop
+(:mod:`bridgeflap.model.response.actuator_sim`) and reports RMS and peak flap angle and rate, the
+fraction of time at the angle and rate limits and the deck RMS heave and twist, with the linear
+closed loop's spectral RMS beside them (:func:`bridgeflap.model.response.buffeting.reduced_response`
+on the same state space, no limits). Conventions:
+:mod:`bridgeflap.model`; angles in the JSON in degrees, the deck twist in radians as in
+``buffeting``.
 """
 
 from __future__ import annotations
@@ -15,8 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.aeroelastic.actuator_limits import ActuatorLimits
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aeroelastic.actuator_limits import ActuatorLimits
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["ActuatorStudyResult", "actuator_study", "CRITICAL_SEARCH_SPEEDS"]
 
@@ -38,8 +40,8 @@ class ActuatorStudyResult:
 
     Row ``status``: ``"ok"``; ``"unstable"`` (the linear closed loop is unstable: at or above
     the critical speed; no simulation); ``"diverged"`` (a record of the saturated loop passed
-    :data:`model.response.actuator_sim.DIVERGED_RESPONSE`: the limits cannot hold the bridge; no
-    statistics, ``diverged_after_s`` the earliest). Overall: ``"ok"``, ``"diverged"`` or
+    :data:`bridgeflap.model.response.actuator_sim.DIVERGED_RESPONSE`: the limits cannot hold the
+    bridge; no statistics, ``diverged_after_s`` the earliest). Overall: ``"ok"``, ``"diverged"`` or
     ``"unstable_speed"``.
     """
 
@@ -75,7 +77,7 @@ class ActuatorStudyResult:
 
 def critical_speed(spec, controller, n_modes: int) -> float:
     """Closed-loop critical speed [m/s] on ``n_modes`` (NaN if none below 200 m/s)."""
-    from model.analysis import closed_loop_flutter
+    from bridgeflap.model.analysis import closed_loop_flutter
 
     s = closed_loop_flutter(spec, controller, CRITICAL_SEARCH_SPEEDS, n_modes=n_modes,
                             sweep_method="fast").summary()
@@ -85,7 +87,7 @@ def critical_speed(spec, controller, n_modes: int) -> float:
 
 def _linear_reference(loop, A, U, gust, wa):
     """Spectral RMS of strips (heave, pitch), flap angles and flap rates, no limits."""
-    from model.response.buffeting import reduced_response
+    from bridgeflap.model.response.buffeting import reduced_response
 
     F, G, Rc, D, Bp = loop.matrices(U, wa)
     iq, ip, _, ib, _ = loop.slices()
@@ -110,7 +112,7 @@ def actuator_study(spec, controller, speeds, limits: ActuatorLimits | None = Non
     ----------
     spec : BridgeSpec
         A thin-aerofoil bridge (the closed loop's gust loads are seed Eq. (8)).
-    controller : model.aeroelastic.control.Controller
+    controller : bridgeflap.model.aeroelastic.control.Controller
     speeds : array_like
         Mean wind speeds [m/s], > 0.
     limits : ActuatorLimits, optional
@@ -129,9 +131,9 @@ def actuator_study(spec, controller, speeds, limits: ActuatorLimits | None = Non
     linear : bool
         Ignore the limits (the linear closed loop, same integrator).
     """
-    from model.aero.gust import gust_field
-    from model.aeroelastic.flaps import closed_loop_model
-    from model.response.actuator_sim import SaturatedLoop, simulate_records
+    from bridgeflap.model.aero.gust import gust_field
+    from bridgeflap.model.aeroelastic.flaps import closed_loop_model
+    from bridgeflap.model.response.actuator_sim import SaturatedLoop, simulate_records
 
     t0 = time.perf_counter()
     limits = ActuatorLimits() if limits is None else limits
@@ -220,8 +222,10 @@ def actuator_study(spec, controller, speeds, limits: ActuatorLimits | None = Non
               "flaps": loop.nF, **limits.summary(), "linear": bool(linear),
               "duration_s": float(duration_s), "records": int(records), "seed": int(seed),
               "closed_loop_critical_speed_m_s": u_cr, "near_critical_fraction": near_critical,
-              "gust": gust.summary(), "integrator": "RK4, fixed step (model.response.actuator_sim)",
-              "turbulence": "spectral representation, Davenport coherence (model.aero.turbulence)",
+              "gust": gust.summary(),
+              "integrator": "RK4, fixed step (bridgeflap.model.response.actuator_sim)",
+              "turbulence": "spectral representation, Davenport coherence "
+              "(bridgeflap.model.aero.turbulence)",
               "flap_statistics": "largest over the flaps; saturated fraction: of the time",
               "deck_statistics": "largest strip RMS over the main span",
               "elapsed_s": time.perf_counter() - t0}
@@ -229,7 +233,7 @@ def actuator_study(spec, controller, speeds, limits: ActuatorLimits | None = Non
 
 
 def _main_span(spec, strip_x):
-    from model.response.buffeting import _main_span_mask
+    from bridgeflap.model.response.buffeting import _main_span_mask
 
     return _main_span_mask(spec, strip_x)
 

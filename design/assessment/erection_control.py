@@ -1,13 +1,13 @@
 """Erection with flaps (beyond the seed): the closed-loop critical speed of
 each erection stage with the flaps that sit on the erected deck.
 
-A stage (:meth:`model.structure.spec.BridgeSpec.erected`) carries the main-span deck from mid-span
-outwards over ``fraction`` of the span. A flap strip of the controller is fitted when the whole
-strip lies on that deck (``|x| + w/2 <= fraction L/2``, ``L`` the main span); the others are not
-yet hung. With no strip on the deck the stage runs open loop (reported as such). The compensator
+A stage (:meth:`bridgeflap.model.structure.spec.BridgeSpec.erected`) carries the main-span deck from
+mid-span outwards over ``fraction`` of the span. A flap strip of the controller is fitted when the
+whole strip lies on that deck (``|x| + w/2 <= fraction L/2``, ``L`` the main span); the others are
+not yet hung. With no strip on the deck the stage runs open loop (reported as such). The compensator
 is the controller file's, unchanged: a controller designed for the completed bridge, judged on
 the stages it was not designed on (do no harm), with the same flutter/divergence
-statuses as :func:`model.analysis.flutter`.
+statuses as :func:`bridgeflap.model.analysis.flutter`.
 """
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from model.aeroelastic.control import Controller
-from model.results import ResultData
-from model.structure.spec import BridgeSpec
+from bridgeflap.model.aeroelastic.control import Controller
+from bridgeflap.model.results import ResultData
+from bridgeflap.model.structure.spec import BridgeSpec
 
 __all__ = ["STAGE_DESIGN", "ErectionControlResult", "design_for_stage", "erection_closed_loop",
            "flaps_on_deck", "stage_flap_count"]
@@ -47,7 +47,7 @@ def flaps_on_deck(controller: Controller, spec: BridgeSpec, fraction: float) -> 
 
 
 def _stage(spec, controller, speeds, n_modes, fraction):
-    from model.analysis import closed_loop_flutter, flutter
+    from bridgeflap.model.analysis import closed_loop_flutter, flutter
 
     kept = flaps_on_deck(controller, spec, fraction)
     row = {"erected_fraction": float(fraction), "flap_strips_on_deck": len(kept)}
@@ -117,8 +117,8 @@ class ErectionControlResult(ResultData):
 
     def plot(self, ax=None):
         """Open- and closed-loop critical speeds against the erected fraction
-        (:func:`design.control.result_plots.erection_stages`)."""
-        from design.control.result_plots import erection_stages
+        (:func:`bridgeflap.design.control.result_plots.erection_stages`)."""
+        from bridgeflap.design.control.result_plots import erection_stages
 
         return erection_stages(self, ax)
 
@@ -127,7 +127,7 @@ def erection_closed_loop(spec: BridgeSpec, controller: Controller, fractions, sp
                          n_modes: int, side_spans: str | None = None) -> ErectionControlResult:
     """Open- and closed-loop flutter/divergence at each erected fraction [-] and for the
     completed bridge, with the controller's flaps that sit on the erected deck."""
-    from model.analysis import _fractions, check_speeds
+    from bridgeflap.model.analysis import _fractions, check_speeds
 
     fr = _fractions(fractions)
     speeds = check_speeds(speeds)
@@ -156,12 +156,12 @@ def design_for_stage(spec: BridgeSpec, fraction: float, card=None, progress=None
     """A controller designed for one erection stage: the card's flaps and
     limits (gain, chord, damping, margin_min), the strips that fit on the erected deck as the
     layout, and :data:`STAGE_DESIGN` (maximise the closed-loop critical speed); ``overrides``
-    are further card keys. Returns the :class:`design.control.result.DesignResult` (its status as
-    the design reports it: ``converged`` only when the critical-speed search is bracketed and the
-    chosen design verifies)."""
-    from design.control.driver import design
-    from design.control.settings import DEFAULT_CARD, load_settings
-    from model.errors import BridgeflapInputError
+    are further card keys. Returns the :class:`bridgeflap.design.control.result.DesignResult` (its
+    status as the design reports it: ``converged`` only when the critical-speed search is bracketed
+    and the chosen design verifies)."""
+    from bridgeflap.design.control.driver import design
+    from bridgeflap.design.control.settings import DEFAULT_CARD, load_settings
+    from bridgeflap.model.errors import BridgeflapInputError
 
     card = DEFAULT_CARD if card is None else card
     base = load_settings(card)

@@ -1,27 +1,29 @@
 """Fail-safe flaps: the closed loop with each single flap pair failed.
 
 A *flap pair* is the LE+TE flaps at one strip of the controller's layout (one pitch input, one
-drive angle ``beta_f = K alpha_f``; :mod:`model.aeroelastic.flaps`). For every pair ``f``:
+drive angle ``beta_f = K alpha_f``; :mod:`bridgeflap.model.aeroelastic.flaps`). For every pair
+``f``:
 
 * **stuck at 0** -- the pair's drive removed from the loop: its flap loads get weight 0
-  (:meth:`model.aeroelastic.flaps.ClosedLoopModel.system`, the same weights as the flap placement),
-  the other pairs still driven by ``K(s)``. Its compensator states stay, uncoupled, with their own
-  stable poles;
+  (:meth:`bridgeflap.model.aeroelastic.flaps.ClosedLoopModel.system`, the same weights as the flap
+  placement), the other pairs still driven by ``K(s)``. Its compensator states stay, uncoupled, with
+  their own stable poles;
 * **stuck at an angle** ``delta`` (default :data:`DEFAULT_STUCK_ANGLE_DEG`) -- a constant input
   on the same ``A(U)``: the *linear stability equals that of the pair stuck at 0*. It adds the
-  static deflection of ``K_ae(U) q = U^2 f_f delta`` (:func:`model.stability.static_divergence
-  .static_response`; ``K_ae`` of the loop with pair ``f`` failed, the others at their static
-  gain ``K(0)``; ``f_f`` the static load of pair ``f`` per ``U^2`` and unit drive angle), which
-  grows without bound as ``U`` approaches that loop's static divergence root;
+  static deflection of ``K_ae(U) q = U^2 f_f delta``
+  (:func:`bridgeflap.model.stability.static_divergence .static_response`; ``K_ae`` of the loop with
+  pair ``f`` failed, the others at their static gain ``K(0)``; ``f_f`` the static load of pair ``f``
+  per ``U^2`` and unit drive angle), which grows without bound as ``U`` approaches that loop's
+  static divergence root;
 * and the **controller switched off**: every weight 0, which must be the open loop.
 
-Each case gets the sweep of :func:`model.stability.sweeps.sweep` (flutter and divergence with the
-verified-crossing statuses), the verified static divergence
-(:mod:`model.stability.static_divergence`), and the critical speed by the rule of
-:mod:`design.assessment.harm` (:func:`design.assessment.harm._crit`: a crossing that is neither
-converged nor absent must lie above the converged critical speed, else the row is unresolved); a
-verified static root that is a stability limit stands for an unverified dynamic divergence. Ratios
-are to the intact closed loop and to the open loop on the same grid.
+Each case gets the sweep of :func:`bridgeflap.model.stability.sweeps.sweep` (flutter and divergence
+with the verified-crossing statuses), the verified static divergence
+(:mod:`bridgeflap.model.stability.static_divergence`), and the critical speed by the rule of
+:mod:`bridgeflap.design.assessment.harm` (:func:`bridgeflap.design.assessment.harm._crit`: a
+crossing that is neither converged nor absent must lie above the converged critical speed, else the
+row is unresolved); a verified static root that is a stability limit stands for an unverified
+dynamic divergence. Ratios are to the intact closed loop and to the open loop on the same grid.
 """
 
 from __future__ import annotations
@@ -31,8 +33,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.errors import BridgeflapInputError
-from model.results import ResultData
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.results import ResultData
 
 __all__ = ["DEFAULT_STUCK_ANGLE_DEG", "FailSafeResult", "single_pair_failures"]
 
@@ -53,13 +55,13 @@ def _edges(controller) -> str:
 
 def _case(model, compensator, weights, speeds, method, grid_max):
     """Sweep summary and verified static divergence of one loop (a worker's job)."""
-    from model.stability.static_divergence import static_divergence
-    from model.stability.sweeps import sweep
+    from bridgeflap.model.stability.static_divergence import static_divergence
+    from bridgeflap.model.stability.sweeps import sweep
 
     system = (model.open_loop if weights is None
               else model.system(compensator, np.asarray(weights, float)))
     s = sweep(system, speeds, method=method).summary()
-    from model.analysis import critical_speed
+    from bridgeflap.model.analysis import critical_speed
 
     s.update(critical_speed(s))
     return s, static_divergence(system, grid_max)
@@ -85,14 +87,14 @@ def _lower_bound(s: dict, grid_max: float):
 
 def _stability(summary: dict, static, grid_max: float, design_speed: float) -> dict:
     """Critical speed, mechanism and resolution of one case (module docstring)."""
-    from design.assessment.harm_verdict import _crit
+    from bridgeflap.design.assessment.harm_verdict import _crit
 
     s = dict(summary)
     used_static = False
     if static.is_stability_limit and s.get("divergence_status") != "converged":
         s.update(divergence_status="converged", divergence_speed_m_s=static.speed_m_s)
         s.pop("divergence_bracket_m_s", None)
-        from model.analysis import critical_speed
+        from bridgeflap.model.analysis import critical_speed
 
         s.update(critical_speed(s))
         used_static = True
@@ -133,7 +135,7 @@ def _ratio(u, ref):
 
 def _stuck_response(model, compensator, pair, angle_rad, speeds, mid_x) -> list[dict]:
     """Static deflection of pair ``pair`` stuck at ``angle_rad`` at each of ``speeds``."""
-    from model.stability.static_divergence import static_response
+    from bridgeflap.model.stability.static_divergence import static_response
 
     n_f = model.n_flaps
     w = np.ones(n_f)
@@ -247,8 +249,8 @@ class FailSafeResult(ResultData):
 
     def plot(self, ax=None):
         """Critical speed [m/s] with each flap pair failed, against the pair's position [m]
-        (:func:`design.control.result_plots.pair_failures`)."""
-        from design.control.result_plots import pair_failures
+        (:func:`bridgeflap.design.control.result_plots.pair_failures`)."""
+        from bridgeflap.design.control.result_plots import pair_failures
 
         return pair_failures(self, ax)
 
@@ -262,7 +264,7 @@ def single_pair_failures(controller, bridge=None, n_modes: int = 30,
 
     Parameters
     ----------
-    controller : model.aeroelastic.control.Controller
+    controller : bridgeflap.model.aeroelastic.control.Controller
         The loop (its own flap chord, width, positions and edges).
     bridge : str or BridgeSpec, optional
         Default: the bridge the controller records (``plant.bridge`` and its variant), else
@@ -273,7 +275,7 @@ def single_pair_failures(controller, bridge=None, n_modes: int = 30,
         The design speed [m/s]: a failure is safe when its critical speed is above it.
     speeds : array, optional
         Sweep grid [m/s]; default ``0 .. 1.5 speed_max`` every 0.5 m/s (as
-        :mod:`design.assessment.harm`).
+        :mod:`bridgeflap.design.assessment.harm`).
     stuck_angle_deg : float
         Angle [deg] of a pair stuck away from 0 (its static deflection; stability as stuck at 0).
     static_speeds_m_s : sequence, optional
@@ -282,9 +284,9 @@ def single_pair_failures(controller, bridge=None, n_modes: int = 30,
     workers : int
         Processes for the sweeps (one per case).
     """
-    from model.aeroelastic.flaps import _main_span_frame, closed_loop_model
-    from model.structure.loader import load_bridge
-    from model.structure.spec import BridgeSpec
+    from bridgeflap.model.aeroelastic.flaps import _main_span_frame, closed_loop_model
+    from bridgeflap.model.structure.loader import load_bridge
+    from bridgeflap.model.structure.spec import BridgeSpec
 
     if not (np.isfinite(speed_max_m_s) and speed_max_m_s > 0):
         raise BridgeflapInputError("speed_max_m_s", f"must be positive, got {speed_max_m_s}")
@@ -318,7 +320,7 @@ def single_pair_failures(controller, bridge=None, n_modes: int = 30,
     if workers == 1:
         out = [_case(model, k, w, u, sweep_method, grid_max) for _, w in jobs]
     else:
-        from model.workers import process_pool
+        from bridgeflap.model.workers import process_pool
 
         with process_pool(workers) as ex:
             futs = [ex.submit(_case, model, k, w, u, sweep_method, grid_max) for _, w in jobs]

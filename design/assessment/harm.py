@@ -1,11 +1,11 @@
 """Do no harm: a controller judged on bridges it was not designed on.
 
-For each of ``count`` fresh variants sampled (Sobol', :func:`design.batch.designs.sobol`) over the
-uncertainty set of the estimated inputs
-(:data:`design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES` less the inputs held fixed), the
-variant's **open-loop** critical speed (flutter or divergence, whichever comes first) is set against
-its **closed-loop** one with the controller's flaps, both from the same sweep on the same grid and
-mode count (:func:`model.analysis.closed_loop_flutter`).
+For each of ``count`` fresh variants sampled (Sobol', :func:`bridgeflap.design.batch.designs.sobol`)
+over the uncertainty set of the estimated inputs
+(:data:`bridgeflap.design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES` less the inputs held fixed),
+the variant's **open-loop** critical speed (flutter or divergence, whichever comes first) is set
+against its **closed-loop** one with the controller's flaps, both from the same sweep on the same
+grid and mode count (:func:`bridgeflap.model.analysis.closed_loop_flutter`).
 
 A variant is *harmed* when the closed loop goes unstable below the open loop's critical speed
 (by more than :data:`HARM_TOL_REL`: Brent stops each crossing at 1e-3 m/s, so a smaller
@@ -19,10 +19,10 @@ The summary gives the fraction stable to the design speed, the fraction harmed, 
 closed/open ratio and the worst variant; the rows are a table (``to_dataframe``).
 
 ``method`` (:data:`HARM_METHODS`): ``"reference"`` is the full fast sweep of each loop
-(:func:`model.stability.sweeps.sweep`, ``method="fast"``: labels confirmed, the second-critical
-branch, the whole dense sweep where Newton is unsure); ``"fast"`` (the default) reads the
-same crossings with ``critical_only`` (no labels, no second branch, a crossing Newton misses
-kept from its 0.5 m/s grid bracket) on a modal model that solves only the retained modes'
+(:func:`bridgeflap.model.stability.sweeps.sweep`, ``method="fast"``: labels confirmed, the
+second-critical branch, the whole dense sweep where Newton is unsure); ``"fast"`` (the default)
+reads the same crossings with ``critical_only`` (no labels, no second branch, a crossing Newton
+misses kept from its 0.5 m/s grid bracket) on a modal model that solves only the retained modes'
 labels. The verdict reads nothing else, so both give the same rows to the crossings'
 tolerance (docs/methods.md#fast-do-no-harm-check; tests/test_harm_fast.py).
 """
@@ -33,15 +33,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from design.assessment.harm_verdict import (  # the verdict of one row, also served from here
+# the verdict of one row, also served from here
+from bridgeflap.design.assessment.harm_verdict import (
     HARM_TOL_REL,
     SCREEN_MARGIN_REL,
     _crit,
     _row,
     near_decision,
 )
-from model.errors import BridgeflapInputError
-from model.results import ResultData
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.results import ResultData
 
 __all__ = ["DEFAULT_SCREEN_MODES", "HARM_METHODS", "HARM_TOL_REL", "SAMPLINGS",
            "SCREEN_MARGIN_REL", "HarmResult", "clopper_pearson_upper", "do_no_harm", "harm_row",
@@ -93,16 +94,17 @@ def harm_row(spec, controller, speeds, n_modes: int, speed_max_m_s: float,
              screen_modes: int | None = None, confirm=None, screened=None) -> dict:
     """One variant's open- and closed-loop critical speeds and the harm verdict.
 
-    ``method``: :data:`HARM_METHODS`. ``"fast"``: :func:`design.assessment.harm_fast.fast_row`
-    (screened on ``screen_modes`` when below ``n_modes``; ``confirm`` the loops to put on
-    ``n_modes`` regardless, ``screened`` an earlier row whose screening is reused; ``sweep_method``
-    is ignored: always the fast sweep, ``critical_only``).
+    ``method``: :data:`HARM_METHODS`. ``"fast"``:
+    :func:`bridgeflap.design.assessment.harm_fast.fast_row` (screened on ``screen_modes`` when below
+    ``n_modes``; ``confirm`` the loops to put on ``n_modes`` regardless, ``screened`` an earlier row
+    whose screening is reused; ``sweep_method`` is ignored: always the fast sweep,
+    ``critical_only``).
     """
-    from model.analysis import closed_loop_flutter
+    from bridgeflap.model.analysis import closed_loop_flutter
 
     _check_method(method)
     if method == "fast":
-        from design.assessment.harm_fast import fast_row
+        from bridgeflap.design.assessment.harm_fast import fast_row
 
         return fast_row(spec, controller, speeds, n_modes, speed_max_m_s, screen_modes,
                         confirm, screened)
@@ -175,8 +177,8 @@ class HarmResult(ResultData):
 
     def plot(self, ax=None):
         """Histogram of the closed- over open-loop critical speed of the variants [-]
-        (:func:`design.control.result_plots.harm_ratios`)."""
-        from design.control.result_plots import harm_ratios
+        (:func:`bridgeflap.design.control.result_plots.harm_ratios`)."""
+        from bridgeflap.design.control.result_plots import harm_ratios
 
         return harm_ratios(self, ax)
 
@@ -195,7 +197,7 @@ def _sample(spec, ranges: dict, count: int, seed: int,
         cases = [{k: lo + (hi - lo) * float(x) for (k, (lo, hi)), x
                   in zip(ranges.items(), row, strict=True)} for row in u]
     else:
-        from design.batch.designs import sobol
+        from bridgeflap.design.batch.designs import sobol
 
         cases = sobol(ranges, int(count), int(seed))
     return [({k: float(v) for k, v in case.items() if k in ranges},
@@ -225,7 +227,7 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
 
     Parameters
     ----------
-    controller : model.aeroelastic.control.Controller
+    controller : bridgeflap.model.aeroelastic.control.Controller
         The loop (its own flap chord and layout).
     bridge : str or BridgeSpec
         The nominal bridge (built-in name, TOML path, or a spec).
@@ -255,9 +257,9 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
         seen on those rows must stay below :data:`SCREEN_CHECK_FRACTION` of the margin, else
         every row is recomputed on ``n_modes`` (``screen_check``).
     """
-    from design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
-    from model.structure.loader import load_bridge
-    from model.structure.spec import BridgeSpec
+    from bridgeflap.design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
+    from bridgeflap.model.structure.loader import load_bridge
+    from bridgeflap.model.structure.spec import BridgeSpec
 
     if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 4096:
         raise BridgeflapInputError("count", f"must be an integer in [1, 4096], got {count!r}")
@@ -304,7 +306,7 @@ class _Runner:
 
     def __enter__(self):
         if self.workers > 1:
-            from model.workers import process_pool
+            from bridgeflap.model.workers import process_pool
 
             self.ex = process_pool(self.workers)
         return self

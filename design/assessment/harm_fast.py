@@ -1,22 +1,23 @@
-"""The fast do-no-harm row (:func:`design.assessment.harm.harm_row`, ``method="fast"``).
+"""The fast do-no-harm row (:func:`bridgeflap.design.assessment.harm.harm_row`, ``method="fast"``).
 
 Per variant, one modal model of the retained modes (``modes.solve(..., n_modes)``: the lowest
 ``n_modes`` of each family hold the lowest ``n_modes`` of both together, so the basis, labels and
 Rayleigh damping are those of all modes), then:
 
 1. **screening** on ``screen_modes`` (the lowest of the same modes): both loops by the fast
-   sweep with ``critical_only`` (:func:`model.stability.sweeps.sweep`);
+   sweep with ``critical_only`` (:func:`bridgeflap.model.stability.sweeps.sweep`);
 2. **confirmation** on ``n_modes`` of the loops whose numbers may decide something
-   (:func:`design.assessment.harm.near_decision`, or asked for by
-   :func:`design.assessment.harm.do_no_harm` for the extremes): a loop whose screened critical
-   mechanism is divergence, with no flutter crossing within
-   :data:`design.assessment.harm.SCREEN_MARGIN_REL` above it, by :func:`static_crossing` (the first
-   root of ``det(K - U^2 Q)`` on ``n_modes``, exact, verified as a stable-to-unstable crossing of
-   ``A(U)``); any other loop, or one whose static check fails, by the fast sweep on ``n_modes``.
+   (:func:`bridgeflap.design.assessment.harm.near_decision`, or asked for by
+   :func:`bridgeflap.design.assessment.harm.do_no_harm` for the extremes): a loop whose screened
+   critical mechanism is divergence, with no flutter crossing within
+   :data:`bridgeflap.design.assessment.harm.SCREEN_MARGIN_REL` above it, by :func:`static_crossing`
+   (the first root of ``det(K - U^2 Q)`` on ``n_modes``, exact, verified as a stable-to-unstable
+   crossing of ``A(U)``); any other loop, or one whose static check fails, by the fast sweep on
+   ``n_modes``.
 
 Every loop's numbers carry their mode count (``open_loop_modes``, ``closed_loop_modes``) and the
 screened speeds (``screen_*``) for the a-posteriori check of
-:func:`design.assessment.harm.do_no_harm`.
+:func:`bridgeflap.design.assessment.harm.do_no_harm`.
 """
 
 from __future__ import annotations
@@ -35,24 +36,24 @@ def static_crossing(system, u_hint: float, margin: float, speed_tol: float = 1e-
     """The divergence speed [m/s] of ``system`` from its static condition, verified, or None.
 
     The first positive root ``U_s`` of ``det(K - U^2 Q)``
-    (:func:`model.stability.hopf_newton.static_roots`; a real eigenvalue of ``A(U)`` is zero exactly
-    there, see :func:`model.stability.hopf_newton ._static_seeded`) must lie within ``margin``
-    (relative) of ``u_hint``, the screened divergence speed; then Newton on ``A(U) v = 0`` from it
-    (:func:`model.stability.hopf_newton .divergence_newton`, converged to round-off), a transversal
-    crossing (``d Re/dU > 0``, a well-conditioned eigenvalue), the eigenvalue real and changing sign
-    across ``U -+ d`` (:func:`model.stability.hopf._check_bracket_sides`), and every other
-    eigenvalue of ``A(U)`` (one dense solution) in the left half-plane: the crossing is the
-    stability limit there. Flutter below it is excluded by the screening (the caller's condition).
-    None: not verified.
+    (:func:`bridgeflap.model.stability.hopf_newton.static_roots`; a real eigenvalue of ``A(U)`` is
+    zero exactly there, see :func:`bridgeflap.model.stability.hopf_newton ._static_seeded`) must lie
+    within ``margin`` (relative) of ``u_hint``, the screened divergence speed; then Newton on ``A(U)
+    v = 0`` from it (:func:`bridgeflap.model.stability.hopf_newton .divergence_newton`, converged to
+    round-off), a transversal crossing (``d Re/dU > 0``, a well-conditioned eigenvalue), the
+    eigenvalue real and changing sign across ``U -+ d``
+    (:func:`bridgeflap.model.stability.hopf._check_bracket_sides`), and every other eigenvalue of
+    ``A(U)`` (one dense solution) in the left half-plane: the crossing is the stability limit there.
+    Flutter below it is excluded by the screening (the caller's condition). None: not verified.
     """
-    from model.stability.hopf import NEAR_DEFECTIVE, BalancedSystem, _check_bracket_sides
-    from model.stability.hopf_newton import (
+    from bridgeflap.model.stability.hopf import NEAR_DEFECTIVE, BalancedSystem, _check_bracket_sides
+    from bridgeflap.model.stability.hopf_newton import (
         FastPathError,
         _inverse_vector,
         divergence_newton,
         static_roots,
     )
-    from model.stability.tracking import _scale, eigen_sensitivity, oscillation_tolerance
+    from bridgeflap.model.stability.tracking import _scale, eigen_sensitivity, oscillation_tolerance
 
     roots = static_roots(system)
     if not roots.size or abs(roots[0] / u_hint - 1.0) > margin:
@@ -83,8 +84,8 @@ def static_crossing(system, u_hint: float, margin: float, speed_tol: float = 1e-
 
 def _summaries(spec, model, compensator, speeds, n_modes, loops):
     """``{loop: FlutterResult summary}`` of the fast sweep (``critical_only``) on ``n_modes``."""
-    from model.analysis import FlutterResult
-    from model.stability.sweeps import sweep
+    from bridgeflap.model.analysis import FlutterResult
+    from bridgeflap.model.stability.sweeps import sweep
 
     systems = {"open_loop": lambda: model.open_loop,
                "closed_loop": lambda: model.system(compensator)}
@@ -122,14 +123,19 @@ def fast_row(spec, controller, speeds, n_modes, speed_max_m_s, screen_modes=None
     """The fast row of one variant (module docstring).
 
     ``confirm``: loops to put on ``n_modes`` besides those
-    :func:`design.assessment.harm.near_decision` names (``do_no_harm``'s extremes); ``screened``:
-    the row of an earlier call, whose screening is then reused (its loops already on ``n_modes``
-    stay).
+    :func:`bridgeflap.design.assessment.harm.near_decision` names (``do_no_harm``'s extremes);
+    ``screened``: the row of an earlier call, whose screening is then reused (its loops already on
+    ``n_modes`` stay).
     """
-    from design.assessment.harm_verdict import SCREEN_MARGIN_REL, _crit, _row, near_decision
-    from model.aeroelastic.flaps import closed_loop_model
-    from model.structure.fe import assemble
-    from model.structure.modes import solve
+    from bridgeflap.design.assessment.harm_verdict import (
+        SCREEN_MARGIN_REL,
+        _crit,
+        _row,
+        near_decision,
+    )
+    from bridgeflap.model.aeroelastic.flaps import closed_loop_model
+    from bridgeflap.model.structure.fe import assemble
+    from bridgeflap.model.structure.modes import solve
 
     n = int(n_modes)
     modal = solve(assemble(spec), n)

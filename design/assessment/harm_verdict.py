@@ -1,8 +1,8 @@
-"""The do-no-harm verdict of one variant (:mod:`design.assessment.harm`): the critical speed of each
-loop read from its summary (resolved or not), the row that sets the closed loop against the open
-loop, and whether a screened row lies near a decision. Shared by the reference check
-(:mod:`design.assessment.harm`) and the fast one (:mod:`design.assessment.harm_fast`); imports
-neither."""
+"""The do-no-harm verdict of one variant (:mod:`bridgeflap.design.assessment.harm`): the critical
+speed of each loop read from its summary (resolved or not), the row that sets the closed loop
+against the open loop, and whether a screened row lies near a decision. Shared by the reference
+check (:mod:`bridgeflap.design.assessment.harm`) and the fast one
+(:mod:`bridgeflap.design.assessment.harm_fast`); imports neither."""
 
 from __future__ import annotations
 

@@ -11,8 +11,8 @@ parameter space have a different ``critical_branch_label``:
 * **any other design** (Latin hypercube, Sobol', random): the ``k`` nearest rows in parameter
   space normalised to the unit cube (each parameter divided by its range over the rows).
 
-Pure function of the rows: no model, no file. The DOE runner (:mod:`design.batch.runner`) adds the
-flags to its rows.
+Pure function of the rows: no model, no file. The DOE runner (:mod:`bridgeflap.design.batch.runner`)
+adds the flags to its rows.
 """
 
 from __future__ import annotations

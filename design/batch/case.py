@@ -1,7 +1,7 @@
-"""One case of a batch (:func:`design.batch.runner.run_batch`): run it, catch what it raises, and
-make its record (``ok``, ``failed`` with the one-line reason, ``timeout``). Shared by the local
-runner (:mod:`design.batch.runner`) and the Dask one (:mod:`design.batch.cluster`); imports neither.
-This is
+"""One case of a batch (:func:`bridgeflap.design.batch.runner.run_batch`): run it, catch what it
+raises, and make its record (``ok``, ``failed`` with the one-line reason, ``timeout``). Shared by
+the local runner (:mod:`bridgeflap.design.batch.runner`) and the Dask one
+(:mod:`bridgeflap.design.batch.cluster`); imports neither. This is
 what runs on a worker process."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import json
 import time
 from collections.abc import Callable, Mapping
 
-from design.io.files import to_jsonable
+from bridgeflap.design.io.files import to_jsonable
 
 STATUS_OK = "ok"
 STATUS_FAILED = "failed"

@@ -1,4 +1,5 @@
-"""The Dask side of the batch runner :func:`design.batch.runner.run_batch` (no physics, no files).
+"""The Dask side of the batch runner :func:`bridgeflap.design.batch.runner.run_batch` (no physics,
+no files).
 
 :func:`cluster_client` gives a client on a local cluster or on a remote scheduler (reached
 within :data:`CONNECT_TIMEOUT_S`, else one line naming ``scheduler``); :func:`run_dask` runs the
@@ -25,8 +26,8 @@ import time
 import uuid
 from collections import deque
 
-from model.errors import BridgeflapInputError
-from model.workers import check_main_guard
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.workers import check_main_guard
 
 __all__ = ["CONNECT_TIMEOUT_S", "LOCAL_WORKER_CONFIG", "LOCAL_WORKER_PRELOAD",
            "WORKERS_TIMEOUT_S", "cluster_client",
@@ -57,7 +58,7 @@ LOCAL_WORKER_CONFIG = {
 #: local workers also preload this module (:func:`dask_setup`): they ignore SIGINT, so that a
 #: Ctrl-C of the terminal (which signals the whole process group) prints no worker's
 #: traceback; the client's process is interrupted and closes the cluster (design.cli.run)
-LOCAL_WORKER_PRELOAD = {"distributed.worker.preload": ["design.batch.cluster"]}
+LOCAL_WORKER_PRELOAD = {"distributed.worker.preload": ["bridgeflap.design.batch.cluster"]}
 
 
 def dask_setup(worker=None) -> None:
@@ -168,18 +169,19 @@ def _restore_environ(saved: dict) -> None:
 
 def run_dask(client, fn, pending, workers, scheduler, timeout_s, retries, finish) -> None:
     """Run the cases on a Dask cluster with at most one case in flight per worker thread;
-    ``finish(record)`` is called as each case ends (:func:`design.batch.runner.run_batch`).
+    ``finish(record)`` is called as each case ends
+    (:func:`bridgeflap.design.batch.runner.run_batch`).
 
     One case per thread, not more: a second one submitted ahead would not wait on the
     scheduler (single tasks are not "root-ish", so distributed's queueing does not hold them
     back) but on the worker, and a dying worker would take it along. The round trip between a
     case's end and the next one's start is kept short instead: the next case is submitted as
     soon as one is seen done, before its result is fetched, and ``finish`` only queues the
-    case's file for a writer thread (:func:`design.batch.runner.run_batch`).
+    case's file for a writer thread (:func:`bridgeflap.design.batch.runner.run_batch`).
     """
     from dask.distributed import wait
 
-    from design.batch.case import (
+    from bridgeflap.design.batch.case import (
         STATUS_FAILED,
         _execute_case,
         _record,
@@ -247,7 +249,7 @@ def _future_error(future) -> str:
     try:
         exc = future.exception(timeout=5)
     except Exception as err:  # noqa: BLE001 - any failure to fetch the reason is itself a reason
-        from design.batch.case import _error_text
+        from bridgeflap.design.batch.case import _error_text
 
         return _error_text(err)
     if exc is None:
@@ -255,7 +257,7 @@ def _future_error(future) -> str:
     name = type(exc).__name__
     if name == "KilledWorker":
         return "worker process died while running the case (KilledWorker)"
-    from design.batch.case import _error_text
+    from bridgeflap.design.batch.case import _error_text
 
     return _error_text(exc)
 

@@ -1,8 +1,8 @@
 """Designs of experiments: full factorial, Latin hypercube and scrambled Sobol' samples.
 
 A design is a list of *cases*: flat dicts of parameter values with a stable ``case_id``
-(``case-0000`` ...), ready for the batch runner :func:`design.batch.runner.run_batch`. No physics
-here.
+(``case-0000`` ...), ready for the batch runner :func:`bridgeflap.design.batch.runner.run_batch`. No
+physics here.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from model.arguments import check_text, checked
-from model.errors import BridgeflapInputError
+from bridgeflap.model.arguments import check_text, checked
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = [
     "CASE_ID_KEY",

@@ -1,5 +1,5 @@
 """The plot of a batch: one numeric output per case, failed cases marked
-(:meth:`design.batch.runner.BatchResult.plot`).
+(:meth:`bridgeflap.design.batch.runner.BatchResult.plot`).
 
 Like every result plot it takes the result and an optional matplotlib axis (a new figure when
 None), draws, and returns the axis; matplotlib is imported here only, and nothing calls
@@ -11,15 +11,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from model.axes import axes_or_new as _axes
-from model.axes import number_or_nan as _number
+from bridgeflap.model.axes import axes_or_new as _axes
+from bridgeflap.model.axes import number_or_nan as _number
 
 __all__ = ["batch_cases"]
 
 
 def batch_cases(batch, ax=None, output: str | None = None):
-    """One numeric output of each case of a :class:`design.batch.runner.BatchResult` (default: the
-    first numeric entry of the first successful case), failed cases as red crosses at zero."""
+    """One numeric output of each case of a :class:`bridgeflap.design.batch.runner.BatchResult`
+    (default: the first numeric entry of the first successful case), failed cases as red crosses at
+    zero."""
     ax = _axes(ax)
     ok = [r.get("result") or {} for r in batch.rows if r["status"] == "ok"]
     if output is None:

@@ -1,5 +1,5 @@
 """A fault-tolerant batch runner (docs/methods.md#batches-and-doe); the designs are
-in :mod:`design.batch.designs`.
+in :mod:`bridgeflap.design.batch.designs`.
 
 This module knows no physics. A *case* is a flat dict of parameters with a ``case_id``; an
 *analysis* is a picklable function ``fn(params: dict) -> dict`` (defined at module level)
@@ -14,26 +14,27 @@ text; the batch always completes.
 Output layout of ``run_batch(..., out_dir)``::
 
     out_dir/
-      .bridgeflap-output     marker: a bridgeflap output folder (design.io.outputs.OUTPUT_MARKER)
-      cases/<case_id>.json   one per case: {case_id, params, status, error, result, elapsed_s,
+      .bridgeflap-output     marker: a bridgeflap output folder
+      (bridgeflap.design.io.outputs.OUTPUT_MARKER) cases/<case_id>.json   one per case: {case_id,
+      params, status, error, result, elapsed_s,
                              case_hash}
       table.csv              one row per case: case_id, status, params..., results..., elapsed_s,
                              error
       batch.json             summary: {cases, succeeded, failed, timed_out, reused, table, ...}
 
-All three are written atomically (:mod:`design.io.files`); over a previous output of another run
-the folder is written aside and swapped in when complete (:func:`run_batch`, "Where the files
-go"). Non-finite numbers are stored as JSON
+All three are written atomically (:mod:`bridgeflap.design.io.files`); over a previous output of
+another run the folder is written aside and swapped in when complete (:func:`run_batch`, "Where the
+files go"). Non-finite numbers are stored as JSON
 ``null`` and as empty CSV cells.
 
-Integrity (:mod:`design.io.outputs`): a non-empty ``out_dir`` without the bridgeflap marker is
-refused (nothing written); the run holds the folder's lock (a second run into it is refused); a
-stored case is reused by ``resume`` only if its ``case_hash`` -- SHA-256 of the case parameters, the
-run's *fingerprint* (for a DOE: bridge file content, resolved options, analysis, package
-version) -- matches, otherwise it is recomputed and the count is said on stderr. Nothing is
+Integrity (:mod:`bridgeflap.design.io.outputs`): a non-empty ``out_dir`` without the bridgeflap
+marker is refused (nothing written); the run holds the folder's lock (a second run into it is
+refused); a stored case is reused by ``resume`` only if its ``case_hash`` -- SHA-256 of the case
+parameters, the run's *fingerprint* (for a DOE: bridge file content, resolved options, analysis,
+package version) -- matches, otherwise it is recomputed and the count is said on stderr. Nothing is
 written before the Dask scheduler is reachable
-(:data:`design.batch.cluster.CONNECT_TIMEOUT_S`; the Dask side of the runner is
-:mod:`design.batch.cluster`).
+(:data:`bridgeflap.design.batch.cluster.CONNECT_TIMEOUT_S`; the Dask side of the runner is
+:mod:`bridgeflap.design.batch.cluster`).
 """
 
 from __future__ import annotations
@@ -52,18 +53,23 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from design.batch.case import (
+from bridgeflap.design.batch.case import (
     STATUS_OK,
     STATUS_TIMEOUT,
     _CaseTimeout,
     _execute_case,
     _timeout_record,
 )
-from design.batch.cluster import cluster_client, run_dask
-from design.batch.designs import CASE_ID_KEY
-from design.batch.table import flat_case_rows, table_text, with_branch_flags
-from design.io.files import atomic_write_json, atomic_write_text, ensure_writable_dir, to_jsonable
-from design.io.outputs import (
+from bridgeflap.design.batch.cluster import cluster_client, run_dask
+from bridgeflap.design.batch.designs import CASE_ID_KEY
+from bridgeflap.design.batch.table import flat_case_rows, table_text, with_branch_flags
+from bridgeflap.design.io.files import (
+    atomic_write_json,
+    atomic_write_text,
+    ensure_writable_dir,
+    to_jsonable,
+)
+from bridgeflap.design.io.outputs import (
     OUTPUT_MARKER,
     check_replaceable,
     claim_output,
@@ -73,7 +79,7 @@ from design.io.outputs import (
     temporary_sibling,
     write_marker,
 )
-from model.arguments import (
+from bridgeflap.model.arguments import (
     cases_list,
     check_callable,
     check_mapping,
@@ -84,9 +90,9 @@ from model.arguments import (
     number,
     optional,
 )
-from model.errors import BridgeflapInputError
-from model.results import ResultData
-from model.workers import check_main_guard
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.results import ResultData
+from bridgeflap.model.workers import check_main_guard
 
 __all__ = [
     "BatchResult",
@@ -136,15 +142,16 @@ class BatchResult(ResultData):
                 f"{self.failed} failed", "table": str(self.table_path)}
 
     def to_xarray(self):
-        """The cases on the dimension ``case`` (:func:`design.batch.table.cases_dataset`)."""
-        from design.batch.table import cases_dataset
+        """The cases on the dimension ``case``
+        (:func:`bridgeflap.design.batch.table.cases_dataset`)."""
+        from bridgeflap.design.batch.table import cases_dataset
 
         return cases_dataset(self.rows)
 
     def plot(self, ax=None, output: str | None = None):
         """One numeric output per case (default: the first), failed cases as red crosses
-        (:func:`design.batch.plots.batch_cases`)."""
-        from design.batch.plots import batch_cases
+        (:func:`bridgeflap.design.batch.plots.batch_cases`)."""
+        from bridgeflap.design.batch.plots import batch_cases
 
         return batch_cases(self, ax, output)
 
@@ -186,13 +193,14 @@ def function_fingerprint(fn: Callable) -> str:
     """A stable text naming ``fn`` and its bound settings (a ``functools.partial``'s arguments).
 
     The default fingerprint of :func:`run_batch`; callers that know more (a DOE: the bridge
-    file's content) pass their own. A bound in-memory :class:`~model.structure.spec.BridgeSpec` is
-    named by :func:`design.io.identity.bridge_identity` (the hash of its canonical form).
+    file's content) pass their own. A bound in-memory
+    :class:`~bridgeflap.model.structure.spec.BridgeSpec` is named by
+    :func:`bridgeflap.design.io.identity.bridge_identity` (the hash of its canonical form).
     """
     import functools
 
-    from design.io.identity import bridge_identity
-    from model.structure.spec import BridgeSpec
+    from bridgeflap.design.io.identity import bridge_identity
+    from bridgeflap.model.structure.spec import BridgeSpec
 
     parts = []
     while isinstance(fn, functools.partial):
@@ -288,7 +296,8 @@ def run_batch(
     files : mapping, optional
         Extra JSON files written into the folder (name -> content), e.g. ``doe.json``.
     kind : str, optional
-        The output kind in the folder's marker (:func:`design.io.outputs.check_replaceable`).
+        The output kind in the folder's marker
+        (:func:`bridgeflap.design.io.outputs.check_replaceable`).
     definition : str, optional
         The name in ``files`` that defines the run (``doe.json``): a resume writes into the
         stored folder in place only if that file is as stored (see "Where the files go").
@@ -298,9 +307,10 @@ def run_batch(
     with this run's ``case_hash``; ``definition`` unchanged): the finished case files of an
     interrupted run are then where the next ``resume`` finds them. Otherwise (a previous
     output of any other run, or any run without ``resume``) into a temporary sibling folder
-    that replaces ``out_dir`` only when complete (:func:`design.io.outputs.swap_into_place`), the
-    reused case files copied over: a killed or interrupted run leaves the previous output as
-    it was, and no file of another definition nor a case beyond this design survives.
+    that replaces ``out_dir`` only when complete
+    (:func:`bridgeflap.design.io.outputs.swap_into_place`), the reused case files copied over: a
+    killed or interrupted run leaves the previous output as it was, and no file of another
+    definition nor a case beyond this design survives.
 
     Returns
     -------
@@ -468,7 +478,7 @@ def run_batch(
             raise
 
     if rows and not succeeded:  # nothing usable: a typed error, never an empty table
-        from model.errors import BatchFailedError
+        from bridgeflap.model.errors import BatchFailedError
 
         first = next((r.get("error") or r["status"] for r in rows), "")
         raise BatchFailedError(len(rows), out, _one_line_error(first))

@@ -1,5 +1,5 @@
 """The batch runner's tables: flat case rows, ``table.csv`` text, branch-switch flags
-(:func:`design.batch.runner.run_batch`; no files, no physics)."""
+(:func:`bridgeflap.design.batch.runner.run_batch`; no files, no physics)."""
 
 from __future__ import annotations
 
@@ -76,11 +76,11 @@ def with_branch_flags(rows: tuple[dict, ...]) -> tuple[dict, ...]:
     """Rows of a stability DOE with ``branch_switch_neighbour`` and ``neighbour_branches``.
 
     A row whose parameter-space neighbours have another critical branch is flagged
-    (:func:`design.batch.branch_flags.flag_branch_neighbours`): a response surface or a derivative
-    across it spans a branch switch. Only the table and the returned rows carry the flags; the
-    per-case files (the ``--resume`` records) stay as computed.
+    (:func:`bridgeflap.design.batch.branch_flags.flag_branch_neighbours`): a response surface or a
+    derivative across it spans a branch switch. Only the table and the returned rows carry the
+    flags; the per-case files (the ``--resume`` records) stay as computed.
     """
-    from design.batch.branch_flags import flag_branch_neighbours
+    from bridgeflap.design.batch.branch_flags import flag_branch_neighbours
 
     ok = [i for i, r in enumerate(rows)
           if r["status"] == STATUS_OK and isinstance(r.get("result"), Mapping)

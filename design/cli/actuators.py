@@ -4,14 +4,14 @@
 [--duration-s 600] [--records 4] [--seed 0] [--modes 16] [--card FILE]
 [--flap-angle-limit-deg 20] [--flap-rate-limit-deg-s 40] [--actuator-bandwidth-rad-s 10]
 [--linear] [--out table.csv] [--json]`` simulates the controller's closed loop in Monte-Carlo
-turbulence with the flap angle and rate limits (:mod:`model.response.actuator_sim`) and prints, per
-speed, RMS and peak flap angle and rate, the fraction of time at each limit, and the deck RMS
-heave and twist beside the linear closed loop's spectral RMS. The limits come from the design
-card's ``flap_angle_limit_deg`` / ``flap_rate_limit_deg_s`` (``--card``, default the built-in
+turbulence with the flap angle and rate limits (:mod:`bridgeflap.model.response.actuator_sim`) and
+prints, per speed, RMS and peak flap angle and rate, the fraction of time at each limit, and the
+deck RMS heave and twist beside the linear closed loop's spectral RMS. The limits come from the
+design card's ``flap_angle_limit_deg`` / ``flap_rate_limit_deg_s`` (``--card``, default the built-in
 card's values), overridden by the options; all are engineering estimates
-(:mod:`model.aeroelastic.actuator_limits`). Exit status 0 when every speed is ``ok``; 1 when a speed
-is at or above the closed-loop critical speed (``unstable``) or the saturated loop diverged there
-(``diverged``: the limits cannot hold the bridge).
+(:mod:`bridgeflap.model.aeroelastic.actuator_limits`). Exit status 0 when every speed is ``ok``; 1
+when a speed is at or above the closed-loop critical speed (``unstable``) or the saturated loop
+diverged there (``diverged``: the limits cannot hold the bridge).
 """
 
 from __future__ import annotations
@@ -20,20 +20,26 @@ from pathlib import Path
 
 import numpy as np
 
-from design.cli.common import add_common, controller_from_args, controller_report, emit, log
-from model.aeroelastic.actuator_limits import ACTUATOR_DEFAULTS
-from model.errors import BridgeflapInputError
+from bridgeflap.design.cli.common import (
+    add_common,
+    controller_from_args,
+    controller_report,
+    emit,
+    log,
+)
+from bridgeflap.model.aeroelastic.actuator_limits import ACTUATOR_DEFAULTS
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["arguments", "cmd_actuators"]
 
 
 def _limits(args):
-    from model.aeroelastic.actuator_limits import ActuatorLimits, check_actuator_value
+    from bridgeflap.model.aeroelastic.actuator_limits import ActuatorLimits, check_actuator_value
 
     values = dict(ACTUATOR_DEFAULTS)
     source = "defaults (engineering estimates)"
     if args.card:
-        from design.control.settings import load_settings
+        from bridgeflap.design.control.settings import load_settings
 
         s = load_settings(args.card)
         values.update(flap_angle_limit_deg=s.flap_angle_limit_deg,
@@ -50,9 +56,9 @@ def _limits(args):
 
 def cmd_actuators(args):
     """Run the saturated closed loop in turbulence and report it."""
-    from design.assessment.actuator_study import actuator_study
-    from design.cli.common import check_writable_parent, spec_from_args
-    from design.io.options import parse_range
+    from bridgeflap.design.assessment.actuator_study import actuator_study
+    from bridgeflap.design.cli.common import check_writable_parent, spec_from_args
+    from bridgeflap.design.io.options import parse_range
 
     if not args.controller:
         raise BridgeflapInputError("controller", "a controller .toml is required")
@@ -75,7 +81,7 @@ def cmd_actuators(args):
                          near_critical=args.near_critical, linear=args.linear, progress=log)
     s = {**res.summary(), "limits_from": source, **controller_report(controller)}
     if args.out:
-        from design.io.files import atomic_write_text
+        from bridgeflap.design.io.files import atomic_write_text
 
         atomic_write_text(args.out, res.csv_text())
         s["table"] = str(args.out)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from design.cli.common import (
+from bridgeflap.design.cli.common import (
     add_common,
     check_plot_target,
     controller_from_args,
@@ -20,18 +20,18 @@ from design.cli.common import (
     save_plot,
     spec_from_args,
 )
-from design.io.options import parse_range
-from design.studies.analyses import ANALYSES
-from model.aero.wind import ADMITTANCE_KINDS, SPECTRUM_KINDS
-from model.errors import BridgeflapInputError
-from model.response.buffeting_inputs import LOADS
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.design.studies.analyses import ANALYSES
+from bridgeflap.model.aero.wind import ADMITTANCE_KINDS, SPECTRUM_KINDS
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.response.buffeting_inputs import LOADS
 
 __all__ = ["arguments", "cmd_buffeting"]
 
 
 def cmd_buffeting(args):
     """Run the buffeting analysis of a bridge over a speed grid."""
-    from model.response.buffeting import buffeting
+    from bridgeflap.model.response.buffeting import buffeting
 
     check_plot_target(args)
     speeds = parse_range(args.speeds, "speeds")

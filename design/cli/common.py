@@ -2,8 +2,8 @@
 
 Every command takes ``--json`` and then prints exactly one JSON object on stdout (numbers with
 units in the key names, statuses; NaN as ``null``); progress and logs go to stderr. Bad input
-raises :class:`~model.errors.BridgeflapInputError`, which :func:`design.cli.main.main` turns into
-one line on stderr and exit status 2.
+raises :class:`~bridgeflap.model.errors.BridgeflapInputError`, which
+:func:`bridgeflap.design.cli.main.main` turns into one line on stderr and exit status 2.
 """
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ import os
 import sys
 from pathlib import Path
 
-from design.io.files import atomic_write, to_jsonable
-from design.io.text import speed_text
-from model.errors import BridgeflapInputError
+from bridgeflap.design.io.files import atomic_write, to_jsonable
+from bridgeflap.design.io.text import speed_text
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["Parser", "add_common", "check_plot_target", "check_writable_parent",
            "controller_from_args", "controller_report", "default_bridge", "default_workers",
@@ -153,7 +153,7 @@ def default_bridge(args) -> str:
         return args.bridge
     path = getattr(args, "controller", None)
     if path:
-        from model.aeroelastic.controller_file import load_controller
+        from bridgeflap.model.aeroelastic.controller_file import load_controller
 
         plant = load_controller(path).plant
         if plant is not None:
@@ -166,7 +166,7 @@ def default_bridge(args) -> str:
 
 def spec_from_args(args):
     """The bridge of ``--bridge``, erected to ``--erection`` when given."""
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.structure.loader import load_bridge
 
     spec = load_bridge(args.bridge)
     if getattr(args, "erection", None) is not None:
@@ -182,19 +182,19 @@ def controller_from_args(args, spec=None):
     JSON. Its flap geometry (chord, width, positions, edges) is the file's; a file designed on
     another bridge, or without a geometry record, gives one warning line on stderr, and flaps
     that do not fit on ``--bridge`` raise naming the field
-    (:func:`model.aeroelastic.controller_file.check_controller_plant`; ``spec``: the bridge of
-    ``--bridge`` when already loaded).
+    (:func:`bridgeflap.model.aeroelastic.controller_file.check_controller_plant`; ``spec``: the
+    bridge of ``--bridge`` when already loaded).
     """
     if getattr(args, "controller", None):
-        from model.aeroelastic.controller_file import load_controller
+        from bridgeflap.model.aeroelastic.controller_file import load_controller
 
         controller = load_controller(args.controller)
         bridge = getattr(args, "bridge", None)
         if bridge is not None:
-            from model.aeroelastic.controller_file import check_controller_plant
+            from bridgeflap.model.aeroelastic.controller_file import check_controller_plant
 
             if spec is None:
-                from model.structure.loader import load_bridge
+                from bridgeflap.model.structure.loader import load_bridge
 
                 spec = load_bridge(bridge)
             note = check_controller_plant(controller, bridge, spec)
@@ -293,7 +293,7 @@ def save_plot(result, path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from model.results import figure_of
+    from bridgeflap.model.results import figure_of
 
     fig = figure_of(result.plot())  # a Figure (results), or axes (older plotting helpers)
     save_figure(fig, path)

@@ -1,17 +1,18 @@
 """``bridgeflap derivatives``: the flutter derivatives in use, their RFA fit and its error.
 
 ``--bridge`` takes a section case (``iabse-1.1a``, ``iabse-1.1c`` or a section ``.json`` file
-with measured derivatives: :mod:`model.cases.section_cases`) or a bridge of
-:func:`model.structure.loader.load_bridge` (Humber, a .toml), whose deck is a Theodorsen flat
-plate of chord ``2 b`` (:func:`model.aero.derivatives.flat_plate`, with the spec's apparent-inertia
-convention). Prints the derivatives (Scanlan convention, :mod:`model.aero.derivatives`) over the
-data's reduced velocities, the Roger RFA (poles, error per derivative) and, for a section case, its
-flutter speed by the RFA state space and by the exact p-k against the reference. With ``--json`` one
-JSON object (numbers with units in the key names, NaN as null); ``--plot FILE`` draws the
-derivatives and their fit against ``U / (f B)``. Bad input: one line, exit 2.
+with measured derivatives: :mod:`bridgeflap.model.cases.section_cases`) or a bridge of
+:func:`bridgeflap.model.structure.loader.load_bridge` (Humber, a .toml), whose deck is a Theodorsen
+flat plate of chord ``2 b`` (:func:`bridgeflap.model.aero.derivatives.flat_plate`, with the spec's
+apparent-inertia convention). Prints the derivatives (Scanlan convention,
+:mod:`bridgeflap.model.aero.derivatives`) over the data's reduced velocities, the Roger RFA (poles,
+error per derivative) and, for a section case, its flutter speed by the RFA state space and by the
+exact p-k against the reference. With ``--json`` one JSON object (numbers with units in the key
+names, NaN as null); ``--plot FILE`` draws the derivatives and their fit against ``U / (f B)``. Bad
+input: one line, exit 2.
 
 Registration (integrator): ``Command("derivatives", HELP, cmd_derivatives.arguments,
-cmd_derivatives.run)`` in :data:`design.cli.main.COMMANDS`, or :func:`add_parser` on the
+cmd_derivatives.run)`` in :data:`bridgeflap.design.cli.main.COMMANDS`, or :func:`add_parser` on the
 subparsers object. :func:`section_case_result` is the hook for ``flutter --bridge iabse-1.1a``:
 its ``summary()`` has the keys of the Humber flutter summary (plus ``section_case``) and its
 ``plot()`` the sweep's figure (it lives here, not in model/, because it uses the facade's
@@ -24,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from design.cli.common import (
+from bridgeflap.design.cli.common import (
     add_common,
     check_plot_target,
     emit,
@@ -32,7 +33,7 @@ from design.cli.common import (
     save_figure,
     speed_text,
 )
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["SectionCaseResult", "add_parser", "arguments", "run", "section_case_result"]
 
@@ -68,14 +69,14 @@ def add_parser(sub):
 
 def _source(args):
     """``(name, derivatives, case or None)`` of ``--bridge``."""
-    from model.aero import derivatives as dv
-    from model.cases.section_cases import SECTION_CASES, load_section_case
+    from bridgeflap.model.aero import derivatives as dv
+    from bridgeflap.model.cases.section_cases import SECTION_CASES, load_section_case
 
     ai = None if args.added_inertia is None else args.added_inertia == "kept"
     if args.bridge in SECTION_CASES or str(args.bridge).lower().endswith(".json"):
         case = load_section_case(args.bridge, ai)
         return case.name, case.derivatives, case
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.structure.loader import load_bridge
 
     spec = load_bridge(args.bridge)
     if getattr(spec, "derivatives", None) is not None:  # a modal bridge's derivative tables
@@ -86,8 +87,8 @@ def _source(args):
 
 def run(args):
     """Report the derivatives and the RFA of ``--bridge``."""
-    from model.aero.derivatives import DERIVATIVE_NAMES, convert_argument, fit_roger
-    from model.cases.section_cases import case_fit, section_case_flutter
+    from bridgeflap.model.aero.derivatives import DERIVATIVE_NAMES, convert_argument, fit_roger
+    from bridgeflap.model.cases.section_cases import case_fit, section_case_flutter
 
     check_plot_target(args)
     if args.lags is not None and args.lags < 0:
@@ -116,7 +117,7 @@ def run(args):
         "derivatives_source": src.source,
         "chord_m": src.chord_m,
         "convention": "Scanlan, K = B omega / U; h and L up, alpha and M nose-up, p and D "
-                      "downwind (model.aero.derivatives)",
+                      "downwind (bridgeflap.model.aero.derivatives)",
         "table": {"reduced_velocity_hz": convert_argument(K, "K", "vred_hz").tolist(),
                   "reduced_frequency_K": K.tolist(),
                   **{n: np.asarray(table[n]).tolist() for n in used}},
@@ -157,7 +158,7 @@ def _plot(src, fit, used, path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from model.aero.derivatives import convert_argument
+    from bridgeflap.model.aero.derivatives import convert_argument
 
     lo, hi = fit.k_fit.min(), fit.k_fit.max()
     K = np.geomspace(lo, hi, 300)
@@ -184,7 +185,7 @@ def _plot(src, fit, used, path) -> None:
 
 @dataclass(frozen=True)
 class SectionCaseResult:
-    """Flutter of a section case in the shape of :class:`model.analysis.FlutterResult`.
+    """Flutter of a section case in the shape of :class:`bridgeflap.model.analysis.FlutterResult`.
 
     ``summary()`` has the keys of the Humber ``flutter`` summary (the sweep of the Roger-RFA
     state space; ``critical_branch`` from the section's DOF labels) plus ``section_case``:
@@ -199,7 +200,7 @@ class SectionCaseResult:
 
     def summary(self) -> dict:
         """JSON-ready numbers (units in the key names) and statuses."""
-        from model.analysis import critical_speed
+        from bridgeflap.model.analysis import critical_speed
 
         s = self.sweep.summary()
         label = self.sweep.critical_branch
@@ -239,8 +240,8 @@ def section_case_result(name: str, speeds=None, added_inertia: bool | None = Non
 
     ``speeds`` [m/s] default ``0 .. 2 x reference`` in 401 points.
     """
-    from model.cases.section_cases import case_system, default_speeds, load_section_case
-    from model.stability import sweeps as stability
+    from bridgeflap.model.cases.section_cases import case_system, default_speeds, load_section_case
+    from bridgeflap.model.stability import sweeps as stability
 
     case = load_section_case(name, added_inertia)
     if speeds is None:

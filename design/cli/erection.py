@@ -1,10 +1,10 @@
 """``bridgeflap erection``: flutter/divergence against the erected fraction (seed Fig. 3
 right), and with ``--controller`` the closed loop of each stage with the flaps on its deck
-(:mod:`design.assessment.erection_control`)."""
+(:mod:`bridgeflap.design.assessment.erection_control`)."""
 
 from __future__ import annotations
 
-from design.cli.common import (
+from bridgeflap.design.cli.common import (
     add_common,
     check_plot_target,
     controller_from_args,
@@ -13,9 +13,9 @@ from design.cli.common import (
     log,
     save_plot,
 )
-from design.io.options import parse_range
-from model.results import table_text
-from model.structure.spec import SIDE_SPAN_SEQUENCES
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.model.results import table_text
+from bridgeflap.model.structure.spec import SIDE_SPAN_SEQUENCES
 
 __all__ = ["arguments", "cmd_erection"]
 
@@ -24,8 +24,8 @@ _SIDE_SPANS_HELP = "side-span decks while erecting: bare, in_place, with_main (d
 
 def cmd_erection(args):
     """Open-loop stages, or open- and closed-loop stages with ``--controller``."""
-    from design.cli.main import _run
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.cli.main import _run
+    from bridgeflap.model.structure.loader import load_bridge
 
     check_plot_target(args)
     spec = load_bridge(args.bridge)
@@ -53,14 +53,14 @@ _CL_COLS = ["erected_fraction", "flap_strips_on_deck", "open_loop_critical_speed
 
 def _no_plot(args, option):
     if args.plot:
-        from model.errors import BridgeflapInputError
+        from bridgeflap.model.errors import BridgeflapInputError
 
         raise BridgeflapInputError("--plot", f"not available with {option} (the table and "
                                    "the JSON carry the closed loop per stage)")
 
 
 def _closed_loop(args, spec):
-    from design.assessment.erection_control import erection_closed_loop
+    from bridgeflap.design.assessment.erection_control import erection_closed_loop
 
     _no_plot(args, "--controller")
     controller = controller_from_args(args, spec)
@@ -85,11 +85,11 @@ def _closed_loop(args, spec):
 def _design_stage(args, spec):
     """``--design-stage``: a controller designed for one stage (the worst open-loop one by
     default), then every stage's closed loop with its strips
-    (design.assessment.erection_control)."""
-    from design.assessment.erection_control import design_for_stage, erection_closed_loop
-    from design.cli.main import _run
-    from model.arguments import check_number
-    from model.errors import BridgeflapInputError
+    (bridgeflap.design.assessment.erection_control)."""
+    from bridgeflap.design.assessment.erection_control import design_for_stage, erection_closed_loop
+    from bridgeflap.design.cli.main import _run
+    from bridgeflap.model.arguments import check_number
+    from bridgeflap.model.errors import BridgeflapInputError
 
     _no_plot(args, "--design-stage")
     if args.controller:
@@ -131,7 +131,7 @@ def _design_stage(args, spec):
     lines = [f"design for the stage erected {fraction:g}: {res.status}"]
     if res.controller is not None:
         if args.save_controller:
-            from model.aeroelastic.controller_file import save_controller
+            from bridgeflap.model.aeroelastic.controller_file import save_controller
 
             out["controller_file"] = str(save_controller(res.controller, args.save_controller))
         cl = erection_closed_loop(spec, res.controller, fractions, speeds, args.modes,
@@ -150,7 +150,7 @@ def _design_stage(args, spec):
 
 def arguments(sp) -> None:
     """The options of ``bridgeflap erection``."""
-    from design.cli.main import _default
+    from bridgeflap.design.cli.main import _default
 
     add_common(sp, erection=False)
     sp.add_argument("--fractions", default=_default("erection", "fractions"),

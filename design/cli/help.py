@@ -1,8 +1,8 @@
 """Help text of the command line: every option states its form, no docstring markup.
 
-:func:`finish` runs on the built parser (:func:`design.cli.main.build_parser`): an option without a
-metavar gets the one :data:`FORMS` gives its destination (``--speeds LO:HI:STEP``, ``--modes
-N``), an option without help the help there, and every text shown by ``--help`` loses its
+:func:`finish` runs on the built parser (:func:`bridgeflap.design.cli.main.build_parser`): an option
+without a metavar gets the one :data:`FORMS` gives its destination (``--speeds LO:HI:STEP``,
+``--modes N``), an option without help the help there, and every text shown by ``--help`` loses its
 Sphinx markup (roles such as ``:func:`x``` and double backticks, :func:`plain`).
 ``tests/test_design/cli/test_cli_help.py`` checks every command.
 """

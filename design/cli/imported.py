@@ -6,7 +6,7 @@ kg for a shape in metres, kg m^2 for one in radians), without the cable statics 
 
 from __future__ import annotations
 
-from design.cli.common import emit, save_plot
+from bridgeflap.design.cli.common import emit, save_plot
 
 __all__ = ["imported_modes"]
 

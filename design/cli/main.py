@@ -4,15 +4,15 @@ Every command takes ``--json`` and then prints exactly one JSON object on stdout
 units in the key names, statuses; NaN as ``null``); progress and logs go to stderr. Bad input
 gives one line ``bridgeflap: error: <field>: <reason>`` on stderr and exit status 2, with nothing
 written (tests/test_bad_input.py holds the matrix). An internal fault (a bug: any exception that
-is not a :class:`~model.errors.BridgeflapError`) gives one line saying so and exit status 1;
-``--debug`` (before or after the command) adds its traceback. Warnings are one line each.
+is not a :class:`~bridgeflap.model.errors.BridgeflapError`) gives one line saying so and exit status
+1; ``--debug`` (before or after the command) adds its traceback. Warnings are one line each.
 Option defaults shared with studies and DOE files come from the registry
-:data:`design.studies.analyses.ANALYSES`.
+:data:`bridgeflap.design.studies.analyses.ANALYSES`.
 
-Start-up stays lean: the command modules (``design.cli.<name>``) load only when their command runs
-(:func:`_later`), and only the chosen command's options are built (:func:`build_parser`), so
-``bridgeflap modes`` or ``flutter`` never import CasADi, matplotlib, Dask, SALib, pandas or
-xarray (tests/test_startup.py checks ``sys.modules``).
+Start-up stays lean: the command modules (``bridgeflap.design.cli.<name>``) load only when their
+command runs (:func:`_later`), and only the chosen command's options are built
+(:func:`build_parser`), so ``bridgeflap modes`` or ``flutter`` never import CasADi, matplotlib,
+Dask, SALib, pandas or xarray (tests/test_startup.py checks ``sys.modules``).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from design.cli.common import (
+from bridgeflap.design.cli.common import (
     Parser,
     add_common,
     add_verbosity,
@@ -43,16 +43,22 @@ from design.cli.common import (
     save_plot,
     spec_from_args,
 )
-from design.cli.help import finish
-from design.io.files import atomic_write
-from design.io.options import MAX_GRID_VALUE, MAX_MODES, check_int, check_number, parse_range
-from design.io.text import number_text, speed_text
-from design.studies.analyses import ANALYSES, DEFAULT_MODES, RunContext
-from model.aero.rfa import RFA_NAMES
-from model.arguments import argv_list, checked, optional
-from model.errors import BridgeflapInputError
-from model.results import table_text
-from model.structure.spec import SIDE_SPAN_SEQUENCES, check_fraction
+from bridgeflap.design.cli.help import finish
+from bridgeflap.design.io.files import atomic_write
+from bridgeflap.design.io.options import (
+    MAX_GRID_VALUE,
+    MAX_MODES,
+    check_int,
+    check_number,
+    parse_range,
+)
+from bridgeflap.design.io.text import number_text, speed_text
+from bridgeflap.design.studies.analyses import ANALYSES, DEFAULT_MODES, RunContext
+from bridgeflap.model.aero.rfa import RFA_NAMES
+from bridgeflap.model.arguments import argv_list, checked, optional
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.results import table_text
+from bridgeflap.model.structure.spec import SIDE_SPAN_SEQUENCES, check_fraction
 
 __all__ = ["COMMANDS", "Command", "build_parser", "main"]
 
@@ -63,7 +69,7 @@ EXIT_BAD_INPUT = 2
 
 
 def cmd_modes(args):
-    from model.analysis import modal_model
+    from bridgeflap.model.analysis import modal_model
 
     check_plot_target(args)
     spec = spec_from_args(args)
@@ -76,7 +82,7 @@ def cmd_modes(args):
                                             f"{len(modal.modes)} modes")
     modes = modal.mode_records()[: args.count]
     if imported:
-        from design.cli.imported import imported_modes
+        from bridgeflap.design.cli.imported import imported_modes
 
         return imported_modes(args, spec, modal, modes)
     payload = {"bridge": spec.name, "erected_fraction": spec.erected_fraction,
@@ -102,14 +108,15 @@ def _run(name: str, spec, workers: int = 1, **options):
 
 
 def _outcome(name: str, spec, workers: int = 1, **options):
-    """The whole :class:`~design.studies.analyses.Outcome` of registered analysis ``name``."""
+    """The whole :class:`~bridgeflap.design.studies.analyses.Outcome` of registered analysis
+    ``name``."""
     entry = ANALYSES[name]
     context = RunContext(figures=False, progress=log, workers=workers)
     return entry.run(spec, {**entry.defaults, **options}, context)
 
 
 def cmd_frequency_ratio(args):
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.structure.loader import load_bridge
 
     check_plot_target(args)
     res = _run("frequency_ratio", load_bridge(args.bridge), fractions=args.fractions,
@@ -131,7 +138,7 @@ def cmd_frequency_ratio(args):
 
 def _is_section_case(bridge: str) -> bool:
     """A section case (``iabse-1.1a``, ``iabse-1.1c``, a section ``.json``), not a bridge."""
-    from model.cases.section_cases import SECTION_CASES
+    from bridgeflap.model.cases.section_cases import SECTION_CASES
 
     return bridge in SECTION_CASES or str(bridge).endswith(".json")
 
@@ -142,7 +149,7 @@ def _section_case_flutter(args):
         raise BridgeflapInputError("controller", "a section case has no flaps")
     speeds = None if args.speeds == _default("flutter", "speeds") else \
         parse_range(args.speeds, "speeds", 0.0)
-    from design.cli import derivatives as cmd_derivatives
+    from bridgeflap.design.cli import derivatives as cmd_derivatives
 
     res = cmd_derivatives.section_case_result(
         args.bridge, speeds, added_inertia=False if args.no_added_inertia else None)
@@ -171,7 +178,7 @@ def cmd_flutter(args):
                                                  "with rfa4: drop --order/--rfa")
     controller = controller_from_args(args, spec)
     if controller is not None:
-        from model.analysis import closed_loop_flutter
+        from bridgeflap.model.analysis import closed_loop_flutter
 
         res = closed_loop_flutter(spec, controller, parse_range(args.speeds, "speeds", 0.0),
                                   n_modes=args.modes, sweep_method=args.sweep or (
@@ -186,7 +193,7 @@ def cmd_flutter(args):
     s = {**(res.summary() if controller is not None else outcome.summary),
          **controller_report(controller)}
     if args.pk:
-        from model.analysis import pk_flutter
+        from bridgeflap.model.analysis import pk_flutter
 
         pk = pk_flutter(spec, parse_range(args.speeds, "speeds", 0.0), args.modes, controller)
         s.update({f"pk_{k}": pk[k] for k in ("flutter_speed_m_s", "flutter_frequency_hz",
@@ -218,8 +225,8 @@ def cmd_flutter(args):
 
 
 def cmd_state_space(args):
-    from model.aeroelastic.control_plant import closed_loop_plant, plant_data
-    from model.analysis import bridge_system
+    from bridgeflap.model.aeroelastic.control_plant import closed_loop_plant, plant_data
+    from bridgeflap.model.analysis import bridge_system
 
     spec = spec_from_args(args)
     if not (np.isfinite(args.speed) and args.speed >= 0):
@@ -259,7 +266,7 @@ def cmd_state_space(args):
 
 
 def cmd_rfa(args):
-    from model.aero.rfa import get_rfa
+    from bridgeflap.model.aero.rfa import get_rfa
 
     rep = get_rfa(args.name).report()
     lines = [f"{rep['name']}: {rep['n_lags']} lags, C(s) = 1 - sum A_j s/(s + beta_j), s = i k",
@@ -303,7 +310,8 @@ def _flutter_arguments(sp):
                     help="retained vertical+torsional modes")
     sp.add_argument("--order", choices=("modal", "full"), default=_default("flutter", "order"))
     sp.add_argument("--rfa", choices=RFA_NAMES, default=_default("flutter", "rfa"),
-                    help="C(k) approximation: rfa4 (default), jones, rfa4-band (model.aero.rfa)")
+                    help="C(k) approximation: rfa4 (default), jones, rfa4-band "
+                    "(bridgeflap.model.aero.rfa)")
     sp.add_argument("--controller", default=None, help="controller .toml (closed loop)")
     sp.add_argument("--sweep", choices=("dense", "fast"), default=None,
                     help="fast (default): coarse tracked sweep and Newton on the critical "
@@ -367,31 +375,38 @@ COMMANDS: tuple[Command, ...] = (
             _frequency_ratio_arguments, cmd_frequency_ratio),
     Command("flutter", "flutter and torsional divergence", _flutter_arguments, cmd_flutter),
     Command("erection", "flutter/divergence against erected fraction",
-            _later("design.cli.erection", "arguments"), _later("design.cli.erection",
+            _later("bridgeflap.design.cli.erection", "arguments"),
+            _later("bridgeflap.design.cli.erection",
                                                                  "cmd_erection")),
-    Command("section", "rigid 2-DOF deck section", _later("design.cli.section", "arguments"),
-            _later("design.cli.section", "cmd_section")),
+    Command("section", "rigid 2-DOF deck section", _later("bridgeflap.design.cli.section",
+                                                          "arguments"),
+            _later("bridgeflap.design.cli.section", "cmd_section")),
     Command("state-space", "write A, B, C, D at one speed (.npz or .mat)",
             _state_space_arguments, cmd_state_space),
     Command("rfa", "fit report of the rational approximation of C(k)", _rfa_arguments, cmd_rfa),
     Command("derivatives", "flutter derivatives in use and their RFA fit (error per derivative)",
-            _later("design.cli.derivatives", "arguments"), _later("design.cli.derivatives", "run")),
+            _later("bridgeflap.design.cli.derivatives", "arguments"),
+            _later("bridgeflap.design.cli.derivatives", "run")),
     Command("buffeting", "RMS deck response to vertical turbulence",
-            *(_later("design.cli.buffeting", f) for f in ("arguments", "cmd_buffeting"))),
+            *(_later("bridgeflap.design.cli.buffeting", f) for f in ("arguments",
+                                                                     "cmd_buffeting"))),
     Command("optimise", "design the flap compensator (seed section 6)",
-            *(_later("design.cli.optimise", f) for f in ("arguments", "cmd_optimise"))),
+            *(_later("bridgeflap.design.cli.optimise", f) for f in ("arguments", "cmd_optimise"))),
     Command("study", "run a study (default: the paper's reproduction)",
-            _later("design.cli.study", "study_arguments"),
-            _later("design.cli.study", "cmd_study")),
+            _later("bridgeflap.design.cli.study", "study_arguments"),
+            _later("bridgeflap.design.cli.study", "cmd_study")),
     Command("doe", "design of experiments through the batch runner",
-            _later("design.cli.study", "doe_arguments"), _later("design.cli.study", "cmd_doe")),
+            _later("bridgeflap.design.cli.study", "doe_arguments"),
+            _later("bridgeflap.design.cli.study", "cmd_doe")),
     Command("robustness", "do no harm: a controller on fresh variants, closed vs open loop",
-            *(_later("design.cli.robustness", f) for f in ("arguments", "cmd_robustness"))),
+            *(_later("bridgeflap.design.cli.robustness", f) for f in ("arguments",
+                                                                      "cmd_robustness"))),
     Command("actuators", "flap angle/rate limits: the closed loop in turbulence (Monte Carlo)",
-            *(_later("design.cli.actuators", f) for f in ("arguments", "cmd_actuators"))),
+            *(_later("bridgeflap.design.cli.actuators", f) for f in ("arguments",
+                                                                     "cmd_actuators"))),
     Command("sensitivity", "derivatives of flutter/divergence speed",
-            _later("design.cli.study", "sensitivity_arguments"),
-            _later("design.cli.study", "cmd_sensitivity")),
+            _later("bridgeflap.design.cli.study", "sensitivity_arguments"),
+            _later("bridgeflap.design.cli.study", "cmd_sensitivity")),
 )
 
 
@@ -513,7 +528,7 @@ def _check_args(args) -> None:
 
 @checked(argv=optional(argv_list))
 def main(argv=None) -> int:
-    """Entry point of the ``bridgeflap`` console script (:func:`design.cli.run.run`).
+    """Entry point of the ``bridgeflap`` console script (:func:`bridgeflap.design.cli.run.run`).
 
     Exit status: 0 success; 1 a result that is not usable (the command says why), or an
     internal fault (one line saying it is a bug; the traceback only with ``--debug``);
@@ -521,7 +536,7 @@ def main(argv=None) -> int:
     what the OS refuses, and a bare ``bridgeflap``: a short usage); 130 interrupted (Ctrl-C:
     one line, temporaries removed).
     """
-    from design.cli.run import one_line_warning, run
+    from bridgeflap.design.cli.run import one_line_warning, run
 
     _limit_blas_threads()
     argv = sys.argv[1:] if argv is None else [str(a) for a in argv]

@@ -1,5 +1,5 @@
 """``bridgeflap optimise``: design the flap compensator K(s) (seed §6), see
-design.control.driver."""
+bridgeflap.design.control.driver."""
 
 from __future__ import annotations
 
@@ -8,26 +8,26 @@ import os
 import shutil
 from pathlib import Path
 
-from design.cli.common import add_common, default_workers, emit, log, save_figure
-from model.errors import BridgeflapInputError
+from bridgeflap.design.cli.common import add_common, default_workers, emit, log, save_figure
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["arguments", "cmd_optimise"]
 
 #: the default design definition, shipped with the package (a copy lives at
 #: runs/humber_flaps.toml; tests/test_runs.py keeps the two identical)
-from design.control.settings import DEFAULT_CARD as DEFAULT_DEFINITION  # noqa: E402
+from bridgeflap.design.control.settings import DEFAULT_CARD as DEFAULT_DEFINITION  # noqa: E402
 
 
 def cmd_optimise(args):
     """Run the design, write the controller TOML and figures to ``--out`` atomically."""
-    from design.control.settings import load_settings, quick_settings
+    from bridgeflap.design.control.settings import load_settings, quick_settings
 
     if args.definition is not None and not Path(args.definition).is_file():
         raise BridgeflapInputError("definition", f"not a file: {args.definition}")
     over = {k: v for k, v in (("objective", getattr(args, "objective", None)),
                               ("margin_min", getattr(args, "margin_min", None)))
             if v is not None}
-    from design.assessment.acceptance import parse_checks
+    from bridgeflap.design.assessment.acceptance import parse_checks
 
     parse_checks(args.checks)  # a bad --checks stops here, before the design runs
     for name, v in (("check-samples", args.check_samples), ("workers", args.workers)):
@@ -44,10 +44,10 @@ def cmd_optimise(args):
         raise BridgeflapInputError("out", f"folder not writable: {parent}")
     if out.exists() and not out.is_dir():
         raise BridgeflapInputError("out", f"is a file, not a folder: {out}")
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.structure.loader import load_bridge
 
     load_bridge(settings.bridge)  # bad bridge input stops here, before the design runs
-    from design.io.outputs import check_replaceable, claim_output
+    from bridgeflap.design.io.outputs import check_replaceable, claim_output
 
     # a foreign non-empty folder, or another command's output, is refused (design.io.outputs)
     out = check_replaceable(out, "out", "optimise")
@@ -57,11 +57,11 @@ def cmd_optimise(args):
 
 def _design_and_write(args, settings, out):
     """Run the design and replace ``out`` by its complete folder (crash-safe swap)."""
-    from design.assessment.accept import design
-    from design.assessment.acceptance import design_closed_loop, parse_checks
-    from design.io.files import atomic_write_text, naming_os_errors, to_jsonable
-    from design.io.outputs import swap_into_place, temporary_sibling, write_marker
-    from model.aeroelastic.controller_file import save_controller
+    from bridgeflap.design.assessment.accept import design
+    from bridgeflap.design.assessment.acceptance import design_closed_loop, parse_checks
+    from bridgeflap.design.io.files import atomic_write_text, naming_os_errors, to_jsonable
+    from bridgeflap.design.io.outputs import swap_into_place, temporary_sibling, write_marker
+    from bridgeflap.model.aeroelastic.controller_file import save_controller
 
     # the acceptance checks are part of the design's status (design.assessment.accept)
     result = design(settings, progress=log, checks=parse_checks(args.checks) or "none",
@@ -84,8 +84,8 @@ def _design_and_write(args, settings, out):
             matplotlib.use("Agg")
             import matplotlib.pyplot as plt
 
-            from model.results import figure_of
-            from model.stability.sweeps import sweep
+            from bridgeflap.model.results import figure_of
+            from bridgeflap.model.stability.sweeps import sweep
 
             for name, fn in (("bode.png", result.plot_bode), ("margins.png", result.plot_margins)):
                 fig = figure_of(fn())
@@ -140,7 +140,7 @@ def _design_and_write(args, settings, out):
     lines.append(result.table("simple"))
     acc = payload.get("acceptance")
     if acc:
-        from design.assessment.acceptance import acceptance_text
+        from bridgeflap.design.assessment.acceptance import acceptance_text
 
         lines.append(acceptance_text(acc))
     emit(args, payload, "\n".join(lines))
@@ -166,9 +166,9 @@ def _design_and_write(args, settings, out):
 
 
 def _acceptance_tables(args, result, folder) -> dict:
-    """The design's acceptance block (:mod:`design.assessment.accept`) with each check's table
-    written as CSV into ``folder``."""
-    from design.io.files import atomic_write_text
+    """The design's acceptance block (:mod:`bridgeflap.design.assessment.accept`) with each check's
+    table written as CSV into ``folder``."""
+    from bridgeflap.design.io.files import atomic_write_text
 
     block = dict(result.extras.get("acceptance") or {"checks": [], "status": "not_run"})
     for name, res in (result.extras.get("acceptance_results") or {}).items():

@@ -3,20 +3,20 @@
 ``bridgeflap robustness --controller controller.toml [--samples 200] [--seed 11] [--modes 30]
 [--speed-max 85] [--workers 2] [--method fast|reference] [--screen-modes 16] [--out table.csv]
 [--json]`` samples ``--samples`` variants over
-the estimated-input ranges (:mod:`design.assessment.harm`), runs each open and closed loop on the
-same grid and prints the fraction stable to the design speed, the fraction *harmed* (closed-loop
-critical speed below the variant's own open-loop one), the worst closed/open ratio and the status
-(``no_harm``, ``harm``, or ``unresolved`` when a crossing is not verified). Exit status 0 for
-``no_harm``, 1 otherwise (a result, but not a controller to use as it is); ``--out`` writes the
+the estimated-input ranges (:mod:`bridgeflap.design.assessment.harm`), runs each open and closed
+loop on the same grid and prints the fraction stable to the design speed, the fraction *harmed*
+(closed-loop critical speed below the variant's own open-loop one), the worst closed/open ratio and
+the status (``no_harm``, ``harm``, or ``unresolved`` when a crossing is not verified). Exit status 0
+for ``no_harm``, 1 otherwise (a result, but not a controller to use as it is); ``--out`` writes the
 per-variant table (CSV). ``--method fast`` (default) screens each variant on
 ``--screen-modes`` modes and recomputes on ``--modes`` the rows near a decision or an extreme
-(:func:`design.assessment.harm.do_no_harm`; ``--screen-modes 0``: no screening); ``--method
-reference`` runs the full sweeps of every variant on ``--modes``.
+(:func:`bridgeflap.design.assessment.harm.do_no_harm`; ``--screen-modes 0``: no screening);
+``--method reference`` runs the full sweeps of every variant on ``--modes``.
 
 ``--failures [--stuck-angle-deg 5]`` judges the controller on its own bridge with each single
-flap pair failed instead (:mod:`design.assessment.failsafe`): stuck at 0, stuck at an angle (the
-same linear stability, plus its static deflection) and the controller off, each with its critical
-speed, mechanism, status and ratios to the intact and the open loop; exit 0 for
+flap pair failed instead (:mod:`bridgeflap.design.assessment.failsafe`): stuck at 0, stuck at an
+angle (the same linear stability, plus its static deflection) and the controller off, each with its
+critical speed, mechanism, status and ratios to the intact and the open loop; exit 0 for
 ``single_failure_safe``, 1 otherwise; ``--out`` writes the per-pair table.
 """
 
@@ -24,19 +24,25 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from design.assessment.harm import DEFAULT_SCREEN_MODES, HARM_METHODS
-from design.cli.common import add_common, controller_from_args, default_workers, emit, log
-from model.errors import BridgeflapInputError
+from bridgeflap.design.assessment.harm import DEFAULT_SCREEN_MODES, HARM_METHODS
+from bridgeflap.design.cli.common import (
+    add_common,
+    controller_from_args,
+    default_workers,
+    emit,
+    log,
+)
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["arguments", "cmd_robustness"]
 
 
 def cmd_robustness(args):
     """Run the do-no-harm check of ``--controller`` and report it."""
-    from design.assessment.harm import do_no_harm
-    from design.cli.common import check_writable_parent
-    from model.arguments import check_number
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.assessment.harm import do_no_harm
+    from bridgeflap.design.cli.common import check_writable_parent
+    from bridgeflap.model.arguments import check_number
+    from bridgeflap.model.structure.loader import load_bridge
 
     if not args.controller:
         raise BridgeflapInputError("controller", "a controller .toml is required")
@@ -60,7 +66,7 @@ def cmd_robustness(args):
                      method=args.method, screen_modes=args.screen_modes or None)
     s = res.summary()
     if args.out:
-        from design.io.files import atomic_write_text
+        from bridgeflap.design.io.files import atomic_write_text
 
         atomic_write_text(args.out, res.to_dataframe().to_csv(index=False))
         s["table"] = str(args.out)
@@ -81,12 +87,12 @@ def cmd_robustness(args):
 
 
 def _failures(args) -> int:
-    """``--failures``: the single-pair failure table (:func:`design.assessment.failsafe
+    """``--failures``: the single-pair failure table (:func:`bridgeflap.design.assessment.failsafe
     .single_pair_failures`)."""
     import math
 
-    from design.assessment.failsafe import DEFAULT_STUCK_ANGLE_DEG, single_pair_failures
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.assessment.failsafe import DEFAULT_STUCK_ANGLE_DEG, single_pair_failures
+    from bridgeflap.model.structure.loader import load_bridge
 
     angle = DEFAULT_STUCK_ANGLE_DEG if args.stuck_angle_deg is None else args.stuck_angle_deg
     if not (math.isfinite(angle) and abs(angle) <= 90.0):
@@ -99,7 +105,7 @@ def _failures(args) -> int:
     s = res.summary()
     s["bridge"] = str(args.bridge)
     if args.out:
-        from design.io.files import atomic_write_text
+        from bridgeflap.design.io.files import atomic_write_text
 
         atomic_write_text(args.out, res.to_dataframe().to_csv(index=False))
         s["table"] = str(args.out)
@@ -113,7 +119,7 @@ def _speed(v) -> str:
 
 def _failure_text(res, s) -> str:
     """The per-pair table and the verdict as text."""
-    from model.results import table_text
+    from bridgeflap.model.results import table_text
 
     cols = ["pair", "position_m", "edges", "critical_speed_m_s", "critical_mechanism",
             "status", "critical_speed_lower_bound_m_s", "over_intact", "over_open_loop",

@@ -1,22 +1,25 @@
-"""How ``bridgeflap`` runs one command and ends (:func:`design.cli.main.main` calls :func:`run`).
+"""How ``bridgeflap`` runs one command and ends (:func:`bridgeflap.design.cli.main.main` calls
+:func:`run`).
 
 * **Exit statuses.** 0 success; 1 a result that is not usable, or an internal fault (one line
   saying it is a bug; its traceback only with ``--debug``); 2 bad input, including what the OS
   refuses (no space, no permission, a read-only file system, a name too long: one line naming
-  the option, the path and the reason, :func:`design.cli.common.os_error_as_input`); 130
+  the option, the path and the reason, :func:`bridgeflap.design.cli.common.os_error_as_input`); 130
   interrupted.
 * **One line for a refusal.** Warning and note lines (``bridgeflap: warning: ...``) are held
   back until the command shows progress, prints its result or ends
-  (:func:`design.cli.common.log`); a refused input drops them, so it prints its error line only.
+  (:func:`bridgeflap.design.cli.common.log`); a refused input drops them, so it prints its error
+  line only.
 * **Ctrl-C, SIGTERM.** While a command runs, SIGINT (and SIGTERM alike, exit status 143)
   raises :class:`KeyboardInterrupt` once in this
   process (every ``finally`` then removes its temporaries and releases its lock) and ends as
   the one line ``bridgeflap: interrupted``, exit status 130; a second Ctrl-C during that
   clean-up ends the process at once. Worker processes forked meanwhile (process pools) end
   silently on SIGINT (its default action, restored in the child right after the fork), and
-  a local Dask cluster's workers ignore it (:data:`design.batch.cluster.LOCAL_WORKER_CONFIG`): the
-  cluster is closed by this process. So a terminal's Ctrl-C, which signals the whole process
-  group, prints no worker's traceback.
+  a local Dask cluster's workers ignore it
+  (:data:`bridgeflap.design.batch.cluster.LOCAL_WORKER_CONFIG`): the cluster is closed by this
+  process. So a terminal's Ctrl-C, which signals the whole process group, prints no worker's
+  traceback.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ import signal
 import sys
 import threading
 
-from design.cli.common import (
+from bridgeflap.design.cli.common import (
     drop_warnings,
     hold_warnings,
     log,
@@ -34,7 +37,7 @@ from design.cli.common import (
     release_warnings,
     set_verbosity,
 )
-from model.errors import BatchFailedError, BridgeflapError
+from bridgeflap.model.errors import BatchFailedError, BridgeflapError
 
 __all__ = ["BUG_REPORT", "EXIT_BAD_INPUT", "EXIT_INTERNAL", "EXIT_INTERRUPTED", "run"]
 
@@ -107,8 +110,9 @@ if hasattr(os, "register_at_fork"):
 def run(argv: list[str], debug: bool, *, build_parser, check_args, command_names) -> int:
     """Parse ``argv``, run its command and return the exit status (see the module doc).
 
-    The command table comes in as arguments (``design.cli.main`` passes its ``build_parser``, its
-    argument checks and its command names), so that this module does not import the CLI back."""
+    The command table comes in as arguments (``bridgeflap.design.cli.main`` passes its
+    ``build_parser``, its argument checks and its command names), so that this module does not
+    import the CLI back."""
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, _on_sigint) if main_thread else None
     previous_term = signal.signal(signal.SIGTERM, _on_sigint) if main_thread else None

@@ -1,5 +1,5 @@
 """CLI command ``section``: the rigid 2-DOF deck section (listed in
-:data:`design.cli.main.COMMANDS`).
+:data:`bridgeflap.design.cli.main.COMMANDS`).
 
 ``bridgeflap section --mass M --inertia I --f-heave FH --f-torsion FT --half-chord B
 [--aero exact|rfa4|jones|rfa4-band] [--json]`` -> flutter and divergence speeds [m/s] of the
@@ -10,18 +10,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from design.cli.common import add_common, emit, speed_text
-from design.io.options import parse_range
-from model.aero.rfa import RFA_NAMES
-from model.errors import BridgeflapInputError
+from bridgeflap.design.cli.common import add_common, emit, speed_text
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.model.aero.rfa import RFA_NAMES
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["arguments", "cmd_section"]
 
 
 def cmd_section(args):
-    from model.aeroelastic import statespace
-    from model.cases.section import section_basis
-    from model.stability import sweeps as stability
+    from bridgeflap.model.aeroelastic import statespace
+    from bridgeflap.model.cases.section import section_basis
+    from bridgeflap.model.stability import sweeps as stability
 
     basis = section_basis(args.mass, args.inertia, args.f_heave, args.f_torsion, args.half_chord,
                           args.damping_ratio)

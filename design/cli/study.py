@@ -1,4 +1,5 @@
-"""CLI commands ``study``, ``doe`` and ``sensitivity`` (listed in :data:`design.cli.main.COMMANDS`).
+"""CLI commands ``study``, ``doe`` and ``sensitivity`` (listed in
+:data:`bridgeflap.design.cli.main.COMMANDS`).
 
 Contracts (``--json``: one JSON object on stdout; progress on stderr; bad input one line and
 exit status 2 with nothing written):
@@ -15,7 +16,7 @@ exit status 2 with nothing written):
 
 from __future__ import annotations
 
-from design.cli.common import (
+from bridgeflap.design.cli.common import (
     add_common,
     check_plot_target,
     default_workers,
@@ -25,16 +26,16 @@ from design.cli.common import (
     spec_from_args,
     speed_text,
 )
-from design.io.options import parse_range
-from design.studies.analyses import ANALYSES
-from model.errors import BridgeflapInputError
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.design.studies.analyses import ANALYSES
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["cmd_doe", "cmd_sensitivity", "cmd_study", "doe_arguments", "sensitivity_arguments",
            "study_arguments"]
 
 
 def cmd_study(args):
-    from design.studies.study import load_study, run_study
+    from bridgeflap.design.studies.study import load_study, run_study
 
     config = load_study(args.file, quick=args.quick)
     res = run_study(config, out_dir=args.out, progress=log, workers=args.workers)
@@ -60,7 +61,7 @@ def cmd_study(args):
 
 
 def cmd_doe(args):
-    from design.studies.experiments import load_doe, run_doe
+    from bridgeflap.design.studies.experiments import load_doe, run_doe
 
     if args.workers < 1:
         raise BridgeflapInputError("workers", f"must be at least 1, got {args.workers}")
@@ -78,7 +79,7 @@ def cmd_sensitivity(args):
     if args.global_method:
         return _global(args)
     # design/sensitivity/local.py (H1): one import line
-    from design.sensitivity.local import local_sensitivity
+    from bridgeflap.design.sensitivity.local import local_sensitivity
 
     spec = spec_from_args(args)
     params = (args.parameters if args.parameters
@@ -98,7 +99,7 @@ def cmd_sensitivity(args):
 def _global(args):
     from pathlib import Path
 
-    from design.studies.screening import DEFAULT_UNCERTAIN_RANGES, global_sensitivity
+    from bridgeflap.design.studies.screening import DEFAULT_UNCERTAIN_RANGES, global_sensitivity
 
     ranges = DEFAULT_UNCERTAIN_RANGES
     if args.parameters:

@@ -9,5 +9,5 @@ critical-speed design (``critical_speed``), the stated uncertainty set of the es
 (``uncertainty``), and the result with its records, checks and plots (``result``, ``records``,
 ``checks``, ``figures``, ``result_plots``).
 
-May import: :mod:`model`, :mod:`design.io` and :mod:`design.batch`.
+May import: :mod:`bridgeflap.model`, :mod:`bridgeflap.design.io` and :mod:`bridgeflap.design.batch`.
 """

@@ -6,12 +6,13 @@ RMS at two main-span strips relative to the same loop with ``K = 0`` (flaps fitt
 * :class:`ModalBuffeting` (``buffeting_term = "modal"``, the default): the spectral integral as
   a CasADi expression of the compensator coefficients (and the flap weights), written in modal
   coordinates. The compensator enters the closed-loop gust response only through the scalar
-  ``K(j omega)`` (the structure of the analytic robust constraint, :mod:`design.control.robust`), so
-  the frequency data are computed once and each evaluation costs O(n_modes^2) per frequency.
+  ``K(j omega)`` (the structure of the analytic robust constraint,
+  :mod:`bridgeflap.design.control.robust`), so the frequency data are computed once and each
+  evaluation costs O(n_modes^2) per frequency.
 * :class:`SymbolicBuffeting` (``"casadi"``): the same integral on the closed-loop state matrix
   (one dense 2 n_x solve per frequency in the graph): the cross-check, ~1000x slower to build.
-* :class:`BuffetingCost` (``"callback"``): numpy :func:`model.response.buffeting.buffeting` with a
-  forward-difference gradient.
+* :class:`BuffetingCost` (``"callback"``): numpy
+  :func:`bridgeflap.model.response.buffeting.buffeting` with a forward-difference gradient.
 
 Used only when ``weight_buffeting > 0``.
 """
@@ -23,7 +24,7 @@ import os
 import casadi as ca
 import numpy as np
 
-from design.control.loop_algebra import _loop_block, k_complex
+from bridgeflap.design.control.loop_algebra import _loop_block, k_complex
 
 
 class BuffetingCost(ca.Callback):
@@ -101,9 +102,9 @@ class BuffetingCost(ca.Callback):
 class SymbolicBuffeting:
     """``J_buf(theta, w)`` as the CasADi spectral integral of the design card.
 
-    Per buffeting speed ``U``, :func:`model.aeroelastic.symbolic.buffeting_rms_function` on the
-    closed-loop functions ``A_cl(U, theta, w)``, ``B_gust(U, theta, w)`` of the one assembly: the
-    one-sided spectral integral (trapezoid rule, frequency grid and load projection frozen at
+    Per buffeting speed ``U``, :func:`bridgeflap.model.aeroelastic.symbolic.buffeting_rms_function`
+    on the closed-loop functions ``A_cl(U, theta, w)``, ``B_gust(U, theta, w)`` of the one assembly:
+    the one-sided spectral integral (trapezoid rule, frequency grid and load projection frozen at
     the reference design) of the vertical and the torsional RMS at two fixed strips -- the
     main-span strips where the reference closed loop's RMS is largest. Exactly
     differentiable in the compensator coefficients and the flap weights (CasADi AD), unlike
@@ -112,20 +113,20 @@ class SymbolicBuffeting:
 
     Parameters
     ----------
-    problem : design.control.nlp.DesignProblem
+    problem : bridgeflap.design.control.nlp.DesignProblem
     theta_ref, w_ref : array_like
         Reference design (frozen grid, strips): e.g. the start point.
     n_base, peaks_per_mode : int
-        Grid of :func:`model.spectral.adaptive_frequency_grid` (coarser than the numpy
+        Grid of :func:`bridgeflap.model.spectral.adaptive_frequency_grid` (coarser than the numpy
         path: one dense 2 n_x solve per frequency in the expression graph).
     """
 
     def __init__(self, problem, theta_ref, w_ref=None, n_base=40, peaks_per_mode=15):
-        from model.aero.gust import gust_field
-        from model.aeroelastic.control import Compensator
-        from model.aeroelastic.symbolic import buffeting_rms_function
-        from model.response.buffeting import _main_span_mask, buffeting
-        from model.structure.loader import load_bridge
+        from bridgeflap.model.aero.gust import gust_field
+        from bridgeflap.model.aeroelastic.control import Compensator
+        from bridgeflap.model.aeroelastic.symbolic import buffeting_rms_function
+        from bridgeflap.model.response.buffeting import _main_span_mask, buffeting
+        from bridgeflap.model.structure.loader import load_bridge
 
         s = problem.settings
         spec = problem.spec if problem.spec is not None else load_bridge(s.bridge)
@@ -166,17 +167,18 @@ class ModalBuffeting:
     """``J_buf(theta, w)``: the CasADi spectral buffeting integral in modal coordinates.
 
     Closed loop (``beta = K alpha`` at every flap,
-    :meth:`model.aeroelastic.flaps.ClosedLoopModel.gust_plant`)::
+    :meth:`bridgeflap.model.aeroelastic.flaps.ClosedLoopModel.gust_plant`)::
 
         q = (I - K N)^{-1} X_g w_tilde,   N = X diag(w) Pa,   X_g = D(j omega)^{-1} U P_gust
 
     with ``D`` the frozen-RFA dynamic matrix: ``D^{-1}`` is the exact transfer function of the
-    RFA state space, so this is the integrand of :func:`model.response.buffeting.reduced_response`
-    for the closed loop. For an output row ``c`` (strip heave or pitch per modal coordinate) the
-    one-sided PSD is ``G = y^T M conj(y)``, ``y = (I - K N)^{-T} c``, ``M = E S E^H`` (``E = X_g
-    V^T``, ``S`` the projected load CSD ``s_w chi^2 V R V^T``,
-    :func:`model.aero.gust.coherence_projection``): ``M`` does not depend on the design and is
-    computed once per frequency.
+    RFA state space, so this is the integrand of
+    :func:`bridgeflap.model.response.buffeting.reduced_response` for the closed loop. For an output
+    row ``c`` (strip heave or pitch per modal coordinate) the one-sided PSD is ``G = y^T M
+    conj(y)``, ``y = (I - K N)^{-T} c``, ``M = E S E^H`` (``E = X_g V^T``, ``S`` the projected load
+    CSD ``s_w chi^2 V R V^T``,
+    :func:`bridgeflap.model.aero.gust.coherence_projection``): ``M`` does not depend on the design
+    and is computed once per frequency.
 
     With the layout fixed (``fixed_layout``; the default design), ``N = V diag(mu) V^{-1}`` once
     per frequency gives ``G = d^T H conj(d)``, ``d_i = 1 / (1 - K mu_i)``, ``H = diag(a) B
@@ -184,14 +186,14 @@ class ModalBuffeting:
     Otherwise (flap placement, ``w`` a variable) one ``2 n`` real solve per frequency.
 
     The quadrature grid is frozen: per speed the union of the adaptive grids
-    (:func:`model.spectral.adaptive_frequency_grid`) of the open loop and of the reference
-    design ``theta_ref`` closed loop. The strips are the main-span strips of largest open-loop
-    RMS (vertical and torsional). :meth:`check` compares the frozen integral with the converged
-    numpy path at any design (a posteriori).
+    (:func:`bridgeflap.model.spectral.adaptive_frequency_grid`) of the open loop and of the
+    reference design ``theta_ref`` closed loop. The strips are the main-span strips of largest
+    open-loop RMS (vertical and torsional). :meth:`check` compares the frozen integral with the
+    converged numpy path at any design (a posteriori).
 
     Parameters
     ----------
-    problem : design.control.nlp.DesignProblem
+    problem : bridgeflap.design.control.nlp.DesignProblem
     theta_ref : array_like, optional
         Reference design for the grid (default: only the open-loop grid).
     fixed_layout : bool
@@ -202,16 +204,16 @@ class ModalBuffeting:
 
     def __init__(self, problem, theta_ref=None, fixed_layout=True, n_base=80, peaks_per_mode=25,
                  half_widths=30.0):
-        from model.aero.gust import coherence_projection, gust_field
-        from model.aeroelastic.control import Compensator
-        from model.response.buffeting import (
+        from bridgeflap.model.aero.gust import coherence_projection, gust_field
+        from bridgeflap.model.aeroelastic.control import Compensator
+        from bridgeflap.model.response.buffeting import (
             OMEGA_MAX_FACTOR,
             _main_span_mask,
             buffeting,
             row_factor,
         )
-        from model.spectral import adaptive_frequency_grid, trapezoid_weights
-        from model.structure.loader import load_bridge
+        from bridgeflap.model.spectral import adaptive_frequency_grid, trapezoid_weights
+        from bridgeflap.model.structure.loader import load_bridge
 
         s = problem.settings
         spec = problem.spec if problem.spec is not None else load_bridge(s.bridge)
@@ -316,9 +318,9 @@ class ModalBuffeting:
     def check(self, problem, theta, w=None) -> dict:
         """The frozen integral against the numpy path (adaptive grid, converged to 5e-3) at
         ``theta``: the RMS at the same strips and the largest relative difference."""
-        from model.aeroelastic.control import Compensator
-        from model.response.buffeting import buffeting
-        from model.structure.loader import load_bridge
+        from bridgeflap.model.aeroelastic.control import Compensator
+        from bridgeflap.model.response.buffeting import buffeting
+        from bridgeflap.model.structure.loader import load_bridge
 
         w = self.weights if w is None else np.asarray(w, float)
         s = problem.settings
@@ -505,9 +507,9 @@ def _eig_point_expression(n) -> ca.Function:
 
 def _lowrank_pitch_map(Pa) -> tuple[np.ndarray, np.ndarray]:
     """``(U_r S, V_r)`` of ``Phi_a = U_r S V_r^T`` truncated at
-    ``design.control.loop_algebra.LOWRANK_RTOL``
+    ``bridgeflap.design.control.loop_algebra.LOWRANK_RTOL``
     (rank 4 for 25 flaps on 16 modes: only the torsional modes pitch)."""
-    from design.control.loop_algebra import LOWRANK_RTOL
+    from bridgeflap.design.control.loop_algebra import LOWRANK_RTOL
 
     U, s, Vt = np.linalg.svd(np.asarray(Pa, float), full_matrices=False)
     r = max(1, int(np.sum(s > LOWRANK_RTOL * s[0]))) if s.size and s[0] > 0 else 1

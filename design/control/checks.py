@@ -1,9 +1,9 @@
-"""Checks and reports around a compensator design (:func:`design.control.driver.design`).
+"""Checks and reports around a compensator design (:func:`bridgeflap.design.control.driver.design`).
 
 Closed-loop flutter/divergence limits and mechanism, the constraints active at the optimum,
 the flap-count Pareto with K re-optimised per count, and the multi-model variants (sampling
-and the a posteriori check on fresh variants). Split from :mod:`design.control.driver` (one job per
-file); the driver re-exports these names.
+and the a posteriori check on fresh variants). Split from :mod:`bridgeflap.design.control.driver`
+(one job per file); the driver re-exports these names.
 """
 
 from __future__ import annotations
@@ -13,18 +13,18 @@ from dataclasses import replace
 
 import numpy as np
 
-from design.control.nlp import DesignProblem
-from design.control.records import BuffetingComparison, ParetoPoint
-from design.control.settings import DesignSettings
-from model.aeroelastic.control import Controller
+from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.records import BuffetingComparison, ParetoPoint
+from bridgeflap.design.control.settings import DesignSettings
+from bridgeflap.model.aeroelastic.control import Controller
 
 NAN = float("nan")
 
 
 def _driver():
-    """The design problem's model and checks (:mod:`design.control.problem_model`; imported on use:
-    it loads the NLP)."""
-    import design.control.problem_model as problem_model
+    """The design problem's model and checks (:mod:`bridgeflap.design.control.problem_model`;
+    imported on use: it loads the NLP)."""
+    import bridgeflap.design.control.problem_model as problem_model
 
     return problem_model
 
@@ -36,9 +36,9 @@ def flap_count_pareto(settings: DesignSettings, theta0, counts=None, spec=None,
     Counts from ``flap_count`` down (``counts`` overrides; default every count
     ``pareto_step`` apart down to 1), each the evenly spaced symmetric layout
     :meth:`DesignSettings.positions`; each is designed by
-    :meth:`design.control.nlp.DesignProblem.solve_with_cuts` warm-started from the previous count's
-    K (the first from ``theta0``) and verified like a design (damping and gain on the design
-    model, stability on the verification model). The search stops after two consecutive
+    :meth:`bridgeflap.design.control.nlp.DesignProblem.solve_with_cuts` warm-started from the
+    previous count's K (the first from ``theta0``) and verified like a design (damping and gain on
+    the design model, stability on the verification model). The search stops after two consecutive
     counts that do not verify (fewer flaps have less authority). Returns ``{"points": [...],
     "minimum_verified": count or None}``.
     """
@@ -104,13 +104,13 @@ ACTIVE_REL_TOL = 0.01
 def closed_loop_limits(settings: DesignSettings, controller: Controller, spec=None) -> dict:
     """Closed-loop flutter and divergence speeds and mechanisms on the verification model.
 
-    ``model.analysis.closed_loop_flutter`` on 0 .. ``LIMIT_SPEED_FACTOR * speed_max_m_s``
+    ``bridgeflap.model.analysis.closed_loop_flutter`` on 0 .. ``LIMIT_SPEED_FACTOR * speed_max_m_s``
     (the one stability sweep of the package) with the open-loop limits for reference; the
-    critical speed is the lower converged limit (``model.analysis.critical_speed``), the
+    critical speed is the lower converged limit (``bridgeflap.model.analysis.critical_speed``), the
     static divergence check ``det(K - U^2 P G0(K(0)))`` included.
     """
-    from model.analysis import closed_loop_flutter
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.analysis import closed_loop_flutter
+    from bridgeflap.model.structure.loader import load_bridge
 
     spec = load_bridge(settings.bridge if spec is None else spec)
     U = np.arange(0.0, LIMIT_SPEED_FACTOR * settings.speed_max_m_s + 1e-9, LIMIT_STEP_M_S)
@@ -196,10 +196,10 @@ def active_constraints(settings: DesignSettings, start, ver) -> dict:
 def sample_variants(settings: DesignSettings, spec, count: int, seed: int) -> list:
     """``count`` bridge variants of ``spec``: a scrambled Sobol' sample of the estimated-input
     ranges of the global sensitivity study
-    (:data:`design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES`)
+    (:data:`bridgeflap.design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES`)
     without the ``variant_fixed`` parameters (held at ``spec``'s values)."""
-    from design.batch.designs import sobol
-    from design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
+    from bridgeflap.design.batch.designs import sobol
+    from bridgeflap.design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
 
     if count <= 0:
         return []
@@ -212,15 +212,15 @@ def sample_variants(settings: DesignSettings, spec, count: int, seed: int) -> li
 def fresh_variant_check(settings: DesignSettings, controller: Controller, specs) -> dict:
     """A posteriori check of a design on fresh variants (not in the design set) on the finer
     ``fresh_variant_modes`` model: the fraction stable 0..speed_max and meeting ``zeta_min``.
-    On the refined subset of the check grid (:func:`design.control.plant.damping_check_refined`: the
-    dense check's decisions at ~1/5 of its eigenvalues; ``min_damping_ratio`` is the smallest
-    over the speeds checked)."""
+    On the refined subset of the check grid
+    (:func:`bridgeflap.design.control.plant.damping_check_refined`: the dense check's decisions at
+    ~1/5 of its eigenvalues; ``min_damping_ratio`` is the smallest over the speeds checked)."""
     return fresh_variant_summary(settings, fresh_variant_rows(settings, controller, specs))
 
 
 def fresh_variant_rows(settings: DesignSettings, controller: Controller, specs) -> list:
     """The per-variant rows of :func:`fresh_variant_check` (a chunk of them can run in a
-    worker process: :func:`design.control.driver.design` splits them over its pool)."""
+    worker process: :func:`bridgeflap.design.control.driver.design` splits them over its pool)."""
     rows = []
     th = _driver().warm_start_theta(controller)
     for v in specs:
@@ -302,7 +302,7 @@ def margin_on_speed_grid(settings: DesignSettings, controller: Controller, spec=
 def limits_text(lim) -> str:
     """One log line of :func:`closed_loop_limits` (a limit not found within the searched
     range as such, never "nan m/s")."""
-    from design.io.text import speed_text
+    from bridgeflap.design.io.text import speed_text
 
     def sp(k):
         status = lim.get(k.replace("_speed_m_s", "_status"), "no_crossing_in_range")
@@ -317,11 +317,11 @@ def limits_text(lim) -> str:
 
 def buffeting_comparison(settings: DesignSettings, controller: Controller, speeds=None,
                          spec=None) -> BuffetingComparison:
-    """Open- vs closed-loop max RMS response (``model.response.buffeting``, verification model) at
-    ``speeds`` [m/s] (default ``buffeting_speeds_m_s``) on ``spec`` (default the built-in
+    """Open- vs closed-loop max RMS response (``bridgeflap.model.response.buffeting``, verification
+    model) at ``speeds`` [m/s] (default ``buffeting_speeds_m_s``) on ``spec`` (default the built-in
     ``settings.bridge``)."""
-    from model.response.buffeting import buffeting
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.response.buffeting import buffeting
+    from bridgeflap.model.structure.loader import load_bridge
 
     spec = load_bridge(settings.bridge if spec is None else spec)
     speeds = np.asarray(settings.buffeting_speeds_m_s if speeds is None else speeds, float)

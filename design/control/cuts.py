@@ -1,9 +1,9 @@
 """The cutting-plane loop of the compensator NLP
-(:meth:`design.control.nlp.DesignProblem.solve_with_cuts`).
+(:meth:`bridgeflap.design.control.nlp.DesignProblem.solve_with_cuts`).
 
 Phase 1 (feasibility, no robust epigraph) from an infeasible start, then warm-started
 re-solves with damping-speed, gain and robust cuts and robust peak tracking; the best round
-is returned and every round recorded (docstrings of :mod:`design.control.nlp`).
+is returned and every round recorded (docstrings of :mod:`bridgeflap.design.control.nlp`).
 """
 
 from __future__ import annotations
@@ -12,16 +12,16 @@ from dataclasses import replace
 
 import numpy as np
 
-from design.control import variants
-from design.control.loop_algebra import compensator_damped
-from design.control.nlp_tolerances import (
+from bridgeflap.design.control import variants
+from bridgeflap.design.control.loop_algebra import compensator_damped
+from bridgeflap.design.control.nlp_tolerances import (
     GAIN_BACKOFF,
     ROBUST_CLUSTER_STEP,
     ROBUST_CUTS_PER_SPEED,
     VIOLATION_TOL,
 )
-from design.control.records import CutRound, CutsOutcome
-from model.aeroelastic.control import Compensator
+from bridgeflap.design.control.records import CutRound, CutsOutcome
+from bridgeflap.model.aeroelastic.control import Compensator
 
 #: Round 0 warm-started (monotone barrier from ``design.control.nlp_tolerances.WARM_MU_INIT``) when
 #: its start is feasible (a feasible start, or phase 1's first feasible iterate). Measured on the
@@ -40,8 +40,8 @@ MAX_DIVERGED = 2
 
 
 def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
-    """Solve ``prob`` (a :class:`design.control.nlp.DesignProblem`) with phase 1 and cutting planes;
-    see :meth:`design.control.nlp.DesignProblem.solve_with_cuts`."""
+    """Solve ``prob`` (a :class:`bridgeflap.design.control.nlp.DesignProblem`) with phase 1 and
+    cutting planes; see :meth:`bridgeflap.design.control.nlp.DesignProblem.solve_with_cuts`."""
     s = prob.settings
     speeds = list(prob.settings.design_speeds())
     history = []

@@ -1,13 +1,13 @@
 """Multistart driver of the compensator design: starts, per-start runs, selection, checks.
 
-:func:`design` runs one :class:`design.control.nlp.DesignProblem` per start (a nominal start and
-screened Sobol points, optionally in processes), selects one (:func:`select_start`), checks it
-on the verification model, searches the minimum flap count and compares buffeting.
+:func:`design` runs one :class:`bridgeflap.design.control.nlp.DesignProblem` per start (a nominal
+start and screened Sobol points, optionally in processes), selects one (:func:`select_start`),
+checks it on the verification model, searches the minimum flap count and compares buffeting.
 
 Verification. Every solution is checked a posteriori on the dense ``check_step_m_s`` grid
 (cutting planes: violating speeds join the design grid and the problem is re-solved) and, when
 the design model is reduced, on the ``verification_modes`` model that ``bridgeflap flutter``
-uses (:data:`model.analysis.DEFAULT_MODES`); the result reports both honestly.
+uses (:data:`bridgeflap.model.analysis.DEFAULT_MODES`); the result reports both honestly.
 
 Placement. With ``optimise_placement`` the per-flap weights ``w`` (load factor, 1 = fitted;
 one per mirror pair with ``symmetric_layout``) are NLP variables with an optional budget
@@ -21,9 +21,9 @@ Every result reports the closed-loop flutter and divergence limits and mechanism
 (:func:`active_constraints`). Multi-model (``variants`` > 0): damping constraints on bridge
 variants sampled over the estimated-input ranges, fresh variants checked a posteriori.
 
-Parallel starts use a process pool (:func:`model.workers.process_pool`), not the Dask cluster of
-the DOE (:mod:`design.batch.cluster`). A design runs two to four long tasks once,
-inside one call, on the local machine: the executor starts in 0.16 s, while a Dask
+Parallel starts use a process pool (:func:`bridgeflap.model.workers.process_pool`), not the Dask
+cluster of the DOE (:mod:`bridgeflap.design.batch.cluster`). A design runs two to four long tasks
+once, inside one call, on the local machine: the executor starts in 0.16 s, while a Dask
 ``LocalCluster`` of two workers took 10.0 s to start and 2.3 s to close on the loaded
 2-core machine (load 11), a fifth of the 60 s budget, and would import dask/distributed on a
 command that otherwise does not. Dask's retries, time limits and remote
@@ -37,7 +37,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from design.control.checks import (  # noqa: F401 - re-exported (tests, API)
+from bridgeflap.design.control.checks import (  # noqa: F401 - re-exported (tests, API)
     ACTIVE_ABS_TOL_1_S,
     ACTIVE_REL_TOL,
     LIMIT_SPEED_FACTOR,
@@ -54,22 +54,24 @@ from design.control.checks import (  # noqa: F401 - re-exported (tests, API)
     nlp_active_speeds,
     sample_variants,
 )
-from design.control.flap_count import MISSES_TO_STOP, minimum_flap_count  # noqa: F401 - re-exported
-from design.control.nlp import DesignProblem
-from design.control.plant import closed_loop_abscissa
-from design.control.problem_model import (  # noqa: F401 - re-exported (tests, API)
+
+# re-exported
+from bridgeflap.design.control.flap_count import MISSES_TO_STOP, minimum_flap_count  # noqa: F401
+from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.plant import closed_loop_abscissa
+from bridgeflap.design.control.problem_model import (  # noqa: F401 - re-exported (tests, API)
     NOMINAL_START,
     build_model,
     verify_layout,
     warm_start_theta,
 )
-from design.control.records import (
+from bridgeflap.design.control.records import (
     BuffetingComparison,
 )
-from design.control.result import DesignResult
-from design.control.scenarios import scenario_specs
-from design.control.settings import DesignSettings
-from design.control.start import (  # noqa: F401 - re-exported (tests, API)
+from bridgeflap.design.control.result import DesignResult
+from bridgeflap.design.control.scenarios import scenario_specs
+from bridgeflap.design.control.settings import DesignSettings
+from bridgeflap.design.control.start import (  # noqa: F401 - re-exported (tests, API)
     SCREEN_FACTOR,
     _progress_bar,
     layout_record,
@@ -80,10 +82,10 @@ from design.control.start import (  # noqa: F401 - re-exported (tests, API)
     sobol_starts,
     solve_fixed_layout,
 )
-from design.io.api_args import check_design_args
-from model.aeroelastic.control import Compensator, Controller
-from model.structure.loader import load_bridge
-from model.vocabulary import renamed
+from bridgeflap.design.io.api_args import check_design_args
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.structure.loader import load_bridge
+from bridgeflap.model.vocabulary import renamed
 
 NAN = float("nan")
 def _timed(fun, *args, **kw):
@@ -121,7 +123,7 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     settings : DesignSettings
     progress : callable, optional
         ``str -> None``, called with one line per start and step.
-    bridge : model.structure.spec.BridgeSpec, name or bridge TOML path, optional
+    bridge : bridgeflap.model.structure.spec.BridgeSpec, name or bridge TOML path, optional
         The bridge (default ``settings.bridge``), e.g. a variant; every model is built on it.
     warm_start : Controller, Compensator or array_like, optional
         Start 0 from this compensator instead of :data:`NOMINAL_START` (e.g. a design of a
@@ -131,13 +133,13 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     records : sequence of StartRecord, optional
         Starts already run on ``settings`` (:func:`run_start`): only the selection and the
         checks follow. ``objective = "critical_speed"`` without them runs
-        :func:`design.control.critical_speed.critical_speed_design`, which calls this with its
-        chosen inner design.
+        :func:`bridgeflap.design.control.critical_speed.critical_speed_design`, which calls this
+        with its chosen inner design.
     """
     check_design_args(settings, progress, bridge, warm_start, progress_bar, records)
     spec = None if bridge is None else load_bridge(bridge)  # a name, a file or a BridgeSpec
     if records is None and settings.objective == "critical_speed":
-        from design.control.critical_speed import critical_speed_design
+        from bridgeflap.design.control.critical_speed import critical_speed_design
 
         # this function is the search's inner design (passed in: no import back)
         return critical_speed_design(settings, progress=progress, spec=spec,
@@ -166,7 +168,7 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     if given:
         records = list(records)
     elif settings.parallel and settings.starts > 1:
-        from model.workers import process_pool
+        from bridgeflap.model.workers import process_pool
 
         with process_pool(min(2, settings.starts)) as ex:
             records = list(ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n,
@@ -186,7 +188,7 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     best, status = select_start(records, settings.gain_limit)
     extras, controller = {}, None
     if settings.layout_neighbours:  # design.control.layout_search
-        from design.control.layout_search import design_step
+        from bridgeflap.design.control.layout_search import design_step
 
         best, status, extras["layout_neighbours"] = design_step(settings, best, status, spec,
                                                                 variants, log)
@@ -197,7 +199,7 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     if best is not None:
         theta = np.asarray(best.theta)
         positions = np.asarray(best.flap_positions_m)
-        from model.aeroelastic.controller_file import plant_record
+        from bridgeflap.model.aeroelastic.controller_file import plant_record
 
         controller = Controller(Compensator(*(float(v) for v in theta)),
                                 tuple(float(x) for x in positions),
@@ -212,7 +214,7 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
         # own time, marked "worker")
         pool = None
         if settings.parallel:
-            from model.workers import process_pool
+            from bridgeflap.model.workers import process_pool
 
             pool = process_pool(2)
         try:

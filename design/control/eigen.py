@@ -3,7 +3,8 @@
 CasADi has no differentiable nonsymmetric eigendecomposition, so the eigenvalues of a
 parameterised real matrix ``A(U, p) = sum_j U^j A_j(p)`` are computed in numpy/scipy inside a
 :class:`casadi.Callback` whose Jacobian is supplied analytically from left/right eigenvectors
-(:func:`model.spectrum.eigenvalue_derivatives`, the package's one eigenvalue derivative)::
+(:func:`bridgeflap.model.spectrum.eigenvalue_derivatives`, the package's one eigenvalue
+derivative)::
 
     d lambda_i / d p_k = w_i^H (dA/dp_k) v_i / (w_i^H v_i)
 
@@ -13,7 +14,7 @@ real parts of ``eig(A(U, p))`` at each speed of a grid, sorted descending. Const
 them (``<= -margin``) bounds the spectral abscissa while the individual branches stay smooth away
 from crossings (docs/methods.md#eigenvalue-constraints, m ~ 3-6 per speed). The constraint is
 nonsmooth where eigenvalues coalesce; always verify the final design a posteriori with
-:func:`model.spectrum.spectral_abscissa` on a finer speed grid
+:func:`bridgeflap.model.spectrum.spectral_abscissa` on a finer speed grid
 (docs/methods.md#eigenvalue-constraints).
 
 CasADi Callback Jacobian signature (checked on CasADi 3.8.2): ``get_jacobian(name, inames,
@@ -39,7 +40,7 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from model.spectrum import DEFECT_TOL, eigenvalue_derivatives
+from bridgeflap.model.spectrum import DEFECT_TOL, eigenvalue_derivatives
 
 __all__ = ["PolynomialStructuralDamping", "PolynomialTopRealParts", "damping_measure",
            "fixed_pole_copies", "inverse_iteration", "structural_selection"]
@@ -134,8 +135,8 @@ class PolynomialTopRealParts(_VectorIO, ca.Callback):
     One callback for a whole speed grid: ``dA_j/dp`` is evaluated once per ``p`` (sparse),
     each speed needs one ``eig`` with left and right eigenvectors, shared between the value
     and the Jacobian (cached by ``p``). Used by the compensator design (``A_j`` the closed-loop
-    parts of :func:`model.aeroelastic.symbolic.closed_loop_functions`); with one part ``A_0(p)`` and
-    one speed it is the top-``m`` real parts of a single matrix.
+    parts of :func:`bridgeflap.model.aeroelastic.symbolic.closed_loop_functions`); with one part
+    ``A_0(p)`` and one speed it is the top-``m`` real parts of a single matrix.
 
     Parameters
     ----------
@@ -150,7 +151,8 @@ class PolynomialTopRealParts(_VectorIO, ca.Callback):
         whose eigenvalues are identically zero at ``U = 0``).
     defect_tol : float
         Nearly-defective threshold on ``|w^H v|/(|w||v|)`` [-]
-        (:func:`model.spectrum.eigenvalue_derivatives`); such rows are taken by differences.
+        (:func:`bridgeflap.model.spectrum.eigenvalue_derivatives`); such rows are taken by
+        differences.
     fd_step : float
         Relative central-difference step of that fallback [-].
     name : str
@@ -451,8 +453,8 @@ class PolynomialStructuralDamping(PolynomialTopRealParts):
     in the upper half-plane (the structural branches, plus the coupled lag and compensator
     eigenvalues, which are real and stable and therefore satisfy it).
 
-    Jacobian: ``d lambda`` from :func:`model.spectrum.eigenvalue_derivatives` (complex), then
-    ``d g = Re d lambda + zeta_min Re(conj(lambda) d lambda) / |lambda|``. Nearly defective
+    Jacobian: ``d lambda`` from :func:`bridgeflap.model.spectrum.eigenvalue_derivatives` (complex),
+    then ``d g = Re d lambda + zeta_min Re(conj(lambda) d lambda) / |lambda|``. Nearly defective
     rows fall back to central differences as in the parent class.
 
     Parameters

@@ -2,8 +2,9 @@
 
 The optimised K(s) is kept and every evenly spaced flap count is checked on the dense grid of
 the verification model, refined from a coarse subset
-(:func:`design.control.plant.damping_check_refined`), with one modal solution for all counts (only
-the closed loop and its sweep per count). Re-exported by :mod:`design.control.driver`.
+(:func:`bridgeflap.design.control.plant.damping_check_refined`), with one modal solution for all
+counts (only the closed loop and its sweep per count). Re-exported by
+:mod:`bridgeflap.design.control.driver`.
 """
 
 from __future__ import annotations
@@ -12,10 +13,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from design.control.nlp import DesignProblem
-from design.control.nlp_tolerances import VIOLATION_TOL
-from design.control.records import FlapCountCheck, FlapCountSearch
-from design.control.settings import DesignSettings
+from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.nlp_tolerances import VIOLATION_TOL
+from bridgeflap.design.control.records import FlapCountCheck, FlapCountSearch
+from bridgeflap.design.control.settings import DesignSettings
 
 #: The same-K search over every count stops after this many consecutive failing counts.
 MISSES_TO_STOP = 3
@@ -43,9 +44,9 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
     if every:
         counts = tuple(range(settings.flap_count, 0, -1))
     if modal is None:           # one modal solution for every count (the layout changes only)
-        from model.structure.fe import assemble
-        from model.structure.loader import load_bridge
-        from model.structure.modes import solve
+        from bridgeflap.model.structure.fe import assemble
+        from bridgeflap.model.structure.loader import load_bridge
+        from bridgeflap.model.structure.modes import solve
 
         spec = load_bridge(settings.bridge if spec is None else spec)
         modal = solve(assemble(spec))
@@ -58,7 +59,7 @@ def minimum_flap_count(settings: DesignSettings, theta, counts=None, modal=None,
     misses = 0
     own = pool is None and workers > 1
     if own:                     # the counts in two processes, in order
-        from model.workers import process_pool
+        from bridgeflap.model.workers import process_pool
 
         pool = process_pool(workers)
     elif workers == 1:
@@ -107,7 +108,7 @@ def _count_row(count, ver) -> FlapCountCheck:
 
 def _check_count(settings, count, modal, spec, theta) -> FlapCountCheck:
     """Dense same-K check of ``count`` evenly spaced flaps on the verification model."""
-    from design.control.problem_model import build_model
+    from bridgeflap.design.control.problem_model import build_model
 
     _, model = build_model(settings, count, modal, n_modes=settings.verification_modes,
                            spec=spec)

@@ -1,8 +1,9 @@
-"""Ipopt iteration hooks of the compensator NLP (:meth:`design.control.nlp.DesignProblem.solve`).
+"""Ipopt iteration hooks of the compensator NLP
+(:meth:`bridgeflap.design.control.nlp.DesignProblem.solve`).
 
 :class:`IterationCallback` is CasADi's ``iteration_callback``: once per Ipopt iteration it
-calls the progress function (the tqdm bars of :func:`design.control.driver.design`) and, for the
-phase-1 solve, stops Ipopt at the first iterate that satisfies every constraint (the
+calls the progress function (the tqdm bars of :func:`bridgeflap.design.control.driver.design`) and,
+for the phase-1 solve, stops Ipopt at the first iterate that satisfies every constraint (the
 damping constraints backed off by ``FEASIBILITY_BACKOFF_1_S``): phase 1 only has to find a
 strictly feasible point, and its objective (the regularisation alone) gives the free
 ``gamma_T`` no direction, so the iterations after the first feasible one only polish a

@@ -1,7 +1,8 @@
 """The flap loop's algebra in real arithmetic, shared by the robustness terms
-(:mod:`design.control.robust`) and the buffeting term (:mod:`design.control.buffeting_term`): ``K(j
-omega)`` of the 2nd-order compensator for symbolic or numeric coefficients, the real block form of
-``I - K N``, and the rank tolerance of the flap pitch map. A leaf module: it imports neither."""
+(:mod:`bridgeflap.design.control.robust`) and the buffeting term
+(:mod:`bridgeflap.design.control.buffeting_term`): ``K(j omega)`` of the 2nd-order compensator for
+symbolic or numeric coefficients, the real block form of ``I - K N``, and the rank tolerance of the
+flap pitch map. A leaf module: it imports neither."""
 
 from __future__ import annotations
 

@@ -17,7 +17,8 @@ Robustness: ``T`` is the input complementary sensitivity of the flap loop; the N
 Frobenius norm (an upper bound of ``sigma_max``) at ``robust_design_speeds_m_s`` and
 ``n_robust_omega`` log-spaced frequencies plus the in-vacuo structural frequencies, so
 ``1/gamma_T`` is a guaranteed lower bound of the small-gain margin at those points
-(:mod:`design.control.robust`); the true margin is checked on a dense grid (:meth:`robust_margin`).
+(:mod:`bridgeflap.design.control.robust`); the true margin is checked on a dense grid
+(:meth:`robust_margin`).
 
 Damping. The constraint is a minimum damping ratio ``zeta_min`` (default 0.5 %) of
 every eigenvalue the flaps can move, written ``Re lambda + zeta_min |lambda| <= 0`` (continuous
@@ -26,20 +27,20 @@ copies of the RFA lag poles ``-p_i U / b`` (up to 16 identical ones, the spectra
 most speeds) and of the compensator poles are excluded: no flap moves them, and the former
 decay-rate constraint on the top real parts was therefore never active. At ``U = 0`` the lag
 states are exactly decoupled (their input is proportional to ``U``) and dropped. The
-constraints use :class:`design.control.eigen.PolynomialStructuralDamping` (analytic eigenvalue
-Jacobians through the one assembly, limited-memory Hessian).
+constraints use :class:`bridgeflap.design.control.eigen.PolynomialStructuralDamping` (analytic
+eigenvalue Jacobians through the one assembly, limited-memory Hessian).
 
 Buffeting. ``J_buf`` is the mean over ``buffeting_speeds_m_s`` of the squared RMS vertical and
 torsional deck response (each normalised by its ``K = 0`` value): by default the CasADi spectral
-integral in modal coordinates (:class:`design.control.buffeting_term.ModalBuffeting`, exact AD
-derivatives); used only when ``weight_buffeting > 0``.
+integral in modal coordinates (:class:`bridgeflap.design.control.buffeting_term.ModalBuffeting`,
+exact AD derivatives); used only when ``weight_buffeting > 0``.
 
 Phase 1 and cutting planes (:meth:`DesignProblem.solve_with_cuts`). From a start that violates
 the damping constraints a phase-1 solve without the robust epigraph finds a strictly feasible
 point first (``FEASIBILITY_BACKOFF_1_S``; it stops at the first feasible iterate,
-:mod:`design.control.ipopt_hooks`). Then at most ``cutting_plane_rounds`` warm-started re-solves
-(monotone barrier from ``WARM_MU_INIT``) of at most ``resolve_max_iter`` iterations: violating
-speeds of the dense damping
+:mod:`bridgeflap.design.control.ipopt_hooks`). Then at most ``cutting_plane_rounds`` warm-started
+re-solves (monotone barrier from ``WARM_MU_INIT``) of at most ``resolve_max_iter`` iterations:
+violating speeds of the dense damping
 check join the design grid; if the true peak ``Compensator.max_gain()`` exceeds the limit, its
 frequency joins the gain grid; dense ``sigma_max(T)`` peaks above ``gamma_T`` join the robust
 epigraph, and while the bound fails the dense peak frequency of every check speed is tracked
@@ -52,10 +53,12 @@ round is recorded. A design whose true peak gain exceeds ``gain_limit`` is never
 Placement (``optimise_placement``): relaxed weights ``w = S z`` in [0, 1], one per mirror pair
 with ``symmetric_layout`` (:attr:`DesignProblem.symmetry`), an optional flap-count budget
 ``sum(w) <= flap_budget`` and penalty ``weight_flaps``; rounding and the re-solve of K for the
-rounded layout are in :mod:`design.control.driver`. Multi-model: :mod:`design.control.variants`.
+rounded layout are in :mod:`bridgeflap.design.control.driver`. Multi-model:
+:mod:`bridgeflap.design.control.variants`.
 
 Multistart, verification on the ``verification_modes`` model, placement rounding and the
-result records: :mod:`design.control.driver`; settings: :mod:`design.control.settings`.
+result records: :mod:`bridgeflap.design.control.driver`; settings:
+:mod:`bridgeflap.design.control.settings`.
 """
 
 from __future__ import annotations
@@ -66,28 +69,32 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from design.control.buffeting_term import buffeting_objective
-from design.control.eigen import PolynomialStructuralDamping, parts_jacobian
-from design.control.ipopt_hooks import DIVERGE_ITERATIONS, DIVERGE_LEVEL, IterationCallback
-from design.control.loop_algebra import k_complex
+from bridgeflap.design.control.buffeting_term import buffeting_objective
+from bridgeflap.design.control.eigen import PolynomialStructuralDamping, parts_jacobian
+from bridgeflap.design.control.ipopt_hooks import (
+    DIVERGE_ITERATIONS,
+    DIVERGE_LEVEL,
+    IterationCallback,
+)
+from bridgeflap.design.control.loop_algebra import k_complex
 
 # the NLP's scales and tolerances (shared with the loop)
-from design.control.nlp_tolerances import (
+from bridgeflap.design.control.nlp_tolerances import (
     EIG_SCALE,
     FEASIBILITY_BACKOFF_1_S,
     GAIN_BACKOFF,
     THETA_SCALE,
     WARM_MU_INIT,
 )
-from design.control.plant import (
+from bridgeflap.design.control.plant import (
     compensator_reduction,
     damping_check,
     lag_free_indices,
     lag_rates,
     plant_factors,
 )
-from design.control.records import CutsOutcome, RobustMargin, Solve, Verification
-from design.control.robust import (
+from bridgeflap.design.control.records import CutsOutcome, RobustMargin, Solve, Verification
+from bridgeflap.design.control.robust import (
     analytic_robust_data,
     analytic_robust_function,
     lowrank_robust_data,
@@ -95,9 +102,9 @@ from design.control.robust import (
     robust_dense_omega,
     robust_margin,
 )
-from design.control.settings import DesignSettings
-from design.control.variants import speeds_of
-from model.aeroelastic.control import Compensator
+from bridgeflap.design.control.settings import DesignSettings
+from bridgeflap.design.control.variants import speeds_of
+from bridgeflap.model.aeroelastic.control import Compensator
 
 #: Damping constraints and dense checks on the closed loop without the per-flap compensator
 #: copies (:func:`design.control.plant.compensator_reduction`, exact): 146 -> 104 states on the
@@ -111,15 +118,15 @@ class DesignProblem:
     Parameters
     ----------
     settings : DesignSettings
-    model : model.aeroelastic.flaps.ClosedLoopModel
+    model : bridgeflap.model.aeroelastic.flaps.ClosedLoopModel
     weights : array_like, optional
         Per-flap weights [0, 1] (1 = fitted); the start point when ``optimise_placement``.
-    spec : model.structure.spec.BridgeSpec, optional
+    spec : bridgeflap.model.structure.spec.BridgeSpec, optional
         Needed only for the buffeting term (wind defaults).
     numeric : bool
         Checks only (:meth:`verify`, :meth:`A_parts`): the closed-loop parts come from the
-        numeric :meth:`model.aeroelastic.flaps.ClosedLoopModel.system` (same assembly, equal to
-        round-off) and the symbolic closed loop is never built (1.2-1.7 s on 16-30 modes,
+        numeric :meth:`bridgeflap.model.aeroelastic.flaps.ClosedLoopModel.system` (same assembly,
+        equal to round-off) and the symbolic closed loop is never built (1.2-1.7 s on 16-30 modes,
         more than the dense check's eigenvalues on 16); solving needs ``numeric=False``.
     """
 
@@ -151,7 +158,7 @@ class DesignProblem:
     @property
     def functions(self) -> dict:
         """The symbolic closed loop
-        (:meth:`model.aeroelastic.flaps.ClosedLoopModel.casadi_functions`)."""
+        (:meth:`bridgeflap.model.aeroelastic.flaps.ClosedLoopModel.casadi_functions`)."""
         if self._functions is None:
             self._functions = self.model.casadi_functions()
         return self._functions
@@ -170,7 +177,8 @@ class DesignProblem:
         return self.keep0 if red is None else red[2]
 
     def reduction(self, nx):
-        """:func:`design.control.plant.compensator_reduction` of this model (None: not reduced)."""
+        """:func:`bridgeflap.design.control.plant.compensator_reduction` of this model (None: not
+        reduced)."""
         if not REDUCE_COMPENSATORS:
             return None
         if self._reduction is None or self._reduction[0] != nx:
@@ -213,7 +221,8 @@ class DesignProblem:
     # ---- pieces
     def parts_function(self) -> ca.Function:
         """``p -> (A0, A1, A2)`` with ``p = theta`` or ``(theta, w)`` (placement), built once,
-        with its Jacobian (:func:`design.control.eigen.parts_jacobian`, shared by every grid)."""
+        with its Jacobian (:func:`bridgeflap.design.control.eigen.parts_jacobian`, shared by every
+        grid)."""
         if self.callbacks.get("parts") is None:
             self.callbacks["parts"] = (f := self._parts_function(), parts_jacobian(f))
         return self.callbacks["parts"][0]
@@ -292,8 +301,8 @@ class DesignProblem:
 
         ``analytic``: the layout ``w`` is fixed at :attr:`weights` (the ``w`` argument is
         ignored) and ``T`` is a closed-form expression of the scalar ``K(j omega)`` per point
-        (:func:`design.control.robust.analytic_robust_data`; same values to round-off, ~10x cheaper
-        Jacobian); the points are then ordered diagonalised first."""
+        (:func:`bridgeflap.design.control.robust.analytic_robust_data`; same values to round-off,
+        ~10x cheaper Jacobian); the points are then ordered diagonalised first."""
         key = (tuple(self.robust_cuts), bool(analytic))
         if self._robust is None or self._robust[2] != key:
             s = self.settings
@@ -343,8 +352,8 @@ class DesignProblem:
     # ---- buffeting
     def buffeting_rms(self, theta, weights=None, speeds=None) -> tuple[np.ndarray, np.ndarray]:
         """Max RMS vertical [m] and torsional [rad] response at ``speeds`` (closed loop)."""
-        from model.response.buffeting import buffeting
-        from model.structure.loader import load_bridge
+        from bridgeflap.model.response.buffeting import buffeting
+        from bridgeflap.model.structure.loader import load_bridge
 
         spec = self.spec if self.spec is not None else load_bridge(self.settings.bridge)
         w = self.weights if weights is None else np.asarray(weights, float)
@@ -385,7 +394,8 @@ class DesignProblem:
         the start satisfies the robust constraints whatever cuts were added; ``warm``
         starts Ipopt's barrier at ``WARM_MU_INIT`` (a re-solve after cuts). ``feasibility``:
         phase 1 -- no robust epigraph, damping constraints tightened by
-        ``FEASIBILITY_BACKOFF_1_S`` (see there). Returns a :class:`design.control.records.Solve`.
+        ``FEASIBILITY_BACKOFF_1_S`` (see there). Returns a
+        :class:`bridgeflap.design.control.records.Solve`.
         """
         s = self.settings
         nF = self.model.n_flaps
@@ -526,9 +536,10 @@ class DesignProblem:
     # ---- verification
     def verify(self, theta, weights=None, refined=False) -> Verification:
         """Dense a posteriori check on the check grid: abscissa (every eigenvalue), damping of
-        the movable branches, peak gain (:func:`design.control.verification.verify`; ``refined``: on
-        the subset of :func:`design.control.plant.damping_check_refined`)."""
-        from design.control.verification import verify
+        the movable branches, peak gain (:func:`bridgeflap.design.control.verification.verify`;
+        ``refined``: on the subset of
+        :func:`bridgeflap.design.control.plant.damping_check_refined`)."""
+        from bridgeflap.design.control.verification import verify
 
         return verify(self, theta, weights, refined)
 
@@ -540,30 +551,32 @@ class DesignProblem:
 
         * damping: the movable branches on the dense ``check_step_m_s`` grid; the worst speed
           of each run of violations joins the design speeds;
-        * gain limit: the true peak :meth:`model.aeroelastic.control.Compensator.max_gain`; if above
-          ``gain_limit`` the stationary frequencies of ``|K(jw)|`` join the gain grid;
+        * gain limit: the true peak
+          :meth:`bridgeflap.model.aeroelastic.control.Compensator.max_gain`; if above ``gain_limit``
+          the stationary frequencies of ``|K(jw)|`` join the gain grid;
         * robustness: ``sigma_max(T)`` on a dense frequency grid (:meth:`robust_margin`) at
           :meth:`robust_check_speeds`; the worst (speed, frequency) peaks above
           ``gamma_T (1 + robust_cut_tol)`` join the robust epigraph points.
 
-        Returns the :class:`design.control.records.CutsOutcome` of the best round: its solve,
-        verification and dense robust check, every round, the design speeds and cuts then in
+        Returns the :class:`bridgeflap.design.control.records.CutsOutcome` of the best round: its
+        solve, verification and dense robust check, every round, the design speeds and cuts then in
         force, ``gain_ok`` and ``robust_bound_holds`` (dense peak <= gamma_T within
         ``robust_cut_tol``).
         """
-        from design.control.cuts import solve_with_cuts
+        from bridgeflap.design.control.cuts import solve_with_cuts
 
         return solve_with_cuts(self, theta0, weights0)
 
     # ---- robustness
     def robust_dense_omega(self, theta, U, weights=None) -> np.ndarray:
         """Dense check frequencies [rad/s] at speed ``U`` [m/s] of the closed loop at ``theta``
-        (:func:`design.control.robust.robust_dense_omega`)."""
+        (:func:`bridgeflap.design.control.robust.robust_dense_omega`)."""
         return robust_dense_omega(self.A_parts(theta, weights), U, self.structural_frequencies())
 
     def robust_margin(self, theta, speeds=None, omega=None, weights=None,
                       peaks=1) -> RobustMargin:
-        """True small-gain margin on a dense grid (:func:`design.control.robust.robust_margin`).
+        """True small-gain margin on a dense grid
+        (:func:`bridgeflap.design.control.robust.robust_margin`).
 
         Default grid: ``robust_speeds_m_s`` x :meth:`robust_dense_omega`, or the fixed
         frequencies ``omega`` [rad/s] at every speed; ``peaks`` local peaks kept per speed.

@@ -1,7 +1,7 @@
-"""Scales and tolerances of the compensator NLP (:mod:`design.control.nlp`), shared with its
-cutting-plane loop (:mod:`design.control.cuts`) and its dense verification
-(:mod:`design.control.verification`). A leaf module: the NLP imports the loop and the check, and
-they
+"""Scales and tolerances of the compensator NLP (:mod:`bridgeflap.design.control.nlp`), shared with
+its cutting-plane loop (:mod:`bridgeflap.design.control.cuts`) and its dense verification
+(:mod:`bridgeflap.design.control.verification`). A leaf module: the NLP imports the loop and the
+check, and they
 read these values from here rather than from the NLP (no import cycle)."""
 
 from __future__ import annotations

@@ -1,10 +1,11 @@
 """The flap-loop plant and closed-loop eigenvalue checks as the design problem uses them.
 
 The physics is the model's single assembly: ``G(s) = Pa X(s) diag(w)`` is
-:meth:`model.aeroelastic.flaps.ClosedLoopModel.plant` and the spectral abscissa of the closed-loop
-matrix polynomial ``A0 + U A1 + U^2 A2`` is :func:`model.spectrum.polynomial_abscissa`. This module
-only adapts them to the NLP's data layout (the CasADi parts ``(A0, A1, A2, keep0)``, the lag
-states dropped at ``U = 0``, where they are decoupled).
+:meth:`bridgeflap.model.aeroelastic.flaps.ClosedLoopModel.plant` and the spectral abscissa of the
+closed-loop matrix polynomial ``A0 + U A1 + U^2 A2`` is
+:func:`bridgeflap.model.spectrum.polynomial_abscissa`. This module only adapts them to the NLP's
+data layout (the CasADi parts ``(A0, A1, A2, keep0)``, the lag states dropped at ``U = 0``, where
+they are decoupled).
 """
 
 from __future__ import annotations
@@ -12,14 +13,14 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from design.control.eigen import damping_measure, fixed_pole_copies
-from model.spectrum import polynomial_abscissa
+from bridgeflap.design.control.eigen import damping_measure, fixed_pole_copies
+from bridgeflap.model.spectrum import polynomial_abscissa
 
 
 def plant_factors(model, U, s) -> tuple[np.ndarray, np.ndarray]:
     """``(Pa, X)`` of ``G(s) = Pa X(s) diag(w)`` [rad/rad] at ``U`` [m/s], unit weights.
 
-    See :meth:`model.aeroelastic.flaps.ClosedLoopModel.plant`.
+    See :meth:`bridgeflap.model.aeroelastic.flaps.ClosedLoopModel.plant`.
     """
     return model.plant(U, s)
 
@@ -96,7 +97,7 @@ def lag_rates(model) -> np.ndarray:
 
 def movable_spectrum(A_parts, U, rates, theta) -> tuple[np.ndarray, np.ndarray]:
     """All eigenvalues [1/s] at ``U`` [m/s] and the movable ones (no fixed-pole copies,
-    ``Im >= 0``; :func:`design.control.eigen.fixed_pole_copies`)."""
+    ``Im >= 0``; :func:`bridgeflap.design.control.eigen.fixed_pole_copies`)."""
     A0, A1, A2, keep0 = A_parts
     A = A0 + U * A1 + U * U * A2
     if U == 0:

@@ -2,7 +2,7 @@
 check of a compensator on a layout (:func:`verify_layout`) and the coefficients of a warm
 start (:func:`warm_start_theta`): below the multistart driver, so that its steps (starts,
 checks, flap count, pair failure, acceptance, the critical-speed search) use them without
-importing :mod:`design.control.driver` back; the driver re-exports them."""
+importing :mod:`bridgeflap.design.control.driver` back; the driver re-exports them."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from design.control.nlp import DesignProblem
-from design.control.records import Verification
-from design.control.settings import DesignSettings
-from model.aeroelastic.control import Compensator
+from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.records import Verification
+from bridgeflap.design.control.settings import DesignSettings
+from bridgeflap.model.aeroelastic.control import Compensator
 
 #: Test hook: when set, every design model is built on the bridge with its stiffnesses and
 #: torsional inertia scaled by ``1 +- value`` (e.g. ``1e-12``: last-bit differences in every
@@ -48,22 +48,22 @@ def build_model(settings: DesignSettings, count=None, modal=None, n_modes=None,
     settings : DesignSettings
     count : int, optional
         Evenly spaced flap count (default ``settings.flap_count``).
-    modal : model.structure.modes.ModalModel, optional
+    modal : bridgeflap.model.structure.modes.ModalModel, optional
         Reused modal model.
     n_modes : int, optional
         Retained modes (default ``settings.n_modes``).
     positions : array_like, optional
         Flap centres from the main-span mid-point [m] (overrides ``count``).
-    spec : model.structure.spec.BridgeSpec, optional
+    spec : bridgeflap.model.structure.spec.BridgeSpec, optional
         The bridge (default: the built-in ``settings.bridge``).
 
     Returns
     -------
-    spec : model.structure.spec.BridgeSpec
-    model : model.aeroelastic.flaps.ClosedLoopModel
+    spec : bridgeflap.model.structure.spec.BridgeSpec
+    model : bridgeflap.model.aeroelastic.flaps.ClosedLoopModel
     """
-    from model.aeroelastic.flaps import closed_loop_model
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.aeroelastic.flaps import closed_loop_model
+    from bridgeflap.model.structure.loader import load_bridge
 
     spec = perturbed(load_bridge(settings.bridge if spec is None else spec))
     pos = settings.positions(count) if positions is None else np.asarray(positions, float)
@@ -78,7 +78,8 @@ def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,
     """Dense check of ``theta`` on the layout ``positions`` [m] with ``n_modes`` (default: the
     verification model, ``settings.verification_modes``), as ``bridgeflap flutter`` sees it;
     ``spec`` the bridge (default ``settings.bridge``); ``refined``: on the refined subset of
-    the check grid (:func:`design.control.plant.damping_check_refined`: the same decisions)."""
+    the check grid (:func:`bridgeflap.design.control.plant.damping_check_refined`: the same
+    decisions)."""
     nm = settings.verification_modes if n_modes is None else int(n_modes)
     _, model = build_model(settings, n_modes=nm, positions=positions, spec=spec)
     return DesignProblem(replace(settings, optimise_placement=False), model,
@@ -87,14 +88,14 @@ def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,
 
 def warm_start_theta(warm_start) -> np.ndarray:
     """Coefficients (b2, b1, b0, a2, a1) of a warm start: a
-    :class:`model.aeroelastic.control.Controller`,
-    a :class:`model.aeroelastic.control.Compensator` or five numbers."""
+    :class:`bridgeflap.model.aeroelastic.control.Controller`,
+    a :class:`bridgeflap.model.aeroelastic.control.Compensator` or five numbers."""
     k = getattr(warm_start, "compensator", warm_start)
     if isinstance(k, Compensator):
         return np.array([k.b2, k.b1, k.b0, k.a2, k.a1], float)
     th = np.asarray(warm_start, float).ravel()
     if th.size != 5 or not np.all(np.isfinite(th)):
-        from model.errors import BridgeflapInputError
+        from bridgeflap.model.errors import BridgeflapInputError
 
         raise BridgeflapInputError("warm_start", "needs a Controller, a Compensator or five "
                                                  "finite coefficients (b2, b1, b0, a2, a1)")

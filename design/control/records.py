@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.results import strict_json
+from bridgeflap.model.results import strict_json
 
 NAN = float("nan")
 
@@ -25,7 +25,7 @@ class Verification:
     speeds_m_s, abscissa_1_s, violation_1_s : ndarray
         Check grid [m/s], spectral abscissa (every eigenvalue) [1/s] and the largest damping
         measure ``Re lambda + zeta_min |lambda|`` of the movable branches [1/s] (<= 0 meets
-        the minimum damping ratio; :func:`design.control.plant.damping_check`).
+        the minimum damping ratio; :func:`bridgeflap.design.control.plant.damping_check`).
     max_violation_1_s : float
         Largest violation [1/s].
     stable_everywhere : bool
@@ -39,7 +39,7 @@ class Verification:
         Grid step [m/s].
     meets_damping : bool
         ``max_violation_1_s`` within the feasibility tolerance
-        (``design.control.nlp_tolerances.VIOLATION_TOL``).
+        (``bridgeflap.design.control.nlp_tolerances.VIOLATION_TOL``).
     min_damping_ratio : float
         Smallest damping ratio of the movable branches over the grid [-] (-1: a real root
         in the right half-plane).
@@ -78,7 +78,8 @@ class Verification:
 
 @dataclass(frozen=True)
 class RobustMargin:
-    """Dense small-gain check ``1 / max_U sup_w sigma_max(T(jw))`` (:mod:`design.control.robust`).
+    """Dense small-gain check ``1 / max_U sup_w sigma_max(T(jw))``
+    (:mod:`bridgeflap.design.control.robust`).
 
     Attributes
     ----------
@@ -215,7 +216,8 @@ class CutsOutcome:
 
 @dataclass(frozen=True)
 class StartRecord:
-    """One multistart run (``design.control.driver.run_start``): solve, cuts, verification, margin.
+    """One multistart run (``bridgeflap.design.control.driver.run_start``): solve, cuts,
+    verification, margin.
 
     A failed start has ``ipopt_status`` ``"failed: <reason>"``, ``theta`` None and NaN numbers.
 
@@ -386,7 +388,7 @@ class FlapCountCheck:
 @dataclass(frozen=True)
 class FlapCountSearch:
     """Fewest evenly spaced flaps meeting the minimum damping
-    (``design.control.driver.minimum_flap_count``).
+    (``bridgeflap.design.control.driver.minimum_flap_count``).
 
     ``minimum`` None when no checked count meets it; ``modes`` of the verification model.
     """
@@ -407,7 +409,7 @@ class FlapCountSearch:
 @dataclass(frozen=True)
 class BuffetingComparison:
     """Open- vs closed-loop max RMS buffeting response
-    (``design.control.driver.buffeting_comparison``).
+    (``bridgeflap.design.control.driver.buffeting_comparison``).
 
     RMS vertical [m] and torsional [rad] response per speed [m/s] on the ``modes``-mode
     verification model; ``status`` ``ok`` or ``failed: <reason>`` (then no numbers).
@@ -435,8 +437,8 @@ class BuffetingComparison:
 
 @dataclass(frozen=True)
 class ParetoPoint:
-    """One flap count of the Pareto search (``design.control.driver.flap_count_pareto``): K(s)
-    re-optimised for the evenly spaced symmetric layout of ``flap_count`` flaps, verified.
+    """One flap count of the Pareto search (``bridgeflap.design.control.driver.flap_count_pareto``):
+    K(s) re-optimised for the evenly spaced symmetric layout of ``flap_count`` flaps, verified.
 
     ``verified``: damping and gain on the design model's dense grid and stable on the
     verification model's (the same criterion as a converged design); ``robust_margin`` the

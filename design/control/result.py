@@ -6,31 +6,31 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from design.control.records import FlapCountSearch, StartRecord
-from design.control.settings import CRITICAL_SPEED_FIELDS, THETA_NAMES, DesignSettings
-from model.aeroelastic.actuator_limits import ACTUATOR_DEFAULTS, ACTUATOR_FIELDS
-from model.aeroelastic.control import Controller
-from model.results import ResultData, jsonable
+from bridgeflap.design.control.records import FlapCountSearch, StartRecord
+from bridgeflap.design.control.settings import CRITICAL_SPEED_FIELDS, THETA_NAMES, DesignSettings
+from bridgeflap.model.aeroelastic.actuator_limits import ACTUATOR_DEFAULTS, ACTUATOR_FIELDS
+from bridgeflap.model.aeroelastic.control import Controller
+from bridgeflap.model.results import ResultData, jsonable
 
 NAN = float("nan")
 
 
 @dataclass(frozen=True)
 class DesignResult(ResultData):
-    """Outcome of :func:`design.control.driver.design`.
+    """Outcome of :func:`bridgeflap.design.control.driver.design`.
 
     Attributes
     ----------
     status : str
         ``converged``, ``unverified``, ``infeasible`` or ``failed``
-        (:func:`design.control.driver.select_start`); after the acceptance checks of
-        :func:`design.assessment.accept.design` also ``harm``, ``failed_checks`` or
+        (:func:`bridgeflap.design.control.driver.select_start`); after the acceptance checks of
+        :func:`bridgeflap.design.assessment.accept.design` also ``harm``, ``failed_checks`` or
         ``unresolved``. Only ``converged`` carries a ``controller``.
     settings : DesignSettings
-    controller : model.aeroelastic.control.Controller or None
+    controller : bridgeflap.model.aeroelastic.control.Controller or None
         The designed compensator and layout, **only when** ``status == "converged"`` (it met
         every check); None otherwise, so that an unusable design is never handed on.
-    candidate : model.aeroelastic.control.Controller or None
+    candidate : bridgeflap.model.aeroelastic.control.Controller or None
         The best start's compensator and layout whatever the status (for diagnosis only: a
         candidate of a failed design did not pass its checks).
     starts : tuple of StartRecord
@@ -42,11 +42,11 @@ class DesignResult(ResultData):
         model [1/s] (NaN without a design).
     min_flaps : FlapCountSearch or None
         Fewest evenly spaced flaps meeting the minimum damping
-        (:func:`design.control.driver.minimum_flap_count`; None when not searched).
+        (:func:`bridgeflap.design.control.driver.minimum_flap_count`; None when not searched).
     wall_time_s : float
     extras : dict
         ``open_loop_abscissa`` [1/s], ``closed_loop`` (state space), ``buffeting``
-        (:class:`design.control.records.BuffetingComparison`).
+        (:class:`bridgeflap.design.control.records.BuffetingComparison`).
     """
 
     status: str
@@ -113,7 +113,8 @@ class DesignResult(ResultData):
                             for s in self.starts],
             "start_selection": "verified starts (damping, gain limit, verification model) "
                                "ranked by the NLP objective, lowest first, a phase-1 point "
-                               "(no design objective) after them by margin (design.control.driver."
+                               "(no design objective) after them by margin "
+                               "(bridgeflap.design.control.driver."
                                "select_start); each row is that start's own optimum",
             "dense_T_peak": 1.0 / margin if margin else NAN,
             "robust_bound_holds": b.robust_bound_holds if b is not None else None,
@@ -141,7 +142,8 @@ class DesignResult(ResultData):
 
     def margin_grid(self) -> dict:
         """The chosen design's margin check over the whole speed range
-        (:func:`design.control.checks.margin_on_speed_grid`), or ``{}`` when it did not run."""
+        (:func:`bridgeflap.design.control.checks.margin_on_speed_grid`), or ``{}`` when it did not
+        run."""
         grid = self.extras.get("robust_margin_speed_grid") or {}
         return grid if isinstance(grid.get("margin"), float) else {}
 
@@ -249,11 +251,11 @@ class DesignResult(ResultData):
 
     def plot_bode(self, ax=None):
         """Gain and phase of the compensator against frequency [Hz] with the gain limit
-        (:func:`design.control.figures.bode`)."""
-        from design.control.figures import bode
+        (:func:`bridgeflap.design.control.figures.bode`)."""
+        from bridgeflap.design.control.figures import bode
 
         st = self.settings
-        from model.results import figure_of
+        from bridgeflap.model.results import figure_of
 
         return figure_of(bode(self.candidate.compensator, st.gain_limit, ax,
                               (st.omega_min_rad_s, st.omega_max_rad_s),
@@ -264,16 +266,16 @@ class DesignResult(ResultData):
     def plot_margins(self, ax=None):
         """Spectral abscissa, smallest damping ratio of the movable branches with
         ``zeta_min``, robust margin per speed and the flap layout on the deck
-        (:func:`design.control.figures.margins`)."""
-        from design.control.figures import margins
-        from model.errors import BridgeflapError
-        from model.structure.loader import load_bridge
+        (:func:`bridgeflap.design.control.figures.margins`)."""
+        from bridgeflap.design.control.figures import margins
+        from bridgeflap.model.errors import BridgeflapError
+        from bridgeflap.model.structure.loader import load_bridge
 
         try:
             spec = load_bridge(self.settings.bridge)
         except BridgeflapError:  # the layout is then drawn without towers
             spec = None
-        from model.results import figure_of
+        from bridgeflap.model.results import figure_of
 
         return figure_of(margins(self, ax, spec))
 

@@ -1,5 +1,5 @@
-"""Plots of the design results that have no figure of their own in :mod:`design.control.figures`
-(the batch plot is :mod:`design.batch.plots`).
+"""Plots of the design results that have no figure of their own in
+:mod:`bridgeflap.design.control.figures` (the batch plot is :mod:`bridgeflap.design.batch.plots`).
 
 Each takes the result and an optional matplotlib axis (a new figure when None), draws, and
 returns the axis; matplotlib is imported here only, and nothing calls ``plt.show()``
@@ -10,15 +10,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from model.axes import axes_or_new as _axes
-from model.axes import number_or_nan as _number
+from bridgeflap.model.axes import axes_or_new as _axes
+from bridgeflap.model.axes import number_or_nan as _number
 
 __all__ = ["erection_stages", "harm_ratios", "pair_failures"]
 
 
 def harm_ratios(harm, ax=None):
     """Histogram of closed- over open-loop critical speed [-] of a
-    :class:`design.assessment.harm.HarmResult`'s variants, with the no-harm line at 1."""
+    :class:`bridgeflap.design.assessment.harm.HarmResult`'s variants, with the no-harm line at 1."""
     ax = _axes(ax)
     r = np.array([_number(x["closed_over_open"]) for x in harm.rows], float)
     ax.hist(r[np.isfinite(r)], bins=max(5, min(30, len(harm.rows) // 2)), color="C0")
@@ -32,7 +32,7 @@ def harm_ratios(harm, ax=None):
 
 def pair_failures(res, ax=None):
     """Critical speed [m/s] with each flap pair of a
-    :class:`design.assessment.failsafe.FailSafeResult`
+    :class:`bridgeflap.design.assessment.failsafe.FailSafeResult`
     failed, against the pair's position from mid-span [m]; intact and design speeds as lines."""
     ax = _axes(ax, (7.0, 4.0))
     x = np.array([r["position_m"] for r in res.rows], float)
@@ -52,8 +52,8 @@ def pair_failures(res, ax=None):
 
 def erection_stages(res, ax=None):
     """Open- and closed-loop critical speeds [m/s] of a
-    :class:`design.assessment.erection_control.ErectionControlResult` against the erected fraction
-    [%];
+    :class:`bridgeflap.design.assessment.erection_control.ErectionControlResult` against the erected
+    fraction [%];
     the completed bridge is its own marker at 100 %."""
     ax = _axes(ax)
     stages = [r for r in res.rows if r.get("stage") != "completed bridge"]

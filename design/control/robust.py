@@ -15,11 +15,11 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from design.control.eigen import _JacobianCallback, _VectorIO
-from design.control.loop_algebra import LOWRANK_RTOL, _loop_block, k_complex
-from design.control.plant import plant_factors
-from design.control.records import RobustMargin
-from model.aeroelastic.control import Compensator
+from bridgeflap.design.control.eigen import _JacobianCallback, _VectorIO
+from bridgeflap.design.control.loop_algebra import LOWRANK_RTOL, _loop_block, k_complex
+from bridgeflap.design.control.plant import plant_factors
+from bridgeflap.design.control.records import RobustMargin
+from bridgeflap.model.aeroelastic.control import Compensator
 
 
 def robust_point_function(Pa: np.ndarray) -> ca.Function:
@@ -93,12 +93,12 @@ class PointsCallback(_VectorIO, ca.Callback):
     robust constraint (816 points, 30 parameters), against 0.029 s here, where each point's
     gradient is one reverse sweep of its own SX graph (``casadi.jacobian`` of the scalar point
     function), mapped and evaluated numerically -- compiled when
-    ``design.control.buffeting_term.JIT`` (0.009 s; the library is cached by its source, so the same
-    point function on other data is not recompiled), value and Jacobian together, cached for the
-    last ``p``; the same numbers to 2e-15 relative. ``point``: SX function ``(p, *data) -> f``
-    (scalar); ``data``: per-point DM inputs stacked horizontally (the one-input boilerplate:
-    ``design.control.eigen._VectorIO``). Keep the object alive while expressions built from it are
-    used (design.control.eigen).
+    ``bridgeflap.design.control.buffeting_term.JIT`` (0.009 s; the library is cached by its source,
+    so the same point function on other data is not recompiled), value and Jacobian together, cached
+    for the last ``p``; the same numbers to 2e-15 relative. ``point``: SX function ``(p, *data) ->
+    f`` (scalar); ``data``: per-point DM inputs stacked horizontally (the one-input boilerplate:
+    ``bridgeflap.design.control.eigen._VectorIO``). Keep the object alive while expressions built
+    from it are used (bridgeflap.design.control.eigen).
     """
 
     def __init__(self, point: ca.Function, data, n_points: int, name: str):
@@ -106,7 +106,7 @@ class PointsCallback(_VectorIO, ca.Callback):
         ins = point.sx_in()
         f = point(*ins)
         both = ca.Function(f"{point.name()}_grad", ins, [f, ca.jacobian(f, ins[0])])
-        from design.control import buffeting_term as bt
+        from bridgeflap.design.control import buffeting_term as bt
 
         if bt.JIT:          # compiled like the buffeting term's point functions (else the VM)
             try:
@@ -263,11 +263,11 @@ PLANT_CACHE_POINTS = 2000
 
 
 def cached_plant(model, U, omega, cache) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`design.control.plant.plant_factors` at ``(U, j omega)`` with the frequencies computed
-    before at ``U`` taken from ``cache`` (``{U: (sorted omega, X)}``) and the others computed
-    and added (up to :data:`PLANT_CACHE_POINTS` per speed). The plant does not depend on
-    ``theta``: the dense robust check of every cutting-plane round reuses the fixed part of
-    its grid (400 log points + the structural frequencies per speed). The values are the
+    """:func:`bridgeflap.design.control.plant.plant_factors` at ``(U, j omega)`` with the
+    frequencies computed before at ``U`` taken from ``cache`` (``{U: (sorted omega, X)}``) and the
+    others computed and added (up to :data:`PLANT_CACHE_POINTS` per speed). The plant does not
+    depend on ``theta``: the dense robust check of every cutting-plane round reuses the fixed part
+    of its grid (400 log points + the structural frequencies per speed). The values are the
     plant's own, point by point (bitwise: each frequency is solved on its own either way)."""
     om_c, X_c, Pa = cache.get(U, (np.empty(0), None, None))
     i = np.clip(np.searchsorted(om_c, omega), 0, max(om_c.size - 1, 0))
@@ -347,7 +347,7 @@ def robust_margin(model, theta, speeds, weights, omega_at, peaks=1,
 
     Parameters
     ----------
-    model : model.aeroelastic.flaps.ClosedLoopModel
+    model : bridgeflap.model.aeroelastic.flaps.ClosedLoopModel
     theta : array_like
         Compensator coefficients (b2, b1, b0, a2, a1).
     speeds : array_like

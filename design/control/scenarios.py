@@ -2,10 +2,11 @@
 
 A scenario design (``variants > 0``) imposes the damping constraint on the nominal bridge and on
 ``variants`` scenario bridges drawn (Sobol', ``variant_seed``) over the stated uncertainty set
-(:data:`design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES` less ``variant_fixed``), plus the
-corners of the inputs named in ``variant_corners`` (each at its low or high end, the others
+(:data:`bridgeflap.design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES` less ``variant_fixed``),
+plus the corners of the inputs named in ``variant_corners`` (each at its low or high end, the others
 nominal: the bridges whose modes move furthest). Calafiore and Campi's scenario approach; the
-certificate comes afterwards, from fresh independent draws (:mod:`design.assessment.acceptance`).
+certificate comes afterwards, from fresh independent draws
+(:mod:`bridgeflap.design.assessment.acceptance`).
 
 With ``variant_rule = "no_harm"`` (the default card) scenario ``j`` is held to *do no harm*: its
 closed loop must meet ``zeta_min`` at every speed below its own open-loop critical speed
@@ -19,8 +20,8 @@ open-loop one by construction. ``U_j`` is the last stable speed of the scenario'
 bridge (the stronger multi-model requirement).
 
 A scenario's problem is the nominal one on its own bridge with ``speed_max_m_s`` set to its
-limit, so the lazy constraint generation of :mod:`design.control.variants` and every check of a
-round read its own range.
+limit, so the lazy constraint generation of :mod:`bridgeflap.design.control.variants` and every
+check of a round read its own range.
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ _LIMITS: dict = {}
 def corner_specs(settings, base) -> list:
     """The corners of ``settings.variant_corners`` (low/high of each, the others at ``base``'s
     values), in a fixed order (low before high, first input slowest)."""
-    from design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
+    from bridgeflap.design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
 
     names = tuple(settings.variant_corners)
     return [base.replace(**dict(zip(names, vals, strict=True)))
@@ -60,8 +61,8 @@ def corner_specs(settings, base) -> list:
 
 def scenario_specs(settings, base) -> list:
     """The scenario bridges of a design: the corners (:func:`corner_specs`), then ``variants``
-    Sobol' draws (:func:`design.control.checks.sample_variants`)."""
-    from design.control.checks import sample_variants
+    Sobol' draws (:func:`bridgeflap.design.control.checks.sample_variants`)."""
+    from bridgeflap.design.control.checks import sample_variants
 
     return corner_specs(settings, base) + sample_variants(settings, base, settings.variants,
                                                           settings.variant_seed)
@@ -71,7 +72,7 @@ def open_loop_limit(settings, spec, model) -> float:
     """The last stable speed [m/s] of ``spec``'s open loop on the dense check grid to
     ``NO_HARM_GRID_FACTOR speed_max_m_s`` (the grid end when stable throughout), on ``model``
     (the design model on ``spec``; the flaps play no part at ``K = 0``). Cached per process."""
-    from design.control.nlp import DesignProblem
+    from bridgeflap.design.control.nlp import DesignProblem
 
     key = (repr(spec), int(model.open_loop.basis.n), float(settings.speed_max_m_s),
            float(settings.check_step_m_s))

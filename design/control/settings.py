@@ -14,13 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from design.io.api_args import check_load_settings_args, check_settings
-from model.aeroelastic.actuator_limits import (
+from bridgeflap.design.io.api_args import check_load_settings_args, check_settings
+from bridgeflap.model.aeroelastic.actuator_limits import (
     ACTUATOR_DEFAULTS,
     ACTUATOR_FIELDS,
     check_actuator_value,
 )
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -66,12 +66,12 @@ class DesignSettings:
     ``zeta_min`` [-] is the minimum damping ratio ``-Re lambda / |lambda|`` demanded of every
     closed-loop branch the flaps can move (default 0.5 %, half the structural 1 %), at every
     design speed 0..``speed_max_m_s``; the copies of the aerodynamic lag poles ``-p_i U / b``
-    and of the compensator poles are excluded (:mod:`design.control.eigen`).
+    and of the compensator poles are excluded (:mod:`bridgeflap.design.control.eigen`).
 
     ``robust_cut_tol`` [-]: the cutting planes stop when the dense peak of ``sigma_max(T)`` is
     within this of the optimiser's bound ``gamma_T`` (``robust_bound_holds``), i.e. the
     verified margin is within it of the optimiser's (default 1 %,
-    :data:`design.control.nlp_tolerances.ROBUST_CUT_TOL`).
+    :data:`bridgeflap.design.control.nlp_tolerances.ROBUST_CUT_TOL`).
 
     ``objective``: ``"margin"`` (default) maximises the robust margin subject to the damping up
     to ``speed_max_m_s``; ``"critical_speed"`` searches the largest design speed whose
@@ -79,19 +79,19 @@ class DesignSettings:
     ``speed_max_m_s`` in steps of ``critical_speed_step_m_s`` up to ``critical_speed_max_m_s``
     (0: ``2 speed_max_m_s``, the closed-loop limits' range), bisected to
     ``critical_speed_tol_m_s``, at most ``critical_speed_evaluations`` inner designs
-    (:mod:`design.control.critical_speed`).
+    (:mod:`bridgeflap.design.control.critical_speed`).
 
     ``layout_neighbours``: after the design, the chosen layout is compared with its
     neighbouring integer layouts (one mirror pair added or removed, centred blocks) at
-    re-optimised K (:mod:`design.control.layout_search`; JSON key ``layout_neighbours``);
+    re-optimised K (:mod:`bridgeflap.design.control.layout_search`; JSON key ``layout_neighbours``);
     ``layout_adopt``: the best verified neighbour replaces it when its margin is larger.
     Both left out of the design's JSON settings while false.
 
     ``flap_angle_limit_deg`` [deg] and ``flap_rate_limit_deg_s`` [deg/s]: the flap actuator's
     angle and rate limits (defaults 20 deg and 40 deg/s, engineering estimates for hydraulic
-    flap actuators, :mod:`model.aeroelastic.actuator_limits`). The design does not use them;
-    ``bridgeflap actuators --card`` simulates the designed loop with them in turbulent wind. Left
-    out of the design's JSON settings while at their defaults.
+    flap actuators, :mod:`bridgeflap.model.aeroelastic.actuator_limits`). The design does not use
+    them; ``bridgeflap actuators --card`` simulates the designed loop with them in turbulent wind.
+    Left out of the design's JSON settings while at their defaults.
     """
 
     bridge: str = "humber"
@@ -260,13 +260,14 @@ class DesignSettings:
                 raise BridgeflapInputError(name, f"must be an integer >= 0, got {v!r}")
         if self.variant_speeds not in ("lazy", "all"):
             raise BridgeflapInputError("variant_speeds", "must be 'lazy' (constraint generation "
-                                       "over variant and speed, design.control.variants) or 'all', "
+                                       "over variant and speed, "
+                                       "bridgeflap.design.control.variants) or 'all', "
                                        f"got {self.variant_speeds!r}")
         if self.variant_rule not in VARIANT_RULES:
             raise BridgeflapInputError("variant_rule", "must be 'no_harm' (each variant damped "
                                        "below its own open-loop critical speed) or 'stable' "
                                        f"(damped 0..speed_max_m_s), got {self.variant_rule!r}")
-        from design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
+        from bridgeflap.design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
 
         for v in self.variant_corners:
             if v not in DEFAULT_UNCERTAIN_RANGES or v in self.variant_fixed:
@@ -390,7 +391,8 @@ def load_settings(path: str | os.PathLike | None = "default", **overrides) -> De
         close = difflib.get_close_matches(unknown[0], sorted(_TOML_KEYS), n=3)
         raise BridgeflapInputError(unknown[0], "unknown design setting" + (
             f" (did you mean {', '.join(close)}?)" if close else
-            f" (the {len(_TOML_KEYS)} known ones: design.control.settings.DesignSettings, "
+            f" (the {len(_TOML_KEYS)} known ones: "
+            f"bridgeflap.design.control.settings.DesignSettings, "
             "documented in runs/humber_flaps.toml)"))
     for key in ("a2_bounds", "a1_bounds", "min_flap_counts", "robust_speeds_m_s", "variant_fixed",
                 "variant_corners", "flap_positions_m",

@@ -1,8 +1,8 @@
-"""One start of the multistart design (:func:`design.control.driver.design`): the starting points
-(the nominal one and screened Sobol points), the solve with cutting planes, the rounding of a
-relaxed flap layout by whole groups and the re-solve on it, the record of a solved start (dense
-margin, verification-model check, design variants), and the choice among the starts. Below
-the driver, so that the critical-speed search and the layout search run starts and layouts
+"""One start of the multistart design (:func:`bridgeflap.design.control.driver.design`): the
+starting points (the nominal one and screened Sobol points), the solve with cutting planes, the
+rounding of a relaxed flap layout by whole groups and the re-solve on it, the record of a solved
+start (dense margin, verification-model check, design variants), and the choice among the starts.
+Below the driver, so that the critical-speed search and the layout search run starts and layouts
 without importing the driver back."""
 
 from __future__ import annotations
@@ -12,13 +12,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from design.control.checks import nlp_active_speeds
-from design.control.loop_algebra import compensator_damped, compensator_damping_ratio
-from design.control.nlp import EIG_SCALE, DesignProblem
-from design.control.problem_model import build_model, verify_layout
-from design.control.records import RobustMargin, StartRecord
-from design.control.settings import DesignSettings
-from model.aeroelastic.control import Compensator
+from bridgeflap.design.control.checks import nlp_active_speeds
+from bridgeflap.design.control.loop_algebra import compensator_damped, compensator_damping_ratio
+from bridgeflap.design.control.nlp import EIG_SCALE, DesignProblem
+from bridgeflap.design.control.problem_model import build_model, verify_layout
+from bridgeflap.design.control.records import RobustMargin, StartRecord
+from bridgeflap.design.control.settings import DesignSettings
+from bridgeflap.model.aeroelastic.control import Compensator
 
 NAN = float("nan")
 
@@ -213,7 +213,7 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     Ipopt iterations on stderr (None: when stderr is a terminal); ``variants``: bridge
     variants (BridgeSpec) of a multi-model design -- every damping constraint and check on
     every variant as well."""
-    from design.control.pair_failure import extra_models
+    from bridgeflap.design.control.pair_failure import extra_models
 
     t0 = time.perf_counter()
     spec, model = build_model(settings, spec=spec)
@@ -263,11 +263,11 @@ def solve_fixed_layout(settings: DesignSettings, positions, theta0, spec=None, v
                        on_iteration=None):
     """K(s) re-optimised with cutting planes on the flaps at ``positions`` [m] only, from
     ``theta0`` (the rounded layout's step of :func:`run_start`; also
-    :mod:`design.control.layout_search`). The candidates left out are not built, so the flap loop
-    (and its robust margin) has no channel for them. ``variants``: multi-model bridges.
+    :mod:`bridgeflap.design.control.layout_search`). The candidates left out are not built, so the
+    flap loop (and its robust margin) has no channel for them. ``variants``: multi-model bridges.
     Returns ``(problem, CutsOutcome)``; raises what the solve raises."""
-    from design.control.pair_failure import extra_models
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.control.pair_failure import extra_models
+    from bridgeflap.model.structure.loader import load_bridge
 
     spec = load_bridge(settings.bridge if spec is None else spec)
     fixed_s = replace(settings, optimise_placement=False)
@@ -299,7 +299,7 @@ def layout_record(settings: DesignSettings, positions, theta0, index: int = 0, s
 def _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_cont,
                   spec) -> StartRecord:
     """The record of a solved start: dense margin, verification-model check, variants."""
-    from design.control.pair_failure import pair_label
+    from bridgeflap.design.control.pair_failure import pair_label
 
     theta = res.theta
     ver = res.verification

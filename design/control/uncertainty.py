@@ -1,8 +1,8 @@
 """The stated uncertainty set of the estimated bridge inputs: the ranges the design's
-robustness variants (:mod:`design.control.checks`), the do-no-harm check
-(:mod:`design.assessment.harm`) and the global sensitivity study
-(:mod:`design.studies.screening`, which also serves it) sample. It sits in the lowest room
-that uses it, so every user imports it downwards. A leaf module (no design imports)."""
+robustness variants (:mod:`bridgeflap.design.control.checks`), the do-no-harm check
+(:mod:`bridgeflap.design.assessment.harm`) and the global sensitivity study
+(:mod:`bridgeflap.design.studies.screening`, which also serves it) sample. It sits in the lowest
+room that uses it, so every user imports it downwards. A leaf module (no design imports)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The dense a posteriori check of a compensator design
-(:meth:`design.control.nlp.DesignProblem.verify`).
+(:meth:`bridgeflap.design.control.nlp.DesignProblem.verify`).
 
 Every eigenvalue of the closed loop on the check grid (the spectral abscissa), the damping of the
 branches the flaps can move against ``zeta_min``, and the compensator's peak gain.
@@ -9,19 +9,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from design.control.nlp_tolerances import VIOLATION_TOL
-from design.control.plant import damping_check, damping_check_refined, lag_rates
-from design.control.records import Verification
-from model.aeroelastic.control import Compensator
+from bridgeflap.design.control.nlp_tolerances import VIOLATION_TOL
+from bridgeflap.design.control.plant import damping_check, damping_check_refined, lag_rates
+from bridgeflap.design.control.records import Verification
+from bridgeflap.model.aeroelastic.control import Compensator
 
 
 def verify(prob, theta, weights=None, refined=False) -> Verification:
     """Check ``theta`` (b2, b1, b0, a2, a1) with flap ``weights`` on ``prob`` (a
-    :class:`design.control.nlp.DesignProblem`) on its settings' check grid ``check_speeds()``.
+    :class:`bridgeflap.design.control.nlp.DesignProblem`) on its settings' check grid
+    ``check_speeds()``.
 
     ``refined``: on the subset of the check grid of
-    :func:`design.control.plant.damping_check_refined` (a coarse grid refined where a threshold
-    could be reached; the same decisions; ``speeds_m_s`` then lists the speeds checked).
+    :func:`bridgeflap.design.control.plant.damping_check_refined` (a coarse grid refined where a
+    threshold could be reached; the same decisions; ``speeds_m_s`` then lists the speeds checked).
     """
     s = prob.settings
     U = s.check_speeds()

@@ -4,5 +4,5 @@ run lock and crash recovery (``outputs``), the run manifest (``manifest``), the 
 grid text of outputs (``text``), a bridge's identity in records (``identity``) and the checks
 at the door of the design API (``api_args``).
 
-May import: :mod:`model` only (the bottom layer of :mod:`design`).
+May import: :mod:`bridgeflap.model` only (the bottom layer of :mod:`bridgeflap.design`).
 """

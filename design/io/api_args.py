@@ -1,11 +1,12 @@
 """The checks at the door of the design API whose functions live above this room.
 
-:func:`design.design`, :func:`design.quick_settings` and :func:`design.load_settings` call one
-of these on their first line, so a wrong argument is a typed one-line error naming it
-(:mod:`model.arguments`, the checks the CLI shares) before any work. This module sits in
-:mod:`design.io`, below :mod:`design.control`, so it recognises a
-:class:`~design.control.settings.DesignSettings` by its class's module and name rather than
-by importing it (tests/project/test_layering.py).
+:func:`bridgeflap.design.design`, :func:`bridgeflap.design.quick_settings` and
+:func:`bridgeflap.design.load_settings` call one of these on their first line, so a wrong argument
+is a typed one-line error naming it (:mod:`bridgeflap.model.arguments`, the checks the CLI shares)
+before any work. This module sits in
+:mod:`bridgeflap.design.io`, below :mod:`bridgeflap.design.control`, so it recognises a
+:class:`~bridgeflap.design.control.settings.DesignSettings` by its class's module and name rather
+than by importing it (tests/project/test_layering.py).
 """
 
 from __future__ import annotations
@@ -16,16 +17,16 @@ from typing import Any
 
 import numpy as np
 
-from model.arguments import check_bool, check_callable, describe
-from model.errors import BridgeflapTypeError
+from bridgeflap.model.arguments import check_bool, check_callable, describe
+from bridgeflap.model.errors import BridgeflapTypeError
 
 __all__ = ["check_design_args", "check_load_settings_args", "check_settings"]
 
-_SETTINGS_CLASS = ("design.control.settings", "DesignSettings")
+_SETTINGS_CLASS = ("bridgeflap.design.control.settings", "DesignSettings")
 
 
 def check_settings(settings: Any, field: str = "settings") -> Any:
-    """``settings`` if it is a :class:`~design.control.settings.DesignSettings`."""
+    """``settings`` if it is a :class:`~bridgeflap.design.control.settings.DesignSettings`."""
     cls = type(settings)
     if (cls.__module__, cls.__name__) == _SETTINGS_CLASS:
         return settings
@@ -35,12 +36,13 @@ def check_settings(settings: Any, field: str = "settings") -> Any:
     if isinstance(settings, Mapping):
         raise BridgeflapTypeError(field, "must be DesignSettings, got a dict: give its keys to "
                                          "design.load_settings(None, **values)")
-    raise BridgeflapTypeError(field, f"must be DesignSettings (design.load_settings), got "
+    raise BridgeflapTypeError(field,
+                              f"must be DesignSettings (bridgeflap.design.load_settings), got "
                                      f"{describe(settings)}")
 
 
 def _warm_start(value: Any, field: str = "warm_start") -> None:
-    from model.aeroelastic.control import Compensator, Controller
+    from bridgeflap.model.aeroelastic.control import Compensator, Controller
 
     if isinstance(value, Controller | Compensator):
         return
@@ -61,8 +63,9 @@ def _warm_start(value: Any, field: str = "warm_start") -> None:
 
 def check_design_args(settings, progress=None, bridge=None, warm_start=None,
                       progress_bar=None, records=None) -> None:
-    """The arguments of :func:`design.design`, checked before any work (one line each)."""
-    from model.structure.bridge_arg import as_bridge
+    """The arguments of :func:`bridgeflap.design.design`, checked before any work (one line
+    each)."""
+    from bridgeflap.model.structure.bridge_arg import as_bridge
 
     check_settings(settings)
     if progress is not None:
@@ -80,8 +83,8 @@ def check_design_args(settings, progress=None, bridge=None, warm_start=None,
 
 
 def check_load_settings_args(path: Any, overrides: Mapping) -> None:
-    """The arguments of :func:`design.load_settings`: a card path, ``"default"`` or ``None``,
-    and keyword overrides (their values are checked with the card's own rules)."""
+    """The arguments of :func:`bridgeflap.design.load_settings`: a card path, ``"default"`` or
+    ``None``, and keyword overrides (their values are checked with the card's own rules)."""
     if path is not None and not isinstance(path, str | os.PathLike):
         raise BridgeflapTypeError("path", "must be a design card path, 'default' or None, got "
                                           f"{describe(path)}")

@@ -6,7 +6,8 @@ half-written file behind: the data are written to a temporary file in the *same*
 :func:`os.replace`, which is atomic on POSIX and Windows when source and target are on the same
 file system. A reader therefore sees either the old file or the complete new one.
 
-Output folders (ownership marker, run lock, crash-safe replace): :mod:`design.io.outputs`.
+Output folders (ownership marker, run lock, crash-safe replace):
+:mod:`bridgeflap.design.io.outputs`.
 
 JSON output is strict (RFC 8259): NaN and +-inf have no JSON spelling, so :func:`to_jsonable`
 turns them into ``null``. A ``null`` number in a result file therefore means "not a finite
@@ -27,8 +28,8 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from model.errors import BridgeflapInputError
-from model.results import jsonable
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.results import jsonable
 
 __all__ = [
     "atomic_save_netcdf",
@@ -49,8 +50,8 @@ __all__ = [
 def to_jsonable(obj: Any) -> Any:
     """Convert ``obj`` to plain JSON types (dict, list, str, int, float, bool, None).
 
-    The one converter of the package, :func:`model.results.jsonable`: numpy scalars become
-    Python scalars, arrays nested lists, dataclasses dicts of their fields, paths strings,
+    The one converter of the package, :func:`bridgeflap.model.results.jsonable`: numpy scalars
+    become Python scalars, arrays nested lists, dataclasses dicts of their fields, paths strings,
     enums their value, dates ISO strings, complex numbers ``{"real": x, "imag": y}``, mapping
     keys strings, and every NaN or infinite float ``None``.
 
@@ -122,7 +123,7 @@ def naming_os_errors(path: str | os.PathLike):
     """Meanwhile, an :class:`OSError` from the OS ("No space left on device", "Permission
     denied", "File name too long", ...) is raised again naming ``path`` (a write's ``ENOSPC``
     names no file, a temporary's error its temporary name), so that the CLI reports it as one
-    line naming the file and the reason (:func:`design.cli.common.os_error_as_input`)."""
+    line naming the file and the reason (:func:`bridgeflap.design.cli.common.os_error_as_input`)."""
     try:
         yield
     except OSError as exc:

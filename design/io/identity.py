@@ -2,16 +2,17 @@
 batch fingerprint and a study's or DOE's resolved configuration.
 
 A bridge is given as a built-in name, a bridge TOML path or an in-memory
-:class:`~model.structure.spec.BridgeSpec` (a script's modified bridge). A name or path is its
-own identity; a spec is named by the SHA-256 of its canonical form, so two different specs
+:class:`~bridgeflap.model.structure.spec.BridgeSpec` (a script's modified bridge). A name or path is
+its own identity; a spec is named by the SHA-256 of its canonical form, so two different specs
 never share a ``--resume`` record. The batch runner
-(:func:`design.batch.runner.function_fingerprint`), the DOE and study files
-(:mod:`design.studies.experiments`, :mod:`design.studies.study`) and the report use these.
+(:func:`bridgeflap.design.batch.runner.function_fingerprint`), the DOE and study files
+(:mod:`bridgeflap.design.studies.experiments`, :mod:`bridgeflap.design.studies.study`) and the
+report use these.
 """
 
 from __future__ import annotations
 
-from model.structure.spec import BridgeSpec
+from bridgeflap.model.structure.spec import BridgeSpec
 
 __all__ = ["bridge_identity", "bridge_label"]
 
@@ -27,9 +28,10 @@ def bridge_label(bridge) -> str:
 def bridge_identity(bridge) -> dict:
     """What identifies ``bridge`` in a batch fingerprint: ``{"bridge": label}`` and, for an
     in-memory spec, ``bridge_spec_sha256``: the SHA-256 of its canonical form (every resolved
-    value and source; the same in every process; :mod:`model.aeroelastic.controller_file`)."""
+    value and source; the same in every process;
+    :mod:`bridgeflap.model.aeroelastic.controller_file`)."""
     if not isinstance(bridge, BridgeSpec):
         return {"bridge": str(bridge)}
-    from model.aeroelastic.controller_file import _canonical_sha256
+    from bridgeflap.model.aeroelastic.controller_file import _canonical_sha256
 
     return {"bridge": bridge_label(bridge), "bridge_spec_sha256": _canonical_sha256(bridge)}

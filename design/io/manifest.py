@@ -1,10 +1,10 @@
 """Run manifest: what ran, where, with which software, on which source tree.
 
 :func:`build_manifest` collects everything needed to reproduce or audit a run output folder
-(written by the caller as ``manifest.json`` with :func:`design.io.files.atomic_write_json`). Nothing
-here imports the numerical packages: versions come from the installed distributions'
-metadata, the Ipopt version from the files CasADi ships, so building a manifest is cheap and
-has no side effects.
+(written by the caller as ``manifest.json`` with
+:func:`bridgeflap.design.io.files.atomic_write_json`). Nothing here imports the numerical packages:
+versions come from the installed distributions' metadata, the Ipopt version from the files CasADi
+ships, so building a manifest is cheap and has no side effects.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from design.io.files import to_jsonable
+from bridgeflap.design.io.files import to_jsonable
 
 __all__ = ["build_info", "build_manifest", "git_info", "ipopt_version", "package_versions",
            "provenance"]
@@ -206,7 +206,7 @@ def build_manifest(config: dict) -> dict:
     ----------
     config : dict
         The resolved run configuration (after defaults and command-line overrides); stored
-        through :func:`design.io.files.to_jsonable`.
+        through :func:`bridgeflap.design.io.files.to_jsonable`.
 
     Returns
     -------

@@ -2,8 +2,8 @@
 
 The command line, study files and DOE files give wind-speed grids and erected fractions as text
 (``start:stop:step`` or a comma list) and options as TOML values. This module turns them into
-arrays and checked values; the grid reader itself is :mod:`model.grid` (re-exported here), the
-one that every ``speeds`` argument of :mod:`model` goes through too.
+arrays and checked values; the grid reader itself is :mod:`bridgeflap.model.grid` (re-exported
+here), the one that every ``speeds`` argument of :mod:`bridgeflap.model` goes through too.
 """
 
 from __future__ import annotations
@@ -13,15 +13,15 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from model.arguments import (  # the checks of the API, shared so the messages match
+from bridgeflap.model.arguments import (  # the checks of the API, shared so the messages match
     MAX_MODES,
     check_bool,
     check_choice,
     check_int,
     check_number,
 )
-from model.errors import BridgeflapInputError
-from model.grid import MAX_GRID_POINTS, MAX_GRID_VALUE, grid, parse_range
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.grid import MAX_GRID_POINTS, MAX_GRID_VALUE, grid, parse_range
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -77,13 +77,14 @@ def check_keys(data: Mapping, allowed, what: str, known: str = "") -> None:
 
 def resolve_bridge(bridge: Any, base: Path, field_name: str = "bridge") -> Any:
     """A built-in bridge name, or the absolute path of a bridge TOML relative to ``base``; an
-    in-memory :class:`~model.structure.spec.BridgeSpec` as it is (a script's modified bridge).
+    in-memory :class:`~bridgeflap.model.structure.spec.BridgeSpec` as it is (a script's modified
+    bridge).
 
     The bridge is loaded once here, so that bad input stops before anything is written.
     """
-    from model.structure.builtin_bridges import BUILTIN_BRIDGES
-    from model.structure.loader import _split_variant, load_bridge
-    from model.structure.spec import BridgeSpec
+    from bridgeflap.model.structure.builtin_bridges import BUILTIN_BRIDGES
+    from bridgeflap.model.structure.loader import _split_variant, load_bridge
+    from bridgeflap.model.structure.spec import BridgeSpec
 
     if isinstance(bridge, BridgeSpec):
         return bridge

@@ -6,8 +6,8 @@ Output *folders* (``study``, ``doe``, batch folders) follow four rules, all here
   (``.bridgeflap-output``, a JSON tag ``{"tool": "bridgeflap", "kind", "version", "pid",
   "host", "created_utc"}``). A run replaces or reuses only a folder that is missing, empty or
   marked; an existing non-empty folder without the marker (a user's own files) is refused
-  with :class:`~model.errors.BridgeflapInputError` naming ``out``, before anything is written
-  (:func:`check_replaceable`).
+  with :class:`~bridgeflap.model.errors.BridgeflapInputError` naming ``out``, before anything is
+  written (:func:`check_replaceable`).
 * **One run at a time.** :func:`claim_output` takes a non-blocking :mod:`filelock` lock on
   ``.<name>.lock`` *next to* the folder (never inside the folder being replaced); a second run
   into the same folder is refused at once. On POSIX the lock file is removed, still locked,
@@ -26,8 +26,8 @@ Output *folders* (``study``, ``doe``, batch folders) follow four rules, all here
   run deletes those named exactly so, marked, whose process is gone (one killed before its
   marker was written only if it is empty); a folder of the user's is never deleted, whatever
   its name. The
-  half-written ``.<file>.<random>.tmp`` files of :func:`design.io.files.atomic_write` that a killed
-  batch leaves in its folder are deleted by the next run under the lock
+  half-written ``.<file>.<random>.tmp`` files of :func:`bridgeflap.design.io.files.atomic_write`
+  that a killed batch leaves in its folder are deleted by the next run under the lock
   (:func:`remove_stale_file_temporaries`).
 * **Validation first.** Callers check all their input before :func:`claim_output`, so a
   refused run writes nothing, not even the lock file.
@@ -50,8 +50,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from design.io.files import _fsync_dir, atomic_write_json, ensure_writable_dir
-from model.errors import BridgeflapInputError
+from bridgeflap.design.io.files import _fsync_dir, atomic_write_json, ensure_writable_dir
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = [
     "FAULT_ENV",

@@ -1,8 +1,8 @@
 """Numbers as the text output shows them: a speed [m/s] or a number with its unit, a missing
 value (``None``/NaN) as a word, never "nan".
 
-Used by the command line (:mod:`design.cli.common` serves them to the commands) and by the
-text of the design checks (:mod:`design.control.checks`).
+Used by the command line (:mod:`bridgeflap.design.cli.common` serves them to the commands) and by
+the text of the design checks (:mod:`bridgeflap.design.control.checks`).
 """
 
 from __future__ import annotations

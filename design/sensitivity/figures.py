@@ -1,6 +1,6 @@
 """Figures of the global sensitivity study: the Morris plane (``sigma`` against ``mu*``).
 
-:meth:`design.studies.screening.GlobalSensitivityResult.plot` calls it (matplotlib is
+:meth:`bridgeflap.design.studies.screening.GlobalSensitivityResult.plot` calls it (matplotlib is
 imported by the caller; this module only draws on the axis it is given). Speeds in m/s.
 """
 

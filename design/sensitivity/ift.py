@@ -1,8 +1,9 @@
 """The implicit-function core of the sensitivity studies, shared by the structural
-parameters (:mod:`design.sensitivity.local`) and the imported modal data
-(:mod:`design.sensitivity.modal`): the critical eigenpair at a stability boundary, ``dU/dp`` by
-the implicit-function theorem (the derivation: :mod:`design.sensitivity.local`), the nominal
-critical speeds, and the result record. It imports neither of the two studies."""
+parameters (:mod:`bridgeflap.design.sensitivity.local`) and the imported modal data
+(:mod:`bridgeflap.design.sensitivity.modal`): the critical eigenpair at a stability boundary,
+``dU/dp`` by the implicit-function theorem (the derivation:
+:mod:`bridgeflap.design.sensitivity.local`), the nominal critical speeds, and the result record. It
+imports neither of the two studies."""
 
 from __future__ import annotations
 
@@ -12,11 +13,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
-from model.aeroelastic import statespace
-from model.errors import BridgeflapError, BridgeflapInputError
-from model.results import ResultData, jsonable, table_text
-from model.spectrum import eigenvalue_derivative
-from model.stability.sweeps import CONVERGED, sweep
+from bridgeflap.model.aeroelastic import statespace
+from bridgeflap.model.errors import BridgeflapError, BridgeflapInputError
+from bridgeflap.model.results import ResultData, jsonable, table_text
+from bridgeflap.model.spectrum import eigenvalue_derivative
+from bridgeflap.model.stability.sweeps import CONVERGED, sweep
 
 _REL_STEP_A = 1e-4   # relative step of the central difference of A(U; p) (Ritz)
 _SPEED_TOL = 1e-7    # [m/s] Brent tolerance of the crossings used by the checks
@@ -225,7 +226,8 @@ def empty_entries(q: str, crit: dict) -> dict:
 
 def sensitivity_result(spec, crit: dict, rows, n_modes: int, settings: dict) -> SensitivityResult:
     """The result of a local sensitivity run from the nominal summary ``crit``, the
-    per-parameter ``rows`` and the run's ``settings`` (also :mod:`design.sensitivity.modal`)."""
+    per-parameter ``rows`` and the run's ``settings`` (also
+    :mod:`bridgeflap.design.sensitivity.modal`)."""
     return SensitivityResult(
         bridge=spec.name, flutter_speed_m_s=crit["flutter_speed_m_s"],
         divergence_speed_m_s=crit["divergence_speed_m_s"],

@@ -21,8 +21,8 @@ nominal point. A finite change of an input may hand the instability to another b
 vertical or side-span hybrid) and the speed then jumps, which no derivative predicts. Every row
 says which branch its derivatives hold on (``<q>_valid_within_branch``) and whether both
 finite-difference points stayed on it (``<q>_fd_same_branch``);
-:func:`design.batch.branch_flags.flag_branch_neighbours` flags DOE/sensitivity rows whose neighbours
-in parameter space have a different critical branch.
+:func:`bridgeflap.design.batch.branch_flags.flag_branch_neighbours` flags DOE/sensitivity rows whose
+neighbours in parameter space have a different critical branch.
 
 ``dA/dp`` for a parameter that enters through the cable statics and the finite-element assembly
 (deck mass, inertia, GJ, EI, sag, cable spacing, ...) is the central difference of the
@@ -43,7 +43,7 @@ small when the truncation has converged. Two finite-difference checks quantify b
 
 Relative (unit-free) derivatives ``(p/U) dU/dp`` are reported next to the absolute ones.
 
-Global screening (Morris, Sobol') is in :mod:`design.studies.screening`.
+Global screening (Morris, Sobol') is in :mod:`bridgeflap.design.studies.screening`.
 
 References
 ----------
@@ -59,7 +59,8 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import scipy.linalg as sla
 
-from design.sensitivity.ift import (  # the IFT core, also served from here (design.sensitivity.ift)
+# the IFT core, also served from here (design.sensitivity.ift)
+from bridgeflap.design.sensitivity.ift import (
     _REL_STEP_A,
     SensitivityResult,
     critical_eigenpair,
@@ -68,17 +69,17 @@ from design.sensitivity.ift import (  # the IFT core, also served from here (des
     sensitivity_result,
     speed_derivative_ift,
 )
-from model.aeroelastic import statespace
-from model.analysis import DEFAULT_MODES, bridge_system, modal_model
-from model.arguments import check_callable, check_strings, flag, number, optional
-from model.errors import BridgeflapError, BridgeflapInputError
-from model.grid import speed_grid
-from model.stability.sweeps import oscillation_tolerance
-from model.structure.bridge_arg import BridgeArg, takes_bridge
-from model.structure.fe import assemble
-from model.structure.modes import ModalModel
-from model.structure.ritz import chosen_modes, ritz_basis
-from model.structure.spec import PARAMETER_PATHS, BridgeSpec, get_path
+from bridgeflap.model.aeroelastic import statespace
+from bridgeflap.model.analysis import DEFAULT_MODES, bridge_system, modal_model
+from bridgeflap.model.arguments import check_callable, check_strings, flag, number, optional
+from bridgeflap.model.errors import BridgeflapError, BridgeflapInputError
+from bridgeflap.model.grid import speed_grid
+from bridgeflap.model.stability.sweeps import oscillation_tolerance
+from bridgeflap.model.structure.bridge_arg import BridgeArg, takes_bridge
+from bridgeflap.model.structure.fe import assemble
+from bridgeflap.model.structure.modes import ModalModel
+from bridgeflap.model.structure.ritz import chosen_modes, ritz_basis
+from bridgeflap.model.structure.spec import PARAMETER_PATHS, BridgeSpec, get_path
 
 __all__ = [
     "DEFAULT_PARAMETERS",
@@ -162,7 +163,7 @@ def ritz_system(spec: BridgeSpec, nominal: ModalModel, n_modes: int = DEFAULT_MO
                 rfa: str = "rfa4", order: str = "modal",
                 shape_offset: dict | None = None) -> statespace.AeroelasticSystem:
     """State space of ``spec`` on the nominal Ritz basis
-    (:func:`model.structure.ritz.ritz_basis`)."""
+    (:func:`bridgeflap.model.structure.ritz.ritz_basis`)."""
     basis = ritz_basis(spec, nominal, n_modes, shape_offset=shape_offset)
     return statespace.spec_system(spec, basis, order, rfa)
 
@@ -181,7 +182,7 @@ def check_parameters(parameters: Sequence[str]) -> tuple[str, ...]:
     parameters = tuple(parameters)
     if not parameters:
         raise BridgeflapInputError("parameters", "no parameter given")
-    from design.sensitivity.modal import MODAL_QUANTITIES, is_modal_parameter
+    from bridgeflap.design.sensitivity.modal import MODAL_QUANTITIES, is_modal_parameter
 
     for p in parameters:
         if p not in PARAMETER_PATHS and not is_modal_parameter(p):
@@ -209,8 +210,8 @@ def local_sensitivity(bridge: BridgeArg, parameters: Sequence[str] = DEFAULT_PAR
     ----------
     bridge : str, os.PathLike or BridgeSpec
     parameters : sequence of str
-        Dotted paths from :data:`model.structure.spec.PARAMETER_PATHS`, or modal data
-        ``mode.<label>.<quantity>`` only (:mod:`design.sensitivity.modal`).
+        Dotted paths from :data:`bridgeflap.model.structure.spec.PARAMETER_PATHS`, or modal data
+        ``mode.<label>.<quantity>`` only (:mod:`bridgeflap.design.sensitivity.modal`).
     speeds : str or array_like
         Sweep grid [m/s] that locates the nominal crossings (refined to 1e-7 m/s).
     n_modes : int
@@ -229,7 +230,7 @@ def local_sensitivity(bridge: BridgeArg, parameters: Sequence[str] = DEFAULT_PAR
     parameters = check_parameters(parameters)
     u = speed_grid(speeds)  # "lo:hi:step" text or numbers [m/s]
     if any(p.startswith("mode.") for p in parameters):  # imported modal data
-        from design.sensitivity.modal import modal_sensitivity
+        from bridgeflap.design.sensitivity.modal import modal_sensitivity
 
         return modal_sensitivity(spec, parameters, u, n_modes, check, rel_step, fd_step,
                                  progress)

@@ -3,7 +3,7 @@
 Parameters ``mode.<label>.<quantity>`` with ``quantity`` one of :data:`MODAL_QUANTITIES`: the
 natural frequency ``f_j`` [Hz], the damping ratio ``zeta_j`` [-] or the generalised mass
 ``M_j`` [kg, or kg m^2 for a mode whose shape is in radians] of mode ``<label>`` of the
-structural basis. The basis is diagonal (:mod:`model.structure.modal_import`)::
+structural basis. The basis is diagonal (:mod:`bridgeflap.model.structure.modal_import`)::
 
     M = diag(M_j),  C = diag(2 zeta_j omega_j M_j),  K = diag(M_j omega_j^2),  omega_j = 2 pi f_j
 
@@ -11,13 +11,14 @@ with the mode shapes held: a change of ``M_j`` at fixed ``f_j`` scales the mode'
 stiffness together against unchanged aerodynamic loads (a mass-ratio change). This is the
 same model for a modal bridge (the shapes are data) and for the FE bridge's retained modes
 (the modal quantities taken as inputs; the FE parameters themselves are
-:func:`design.sensitivity.local.local_sensitivity`'s).
+:func:`bridgeflap.design.sensitivity.local.local_sensitivity`'s).
 
-The derivative is the implicit-function one of :func:`design.sensitivity.local.speed_derivative_ift`
-(``dU/dp = -(d Re lambda/dp) / (d Re lambda/dU)``, ``dA/dp`` by a central difference of the
-state matrix rebuilt on the perturbed basis, ``dA/dU = A1 + 2 U A2`` exact) on the bridge's own
-state space: Theodorsen (:func:`model.aeroelastic.statespace.spec_system`) or the flutter-derivative
-Roger state space (:func:`model.aeroelastic.derivative_system.derivative_system`, the same fit: the
+The derivative is the implicit-function one of
+:func:`bridgeflap.design.sensitivity.local.speed_derivative_ift` (``dU/dp = -(d Re lambda/dp) / (d
+Re lambda/dU)``, ``dA/dp`` by a central difference of the state matrix rebuilt on the perturbed
+basis, ``dA/dU = A1 + 2 U A2`` exact) on the bridge's own state space: Theodorsen
+(:func:`bridgeflap.model.aeroelastic.statespace.spec_system`) or the flutter-derivative Roger state
+space (:func:`bridgeflap.model.aeroelastic.derivative_system.derivative_system`, the same fit: the
 RFA does not depend on the structure). The check is the central difference of the speed itself, both
 points re-swept (``d_<q>_speed_fd``); the basis does not move with these inputs, so the
 ``fixed_basis`` and ``ritz_fd`` columns of the FE rows are the same numbers here.
@@ -30,7 +31,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from model.errors import BridgeflapError, BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapError, BridgeflapInputError
 
 __all__ = ["MODAL_QUANTITIES", "is_modal_parameter", "modal_sensitivity", "perturbed_basis"]
 
@@ -81,14 +82,14 @@ def _nominal_value(basis, label, quantity):
 
 def _system_factory(spec, n_modes: int):
     """``(basis0, make)``: the nominal basis and ``basis -> AeroelasticSystem`` of ``spec``."""
-    from model.aeroelastic import statespace
-    from model.analysis import bridge_system, modal_model
+    from bridgeflap.model.aeroelastic import statespace
+    from bridgeflap.model.analysis import bridge_system, modal_model
 
     modal = modal_model(spec)
     _, system0 = bridge_system(spec, n_modes, modal=modal)
     if getattr(spec, "derivatives", None) is None:
         return system0.basis, lambda b: statespace.spec_system(spec, b)
-    from model.aeroelastic.derivative_system import derivative_system
+    from bridgeflap.model.aeroelastic.derivative_system import derivative_system
 
     phi_p, fit = system0.extras.get("phi_p"), system0.rfa
     source = system0.derivative_frozen.source
@@ -100,14 +101,14 @@ def modal_sensitivity(spec, parameters: Sequence[str], speeds, n_modes: int, che
                       rel_step: float = 1e-4, fd_step: float = 1e-3,
                       progress: Callable[[str], None] | None = None):
     """IFT derivatives of ``U_F``, ``U_D`` to modal data, as a
-    :class:`design.sensitivity.ift.SensitivityResult` (same row keys)."""
-    from design.sensitivity.ift import (
+    :class:`bridgeflap.design.sensitivity.ift.SensitivityResult` (same row keys)."""
+    from bridgeflap.design.sensitivity.ift import (
         critical_speeds,
         empty_entries,
         sensitivity_result,
         speed_derivative_ift,
     )
-    from model.stability.sweeps import oscillation_tolerance
+    from bridgeflap.model.stability.sweeps import oscillation_tolerance
 
     bad = [p for p in parameters if not is_modal_parameter(p)]
     if bad:

@@ -7,7 +7,7 @@ over the registry, like a DOE), the report (``report``, ``document``) and its Fi
 (``figures``), and the reader of finished run folders (``runs``: ``open_run``).
 Also the home of the built-in study definitions (``*.toml``), shipped as package
 data (``[tool.setuptools.package-data]`` in pyproject.toml) and found with
-``importlib.resources.files("design.studies")``. Importing it imports nothing else.
+``importlib.resources.files("bridgeflap.design.studies")``. Importing it imports nothing else.
 
-May import: :mod:`model` and every design layer below it.
+May import: :mod:`bridgeflap.model` and every design layer below it.
 """

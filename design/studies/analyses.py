@@ -1,10 +1,11 @@
 """The one registry of analyses: name -> runner, defaults, options, DOE case row.
 
-The command line (:mod:`design.cli.main`), studies (:mod:`design.studies.study`) and DOE cases
-(:mod:`design.studies.cases`) all take an analysis' defaults from :data:`ANALYSES`, so a default
-lives in one place: the wind-speed grid of flutter and erection is :data:`DEFAULT_SPEEDS`, the
-number of retained modes :data:`DEFAULT_MODES` (the same object as
-:data:`model.analysis.DEFAULT_MODES`).
+The command line (:mod:`bridgeflap.design.cli.main`), studies
+(:mod:`bridgeflap.design.studies.study`) and DOE cases (:mod:`bridgeflap.design.studies.cases`) all
+take an analysis' defaults from :data:`ANALYSES`, so a default lives in one place: the wind-speed
+grid of flutter and erection is :data:`DEFAULT_SPEEDS`, the number of retained modes
+:data:`DEFAULT_MODES` (the same object as
+:data:`bridgeflap.model.analysis.DEFAULT_MODES`).
 
 Each :class:`Analysis` runs on a bridge definition with its resolved options
 (:meth:`Analysis.resolve`: defaults, then the given options) and returns an :class:`Outcome`:
@@ -20,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from design.io.options import (
+from bridgeflap.design.io.options import (
     MAX_MODES,
     check_bool,
     check_choice,
@@ -30,11 +31,11 @@ from design.io.options import (
     grid,
     parse_range,
 )
-from design.sensitivity.local import DEFAULT_PARAMETERS
-from model.analysis import DEFAULT_MODES
-from model.errors import BridgeflapInputError
-from model.structure.builtin_bridges import BUILTIN_BRIDGES
-from model.structure.spec import BridgeSpec
+from bridgeflap.design.sensitivity.local import DEFAULT_PARAMETERS
+from bridgeflap.model.analysis import DEFAULT_MODES
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure.builtin_bridges import BUILTIN_BRIDGES
+from bridgeflap.model.structure.spec import BridgeSpec
 
 __all__ = ["ANALYSES", "DEFAULT_MODES", "DEFAULT_SPEEDS", "Analysis", "Outcome", "RunContext",
            "check_options", "figure_of"]
@@ -127,7 +128,7 @@ def _speeds(value, field_name):
 
 
 def _fractions(value, field_name):
-    from model.structure.spec import check_fraction
+    from bridgeflap.model.structure.spec import check_fraction
 
     for f in grid(value, field_name, None, None):
         try:
@@ -141,7 +142,7 @@ def _modes(value, field_name):
 
 
 def _side_spans(value, field_name):
-    from model.structure.spec import SIDE_SPAN_SEQUENCES
+    from bridgeflap.model.structure.spec import SIDE_SPAN_SEQUENCES
 
     check_choice(value, field_name, ("", *SIDE_SPAN_SEQUENCES))
 
@@ -160,7 +161,7 @@ def _integer(minimum=1, maximum=None):
 
 def _parameters(value, field_name):
     # design/sensitivity/local.py (H1): one import line
-    from design.sensitivity.local import check_parameters
+    from bridgeflap.design.sensitivity.local import check_parameters
 
     if not (isinstance(value, str) or (isinstance(value, list | tuple)
                                        and all(isinstance(v, str) for v in value))):
@@ -174,9 +175,9 @@ def _parameters(value, field_name):
 
 def _option_checks() -> dict:
     """Option name -> ``check(value, field)``: every option a study, DOE or CLI may set."""
-    from model.aero.rfa import RFA_NAMES
-    from model.aero.wind import ADMITTANCE_KINDS, SPECTRUM_KINDS
-    from model.response.buffeting import METHODS
+    from bridgeflap.model.aero.rfa import RFA_NAMES
+    from bridgeflap.model.aero.wind import ADMITTANCE_KINDS, SPECTRUM_KINDS
+    from bridgeflap.model.response.buffeting import METHODS
 
     positive = _number(0.0, strict=True)
     return {
@@ -201,8 +202,9 @@ def check_options(kind: str, opts: Mapping, what: str | None = None) -> None:
     """Validate option values now, so that bad input exits before anything is written.
 
     Every option named in :func:`_option_checks` is checked for its type and range; the
-    ``design`` analysis' options are :class:`design.control.settings.DesignSettings` fields, checked
-    by building the settings. Unknown names are rejected by :meth:`Analysis.resolve`.
+    ``design`` analysis' options are :class:`bridgeflap.design.control.settings.DesignSettings`
+    fields, checked by building the settings. Unknown names are rejected by
+    :meth:`Analysis.resolve`.
     """
     what = what or kind
     if kind == "design":
@@ -220,7 +222,7 @@ def check_options(kind: str, opts: Mapping, what: str | None = None) -> None:
 
 def figure_of(drawn):
     """The figure of a plot: a figure, an axis or the first of several axes."""
-    from model.results import figure_of as _figure_of
+    from bridgeflap.model.results import figure_of as _figure_of
 
     return _figure_of(drawn)
 
@@ -242,8 +244,8 @@ def aggregate_status(status) -> str:
 
 
 def _run_modes(spec, opts, context) -> Outcome:
-    from model.analysis import modal_model
-    from model.cases.validation import compare_table1
+    from bridgeflap.model.analysis import modal_model
+    from bridgeflap.model.cases.validation import compare_table1
 
     modal = modal_model(spec)
     s = {"cable_horizontal_tension_n": modal.structure.statics.horizontal_tension_n,
@@ -261,7 +263,7 @@ def _run_modes(spec, opts, context) -> Outcome:
 
 
 def _modes_case(outcome: Outcome) -> dict:
-    from model.analysis import first_symmetric_frequency_hz
+    from bridgeflap.model.analysis import first_symmetric_frequency_hz
 
     modal = outcome.result
     fv = first_symmetric_frequency_hz(modal, "vertical")
@@ -271,7 +273,7 @@ def _modes_case(outcome: Outcome) -> dict:
 
 
 def _run_frequency_ratio(spec, opts, context) -> Outcome:
-    from model.analysis import frequency_ratio
+    from bridgeflap.model.analysis import frequency_ratio
 
     res = frequency_ratio(spec, grid(opts["fractions"], "fractions"),
                           side_spans=opts["side_spans"] or None)
@@ -281,8 +283,8 @@ def _run_frequency_ratio(spec, opts, context) -> Outcome:
            for k in ("erected_fraction", "ratio_full_gj", "ratio_half_gj")}
     figs = _figures(context, "frequency_ratio", res)
     if context.figures:  # the modes the rule picks (model.analysis.first_symmetric_deck_mode)
-        from model.analysis import first_symmetric_deck_mode
-        from model.stability.modeshape import plot_ratio_modes, ratio_modes
+        from bridgeflap.model.analysis import first_symmetric_deck_mode
+        from bridgeflap.model.stability.modeshape import plot_ratio_modes, ratio_modes
 
         picked = ratio_modes(spec, first_symmetric_deck_mode, (0.2, 0.5, 0.8, 1.0),
                              side_spans=opts["side_spans"] or None)
@@ -291,7 +293,7 @@ def _run_frequency_ratio(spec, opts, context) -> Outcome:
 
 
 def _run_flutter(spec, opts, context) -> Outcome:
-    from model.analysis import flutter
+    from bridgeflap.model.analysis import flutter
 
     # a run that draws the V-g/V-f figures needs eigenvalues at every grid speed: dense sweep
     method = "dense" if context.figures else opts["sweep"]
@@ -307,7 +309,7 @@ def _run_flutter(spec, opts, context) -> Outcome:
            "branch_labels": np.array(sw.branch_labels)}
     figs = _figures(context, "flutter", res)
     if context.figures and s["flutter_status"] == "converged" and opts["order"] == "modal":
-        from model.stability.modeshape import flutter_mode_shape
+        from bridgeflap.model.stability.modeshape import flutter_mode_shape
 
         shape = flutter_mode_shape(spec, grid(opts["speeds"], "speeds", 0.0), int(opts["modes"]),
                                    rfa=opts["rfa"])
@@ -318,10 +320,10 @@ def _run_flutter(spec, opts, context) -> Outcome:
 def _truncation(spec, opts, res) -> dict:
     """Truncation error of the headline speeds: ``n`` against ``n + 8`` retained modes.
 
-    :func:`model.stability.convergence.truncation_error` (the step of 8 spans the next symmetric
-    torsional mode on Humber); the ``n``-mode sweep is not repeated.
+    :func:`bridgeflap.model.stability.convergence.truncation_error` (the step of 8 spans the next
+    symmetric torsional mode on Humber); the ``n``-mode sweep is not repeated.
     """
-    from model.stability.convergence import truncation_error
+    from bridgeflap.model.stability.convergence import truncation_error
 
     s = res.summary()
     # the modes actually retained (an imported modal model may hold fewer than asked)
@@ -355,7 +357,7 @@ def _flutter_case(outcome: Outcome) -> dict:
 
 
 def _run_erection(spec, opts, context) -> Outcome:
-    from model.analysis import erection
+    from bridgeflap.model.analysis import erection
 
     res = erection(spec, grid(opts["fractions"], "fractions"),
                    grid(opts["speeds"], "speeds", 0.0), int(opts["modes"]),
@@ -372,7 +374,7 @@ def _run_erection(spec, opts, context) -> Outcome:
 
 def _run_sensitivity(spec, opts, context) -> Outcome:
     # design/sensitivity/local.py (H1): one import line
-    from design.sensitivity.local import local_sensitivity
+    from bridgeflap.design.sensitivity.local import local_sensitivity
 
     res = local_sensitivity(spec, opts["parameters"], speeds=grid(opts["speeds"], "speeds", 0.0),
                             n_modes=int(opts["modes"]), check=bool(opts["check"]))
@@ -392,7 +394,7 @@ _BUFFETING_OPTIONS = ("speeds", "modes", "spectrum", "admittance", "coherence_de
 
 
 def _run_buffeting(spec, opts, context) -> Outcome:
-    from model.response.buffeting import buffeting
+    from bridgeflap.model.response.buffeting import buffeting
 
     opts = dict(opts)
     speeds = grid(opts.pop("speeds"), "buffeting.speeds", 0.0)
@@ -416,7 +418,7 @@ def design_settings(opts: Mapping, bridge: str | None):
     with the other options as overrides; without a card the settings' defaults, the study's
     bridge and the options. With a card its own bridge is kept unless ``bridge`` is among the
     options, so that the study and `bridgeflap optimise` design the same controller."""
-    from design.control.settings import load_settings, packaged_card
+    from bridgeflap.design.control.settings import load_settings, packaged_card
 
     opts = dict(opts)
     card = opts.pop("card", None)
@@ -428,8 +430,8 @@ def design_settings(opts: Mapping, bridge: str | None):
 
 
 def _run_design(spec, opts, context) -> Outcome:
-    from design.assessment.accept import design
-    from design.control.settings import quick_settings
+    from bridgeflap.design.assessment.accept import design
+    from bridgeflap.design.control.settings import quick_settings
 
     # an in-memory bridge goes to the design as its spec (settings.bridge: its name if that
     # loads, else the default; the controller's plant record hashes the spec); with a card,
@@ -452,7 +454,7 @@ def _run_design(spec, opts, context) -> Outcome:
         context.say("  design: closed-loop root locus and buffeting (Fig. 5)")
         # on the bridge the controller was designed for (the study's [design] may name a
         # variant), on the study's mesh
-        from model.structure.loader import load_bridge
+        from bridgeflap.model.structure.loader import load_bridge
 
         dspec = load_bridge(context.bridge if mem else settings.bridge).replace(
             **{"mesh.element_length_m": spec.mesh.element_length_m})
@@ -501,9 +503,9 @@ def fig5(spec, controller, n_modes: int = DEFAULT_MODES, quick: bool = False,
     torsional buffeting with and without the flaps (the open loop is NaN beyond its flutter
     speed, never clipped). ``open_loop_flutter_m_s`` is the marked open-loop flutter speed
     (the design result's own; default: this figure's open-loop sweep)."""
-    from design.studies.figures import fig5 as draw
-    from model.analysis import closed_loop_flutter
-    from model.response.buffeting import buffeting
+    from bridgeflap.design.studies.figures import fig5 as draw
+    from bridgeflap.model.analysis import closed_loop_flutter
+    from bridgeflap.model.response.buffeting import buffeting
 
     speeds = parse_range("0:85:1" if quick else DEFAULT_SPEEDS, "speeds", 0.0)
     cl = closed_loop_flutter(spec, controller, speeds, n_modes)

@@ -1,18 +1,19 @@
-"""Picklable case functions for the DOE batch runner (:func:`design.batch.runner.run_batch`).
+"""Picklable case functions for the DOE batch runner
+(:func:`bridgeflap.design.batch.runner.run_batch`).
 
 A case function is ``fn(params) -> dict`` once its settings are bound with
 :func:`functools.partial` (which keeps it picklable for Dask workers): ``params`` maps dotted
-parameter paths (:data:`model.structure.spec.PARAMETER_PATHS`, plus ``"erected_fraction"``) to
-values in SI units; the settings are the bridge and the options of an analysis of the registry
-(:data:`design.studies.analyses.ANALYSES`), whose defaults apply to every option not given. Each
-returns the analysis' case row (plain numbers with units in the key names and the solver statuses);
-a failure raises, and the runner records the row as failed.
+parameter paths (:data:`bridgeflap.model.structure.spec.PARAMETER_PATHS`, plus
+``"erected_fraction"``) to values in SI units; the settings are the bridge and the options of an
+analysis of the registry (:data:`bridgeflap.design.studies.analyses.ANALYSES`), whose defaults apply
+to every option not given. Each returns the analysis' case row (plain numbers with units in the key
+names and the solver statuses); a failure raises, and the runner records the row as failed.
 
 The bridge is a built-in name, a bridge TOML path or an in-memory
-:class:`~model.structure.spec.BridgeSpec` (a script's modified bridge): the spec itself goes to the
-workers (pickled with the case function) and :func:`design.io.identity.bridge_identity` names it
-in the fingerprint of a batch by the SHA-256 of its canonical form, so two different specs never
-share a ``--resume`` record.
+:class:`~bridgeflap.model.structure.spec.BridgeSpec` (a script's modified bridge): the spec itself
+goes to the workers (pickled with the case function) and
+:func:`bridgeflap.design.io.identity.bridge_identity` names it in the fingerprint of a batch by the
+SHA-256 of its canonical form, so two different specs never share a ``--resume`` record.
 """
 
 from __future__ import annotations
@@ -20,9 +21,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from model.errors import BridgeflapInputError
-from model.structure.loader import load_bridge
-from model.structure.spec import PARAMETER_PATHS, BridgeSpec
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure.loader import load_bridge
+from bridgeflap.model.structure.spec import PARAMETER_PATHS, BridgeSpec
 
 __all__ = ["ERECTED_FRACTION", "analysis_case", "apply_parameters", "check_applicable",
            "flutter_case"]
@@ -60,7 +61,7 @@ def analysis_case(params: Mapping, analysis: str, bridge: str | BridgeSpec = "hu
     **options
         Options of the analysis; the registry's defaults fill in the rest.
     """
-    from design.studies.analyses import ANALYSES, RunContext
+    from bridgeflap.design.studies.analyses import ANALYSES, RunContext
 
     entry = ANALYSES[analysis]
     if entry.case is None:

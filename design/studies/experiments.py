@@ -1,11 +1,11 @@
 """DOE definition files: configuration, run through the batch runner, result.
 
 A **DOE** file (:func:`load_doe`, :func:`run_doe`) names the bridge, the analysis (one of the
-registry :data:`design.studies.analyses.ANALYSES` that has a case row: flutter, modes, buffeting),
-its options, the design kind and the parameter ranges (dotted paths of
-:data:`model.structure.spec.PARAMETER_PATHS`); it runs through :func:`design.batch.runner.run_batch`
-(per-case status, resumable). An option the file does not give takes the registry's default, the
-same as the command line's.
+registry :data:`bridgeflap.design.studies.analyses.ANALYSES` that has a case row: flutter, modes,
+buffeting), its options, the design kind and the parameter ranges (dotted paths of
+:data:`bridgeflap.model.structure.spec.PARAMETER_PATHS`); it runs through
+:func:`bridgeflap.design.batch.runner.run_batch` (per-case status, resumable). An option the file
+does not give takes the registry's default, the same as the command line's.
 
 A design is refused before anything is allocated when it would have more than
 :data:`MAX_DOE_CASES` cases (the product of the level counts of a full factorial, ``n`` of a
@@ -14,10 +14,10 @@ the bridge file's content, the analysis, its resolved options (defaults included
 bridgeflap version (:func:`doe_fingerprint`), so a folder holding another DOE's cases has them
 recomputed, never reused.
 
-The bridge may be an in-memory :class:`~model.structure.spec.BridgeSpec` (``bridge=`` of
+The bridge may be an in-memory :class:`~bridgeflap.model.structure.spec.BridgeSpec` (``bridge=`` of
 :func:`load_doe` and :func:`run_doe`, or the ``"bridge"`` of :func:`doe_from_dict`): the cases run
 on it as it is, and the fingerprint hashes its canonical form
-(:func:`design.io.identity.bridge_identity`).
+(:func:`bridgeflap.design.io.identity.bridge_identity`).
 """
 
 from __future__ import annotations
@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from design.io.files import output_folder
-from design.io.options import (
+from bridgeflap.design.io.files import output_folder
+from bridgeflap.design.io.options import (
     MAX_DOE_CASES,
     check_int,
     check_keys,
@@ -45,9 +45,9 @@ from design.io.options import (
     resolve_bridge,
     table,
 )
-from design.studies.analyses import ANALYSES
-from design.studies.cases import ERECTED_FRACTION, analysis_case
-from model.arguments import (
+from bridgeflap.design.studies.analyses import ANALYSES
+from bridgeflap.design.studies.cases import ERECTED_FRACTION, analysis_case
+from bridgeflap.model.arguments import (
     check_mapping,
     check_path,
     check_text,
@@ -56,10 +56,10 @@ from model.arguments import (
     instance_or_path,
     optional,
 )
-from model.errors import BridgeflapInputError
-from model.results import ResultData
-from model.structure.bridge_arg import check_bridge_kind
-from model.structure.spec import PARAMETER_PATHS
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.results import ResultData
+from bridgeflap.model.structure.bridge_arg import check_bridge_kind
+from bridgeflap.model.structure.spec import PARAMETER_PATHS
 
 __all__ = ["DOE_ANALYSES", "MAX_DOE_CASES", "DoeConfig", "DoeParameter", "DoeResult",
            "doe_fingerprint", "doe_from_dict", "load_doe", "run_doe"]
@@ -120,7 +120,7 @@ class DoeConfig:
 
     def as_dict(self) -> dict:
         """JSON-ready resolved configuration."""
-        from design.io.identity import bridge_identity
+        from bridgeflap.design.io.identity import bridge_identity
 
         return {"name": self.name, **bridge_identity(self.bridge), "analysis": self.analysis,
                 "options": dict(self.options), "kind": self.kind,
@@ -130,7 +130,7 @@ class DoeConfig:
 
     def cases(self) -> list[dict]:
         """The design's cases (``case_id`` + parameter values)."""
-        from design.batch.designs import make_design
+        from bridgeflap.design.batch.designs import make_design
 
         if self.kind == "full_factorial":
             return make_design("full_factorial", levels={
@@ -148,7 +148,7 @@ class DoeConfig:
 @checked(path=check_path, quick=flag, bridge=optional(check_bridge_kind))
 def load_doe(path: str | os.PathLike, quick: bool = False, bridge: Any = None) -> DoeConfig:
     """Read and validate a DOE TOML file; ``bridge`` (a name, a bridge TOML path or a
-    :class:`~model.structure.spec.BridgeSpec`) replaces the file's own ``bridge``.
+    :class:`~bridgeflap.model.structure.spec.BridgeSpec`) replaces the file's own ``bridge``.
 
     Format::
 
@@ -163,9 +163,9 @@ def load_doe(path: str | os.PathLike, quick: bool = False, bridge: Any = None) -
         levels = 3                            # full factorial: points per range
         n = 16                                # latin hypercube / sobol: cases
         seed = 1
-        [parameters]                          # dotted paths of model.structure.spec.PARAMETER_PATHS
-        "deck.gj_nm2" = [3.0e11, 4.5e11]      # range [lo, hi]
-        "cable.main_sag_m" = { values = [110.0, 115.0, 120.0] }   # explicit levels
+        [parameters]                          # dotted paths of
+        bridgeflap.model.structure.spec.PARAMETER_PATHS "deck.gj_nm2" = [3.0e11, 4.5e11]      #
+        range [lo, hi] "cable.main_sag_m" = { values = [110.0, 115.0, 120.0] }   # explicit levels
         [quick]                               # --quick overrides
         design = { levels = 2 }
         options = { speeds = "0:120:2" }
@@ -241,7 +241,7 @@ def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
             raise BridgeflapInputError(fld, f"empty range [{lo}, {hi}] (need lo < hi)")
         params[path] = DoeParameter(low=lo, high=hi)
     _check_size(kind, params, levels, n)
-    from design.studies.cases import check_applicable
+    from bridgeflap.design.studies.cases import check_applicable
 
     check_applicable(bridge, {k: (v.values[0] if v.values else v.low)
                               for k, v in params.items()})
@@ -299,16 +299,16 @@ class DoeResult(ResultData):
 
     def _rows(self) -> list[dict]:
         """Parameters and results in one flat row per case
-        (:func:`design.batch.runner.flat_case_rows`)."""
-        from design.batch.runner import flat_case_rows
+        (:func:`bridgeflap.design.batch.runner.flat_case_rows`)."""
+        from bridgeflap.design.batch.runner import flat_case_rows
 
         return flat_case_rows(self.rows)
 
     def to_xarray(self):
         """The cases on the dimension ``case``: parameters as coordinates, each scalar result a
-        variable (:func:`design.batch.table.cases_dataset`); ``ds.set_index`` or
+        variable (:func:`bridgeflap.design.batch.table.cases_dataset`); ``ds.set_index`` or
         ``ds.to_dataframe()`` for a grid."""
-        from design.batch.table import cases_dataset
+        from bridgeflap.design.batch.table import cases_dataset
 
         return cases_dataset(self.rows)
 
@@ -345,10 +345,10 @@ class DoeResult(ResultData):
 def doe_fingerprint(config: DoeConfig) -> str:
     """What, besides a case's parameters, determines its result: bridge file content (and the
     resolved bridge), analysis, resolved options, bridgeflap version (the ``case_hash`` key)."""
-    from design.batch.runner import _package_version
-    from design.io.identity import bridge_identity
-    from model.structure.loader import _read_source, _split_variant, load_bridge
-    from model.structure.spec import BridgeSpec
+    from bridgeflap.design.batch.runner import _package_version
+    from bridgeflap.design.io.identity import bridge_identity
+    from bridgeflap.model.structure.loader import _read_source, _split_variant, load_bridge
+    from bridgeflap.model.structure.spec import BridgeSpec
 
     if isinstance(config.bridge, BridgeSpec):  # in memory: the hash of its canonical form
         ident = bridge_identity(config.bridge)
@@ -366,28 +366,30 @@ def doe_fingerprint(config: DoeConfig) -> str:
     return json.dumps(payload, sort_keys=True, default=repr)
 
 
-@checked(config=instance_or_path(DoeConfig, "design.load_doe"), out_dir=optional(check_path),
+@checked(config=instance_or_path(DoeConfig, "bridgeflap.design.load_doe"),
+         out_dir=optional(check_path),
          scheduler=optional(check_text), resume=flag, quick=flag, progress=flag,
          bridge=optional(check_bridge_kind))
 def run_doe(config: DoeConfig | str | os.PathLike,
             out_dir: str | os.PathLike | None = None,
             workers: int = 1, scheduler: str | None = None, resume: bool = False,
             quick: bool = False, progress: bool = True, bridge: Any = None) -> DoeResult:
-    """Run a DOE through :func:`design.batch.runner.run_batch` (per-case files; resumable).
+    """Run a DOE through :func:`bridgeflap.design.batch.runner.run_batch` (per-case files;
+    resumable).
 
     ``config``: a :class:`DoeConfig` or a DOE file path; ``out_dir``: the output folder
     (``bridgeflap doe --out``; default ``runs/<name>/output``); ``bridge`` (a name, a bridge TOML
-    path or a :class:`~model.structure.spec.BridgeSpec`) replaces the file's bridge (a path only;
-    for a loaded config use ``load_doe(path, bridge=...)``).
+    path or a :class:`~bridgeflap.model.structure.spec.BridgeSpec`) replaces the file's bridge (a
+    path only; for a loaded config use ``load_doe(path, bridge=...)``).
 
     The resolved configuration is written as ``doe.json`` (and ``manifest.json``) next to the
     batch files, after the scheduler is reachable. ``resume`` reuses only cases whose
     ``case_hash`` (:func:`doe_fingerprint` and the parameters) matches; a folder holding
     another DOE has its cases recomputed (said on stderr). The folder rules (foreign folder
-    refused, one run at a time) are those of :func:`design.batch.runner.run_batch`.
+    refused, one run at a time) are those of :func:`bridgeflap.design.batch.runner.run_batch`.
     """
-    from design.batch.runner import run_batch
-    from design.io.manifest import build_manifest
+    from bridgeflap.design.batch.runner import run_batch
+    from bridgeflap.design.io.manifest import build_manifest
 
     if not isinstance(config, DoeConfig):
         config = load_doe(config, quick=quick, bridge=bridge)

@@ -1,10 +1,10 @@
 """The seed Fig. 5 of the report: closed-loop root locus over the open loop and buffeting with
 and without the flaps.
 
-:func:`design.studies.analyses.fig5` (the report's figure) calls it (matplotlib imported
+:func:`bridgeflap.design.studies.analyses.fig5` (the report's figure) calls it (matplotlib imported
 lazily); speeds in m/s. The figures of a compensator design (Bode plot, margins, flap layout)
-are in :mod:`design.control.figures`, the Morris plane of the global sensitivity study in
-:mod:`design.sensitivity.figures`.
+are in :mod:`bridgeflap.design.control.figures`, the Morris plane of the global sensitivity study in
+:mod:`bridgeflap.design.sensitivity.figures`.
 """
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ def fig5(sweep_cl, sweep_ol, ol_buffeting, cl_buffeting, controller,
     """Seed Fig. 5: closed-loop root locus over the open loop (left), vertical (middle) and
     torsional (right) buffeting with and without the flaps; the open-loop flutter speed
     marked is ``open_loop_flutter_m_s`` (the design result's), else ``sweep_ol``'s."""
-    from model.stability.plots import root_locus
-    from model.stability.tracking import CONVERGED
+    from bridgeflap.model.stability.plots import root_locus
+    from bridgeflap.model.stability.tracking import CONVERGED
 
     axes = _new(1, 3, figsize=(18, 5))
     ax0, ax1, ax2 = axes

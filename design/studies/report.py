@@ -1,11 +1,11 @@
 """The study report: ``report.md`` and ``report.html`` comparing a study with the seed paper.
 
-:func:`study_document` builds one :class:`design.studies.document.Document` (Table 1, the 65/74 m/s
-speeds, Figs. 2-5, the flap compensator and the sensitivities) from a
-:class:`design.studies.study.StudyResult`: every number in it is read from the result summaries that
-the study writes to ``results/<analysis>.json``, formatted once, and rendered both as Markdown
-(:func:`study_report`, tables by pandas/tabulate) and as a self-contained HTML file with the
-figures inline (:func:`study_report_html`). :func:`fig5` draws seed Fig. 5: the closed-loop
+:func:`study_document` builds one :class:`bridgeflap.design.studies.document.Document` (Table 1, the
+65/74 m/s speeds, Figs. 2-5, the flap compensator and the sensitivities) from a
+:class:`bridgeflap.design.studies.study.StudyResult`: every number in it is read from the result
+summaries that the study writes to ``results/<analysis>.json``, formatted once, and rendered both as
+Markdown (:func:`study_report`, tables by pandas/tabulate) and as a self-contained HTML file with
+the figures inline (:func:`study_report_html`). :func:`fig5` draws seed Fig. 5: the closed-loop
 root locus over the open loop and the vertical and torsional buffeting with and without flaps.
 """
 
@@ -15,11 +15,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from design.studies.analyses import fig5  # the figure is drawn by the design analysis; also here
-from design.studies.document import Document
+# the figure is drawn by the design analysis; also here
+from bridgeflap.design.studies.analyses import fig5
+from bridgeflap.design.studies.document import Document
 
 if TYPE_CHECKING:
-    from design.studies.study import StudyResult
+    from bridgeflap.design.studies.study import StudyResult
 
 __all__ = ["PAPER", "fig5", "study_document", "study_report", "study_report_html"]
 
@@ -70,12 +71,12 @@ _CAPTIONS = {
 
 def study_document(res: StudyResult, figures: dict) -> Document:
     """The report of a finished study (``figures``: analysis -> figure files, relative to the
-    output folder), as a :class:`~design.studies.document.Document`."""
+    output folder), as a :class:`~bridgeflap.design.studies.document.Document`."""
     cfg, r = res.config, res.results
     doc = Document()
     doc.heading(1, f"Study `{cfg.name}`: reproduction of Massaro, Limebeer et al. (flutter and "
                    "buffeting of long-span suspension bridges)")
-    from design.io.identity import bridge_label
+    from bridgeflap.design.io.identity import bridge_label
 
     doc.paragraph(f"Bridge: `{bridge_label(cfg.bridge)}`; quick mode: {cfg.quick}"
                   + (f" (mesh {cfg.element_length_m} m)" if cfg.element_length_m else "")
@@ -193,7 +194,7 @@ def _flutter_section(doc: Document, f: dict) -> None:
         doc.paragraph(f"Truncation error against {f['truncation_reference_modes']} modes: "
                       f"flutter {_fmt(f['flutter_truncation_error_pct'], '.2g')} %, divergence "
                       f"{_fmt(f['divergence_truncation_error_pct'], '.2g')} % "
-                      "(model.stability.convergence).")
+                      "(bridgeflap.model.stability.convergence).")
     elif f.get("truncation_status"):
         doc.paragraph(f"Truncation check: {f['truncation_status']}.")
     doc.paragraph(f"Flutter onset {f.get('flutter_onset', '-')} (dζ/dU = "
@@ -301,10 +302,10 @@ def _design_section(doc: Document, d: dict) -> None:
                    "margin", "stable 0-85 m/s", "verified"])
     acc = d.get("acceptance") or {}
     if acc.get("checks"):
-        from design.assessment.acceptance import acceptance_text
+        from bridgeflap.design.assessment.acceptance import acceptance_text
 
         doc.paragraph("Acceptance checks of the controller (as `bridgeflap optimise` runs "
-                      "them; design.assessment.acceptance):")
+                      "them; bridgeflap.design.assessment.acceptance):")
         doc.table([(line.strip().split(":", 1)[0], line.strip().split(":", 1)[1].strip())
                    for line in acceptance_text(acc).splitlines()], ["check", "result"])
     buf = d.get("buffeting") or {}

@@ -1,9 +1,9 @@
 """Read a finished run folder back: :func:`open_run` for study, DOE, screening and optimise folders.
 
 Every folder a bridgeflap run writes carries the marker ``.bridgeflap-output`` naming its kind
-(:mod:`design.io.outputs`). :func:`open_run` reads the marker and the folder's files, never
-re-runs anything, and returns a :class:`RunRecord`, a result like every other one
-(:class:`model.results.ResultData`): ``summary()``, ``to_dict()``, ``to_dataframe()``,
+(:mod:`bridgeflap.design.io.outputs`). :func:`open_run` reads the marker and the folder's files,
+never re-runs anything, and returns a :class:`RunRecord`, a result like every other one
+(:class:`bridgeflap.model.results.ResultData`): ``summary()``, ``to_dict()``, ``to_dataframe()``,
 ``to_xarray()``, ``table()``, ``plot()`` and the summary's headline numbers as attributes.
 
 What each kind holds (see the documentation's "Output folders" page):
@@ -24,8 +24,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from model.errors import BridgeflapInputError
-from model.results import ResultData
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.results import ResultData
 
 __all__ = ["RunRecord", "open_run"]
 
@@ -90,7 +90,7 @@ class RunRecord(ResultData):
     def controller(self):
         """The designed controller (``controller.toml`` of an optimise folder, or
         ``results/controller.toml`` of a study), or ``None`` when there is none."""
-        from model.aeroelastic.controller_file import load_controller
+        from bridgeflap.model.aeroelastic.controller_file import load_controller
 
         for name in ("controller.toml", "results/controller.toml"):
             if (self.folder / name).is_file():
@@ -112,7 +112,7 @@ class RunRecord(ResultData):
     # ------------------------------------------------------------------- the common face
     def _rows(self) -> list[dict]:
         if (self.folder / "cases").is_dir():
-            from design.batch.table import flat_case_rows
+            from bridgeflap.design.batch.table import flat_case_rows
 
             return flat_case_rows(self.case_records())
         if self.kind == "study":
@@ -126,11 +126,11 @@ class RunRecord(ResultData):
         raise TypeError(f"a {self.kind} folder has no table")
 
     def to_xarray(self):
-        """DOE and batch folders: the cases (:func:`design.batch.table.cases_dataset`); a study:
-        its labelled arrays merged over the analyses' ``results/*.nc`` (variables prefixed
+        """DOE and batch folders: the cases (:func:`bridgeflap.design.batch.table.cases_dataset`); a
+        study: its labelled arrays merged over the analyses' ``results/*.nc`` (variables prefixed
         ``<analysis>.``)."""
         if (self.folder / "cases").is_dir():
-            from design.batch.table import cases_dataset
+            from bridgeflap.design.batch.table import cases_dataset
 
             return cases_dataset(self.case_records())
         import xarray as xr
@@ -144,14 +144,14 @@ class RunRecord(ResultData):
 
     def plot(self, ax=None, output: str | None = None):
         """DOE and batch folders: an output over the first two parameters (as
-        :meth:`design.studies.experiments.DoeResult.plot`); other folders: their first
+        :meth:`bridgeflap.design.studies.experiments.DoeResult.plot`); other folders: their first
         figure (``figures/*.png``, or ``*.png``) shown as an image."""
         import matplotlib.pyplot as plt
 
         if (self.folder / "cases").is_dir():
             from types import SimpleNamespace
 
-            from design.batch.plots import batch_cases
+            from bridgeflap.design.batch.plots import batch_cases
 
             rows = self.case_records()
             failed = sum(r.get("status") != "ok" for r in rows)
@@ -202,8 +202,8 @@ def open_run(folder: str | os.PathLike) -> RunRecord:
     >>> run = open_run("runs/humber/output")          # doctest: +SKIP
     >>> run.kind, run.statuses()["flutter"]           # doctest: +SKIP
     """
-    from design.io.outputs import read_marker
-    from model.arguments import check_path
+    from bridgeflap.design.io.outputs import read_marker
+    from bridgeflap.model.arguments import check_path
 
     path = Path(check_path(folder, "folder"))
     if not path.is_dir():

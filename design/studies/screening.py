@@ -3,16 +3,17 @@
 :func:`global_sensitivity` samples stated ranges of the *estimated* inputs
 (docs/humber_data.md#estimated-inputs: NOT FOUND or ESTIMATE) with SALib (Morris elementary effects
 or Sobol'/Saltelli), runs the flutter case of every sample through the fault-tolerant batch runner
-(:func:`design.batch.runner.run_batch`), and returns the indices and the 5/50/95 % band of the
-flutter and divergence speeds. Local (implicit-function) derivatives are in
-:mod:`design.sensitivity.local`.
+(:func:`bridgeflap.design.batch.runner.run_batch`), and returns the indices and the 5/50/95 % band
+of the flutter and divergence speeds. Local (implicit-function) derivatives are in
+:mod:`bridgeflap.design.sensitivity.local`.
 
-It is a study, not a derivative of the model: like a DOE (:mod:`design.studies.experiments`) it
-runs the registry's flutter case (:func:`design.studies.cases.flutter_case`, which takes its
-defaults from :data:`design.studies.analyses.ANALYSES`) over a sampling plan, so it sits beside
-the registry, which itself runs the local sensitivities. The ranges are
-:data:`design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES` (served from here too) and the Morris
-plane is :func:`design.sensitivity.figures.morris_mu_sigma`.
+It is a study, not a derivative of the model: like a DOE
+(:mod:`bridgeflap.design.studies.experiments`) it runs the registry's flutter case
+(:func:`bridgeflap.design.studies.cases.flutter_case`, which takes its defaults from
+:data:`bridgeflap.design.studies.analyses.ANALYSES`) over a sampling plan, so it sits beside the
+registry, which itself runs the local sensitivities. The ranges are
+:data:`bridgeflap.design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES` (served from here too) and
+the Morris plane is :func:`bridgeflap.design.sensitivity.figures.morris_mu_sigma`.
 
 References
 ----------
@@ -29,13 +30,13 @@ from pathlib import Path
 
 import numpy as np
 
-from design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES  # also served from here
-from design.io.files import atomic_write_text
-from model.arguments import check_mapping, check_text, checked, count, flag, optional
-from model.errors import BridgeflapInputError
-from model.results import ResultData
-from model.structure.bridge_arg import check_bridge_kind
-from model.structure.spec import PARAMETER_PATHS
+from bridgeflap.design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES  # also served from here
+from bridgeflap.design.io.files import atomic_write_text
+from bridgeflap.model.arguments import check_mapping, check_text, checked, count, flag, optional
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.results import ResultData
+from bridgeflap.model.structure.bridge_arg import check_bridge_kind
+from bridgeflap.model.structure.spec import PARAMETER_PATHS
 
 __all__ = ["DEFAULT_UNCERTAIN_RANGES", "GlobalSensitivityResult", "global_sensitivity"]
 
@@ -138,7 +139,7 @@ class GlobalSensitivityResult(ResultData):
                          label=f"{out.replace('_speed_m_s', '')}: 5-95 % "
                                f"{self.band[out]['p05']:.1f}-{self.band[out]['p95']:.1f} m/s")
         if morris:
-            from design.sensitivity.figures import morris_mu_sigma
+            from bridgeflap.design.sensitivity.figures import morris_mu_sigma
 
             morris_mu_sigma(axes[1], self.indices)
         ax0.set_yticks(y)
@@ -201,7 +202,8 @@ def global_sensitivity(bridge="humber",
     out_dir : path
         Batch folder (``cases/``, ``table.csv``, ``batch.json``; resumable).
     case_options : mapping
-        Keyword options of :func:`design.studies.cases.flutter_case` (``speeds``, ``modes``, ...).
+        Keyword options of :func:`bridgeflap.design.studies.cases.flutter_case` (``speeds``,
+        ``modes``, ...).
 
     Notes
     -----
@@ -211,8 +213,8 @@ def global_sensitivity(bridge="humber",
     trajectories on a 4-level grid, uniform in each marginal, so the band is indicative; the
     Sobol' (Saltelli) sample is quasi-random uniform on the box.
     """
-    from design.batch.runner import run_batch
-    from design.studies.cases import check_applicable, flutter_case
+    from bridgeflap.design.batch.runner import run_batch
+    from bridgeflap.design.studies.cases import check_applicable, flutter_case
 
     ranges = dict(DEFAULT_UNCERTAIN_RANGES if ranges is None else ranges)
     problem = _salib_problem(ranges)
@@ -235,7 +237,7 @@ def global_sensitivity(bridge="humber",
     cases = [{"case_id": f"case-{i:04d}", **{k: float(v) for k, v in zip(names, row,
                                                                            strict=True)}}
              for i, row in enumerate(X)]
-    from model.structure.spec import BridgeSpec
+    from bridgeflap.model.structure.spec import BridgeSpec
 
     bridge = bridge if isinstance(bridge, BridgeSpec) else str(bridge)
     fn = functools.partial(flutter_case, bridge=bridge, **dict(case_options or {}))

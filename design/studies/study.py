@@ -18,29 +18,30 @@ analyses and their options::
 :func:`run_study` writes everything into a temporary sibling folder of the target and moves it
 into place only when complete (an earlier result folder is kept until then), so an interrupted
 or failed run never leaves half-written results. Each analysis failure is recorded with its
-status; bad input raises :class:`~model.errors.BridgeflapInputError` before anything is written:
-the whole configuration (every analysis's options, the bridge) is validated first, then the
-output folder is checked (:func:`design.io.outputs.check_replaceable`: a non-empty folder that no
-bridgeflap run marked as its own is refused), then the run takes the folder's lock
-(:func:`design.io.outputs.claim_output`: a second concurrent run is refused; what a crashed run left
-is recovered or cleaned) and only then creates anything. The replace itself is crash-safe
-(:func:`design.io.outputs.swap_into_place`).
+status; bad input raises :class:`~bridgeflap.model.errors.BridgeflapInputError` before anything is
+written: the whole configuration (every analysis's options, the bridge) is validated first, then the
+output folder is checked (:func:`bridgeflap.design.io.outputs.check_replaceable`: a non-empty folder
+that no bridgeflap run marked as its own is refused), then the run takes the folder's lock
+(:func:`bridgeflap.design.io.outputs.claim_output`: a second concurrent run is refused; what a
+crashed run left is recovered or cleaned) and only then creates anything. The replace itself is
+crash-safe (:func:`bridgeflap.design.io.outputs.swap_into_place`).
 
 Output folder::
 
-    .bridgeflap-output  marker: this folder is a bridgeflap output (design.io.outputs.OUTPUT_MARKER)
-    config.json      resolved configuration (quick overrides applied)
-    manifest.json    time, host, versions, git commit (design.io.manifest.build_manifest)
-    statuses.json    analysis -> status (and every solver status inside it)
-    results/<analysis>.json, results/<analysis>.npz (arrays)
+    .bridgeflap-output  marker: this folder is a bridgeflap output
+    (bridgeflap.design.io.outputs.OUTPUT_MARKER) config.json      resolved configuration (quick
+    overrides applied) manifest.json    time, host, versions, git commit
+    (bridgeflap.design.io.manifest.build_manifest) statuses.json    analysis -> status (and every
+    solver status inside it) results/<analysis>.json, results/<analysis>.npz (arrays)
     figures/<analysis>.png
     report.md        comparison with the paper: Table 1, 65/74 m/s, Figs. 2-5
     report.html      the same, self-contained (figures inline)
     summary.json     the ``bridgeflap study --json`` payload
 
-The analyses and their defaults are those of the registry :data:`design.studies.analyses.ANALYSES`;
-an option a study file does not give takes the registry's default. DOE files:
-:mod:`design.studies.experiments`.
+The analyses and their defaults are those of the registry
+:data:`bridgeflap.design.studies.analyses.ANALYSES`; an option a study file does not give takes the
+registry's default. DOE files:
+:mod:`bridgeflap.design.studies.experiments`.
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from design.io.files import (
+from bridgeflap.design.io.files import (
     atomic_save_netcdf,
     atomic_savez,
     atomic_write,
@@ -65,17 +66,23 @@ from design.io.files import (
     output_folder,
     stdout_to_stderr,
 )
-from design.io.options import check_keys, plain_name, read_definition, resolve_bridge, table
-from design.io.outputs import (
+from bridgeflap.design.io.options import (
+    check_keys,
+    plain_name,
+    read_definition,
+    resolve_bridge,
+    table,
+)
+from bridgeflap.design.io.outputs import (
     check_replaceable,
     claim_output,
     swap_into_place,
     temporary_sibling,
     write_marker,
 )
-from design.studies.analyses import ANALYSES, Outcome, RunContext
-from design.studies.report import PAPER, study_report, study_report_html
-from model.arguments import (
+from bridgeflap.design.studies.analyses import ANALYSES, Outcome, RunContext
+from bridgeflap.design.studies.report import PAPER, study_report, study_report_html
+from bridgeflap.model.arguments import (
     check_callable,
     check_mapping,
     check_path,
@@ -85,9 +92,9 @@ from model.arguments import (
     instance_or_path,
     optional,
 )
-from model.errors import BridgeflapError, BridgeflapInputError
-from model.results import ResultData
-from model.structure.bridge_arg import check_bridge_kind
+from bridgeflap.model.errors import BridgeflapError, BridgeflapInputError
+from bridgeflap.model.results import ResultData
+from bridgeflap.model.structure.bridge_arg import check_bridge_kind
 
 __all__ = [
     "StudyConfig",
@@ -105,7 +112,7 @@ _QUICK_TOP = {"element_length_m"}
 
 def default_study_path() -> Path:
     """The built-in default study (the seed paper's reproduction on the Humber case)."""
-    return Path(str(resources.files("design.studies").joinpath("humber.toml")))
+    return Path(str(resources.files("bridgeflap.design.studies").joinpath("humber.toml")))
 
 
 @dataclass(frozen=True)
@@ -136,7 +143,7 @@ class StudyConfig:
 
     def as_dict(self) -> dict:
         """JSON-ready resolved configuration."""
-        from design.io.identity import bridge_identity
+        from bridgeflap.design.io.identity import bridge_identity
 
         return {"name": self.name, **bridge_identity(self.bridge), "quick": self.quick,
                 "element_length_m": self.element_length_m, "description": self.description,
@@ -145,7 +152,7 @@ class StudyConfig:
 
     def spec(self):
         """The bridge definition with the mesh override applied."""
-        from model.structure.loader import load_bridge
+        from bridgeflap.model.structure.loader import load_bridge
 
         spec = load_bridge(self.bridge)
         if self.element_length_m is not None:
@@ -157,8 +164,8 @@ class StudyConfig:
 def load_study(path: str | os.PathLike | None = None, quick: bool = False,
                bridge: Any = None) -> StudyConfig:
     """Read and validate a study TOML (the built-in default when ``path`` is ``None``);
-    ``bridge`` (a name, a bridge TOML path or a :class:`~model.structure.spec.BridgeSpec`) replaces
-    the file's own ``bridge``.
+    ``bridge`` (a name, a bridge TOML path or a
+    :class:`~bridgeflap.model.structure.spec.BridgeSpec`) replaces the file's own ``bridge``.
 
     Raises
     ------
@@ -320,7 +327,7 @@ def _run_one(kind: str, spec, opts: Mapping, config: StudyConfig, say) -> Outcom
 def _labelled(result) -> bool:
     """The result has labelled arrays of its own (a sweep's ``to_xarray``), not only the
     generic table-as-dataset every result has."""
-    from model.results import ResultData
+    from bridgeflap.model.results import ResultData
 
     method = getattr(type(result), "to_xarray", None)
     return callable(method) and method is not ResultData.to_xarray
@@ -331,7 +338,7 @@ def _write_outcome(kind: str, outcome: Outcome, folder: Path) -> tuple[dict, lis
     summary = dict(outcome.summary)
     controller = getattr(outcome.result, "controller", None) if kind == "design" else None
     if controller is not None:
-        from model.aeroelastic.controller_file import save_controller
+        from bridgeflap.model.aeroelastic.controller_file import save_controller
 
         save_controller(controller, folder / "results" / "controller.toml")
         summary["controller_file"] = "results/controller.toml"
@@ -343,7 +350,7 @@ def _write_outcome(kind: str, outcome: Outcome, folder: Path) -> tuple[dict, lis
     return summary, _save_figures(outcome.figures, folder / "figures")
 
 
-@checked(config=optional(instance_or_path(StudyConfig, "design.load_study")),
+@checked(config=optional(instance_or_path(StudyConfig, "bridgeflap.design.load_study")),
          out_dir=optional(check_path), quick=flag, progress=optional(check_callable))
 def run_study(config: StudyConfig | str | os.PathLike | None = None,
               out_dir: str | os.PathLike | None = None, quick: bool = False,
@@ -382,7 +389,7 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
             (tmp / "results").mkdir()
             (tmp / "figures").mkdir()
             atomic_write_json(tmp / "config.json", config.as_dict())
-            from design.io.manifest import build_manifest
+            from bridgeflap.design.io.manifest import build_manifest
 
             atomic_write_json(tmp / "manifest.json", build_manifest(config.as_dict()))
             statuses, results, objects, figures = {}, {}, {}, {}
@@ -452,7 +459,7 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
                 for kind, opts in jobs}
     import pickle
 
-    from model.workers import process_pool
+    from bridgeflap.model.workers import process_pool
 
     try:
         pickle.dumps(progress)
@@ -502,8 +509,8 @@ def validate_study(config: StudyConfig) -> None:
         ANALYSES[kind].resolve(opts)
     fe_only = [k for k, _ in config.analyses if k in FE_ONLY_ANALYSES]
     if fe_only:
-        from model.structure.loader import load_bridge
-        from model.structure.modal_files import needs_fe
+        from bridgeflap.model.structure.loader import load_bridge
+        from bridgeflap.model.structure.modal_files import needs_fe
 
         spec = load_bridge(config.bridge)
         if getattr(spec, "structure", None) is not None:  # an imported modal model

@@ -5,5 +5,6 @@ loads of deck and flaps written once (``strips``) on the structural coordinates 
 (``quasi_steady``), turbulence spectra, coherence and admittance (``wind``, ``gust``) and
 turbulence time series (``turbulence``).
 
-May import: the foundation of :mod:`model` (``model.errors``, ``model.grid`` ...) only.
+May import: the foundation of :mod:`bridgeflap.model` (``bridgeflap.model.errors``,
+``bridgeflap.model.grid`` ...) only.
 """

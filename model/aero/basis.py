@@ -1,11 +1,13 @@
 """Generalised structural coordinates that carry the aerodynamic strips.
 
-A :class:`StructuralBasis` is what the aeroelastic assembly (:mod:`model.aeroelastic.assembly`)
-needs of a structure: generalised mass, damping and stiffness and the strip heave/pitch per
-coordinate. It is produced by :meth:`model.structure.modes.ModalModel.structural_basis`
-(mass-normalised modes), by
-:func:`model.structure.ritz.ritz_basis` (a perturbed structure on the nominal modes) and by
-:func:`model.cases.section.section_basis` (a rigid two-DOF section). Conventions: :mod:`model`.
+A :class:`StructuralBasis` is what the aeroelastic assembly
+(:mod:`bridgeflap.model.aeroelastic.assembly`) needs of a structure: generalised mass, damping and
+stiffness and the strip heave/pitch per coordinate. It is produced by
+:meth:`bridgeflap.model.structure.modes.ModalModel.structural_basis` (mass-normalised modes), by
+:func:`bridgeflap.model.structure.ritz.ritz_basis` (a perturbed structure on the nominal modes) and
+by
+:func:`bridgeflap.model.cases.section.section_basis` (a rigid two-DOF section). Conventions:
+:mod:`bridgeflap.model`.
 """
 
 from __future__ import annotations

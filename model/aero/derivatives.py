@@ -24,8 +24,9 @@ mid-chord) and the lateral ``p`` and drag ``D`` positive **downwind**. For harmo
                                  A_4+iA_1 & A_3+iA_2 & A_6+iA_5\\
                                  P_6+iP_5 & P_3+iP_2 & P_4+iP_1 \end{pmatrix}.
 
-The package's own coordinates (:mod:`model`) have ``h`` (and the generalised lift) positive
-**down**; :func:`model.aeroelastic.derivative_system.strip_matrix` applies that sign once.
+The package's own coordinates (:mod:`bridgeflap.model`) have ``h`` (and the generalised lift)
+positive **down**; :func:`bridgeflap.model.aeroelastic.derivative_system.strip_matrix` applies that
+sign once.
 
 Other conventions and the converters (:func:`convert_argument`, :func:`flip_heave_sign`,
 :func:`polimi_to_scanlan`):
@@ -68,15 +69,15 @@ the data range only duplicates the ``R1`` term). Each lag becomes ``n`` states
 ``x_j' = q' - (gamma_j U / B) x_j``, and the generalised loads
 ``1/2 rho U^2 [R0 q + R1 (B/U) q' + R2 (B/U)^2 q'' + sum_j R_{j+2} x_j]`` give the same
 frequency-independent, speed-polynomial state space ``x' = (A0 + U A1 + U^2 A2) x`` as the
-Theodorsen RFA (:mod:`model.aeroelastic.statespace`), wrapped
-(:mod:`model.aeroelastic.derivative_system`) as an
-:class:`~model.aeroelastic.statespace.AeroelasticSystem` so that
-:func:`model.stability.sweeps.sweep` applies.
+Theodorsen RFA (:mod:`bridgeflap.model.aeroelastic.statespace`), wrapped
+(:mod:`bridgeflap.model.aeroelastic.derivative_system`) as an
+:class:`~bridgeflap.model.aeroelastic.statespace.AeroelasticSystem` so that
+:func:`bridgeflap.model.stability.sweeps.sweep` applies.
 
 **Exact p-k** (``derivative_system(...).frozen()``): at a reduced frequency ``K`` the loads
 are split into a stiffness ``1/2 rho U^2 Re Q`` and a damping ``1/2 rho U B Im Q / K`` (the
-p-k form of wawi's ``itflutter_cont``); :func:`model.stability.sweeps.pk_sweep` iterates ``K`` to
-consistency on the interpolated derivatives.
+p-k form of wawi's ``itflutter_cont``); :func:`bridgeflap.model.stability.sweeps.pk_sweep` iterates
+``K`` to consistency on the interpolated derivatives.
 
 References
 ----------
@@ -100,8 +101,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from model.aero.theodorsen import theodorsen
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aero.theodorsen import theodorsen
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = [
     "ARGUMENT_KINDS",
@@ -255,9 +256,9 @@ class FlatPlateDerivatives(FlutterDerivatives):
     """Theodorsen's flat plate as flutter derivatives (closed form, module docstring).
 
     ``c_function`` evaluates ``C`` at the half-chord reduced frequency ``k`` (default the exact
-    :func:`model.aero.theodorsen.theodorsen`; a :class:`~model.aero.rfa.RationalApprox`
-    ``.evaluate`` gives the flat plate of the state-space RFA, which a Roger fit with poles ``2
-    beta_j`` reproduces exactly).
+    :func:`bridgeflap.model.aero.theodorsen.theodorsen`; a
+    :class:`~bridgeflap.model.aero.rfa.RationalApprox` ``.evaluate`` gives the flat plate of the
+    state-space RFA, which a Roger fit with poles ``2 beta_j`` reproduces exactly).
     """
 
     added_inertia: bool = False

@@ -1,9 +1,10 @@
 """Wind input of the buffeting analysis: the vertical gust field and its coherence.
 
-Spectra are one-sided in circular frequency (:mod:`model.spectral`); conventions of
-:mod:`model`. ``G_ww(omega) = s_w(omega) chi^2(k) R(omega)`` with ``R_ij = exp(-c n |y_i - y_j|
-/ U)``, ``n = omega / 2 pi`` (seed Eqs. (13)-(16); Davenport 1962); the spectra and admittances
-are those of :mod:`model.aero.wind`.
+Spectra are one-sided in circular frequency (:mod:`bridgeflap.model.spectral`); conventions of
+:mod:`bridgeflap.model`. ``G_ww(omega) = s_w(omega) chi^2(k) R(omega)`` with ``R_ij = exp(-c n |y_i
+- y_j| / U)``, ``n = omega / 2 pi`` (seed Eqs. (13)-(16); Davenport 1962); the spectra and
+  admittances
+are those of :mod:`bridgeflap.model.aero.wind`.
 """
 
 from __future__ import annotations
@@ -13,8 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.aero.wind import ADMITTANCE_KINDS, SPECTRUM_KINDS, admittance_sq, vertical_spectrum
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aero.wind import (
+    ADMITTANCE_KINDS,
+    SPECTRUM_KINDS,
+    admittance_sq,
+    vertical_spectrum,
+)
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["GustField", "coherence_projection", "gust_field"]
 
@@ -26,10 +32,10 @@ class GustField:
     Attributes
     ----------
     spectrum : str or callable
-        Name in :data:`model.aero.wind.SPECTRUM_KINDS`, or ``(omega [rad/s], U [m/s]) -> G``
-        one-sided in ``omega`` [m^2/s^2 per rad/s] (used for analytic checks).
+        Name in :data:`bridgeflap.model.aero.wind.SPECTRUM_KINDS`, or ``(omega [rad/s], U [m/s]) ->
+        G`` one-sided in ``omega`` [m^2/s^2 per rad/s] (used for analytic checks).
     admittance : str or callable
-        Name in :data:`model.aero.wind.ADMITTANCE_KINDS`, or ``k -> |chi(k)|^2`` [-].
+        Name in :data:`bridgeflap.model.aero.wind.ADMITTANCE_KINDS`, or ``k -> |chi(k)|^2`` [-].
     turbulence_intensity : float
         ``sigma_w / U`` [-], > 0 (seed: 0.07).
     deck_height_m : float
@@ -40,7 +46,7 @@ class GustField:
         ``b`` [m], for ``k = omega b / U`` in the admittance.
     length_scale_m : float or None
         ``L_w^x`` [m] for the von Karman spectrum
-        (default :func:`model.aero.wind.default_length_scale_w`).
+        (default :func:`bridgeflap.model.aero.wind.default_length_scale_w`).
     """
 
     spectrum: str | Callable = "busch-panofsky"

@@ -1,10 +1,10 @@
 r"""Quasi-steady buffeting loads from static coefficients (Davenport 1962; Scanlan 1978).
 
-Conventions of :mod:`model` (SI units, heave ``h`` positive down, pitch ``alpha`` nose-up about
-mid-chord, lateral ``p`` downwind) and of :mod:`model.aero.derivatives` for the coefficients: every
-coefficient here is normalised by the full deck width ``B = 2 b`` (lift up, moment nose-up,
-drag downwind, per rad for the slopes). A drag coefficient stated on the deck depth ``D``
-(``depth_m``, the usual wind-tunnel form) is converted once, ``C_D^B = C_D^D D / B``.
+Conventions of :mod:`bridgeflap.model` (SI units, heave ``h`` positive down, pitch ``alpha`` nose-up
+about mid-chord, lateral ``p`` downwind) and of :mod:`bridgeflap.model.aero.derivatives` for the
+coefficients: every coefficient here is normalised by the full deck width ``B = 2 b`` (lift up,
+moment nose-up, drag downwind, per rad for the slopes). A drag coefficient stated on the deck depth
+``D`` (``depth_m``, the usual wind-tunnel form) is converted once, ``C_D^B = C_D^D D / B``.
 
 With along-wind turbulence ``u`` and vertical turbulence ``w`` (up), both small against the
 mean wind ``U``, the relative wind comes in at ``phi = w / U`` with ``|V|^2 = U^2 + 2 U u``.
@@ -18,20 +18,20 @@ here)::
     D_b = 1/2 rho U^2 B   [2 C_D u/U + (C_D' - C_L) w/U]          (downwind)
 
 Each line is ``U`` times a constant times the gust velocity, so the strip inputs keep the form
-``B_w(U) = U Bw1`` of :class:`model.aeroelastic.statespace.AeroelasticSystem`: :func:`gust_inputs`
-returns the generalised loads per ``U`` and per unit gust velocity of the ``w`` and the ``u``
-strips. The drag line acts on the lateral shapes when the basis has them (the flutter-derivative
-basis of a modal bridge with lateral shapes), and is dropped otherwise; the outputs stay strip
-heave and pitch.
+``B_w(U) = U Bw1`` of :class:`bridgeflap.model.aeroelastic.statespace.AeroelasticSystem`:
+:func:`gust_inputs` returns the generalised loads per ``U`` and per unit gust velocity of the ``w``
+and the ``u`` strips. The drag line acts on the lateral shapes when the basis has them (the
+flutter-derivative basis of a modal bridge with lateral shapes), and is dropped otherwise; the
+outputs stay strip heave and pitch.
 
 Turbulence: ``w`` with the spectrum, admittance and Davenport coherence of
-:class:`model.aero.gust.GustField` (the existing vertical-gust path); ``u`` with the von Karman
-along-wind spectrum (:func:`von_karman_u`, ``sigma_u = I_u U`` and ``L_u^x`` of the
+:class:`bridgeflap.model.aero.gust.GustField` (the existing vertical-gust path); ``u`` with the von
+Karman along-wind spectrum (:func:`von_karman_u`, ``sigma_u = I_u U`` and ``L_u^x`` of the
 ``[static_coefficients]`` section), the same admittance and coherence decay, and no ``u``-``w``
 cross-spectrum (the usual simplification; the IABSE step-2a windstate also leaves it out).
 With ``C_D = C_L = C_M = C_D' = 0``, ``C_L' = 2 pi``, ``C_M' = pi/2`` the ``u`` loads vanish
 and the ``w`` loads are exactly the thin-aerofoil buffeting loads of
-:func:`model.aero.strips.strip_aero` (``P_gust``), so the two paths agree
+:func:`bridgeflap.model.aero.strips.strip_aero` (``P_gust``), so the two paths agree
 (``tests/test_quasi_steady.py``).
 
 References
@@ -52,7 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["STATIC_KEYS", "StaticCoefficients", "gust_inputs", "static_from_dict",
            "von_karman_u"]
@@ -166,8 +166,9 @@ def gust_inputs(basis, chord_m: float, air_density: float, coeffs: StaticCoeffic
 
     ``Q_j = U sum_i (P_w[j, i] w_i + P_u[j, i] u_i)`` with ``w_i`` (up) and ``u_i``
     (downwind) the gust velocities [m/s] of strip ``i`` (module docstring; the heave-down sign
-    of :mod:`model` applied to the lift), ``basis`` a
-    :class:`~model.aero.basis.StructuralBasis` and ``phi_p`` the strip lateral shapes (optional).
+    of :mod:`bridgeflap.model` applied to the lift), ``basis`` a
+    :class:`~bridgeflap.model.aero.basis.StructuralBasis` and ``phi_p`` the strip lateral shapes
+    (optional).
     """
     c = coeffs.on_width(chord_m)
     B, half_rho = float(chord_m), 0.5 * float(air_density)

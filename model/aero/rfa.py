@@ -1,7 +1,7 @@
 r"""Rational (lag-form) approximations of Theodorsen's function for state-space models.
 
 Conventions (``k = omega b / U``, ``s_bar = s b / U``, ``b`` the half-chord) are those of
-:mod:`model`. The approximation is the lag form
+:mod:`bridgeflap.model`. The approximation is the lag form
 
 .. math:: C(\bar s) \approx 1 - \sum_{j=1}^{n} A_j \frac{\bar s}{\bar s + \beta_j},
 
@@ -15,7 +15,8 @@ References
    1940 (the two-lag coefficients 0.165/0.0455 and 0.335/0.3).
 .. [2] K. L. Roger, "Airplane math modeling methods for active control design", AGARD
    CP-228, 1977 (least-squares rational function approximation with lag terms).
-.. [3] T. Theodorsen, NACA Report 496, 1935 (the exact ``C(k)``; :mod:`model.aero.theodorsen`).
+.. [3] T. Theodorsen, NACA Report 496, 1935 (the exact ``C(k)``;
+:mod:`bridgeflap.model.aero.theodorsen`).
 """
 
 from __future__ import annotations
@@ -27,8 +28,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares, minimize_scalar
 
-from model.aero.theodorsen import theodorsen
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aero.theodorsen import theodorsen
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["BAND_WEIGHT", "FLUTTER_BAND_K", "RFA_NAMES", "RationalApprox", "band_error",
            "fit_theodorsen", "get_rfa", "jones"]

@@ -1,8 +1,8 @@
 """Strip loads of the deck and of the flaps (seed Eqs. 2-3, Theodorsen TR-496), written once.
 
-Per unit span, with the elastic axis at mid-chord (``a = 0``; conventions in :mod:`model`), every
-load of this package has the form of :class:`SectionLoads`: for a unit input ``x`` (deck heave
-``h``, deck pitch ``alpha``, or a flap drive angle ``beta``)::
+Per unit span, with the elastic axis at mid-chord (``a = 0``; conventions in
+:mod:`bridgeflap.model`), every load of this package has the form of :class:`SectionLoads`: for a
+unit input ``x`` (deck heave ``h``, deck pitch ``alpha``, or a flap drive angle ``beta``)::
 
     [L_down, M_mid] = e2 x'' + U e1 x' + U^2 e0 x + [-2 pi rho b, pi rho b^2] U C(k) Q
     Q = U g0 x + b g1 x'                                   (3/4-chord downwash)
@@ -24,7 +24,7 @@ A leading-edge (LE) flap hinged at ``x = e b`` (``e < 0``, LE-up positive) is a 
 the whole chord about ``x = e b`` (the deck loads with ``h = -e b delta``, ``alpha = delta``)
 plus a TE flap ``beta = -delta`` hinged at ``c = e``
 (docs/humber_data.md#flap-loads-and-t-functions); the drive signs of the LE+TE pair are
-described in :mod:`model.aeroelastic.flaps`.
+described in :mod:`bridgeflap.model.aeroelastic.flaps`.
 
 Projection (:func:`project` for the deck strips, :func:`load_map` for the flap strips): strips
 of length ``dl_i`` with heave ``phi_h[i] q`` and pitch ``phi_a[i] q`` give the generalised
@@ -35,7 +35,7 @@ phi_a[i])^T`` for the vertical gust ``w`` (up positive) from seed Eqs. (7)-(8) w
 ``C_L = C_M = C_D = 0``.
 
 The coefficients are plain arithmetic, so ``b`` and ``rho`` may be CasADi symbols
-(:mod:`model.aeroelastic.symbolic`); the strip geometry is always numeric.
+(:mod:`bridgeflap.model.aeroelastic.symbolic`); the strip geometry is always numeric.
 """
 
 from __future__ import annotations
@@ -44,9 +44,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.aero.basis import StructuralBasis
-from model.aero.theodorsen import t_functions
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aero.basis import StructuralBasis
+from bridgeflap.model.aero.theodorsen import t_functions
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = [
     "SectionLoads",
@@ -161,10 +161,10 @@ def flap_section_loads(half_chord: float, air_density: float, flap_chord_m: floa
     flap_chord_m : float
         Chordwise size of each flap inside the deck chord [m], ``0 < chord < b``.
     leading_edge, trailing_edge : bool
-        Which flaps are fitted (:mod:`model.aeroelastic.flaps` for the drive signs).
+        Which flaps are fitted (:mod:`bridgeflap.model.aeroelastic.flaps` for the drive signs).
     added_inertia : bool
         Keep the apparent-inertia moment of the rigid-pitch part of the LE flap (as for the
-        deck, :mod:`model`); the TE-flap T-functions always contain their own.
+        deck, :mod:`bridgeflap.model`); the TE-flap T-functions always contain their own.
     """
     b, rho = float(half_chord), float(air_density)
     chord = float(flap_chord_m)
@@ -223,7 +223,8 @@ def load_map(loads: SectionLoads, phi_h, phi_a) -> tuple:
 
 @dataclass(frozen=True)
 class StripAero:
-    """Aerodynamic matrices of a :class:`~model.aero.basis.StructuralBasis` (module docstring)."""
+    """Aerodynamic matrices of a :class:`~bridgeflap.model.aero.basis.StructuralBasis` (module
+    docstring)."""
 
     M_nc: np.ndarray
     D_nc: np.ndarray

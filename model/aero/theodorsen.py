@@ -1,7 +1,7 @@
 """Exact unsteady thin-aerofoil functions: Theodorsen, Sears, T-functions for flaps.
 
 Sign conventions (h down, alpha nose-up, moment about mid-chord, ``b`` half-chord,
-``k = omega b / U``) are those stated once in :mod:`model`; nothing here redefines them.
+``k = omega b / U``) are those stated once in :mod:`bridgeflap.model`; nothing here redefines them.
 All functions are vectorised over the reduced frequency and use numpy/scipy only.
 
 References
@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import hankel2, j0, j1, y0, y1
 
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = [
     "FlapSteadyCoefficients",
@@ -109,8 +109,8 @@ def theodorsen(k: ArrayLike) -> np.complex128 | NDArray[np.complex128]:
 def theodorsen_scalar(k: float) -> complex:
     """:func:`theodorsen` for one real ``k >= 0`` [-], without the array handling.
 
-    The inner loop of the p-k iteration (:mod:`model.stability.pk_kernel`): the same ratio
-    ``1 / (1 + i H0/H1)`` with the Hankel functions written as ``H_n = J_n - i Y_n`` (the four
+    The inner loop of the p-k iteration (:mod:`bridgeflap.model.stability.pk_kernel`): the same
+    ratio ``1 / (1 + i H0/H1)`` with the Hankel functions written as ``H_n = J_n - i Y_n`` (the four
     real Bessel functions take a fraction of the time of two complex ``hankel2`` calls on a
     scalar; above ``k = 10``, where those lose relative accuracy near their zeros, ``hankel2``
     as in :func:`theodorsen`), and the same limits (``C = 1`` below ``1e-200``, ``1/2`` at

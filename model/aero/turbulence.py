@@ -1,9 +1,10 @@
 """Monte-Carlo turbulence along the span: the buffeting spectra and coherence as time series.
 
 Spectral representation (Shinozuka & Deodatis 1991; the multivariate, ergodic form of Deodatis
-1996), with the spectra of :mod:`model.response.buffeting` (:class:`model.aero.gust.GustField`:
-one-sided in circular frequency, ``sigma^2 = int_0^inf G d omega``) and its Davenport coherence
-``R_ij(omega) = exp(-c omega |y_i - y_j| / (2 pi U))`` (seed Eq. (16))::
+1996), with the spectra of :mod:`bridgeflap.model.response.buffeting`
+(:class:`bridgeflap.model.aero.gust.GustField`: one-sided in circular frequency, ``sigma^2 =
+int_0^inf G d omega``) and its Davenport coherence ``R_ij(omega) = exp(-c omega |y_i - y_j| / (2 pi
+U))`` (seed Eq. (16))::
 
     w_j(t) = Re sum_k sqrt(2 G(omega_k) d_omega) (L_k e^{i phi_k})_j e^{i omega_k t}
 
@@ -14,8 +15,8 @@ The factor ``L_k`` costs O(m) per frequency, not the O(m^3) of a Cholesky factor
 the sorted strips the exponential coherence is the correlation of a first-order Markov
 (AR(1)) chain, so ``(L e)_1 = e_1`` and ``(L e)_i = a_i (L e)_{i-1} + sqrt(1 - a_i^2) e_i`` with
 ``a_i = exp(-c omega (y_i - y_{i-1}) / (2 pi U))`` is exactly ``L e`` of the Cholesky factor
-(the same structure as :func:`model.aero.gust.coherence_projection`). The sum over frequencies is
-one inverse FFT per strip.
+(the same structure as :func:`bridgeflap.model.aero.gust.coherence_projection`). The sum over
+frequencies is one inverse FFT per strip.
 
 References
 ----------
@@ -27,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["ar1_coherent_phasors", "span_turbulence", "synthesis_grid"]
 
@@ -77,7 +78,7 @@ def span_turbulence(positions, psd, wind_speed, decay, n_samples, h, omega_max, 
     psd : callable
         ``omega [rad/s] -> G(omega)`` one-sided in circular frequency [m^2/s^2 per rad/s]
         (e.g. ``GustField.psd(omega, U) * GustField.admittance_sq(omega, U)``: the effective
-        gust after the admittance, as :mod:`model.response.buffeting` uses it).
+        gust after the admittance, as :mod:`bridgeflap.model.response.buffeting` uses it).
     wind_speed : float
         ``U`` [m/s] (coherence scale).
     decay : float

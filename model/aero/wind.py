@@ -1,7 +1,7 @@
 """Vertical turbulence spectra, span-wise coherence and aerodynamic admittance.
 
-Conventions of :mod:`model` apply (SI units; ``k = omega b / U``). Spectra here are of the
-vertical gust velocity ``w`` and are **one-sided in cyclic frequency** ``n`` [Hz] unless the
+Conventions of :mod:`bridgeflap.model` apply (SI units; ``k = omega b / U``). Spectra here are of
+the vertical gust velocity ``w`` and are **one-sided in cyclic frequency** ``n`` [Hz] unless the
 name says otherwise: ``sigma_w^2 = int_0^inf S_w(n) dn``. The seed paper's Eq. (15) is the same
 Busch-Panofsky spectrum written **two-sided in circular frequency**,
 ``sigma_w^2 = int_{-inf}^{inf} S_w(omega) d omega``; see :func:`busch_panofsky_omega`.
@@ -26,8 +26,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import gamma
 
-from model.aero.theodorsen import liepmann_admittance_sq, sears_admittance_sq, unit_admittance_sq
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aero.theodorsen import (
+    liepmann_admittance_sq,
+    sears_admittance_sq,
+    unit_admittance_sq,
+)
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = [
     "ADMITTANCE_KINDS",

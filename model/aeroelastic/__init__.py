@@ -7,5 +7,5 @@ engineers and python-control (``control_plant``, ``control_interop``; the conver
 in ``python_control``), actuator limits (``actuator_limits``) and the named CasADi functions
 of the design card (``symbolic``, the other CasADi file).
 
-May import: the foundation, :mod:`model.aero` and :mod:`model.structure`.
+May import: the foundation, :mod:`bridgeflap.model.aero` and :mod:`bridgeflap.model.structure`.
 """

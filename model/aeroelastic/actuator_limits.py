@@ -1,8 +1,9 @@
 """Flap actuator limits: the card keys, their defaults (engineering estimates) and checks.
 
-Light on purpose (no NumPy-heavy imports): :mod:`design.control.settings` validates the design
-card's ``flap_angle_limit_deg`` and ``flap_rate_limit_deg_s`` with :func:`check_actuator_value`, and
-:mod:`model.response.actuator_sim` simulates the saturated closed loop with them.
+Light on purpose (no NumPy-heavy imports): :mod:`bridgeflap.design.control.settings` validates the
+design card's ``flap_angle_limit_deg`` and ``flap_rate_limit_deg_s`` with
+:func:`check_actuator_value`, and
+:mod:`bridgeflap.model.response.actuator_sim` simulates the saturated closed loop with them.
 
 The defaults are **engineering estimates**, not a supplier's data sheet (docs/methods.md,
 "Actuator limits and saturated closed loop in turbulence"):
@@ -22,7 +23,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["ACTUATOR_DEFAULTS", "ACTUATOR_FIELDS", "ACTUATOR_RANGES", "ActuatorLimits",
            "check_actuator_value"]
@@ -70,5 +71,6 @@ class ActuatorLimits:
         """The limits in the JSON (with their source)."""
         return {"flap_angle_limit_deg": self.angle_deg, "flap_rate_limit_deg_s": self.rate_deg_s,
                 "actuator_bandwidth_rad_s": self.bandwidth_rad_s,
-                "limits_source": "engineering estimate (model.aeroelastic.actuator_limits; "
+                "limits_source": "engineering estimate "
+                "(bridgeflap.model.aeroelastic.actuator_limits; "
                                  "docs/methods.md#actuator-limits-and-saturated-closed-loop-in-turbulence)"}

@@ -1,26 +1,27 @@
 """The one assembly of the aeroelastic equations: deck, optional flaps, optional compensator.
 
 Mechanism (STYLE.md, "One physics path, two numerics"): a **backend shim**. Every function here
-is written once with plain arithmetic and the few functions of :mod:`model.aeroelastic.backend`
-(``zeros``, ``solve``, ``hcat``, ``vcat``, ``kron``, ``diag``), which dispatch on the argument
-types: numpy inputs give the numeric matrices (sweeps, p-k, plant), CasADi ``SX`` inputs
-(compensator coefficients ``theta``, flap weights ``w``, relative bridge parameters ``p``) give the
-expressions of the named ``ca.Function`` objects of :mod:`model.aeroelastic.symbolic`. This module
-does not import CasADi.
+is written once with plain arithmetic and the few functions of
+:mod:`bridgeflap.model.aeroelastic.backend` (``zeros``, ``solve``, ``hcat``, ``vcat``, ``kron``,
+``diag``), which dispatch on the argument types: numpy inputs give the numeric matrices (sweeps,
+p-k, plant), CasADi ``SX`` inputs (compensator coefficients ``theta``, flap weights ``w``, relative
+bridge parameters ``p``) give the expressions of the named ``ca.Function`` objects of
+:mod:`bridgeflap.model.aeroelastic.symbolic`. This module does not import CasADi.
 
-Equations (conventions: :mod:`model`; loads: :mod:`model.aero.strips`). With generalised coordinates
-``q``, flap drive angles ``beta`` and the lift-deficiency function ``C``::
+Equations (conventions: :mod:`bridgeflap.model`; loads: :mod:`bridgeflap.model.aero.strips`). With
+generalised coordinates ``q``, flap drive angles ``beta`` and the lift-deficiency function ``C``::
 
     M_t q'' = F(U) z + U R C [W_v + U W_q] z,         z = (q, q', compensator states)
     F(U) = F0 + U F1 + U^2 F2                         (structure, non-circulatory air, flaps)
 
 :class:`OpenPieces` holds these matrices on ``(q, q')`` and the flap-drive input columns;
 :func:`close` feeds the compensator ``beta = K(s) alpha_f`` back (``beta, beta', beta''`` are
-linear in the state, :meth:`model.aeroelastic.control.Compensator.second_derivative_feedthrough`;
-the ``Dc alpha''`` part of ``beta''`` joins the mass: ``M_eff = M_t - Dc H2 Phi_a``). Two closures
-of ``C`` turn the pieces into a first-order ``x' = (A0 + U A1 + U^2 A2) x``:
+linear in the state,
+:meth:`bridgeflap.model.aeroelastic.control.Compensator.second_derivative_feedthrough`; the ``Dc
+alpha''`` part of ``beta''`` joins the mass: ``M_eff = M_t - Dc H2 Phi_a``). Two closures of ``C``
+turn the pieces into a first-order ``x' = (A0 + U A1 + U^2 A2) x``:
 
-* :func:`rfa_parts` -- the lag-form rational approximation (:mod:`model.aero.rfa`),
+* :func:`rfa_parts` -- the lag-form rational approximation (:mod:`bridgeflap.model.aero.rfa`),
   ``C Q = Q/2 + sum_j A_j y_j``, ``y_j' = (beta_j U/b)(Q - y_j)``, lag states between ``q'`` and
   the compensator states (``order="modal"``: on ``W z`` with ``R = I``; ``"full"``: on every
   strip's downwash with ``R = P``);
@@ -37,10 +38,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.aero.basis import StructuralBasis
-from model.aero.strips import StripAero, circulatory_lift, load_map
-from model.aeroelastic import backend as bk
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aero.basis import StructuralBasis
+from bridgeflap.model.aero.strips import StripAero, circulatory_lift, load_map
+from bridgeflap.model.aeroelastic import backend as bk
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = [
     "ClosedPieces",
@@ -106,11 +107,12 @@ class OpenPieces:
 
 
 def flap_inputs(flaps, weights, half_chord, air_density) -> tuple:
-    """``(H, PF, q)`` of a flap set: the flap strip loads of :mod:`model.aero.strips` projected.
+    """``(H, PF, q)`` of a flap set: the flap strip loads of :mod:`bridgeflap.model.aero.strips`
+    projected.
 
     Parameters
     ----------
-    flaps : model.aeroelastic.flaps.FlapSet
+    flaps : bridgeflap.model.aeroelastic.flaps.FlapSet
         Mode shapes at the flap strips, spanwise widths [m] and per-unit-span loads.
     weights : array (nF,) or casadi.SX
         Per-flap load factor [-] (1 fitted, 0 absent).

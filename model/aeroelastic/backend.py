@@ -1,16 +1,16 @@
 """Numeric/symbolic backend of the aeroelastic assembly: one code path, two numerics.
 
-The assembly (:mod:`model.aeroelastic.assembly`) is written once with the handful of functions
-below. Each dispatches on its arguments: numpy arrays and Python numbers give numpy results (the
-numeric matrices of sweeps, p-k and plots), CasADi ``SX``/``MX``/``DM`` give CasADi expressions (the
-named ``ca.Function`` objects of the optimiser). Plain arithmetic (``+``, ``*``, ``@``, ``.T``)
-already mixes numpy and CasADi correctly (CasADi takes precedence), so only construction, slicing
-assignment, solves and concatenation need the shim -- the AeroSandbox ``aerosandbox.numpy``
-pattern (STYLE.md, "One physics path, two numerics").
+The assembly (:mod:`bridgeflap.model.aeroelastic.assembly`) is written once with the handful of
+functions below. Each dispatches on its arguments: numpy arrays and Python numbers give numpy
+results (the numeric matrices of sweeps, p-k and plots), CasADi ``SX``/``MX``/``DM`` give CasADi
+expressions (the named ``ca.Function`` objects of the optimiser). Plain arithmetic (``+``, ``*``,
+``@``, ``.T``) already mixes numpy and CasADi correctly (CasADi takes precedence), so only
+construction, slicing assignment, solves and concatenation need the shim -- the AeroSandbox
+``aerosandbox.numpy`` pattern (STYLE.md, "One physics path, two numerics").
 
-This is one of the two files of :mod:`model` allowed to import CasADi (the other is
-:mod:`model.aeroelastic.symbolic`); ruff's banned-api rule (``TID251`` in ``pyproject.toml``)
-enforces it.
+This is one of the two files of :mod:`bridgeflap.model` allowed to import CasADi (the other is
+:mod:`bridgeflap.model.aeroelastic.symbolic`); ruff's banned-api rule (``TID251`` in
+``pyproject.toml``) enforces it.
 """
 
 from __future__ import annotations

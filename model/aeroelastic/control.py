@@ -1,7 +1,7 @@
 """Flap compensator K(s) and the controller definition (flap layout, gain limit).
 
 The compensator of the seed paper (§6) drives a flap angle ``beta`` [rad] from the local deck
-pitch ``alpha`` [rad] (sign conventions: see :mod:`model`)::
+pitch ``alpha`` [rad] (sign conventions: see :mod:`bridgeflap.model`)::
 
     K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1)
 
@@ -11,14 +11,15 @@ assembled, not here: this module describes K and where the flaps are. "Gain limi
 as ``sup_w |K(jw)| <= 15`` (docs/methods.md#compensator-design), see :meth:`Compensator.max_gain`.
 
 The realisation (:func:`canonical_realisation`) is written once for numeric and CasADi
-coefficients through :mod:`model.aeroelastic.backend`; the symbolic closed loop
-(:mod:`model.aeroelastic.symbolic`) and the numeric one (:meth:`Compensator.state_space`) both use
-it. The file I/O is :mod:`model.aeroelastic.controller_file` (``load_controller``,
-``save_controller``, also ``from model import ...``); python-control objects come from
-:mod:`model.aeroelastic.python_control` (lazily).
+coefficients through :mod:`bridgeflap.model.aeroelastic.backend`; the symbolic closed loop
+(:mod:`bridgeflap.model.aeroelastic.symbolic`) and the numeric one (:meth:`Compensator.state_space`)
+both use it. The file I/O is :mod:`bridgeflap.model.aeroelastic.controller_file`
+(``load_controller``, ``save_controller``, also ``from bridgeflap.model import ...``);
+python-control objects come from
+:mod:`bridgeflap.model.aeroelastic.python_control` (lazily).
 
-May import: the foundation, :mod:`model.aeroelastic.backend` and (lazily)
-:mod:`model.aeroelastic.python_control`; nothing that imports this module.
+May import: the foundation, :mod:`bridgeflap.model.aeroelastic.backend` and (lazily)
+:mod:`bridgeflap.model.aeroelastic.python_control`; nothing that imports this module.
 """
 
 from __future__ import annotations
@@ -29,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from model.aeroelastic import backend as bk
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aeroelastic import backend as bk
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = [
     "Compensator",
@@ -65,7 +66,7 @@ def _check_number(fieldname: str, value: Any) -> float:
 def canonical_realisation(theta):
     """Controllable canonical realisation of a second-order ``K(s)``, ``theta = (b2, b1, b0, a2,
     a1)`` with ``a2 != 0``, for numeric or CasADi-symbolic ``theta``
-    (:mod:`model.aeroelastic.backend`).
+    (:mod:`bridgeflap.model.aeroelastic.backend`).
 
     Returns ``(Ac, Bc, Cc, Dc)`` with ``Dc = b2/a2`` a scalar (formulas in
     :meth:`Compensator.state_space`).
@@ -266,9 +267,9 @@ class Compensator:
 
     def to_control(self):
         """K(s) as a ``control.TransferFunction``
-        (:func:`model.aeroelastic.python_control.compensator_tf`;
+        (:func:`bridgeflap.model.aeroelastic.python_control.compensator_tf`;
         python-control, the extra ``control``)."""
-        from model.aeroelastic.python_control import compensator_tf
+        from bridgeflap.model.aeroelastic.python_control import compensator_tf
 
         return compensator_tf(self)
 
@@ -315,7 +316,7 @@ class PlantRecord:
     bridge_sha256 : str
         SHA-256 (hex) of the bridge definition file's content (built-in bridges: the packaged
         file), or of the spec's canonical form for a spec built in memory
-        (:func:`model.aeroelastic.controller_file.plant_record`).
+        (:func:`bridgeflap.model.aeroelastic.controller_file.plant_record`).
     design_modes : int
         Retained modes of the design model.
     """
@@ -348,8 +349,8 @@ class Controller:
         K(s) from local deck pitch [rad] to flap angle [rad].
     flap_strip_positions_m : tuple of float
         Centres of the flap strips along the main span, measured from its mid-point [m]
-        (positive towards the south tower, see :mod:`model` for the x direction). Each flap
-        is driven by the pitch at its own strip (seed §6).
+        (positive towards the south tower, see :mod:`bridgeflap.model` for the x direction). Each
+        flap is driven by the pitch at its own strip (seed §6).
     flap_width_m : float
         Spanwise length of each flap pair (LE + TE flap at one strip) [m]; the chordwise
         flap size (3 m in seed §6) is ``flap_chord_m``.
@@ -450,8 +451,9 @@ class Controller:
 
     def to_statespace(self):
         """The controller (``pitch_flap[f]`` -> ``flap_te[f]``, ``flap_le[f]``) as a
-        ``control.StateSpace`` (:func:`model.aeroelastic.python_control.controller_statespace`)."""
-        from model.aeroelastic.python_control import controller_statespace
+        ``control.StateSpace``
+        (:func:`bridgeflap.model.aeroelastic.python_control.controller_statespace`)."""
+        from bridgeflap.model.aeroelastic.python_control import controller_statespace
 
         return controller_statespace(self)
 

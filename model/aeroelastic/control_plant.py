@@ -1,9 +1,11 @@
-"""The plant for control engineers (``model.plant``): gust and flap inputs, python-control.
+"""The plant for control engineers (``bridgeflap.model.plant``): gust and flap inputs,
+python-control.
 
 :func:`plant_data` returns a :class:`Plant` (numpy matrices, short indexable signal names, strip
 and flap coordinates); :func:`plant` the same as a ``control.StateSpace`` (python-control, the
-optional extra ``control``, imported lazily). Conventions: :mod:`model`; flap drive signs:
-:mod:`model.aeroelastic.flaps`.
+optional extra ``control``, imported lazily). Conventions: :mod:`bridgeflap.model`; flap drive
+signs:
+:mod:`bridgeflap.model.aeroelastic.flaps`.
 
 Signals (0-based strip and flap numbers, ordered along the bridge)
 -----------------------------------------------------------------
@@ -18,11 +20,12 @@ Signals (0-based strip and flap numbers, ordered along the bridge)
 Flap inputs: one physics path
 -----------------------------
 The flap loads depend on ``beta``, ``beta'`` and ``beta''`` (non-circulatory and circulatory
-terms, :func:`model.aeroelastic.assembly.flap_inputs`). Their input columns are taken from the one
-assembly (:func:`model.aeroelastic.assembly.rfa_parts`) by closing it with a chain of three
-integrators in place of the compensator (``beta = xc1``, ``beta' = xc2``, ``beta'' = xc3``): the
-compensator-state columns of that matrix are exactly ``B0, B1, B2`` of ``x' = A x + B0 u + B1 u' +
-B2 u''``. The derivatives are then removed by the state change ``z = x - E u - B2 u'``, ``E = A B2 +
+terms, :func:`bridgeflap.model.aeroelastic.assembly.flap_inputs`). Their input columns are taken
+from the one assembly (:func:`bridgeflap.model.aeroelastic.assembly.rfa_parts`) by closing it with a
+chain of three integrators in place of the compensator (``beta = xc1``, ``beta' = xc2``, ``beta'' =
+xc3``): the compensator-state columns of that matrix are exactly ``B0, B1, B2`` of ``x' = A x + B0 u
++ B1 u' + B2 u''``. The derivatives are then removed by the state change ``z = x - E u - B2 u'``,
+  ``E = A B2 +
 B1``::
 
     z' = A z + (A E + B0) u,      y = C z + C E u        (C B2 = 0: B2 acts on q' only)
@@ -37,13 +40,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.aeroelastic.assembly import rfa_parts
-from model.aeroelastic.controller_file import as_controller
-from model.arguments import count, one_of, optional
-from model.errors import BridgeflapError, BridgeflapInputError
-from model.results import ResultData
-from model.structure.bridge_arg import takes_bridge
-from model.vocabulary import DEFAULT_MODES
+from bridgeflap.model.aeroelastic.assembly import rfa_parts
+from bridgeflap.model.aeroelastic.controller_file import as_controller
+from bridgeflap.model.arguments import count, one_of, optional
+from bridgeflap.model.errors import BridgeflapError, BridgeflapInputError
+from bridgeflap.model.results import ResultData
+from bridgeflap.model.structure.bridge_arg import takes_bridge
+from bridgeflap.model.vocabulary import DEFAULT_MODES
 
 __all__ = ["INPUTS", "Plant", "closed_loop_plant", "even_flap_layout", "plant", "plant_data",
            "to_control"]
@@ -177,7 +180,7 @@ def even_flap_layout(spec, count: int) -> tuple[np.ndarray, float]:
 
 def _flap_columns(system, flaps_le_te, U: float):
     """``(B0, B1, B2)`` (n_x, n_flap) per unit flap drive of one flap set (module docstring)."""
-    from model.aeroelastic.flaps import ClosedLoopModel
+    from bridgeflap.model.aeroelastic.flaps import ClosedLoopModel
 
     model = ClosedLoopModel(system, flaps_le_te)
     A0, A1, A2, _, _ = rfa_parts(model.pieces(), system.rfa, _SHIFT)
@@ -201,24 +204,24 @@ def plant_data(bridge, speed: float, inputs: str = "gust", n_modes: int = DEFAUL
         ``U`` [m/s], ``>= 0``.
     inputs : {"gust", "flaps", "both"}
     n_modes : int
-        Vertical and torsional modes retained (default :data:`model.DEFAULT_MODES`).
-    controller : model.aeroelastic.control.Controller, optional
+        Vertical and torsional modes retained (default :data:`bridgeflap.model.DEFAULT_MODES`).
+    controller : bridgeflap.model.aeroelastic.control.Controller, optional
         Its flap layout (positions, width, fitted edges) is used; its K(s) is **not** closed.
     flaps : int
         Without a controller: this many flaps side by side over the main span
         (:func:`even_flap_layout`).
     flap_chord_m : float, optional
         Chordwise flap size [m] (default: the controller's own,
-        :attr:`model.aeroelastic.control.Controller.chord_m`, else
-        :data:`model.aeroelastic.flaps.DEFAULT_FLAP_CHORD_M`).
+        :attr:`bridgeflap.model.aeroelastic.control.Controller.chord_m`, else
+        :data:`bridgeflap.model.aeroelastic.flaps.DEFAULT_FLAP_CHORD_M`).
     system : AeroelasticSystem, optional
         A prebuilt open-loop system of ``bridge`` (else built from ``n_modes`` modes).
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
-    from model.aeroelastic import statespace
-    from model.aeroelastic.flaps import DEFAULT_FLAP_CHORD_M, flap_set
-    from model.structure.fe import assemble
-    from model.structure.modes import solve
+    from bridgeflap.model.aeroelastic import statespace
+    from bridgeflap.model.aeroelastic.flaps import DEFAULT_FLAP_CHORD_M, flap_set
+    from bridgeflap.model.structure.fe import assemble
+    from bridgeflap.model.structure.modes import solve
 
     if inputs not in INPUTS:
         raise BridgeflapInputError("inputs", f"must be one of {INPUTS}, got {inputs!r}")
@@ -283,10 +286,11 @@ def plant_data(bridge, speed: float, inputs: str = "gust", n_modes: int = DEFAUL
 @takes_bridge(controller=as_controller)
 def closed_loop_plant(spec, controller, speed: float, n_modes: int = DEFAULT_MODES,
                       flap_chord_m: float | None = None) -> Plant:
-    """The package's closed loop (``controller``'s K(s) fed back, :mod:`model.aeroelastic.flaps`)
-    with gust inputs ``gust[i]``; outputs ``heave[i]``, ``pitch[i]`` and each flap's drive angle
-    ``beta[f]`` [rad] (TE flap TE-down; the LE flap is at ``-beta``, LE-down)."""
-    from model.aeroelastic.flaps import closed_loop_system
+    """The package's closed loop (``controller``'s K(s) fed back,
+    :mod:`bridgeflap.model.aeroelastic.flaps`) with gust inputs ``gust[i]``; outputs ``heave[i]``,
+    ``pitch[i]`` and each flap's drive angle ``beta[f]`` [rad] (TE flap TE-down; the LE flap is at
+    ``-beta``, LE-down)."""
+    from bridgeflap.model.aeroelastic.flaps import closed_loop_system
 
     U = float(speed)
     chord = controller.chord_m if flap_chord_m is None else float(flap_chord_m)

@@ -1,12 +1,12 @@
 """What ``controller.toml`` records of the plant it was designed on, and the checks on loading.
 
 A controller closes its loop through flaps of a given chord, width, strip positions and edges
-(:class:`model.aeroelastic.control.Controller`) on one bridge and mode count
-(:class:`model.aeroelastic.control.PlantRecord`). :func:`plant_record` builds the record of a
-design;
+(:class:`bridgeflap.model.aeroelastic.control.Controller`) on one bridge and mode count
+(:class:`bridgeflap.model.aeroelastic.control.PlantRecord`). :func:`plant_record` builds the record
+of a design;
 :func:`check_controller_plant` compares a loaded controller with the bridge it is about to be
 checked on: a different bridge is one warning line, a flap geometry the bridge cannot carry is
-:class:`~model.errors.BridgeflapInputError` naming the field (exit status 2 in the CLI).
+:class:`~bridgeflap.model.errors.BridgeflapInputError` naming the field (exit status 2 in the CLI).
 """
 
 from __future__ import annotations
@@ -19,9 +19,9 @@ import sys
 from importlib import resources
 from pathlib import Path
 
-from model.aeroelastic.control import Compensator, Controller, PlantRecord, _check_number
-from model.arguments import check_path, checked, describe
-from model.errors import BridgeflapInputError, BridgeflapTypeError
+from bridgeflap.model.aeroelastic.control import Compensator, Controller, PlantRecord, _check_number
+from bridgeflap.model.arguments import check_path, checked, describe
+from bridgeflap.model.errors import BridgeflapInputError, BridgeflapTypeError
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -34,8 +34,8 @@ __all__ = ["as_controller", "bridge_sha256", "check_controller_plant", "load_con
 
 def split_bridge(bridge: str) -> tuple[str, str]:
     """``(base, variant)`` of a ``--bridge`` value (``"humber:box"`` -> ``("humber", "box")``;
-    ``""`` for no variant), as :func:`model.structure.loader.load_bridge` reads it."""
-    from model.structure.loader import _split_variant
+    ``""`` for no variant), as :func:`bridgeflap.model.structure.loader.load_bridge` reads it."""
+    from bridgeflap.model.structure.loader import _split_variant
 
     base, variant = _split_variant(str(bridge))
     return base, variant or ""
@@ -51,11 +51,12 @@ def _canonical_sha256(spec) -> str:
 def bridge_sha256(bridge: str) -> str:
     """SHA-256 (hex) of the content of the definition file of ``bridge`` (a built-in name:
     the packaged file; a path: that file), variant suffix ignored (recorded apart)."""
-    from model.structure.builtin_bridges import BUILTIN_BRIDGES, BUILTIN_FILES
+    from bridgeflap.model.structure.builtin_bridges import BUILTIN_BRIDGES, BUILTIN_FILES
 
     base, _ = split_bridge(bridge)
     if base in BUILTIN_BRIDGES:
-        content = resources.files("model.bridges").joinpath(BUILTIN_FILES[base]).read_bytes()
+        content = resources.files("bridgeflap.model.bridges").joinpath(
+            BUILTIN_FILES[base]).read_bytes()
     else:
         try:
             content = Path(base).read_bytes()
@@ -65,13 +66,13 @@ def bridge_sha256(bridge: str) -> str:
 
 
 def plant_record(bridge: str, design_modes: int, spec=None) -> PlantRecord:
-    """The :class:`~model.aeroelastic.control.PlantRecord` of a design on ``bridge`` (the
+    """The :class:`~bridgeflap.model.aeroelastic.control.PlantRecord` of a design on ``bridge`` (the
     ``load_bridge`` string) with ``design_modes`` modes.
 
     ``spec``: the bridge the design actually ran on when it was not
     ``load_bridge(bridge)`` (a modified or erected spec): its canonical form is hashed then.
     """
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.structure.loader import load_bridge
 
     base, variant = split_bridge(bridge)
     loaded = load_bridge(bridge)
@@ -148,7 +149,7 @@ def check_controller_plant(controller: Controller, bridge: str, spec) -> str | N
 
 
 def _builtin() -> tuple:
-    from model.structure.builtin_bridges import BUILTIN_BRIDGES
+    from bridgeflap.model.structure.builtin_bridges import BUILTIN_BRIDGES
 
     return tuple(BUILTIN_BRIDGES)
 
@@ -185,13 +186,13 @@ MIN_DENOMINATOR_COEFFICIENT = {"a1": 1.0e-6, "a2": 1.0e-12}
 def as_controller(value, field: str = "controller") -> Controller:
     """``value`` if it is a :class:`Controller`; a controller file's path is loaded
     (:func:`load_controller`); anything else is a
-    :class:`~model.errors.BridgeflapTypeError` naming ``field``."""
+    :class:`~bridgeflap.model.errors.BridgeflapTypeError` naming ``field``."""
     if isinstance(value, Controller):
         return value
     if isinstance(value, str | os.PathLike):
         return load_controller(value)
     raise BridgeflapTypeError(field, "must be a Controller or a controller .toml path "
-                                     f"(model.load_controller), got {describe(value)}")
+                                     f"(bridgeflap.model.load_controller), got {describe(value)}")
 
 
 @checked(path=check_path)

@@ -1,12 +1,12 @@
 """Derivative loads on a structure: strip projection, Roger state space, exact p-k matrices.
 
-The physics and conventions are those of :mod:`model.aero.derivatives` (module docstring there: the
-Scanlan form, the Roger RFA and the p-k split); this module projects a deck section's
-derivative loads onto a :class:`~model.aero.basis.StructuralBasis` and assembles the
+The physics and conventions are those of :mod:`bridgeflap.model.aero.derivatives` (module docstring
+there: the Scanlan form, the Roger RFA and the p-k split); this module projects a deck section's
+derivative loads onto a :class:`~bridgeflap.model.aero.basis.StructuralBasis` and assembles the
 speed-polynomial state space ``x' = (A0 + U A1 + U^2 A2) x`` with lag states
 ``x_j' = q' - (gamma_j U / B) x_j``, returned as an
-:class:`~model.aeroelastic.statespace.AeroelasticSystem` whose ``frozen()`` gives the p-k matrices
-on the interpolated derivatives.
+:class:`~bridgeflap.model.aeroelastic.statespace.AeroelasticSystem` whose ``frozen()`` gives the p-k
+matrices on the interpolated derivatives.
 """
 
 from __future__ import annotations
@@ -17,17 +17,17 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from model.aero.basis import StructuralBasis
-from model.aero.derivatives import (
+from bridgeflap.model.aero.basis import StructuralBasis
+from bridgeflap.model.aero.derivatives import (
     FlutterDerivatives,
     RogerFit,
     _positive,
     fit_roger,
     flat_plate,
 )
-from model.aero.strips import StripAero
-from model.aeroelastic.statespace import AeroelasticSystem, StateIndex
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aero.strips import StripAero
+from bridgeflap.model.aeroelastic.statespace import AeroelasticSystem, StateIndex
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = [
     "DerivativeFrozen",
@@ -87,8 +87,9 @@ class DerivativeFrozen:
     """The p-k matrices on ``(q, q')`` at a frozen reduced frequency (module docstring).
 
     ``matrix_at_k(U, k)`` takes the half-chord reduced frequency ``k = |Im p| b / U`` of
-    :func:`model.stability.sweeps.pk_sweep` (``K = 2 k``) and returns the real first-order matrix
-    with stiffness ``K_s - 1/2 rho U^2 Re Q(K)`` and damping ``C - 1/2 rho U B Im Q(K) / K``.
+    :func:`bridgeflap.model.stability.sweeps.pk_sweep` (``K = 2 k``) and returns the real
+    first-order matrix with stiffness ``K_s - 1/2 rho U^2 Re Q(K)`` and damping ``C - 1/2 rho U B Im
+    Q(K) / K``.
     """
 
     M: np.ndarray
@@ -132,7 +133,8 @@ class DerivativeFrozen:
 
 @dataclass(frozen=True)
 class DerivativeSystem(AeroelasticSystem):
-    """:class:`~model.aeroelastic.statespace.AeroelasticSystem` of derivative loads (Roger RFA).
+    """:class:`~bridgeflap.model.aeroelastic.statespace.AeroelasticSystem` of derivative loads
+    (Roger RFA).
 
     ``frozen()`` returns the :class:`DerivativeFrozen` p-k matrices on the interpolated
     derivatives instead of the frozen-``C(k)`` form.
@@ -227,12 +229,13 @@ def flat_plate_fit(chord_m: float, added_inertia: bool = False, n_lags: int = 4)
 def derivative_bridge_system(spec, modal, n_modes: int):
     """Aeroelastic state space of a modal bridge with ``[derivatives]`` loads.
 
-    The hook of :func:`model.analysis.bridge_system`: :meth:`ImportedModalModel.derivative_basis`
-    (lateral modes and shapes when ``lateral``), the table of the file with ``B = 2 b`` of the
-    deck, its Roger fit and :func:`derivative_system` (whose ``frozen()`` is the exact p-k on the
-    interpolated tables, :func:`model.stability.sweeps.pk_sweep`). ``extras["rfa"]`` names the
-    fit (``roger<n>:<table>``) for the flutter summary. A bridge with ``[static_coefficients]``
-    gets the quasi-steady gust inputs (:func:`model.aeroelastic.gust_input.quasi_steady_inputs`).
+    The hook of :func:`bridgeflap.model.analysis.bridge_system`:
+    :meth:`ImportedModalModel.derivative_basis` (lateral modes and shapes when ``lateral``), the
+    table of the file with ``B = 2 b`` of the deck, its Roger fit and :func:`derivative_system`
+    (whose ``frozen()`` is the exact p-k on the interpolated tables,
+    :func:`bridgeflap.model.stability.sweeps.pk_sweep`). ``extras["rfa"]`` names the fit
+    (``roger<n>:<table>``) for the flutter summary. A bridge with ``[static_coefficients]`` gets the
+    quasi-steady gust inputs (:func:`bridgeflap.model.aeroelastic.gust_input.quasi_steady_inputs`).
     """
     loads = spec.derivatives
     if hasattr(modal, "derivative_basis"):
@@ -248,7 +251,7 @@ def derivative_bridge_system(spec, modal, n_modes: int):
     system.extras.update(rfa=f"{fit.name}:{source.name}", lateral_dof=phi_p is not None,
                          phi_p=phi_p)
     if getattr(spec, "static_coefficients", None) is not None:  # B_gust: quasi-steady w loads
-        from model.aeroelastic.gust_input import quasi_steady_inputs
+        from bridgeflap.model.aeroelastic.gust_input import quasi_steady_inputs
 
         system = quasi_steady_inputs(system, spec)
     return system

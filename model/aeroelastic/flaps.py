@@ -1,14 +1,15 @@
 """Leading- and trailing-edge deck flaps driven by a compensator: closed-loop state space.
 
 Conventions (h down, alpha nose-up, moment about mid-chord, lift in the equations positive
-down, ``b`` half-chord) are those of :mod:`model`. Seed paper §6, Eq. (18);
+down, ``b`` half-chord) are those of :mod:`bridgeflap.model`. Seed paper §6, Eq. (18);
 docs/methods.md#flap-loads; docs/humber_data.md#flap-loads-and-t-functions.
 
-Flap loads: the TR-496 strip loads of :mod:`model.aero.strips`
-(:func:`model.aero.strips.flap_section_loads`); the circulatory flap terms enter the same downwash
-that the deck's lag states filter, so the rational approximation of C(k) of the deck
-(:mod:`model.aero.rfa`) filters them too. The assembly with the compensator fed back is the one of
-:mod:`model.aeroelastic.assembly`.
+Flap loads: the TR-496 strip loads of :mod:`bridgeflap.model.aero.strips`
+(:func:`bridgeflap.model.aero.strips.flap_section_loads`); the circulatory flap terms enter the same
+downwash that the deck's lag states filter, so the rational approximation of C(k) of the deck
+(:mod:`bridgeflap.model.aero.rfa`) filters them too. The assembly with the compensator fed back is
+the one of
+:mod:`bridgeflap.model.aeroelastic.assembly`.
 
 Flap geometry: each flap has chord ``flap_chord_m`` measured from its edge *inside* the deck
 chord ``2 b`` (hinge ``c = (b - chord)/b`` for the TE flap and ``e = -c`` for the LE flap;
@@ -19,10 +20,10 @@ Drive ("the same (actually anti-symmetric)", seed §6)
 ------------------------------------------------------
 The controller angle of a TE flap is TE-down positive and that of a LE flap LE-down positive
 (each flap's tip down, mirror images of each other). ``beta_TE = +K alpha`` and
-``beta_LE = -K alpha`` (the package convention, :mod:`model.aeroelastic.control`) then means both
-flaps rotate by ``K alpha`` in the rotational sense of ``alpha``: the deck-plus-flaps section is
-point-antisymmetric, which is the only choice that behaves the same for wind from either side
-(reflecting the section swaps LE and TE and flips the sign of ``alpha``). In steady flow the
+``beta_LE = -K alpha`` (the package convention, :mod:`bridgeflap.model.aeroelastic.control`) then
+means both flaps rotate by ``K alpha`` in the rotational sense of ``alpha``: the deck-plus-flaps
+section is point-antisymmetric, which is the only choice that behaves the same for wind from either
+side (reflecting the section swaps LE and TE and flips the sign of ``alpha``). In steady flow the
 LE and TE flaps then give the *same* nose-up mid-chord moment (``-T4(c)/2`` each), doubling a
 single flap's moment, while the LE flap adds only ``2(theta_h - sin theta_h)`` of lift.
 
@@ -30,9 +31,9 @@ Closed loop
 -----------
 Each flap ``f`` has its own compensator state pair ``xc_f' = Ac xc_f + Bc alpha_f`` with
 ``alpha_f`` the deck pitch at its strip; ``beta_f``, ``beta_f'``, ``beta_f''`` follow from
-:meth:`model.aeroelastic.control.Compensator.second_derivative_feedthrough`. The ``beta''`` term
-contains ``Dc alpha_f''``, so the effective mass ``M + M_nc - Dc H2 Phi_a`` is nonsymmetric. ``U``
-still enters polynomially: ``A(U) = A0 + U A1 + U^2 A2`` with state
+:meth:`bridgeflap.model.aeroelastic.control.Compensator.second_derivative_feedthrough`. The
+``beta''`` term contains ``Dc alpha_f''``, so the effective mass ``M + M_nc - Dc H2 Phi_a`` is
+nonsymmetric. ``U`` still enters polynomially: ``A(U) = A0 + U A1 + U^2 A2`` with state
 ``x = (q, q', lag states, compensator states)``.
 """
 
@@ -42,21 +43,26 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.aero.basis import StructuralBasis
-from model.aero.strips import SectionLoads, flap_section_loads
-from model.aeroelastic import statespace
-from model.aeroelastic.assembly import OpenPieces, dynamic_matrices, open_pieces, rfa_parts
-from model.aeroelastic.backend import is_symbolic
-from model.aeroelastic.control import DEFAULT_FLAP_CHORD_M, Compensator, Controller
-from model.aeroelastic.controller_file import as_controller
-from model.aeroelastic.statespace import AeroelasticSystem, StateIndex
-from model.arguments import flag, number, numbers
-from model.errors import BridgeflapInputError
-from model.spectrum import polynomial_abscissa
-from model.structure.bridge_arg import takes_bridge
-from model.structure.fe import assemble
-from model.structure.modes import solve
-from model.vocabulary import DEFAULT_MODES
+from bridgeflap.model.aero.basis import StructuralBasis
+from bridgeflap.model.aero.strips import SectionLoads, flap_section_loads
+from bridgeflap.model.aeroelastic import statespace
+from bridgeflap.model.aeroelastic.assembly import (
+    OpenPieces,
+    dynamic_matrices,
+    open_pieces,
+    rfa_parts,
+)
+from bridgeflap.model.aeroelastic.backend import is_symbolic
+from bridgeflap.model.aeroelastic.control import DEFAULT_FLAP_CHORD_M, Compensator, Controller
+from bridgeflap.model.aeroelastic.controller_file import as_controller
+from bridgeflap.model.aeroelastic.statespace import AeroelasticSystem, StateIndex
+from bridgeflap.model.arguments import flag, number, numbers
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.spectrum import polynomial_abscissa
+from bridgeflap.model.structure.bridge_arg import takes_bridge
+from bridgeflap.model.structure.fe import assemble
+from bridgeflap.model.structure.modes import solve
+from bridgeflap.model.vocabulary import DEFAULT_MODES
 
 __all__ = [
     "DEFAULT_FLAP_CHORD_M",
@@ -85,7 +91,7 @@ class FlapSet:
         Spanwise length of each flap [m].
     position_m : ndarray (n_flap,)
         Flap centres from the main-span mid-point [m] (0 for a section).
-    loads : model.aero.strips.SectionLoads
+    loads : bridgeflap.model.aero.strips.SectionLoads
         Per-unit-span loads of the LE+TE pair per unit drive angle.
     """
 
@@ -146,9 +152,9 @@ def flap_set(spec, basis: StructuralBasis, positions_m, width_m, flap_chord_m: f
 class ClosedLoopModel:
     """Open-loop aeroelastic system plus flaps; builds closed-loop matrices for any K(s).
 
-    A thin front of :mod:`model.aeroelastic.assembly`: numeric matrices from :meth:`system`, the
-    named CasADi functions from :meth:`casadi_functions`
-    (:func:`model.aeroelastic.symbolic.closed_loop_functions`).
+    A thin front of :mod:`bridgeflap.model.aeroelastic.assembly`: numeric matrices from
+    :meth:`system`, the named CasADi functions from :meth:`casadi_functions`
+    (:func:`bridgeflap.model.aeroelastic.symbolic.closed_loop_functions`).
 
     Attributes
     ----------
@@ -169,7 +175,8 @@ class ClosedLoopModel:
         return np.ones(self.n_flaps) if weights is None else np.asarray(weights, float).ravel()
 
     def pieces(self, weights=None) -> OpenPieces:
-        """Open-loop pieces with the flap inputs (:func:`model.aeroelastic.assembly.open_pieces`).
+        """Open-loop pieces with the flap inputs
+        (:func:`bridgeflap.model.aeroelastic.assembly.open_pieces`).
 
         ``weights`` (per-flap load factor [-]) may be numeric or a CasADi symbol.
         """
@@ -182,7 +189,8 @@ class ClosedLoopModel:
             f"xc{i + 1}[flap{f}]" for f in range(self.n_flaps) for i in range(nc))
 
     def system(self, compensator: Compensator, weights=None) -> AeroelasticSystem:
-        """Closed-loop :class:`~model.aeroelastic.statespace.AeroelasticSystem` for a numeric K(s).
+        """Closed-loop :class:`~bridgeflap.model.aeroelastic.statespace.AeroelasticSystem` for a
+        numeric K(s).
 
         Parameters
         ----------
@@ -214,7 +222,7 @@ class ClosedLoopModel:
 
     def casadi_functions(self) -> dict:
         """Symbolic closed loop, built once
-        (:func:`model.aeroelastic.symbolic.closed_loop_functions`).
+        (:func:`bridgeflap.model.aeroelastic.symbolic.closed_loop_functions`).
 
         Returns
         -------
@@ -224,7 +232,7 @@ class ClosedLoopModel:
             (A0, A1, A2)``.
         """
         if not self._functions:
-            from model.aeroelastic.symbolic import closed_loop_functions
+            from bridgeflap.model.aeroelastic.symbolic import closed_loop_functions
 
             self._functions.update(closed_loop_functions(self))
         return self._functions
@@ -233,10 +241,10 @@ class ClosedLoopModel:
         """Flap-loop plant factors ``(Pa, X)`` with ``G(s) = Pa X(s) diag(w)`` (RFA aero).
 
         ``G`` maps the flap drive angles [rad] to the deck pitch at the flaps [rad]: ``X =
-        D(s)^{-1} F_beta(s)`` from :func:`model.aeroelastic.assembly.dynamic_matrices` with ``C``
-        the RFA of the state space at ``s b / U`` (``C = 1`` at ``U = 0``), so ``G`` is the exact
-        transfer function of the RFA state space. ``weights`` scale the flap loads inside ``X``
-        (default ones: then ``X`` is the unit-weight factor of the design code).
+        D(s)^{-1} F_beta(s)`` from :func:`bridgeflap.model.aeroelastic.assembly.dynamic_matrices`
+        with ``C`` the RFA of the state space at ``s b / U`` (``C = 1`` at ``U = 0``), so ``G`` is
+        the exact transfer function of the RFA state space. ``weights`` scale the flap loads inside
+        ``X`` (default ones: then ``X`` is the unit-weight factor of the design code).
 
         Parameters
         ----------
@@ -294,9 +302,9 @@ class ClosedLoopModel:
 
 def controller_flaps(spec, basis: StructuralBasis, controller: Controller,
                      flap_chord_m: float | None = None) -> FlapSet:
-    """The :class:`FlapSet` of a :class:`~model.aeroelastic.control.Controller` on a bridge basis
-    (``flap_chord_m`` default: the controller's own,
-    :attr:`~model.aeroelastic.control.Controller.chord_m`)."""
+    """The :class:`FlapSet` of a :class:`~bridgeflap.model.aeroelastic.control.Controller` on a
+    bridge basis (``flap_chord_m`` default: the controller's own,
+    :attr:`~bridgeflap.model.aeroelastic.control.Controller.chord_m`)."""
     chord = controller.chord_m if flap_chord_m is None else flap_chord_m
     return flap_set(spec, basis, controller.flap_strip_positions_m, controller.flap_width_m,
                     chord, controller.leading_edge, controller.trailing_edge)
@@ -320,8 +328,8 @@ def section_model(basis: StructuralBasis, half_chord: float, air_density: float,
                   flap_chord_m: float, flap_width_m: float = 1.0, leading_edge: bool = True,
                   trailing_edge: bool = True, rfa: str = "rfa4",
                   added_inertia: bool = True) -> ClosedLoopModel:
-    """A 2-DOF section (:func:`model.cases.section.section_basis`) with one flap strip of unit
-    span."""
+    """A 2-DOF section (:func:`bridgeflap.model.cases.section.section_basis`) with one flap strip of
+    unit span."""
     system = statespace.build(basis, half_chord, air_density, rfa=rfa,
                               added_inertia=added_inertia)
     loads = flap_section_loads(half_chord, air_density, flap_chord_m, leading_edge,
@@ -337,7 +345,7 @@ def closed_loop_system(spec, controller: Controller, n_modes: int = DEFAULT_MODE
                        flap_chord_m: float | None = None) -> AeroelasticSystem:
     """Closed-loop system with the AeroelasticSystem interface (``A(U)``, ``B_gust(U)``,
     ...); ``flap_chord_m`` default: the controller's own
-    (:attr:`~model.aeroelastic.control.Controller.chord_m`)."""
+    (:attr:`~bridgeflap.model.aeroelastic.control.Controller.chord_m`)."""
     chord = controller.chord_m if flap_chord_m is None else flap_chord_m
     model = closed_loop_model(spec, controller.flap_strip_positions_m, controller.flap_width_m,
                               n_modes, chord, controller.leading_edge,

@@ -2,12 +2,13 @@
 ``[static_coefficients]``.
 
 :func:`quasi_steady_inputs` replaces the thin-aerofoil gust-input matrix ``Bw1`` of an
-:class:`~model.aeroelastic.statespace.AeroelasticSystem` (Theodorsen or Roger state space) by
-the quasi-steady ``w`` loads of :func:`model.aero.quasi_steady.gust_inputs` and puts the ``u``
-loads in ``system.extras["Bw1_u"]``. Used by the buffeting inputs
-(:func:`model.response.buffeting_inputs.resolve_system`) and by the state space of a bridge with
-flutter-derivative loads (:func:`model.aeroelastic.derivative_system.derivative_bridge_system`).
-Conventions: :mod:`model`.
+:class:`~bridgeflap.model.aeroelastic.statespace.AeroelasticSystem` (Theodorsen or Roger state
+space) by the quasi-steady ``w`` loads of :func:`bridgeflap.model.aero.quasi_steady.gust_inputs` and
+puts the ``u`` loads in ``system.extras["Bw1_u"]``. Used by the buffeting inputs
+(:func:`bridgeflap.model.response.buffeting_inputs.resolve_system`) and by the state space of a
+bridge with flutter-derivative loads
+(:func:`bridgeflap.model.aeroelastic.derivative_system.derivative_bridge_system`). Conventions:
+:mod:`bridgeflap.model`.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ def quasi_steady_inputs(system, spec):
     """``system`` with the quasi-steady gust inputs (``Bw1`` = w, ``extras["Bw1_u"]`` = u)."""
     import dataclasses
 
-    from model.aero.quasi_steady import gust_inputs
+    from bridgeflap.model.aero.quasi_steady import gust_inputs
 
     basis = system.basis
     P_w, P_u = gust_inputs(basis, 2.0 * spec.deck.half_chord_m, spec.aero.air_density_kg_m3,

@@ -1,22 +1,25 @@
 """The compensator and the controller as python-control objects (the optional extra).
 
-:meth:`Compensator.to_control() <model.aeroelastic.control.Compensator.to_control>` and
-:meth:`Controller.to_statespace() <model.aeroelastic.control.Controller.to_statespace>` call
-:func:`compensator_tf` and :func:`controller_statespace`; :mod:`model.aeroelastic.control_interop`
-(the closed loop, plant families) re-exports both. python-control (``control``, the extra
-``bridgeflap[control]``) is imported lazily; without it every function raises one
-:class:`~model.errors.BridgeflapError` line. Signal names: :mod:`model.aeroelastic.control_interop`.
+:meth:`Compensator.to_control() <bridgeflap.model.aeroelastic.control.Compensator.to_control>` and
+:meth:`Controller.to_statespace() <bridgeflap.model.aeroelastic.control.Controller.to_statespace>`
+call
+:func:`compensator_tf` and :func:`controller_statespace`;
+:mod:`bridgeflap.model.aeroelastic.control_interop` (the closed loop, plant families) re-exports
+both. python-control (``control``, the extra ``bridgeflap[control]``) is imported lazily; without it
+every function raises one
+:class:`~bridgeflap.model.errors.BridgeflapError` line. Signal names:
+:mod:`bridgeflap.model.aeroelastic.control_interop`.
 
-May import: numpy and :mod:`model.errors` only -- it takes the compensator and controller as
-arguments and imports none of model.aeroelastic, so that :mod:`model.aeroelastic.control`
-imports it without a cycle.
+May import: numpy and :mod:`bridgeflap.model.errors` only -- it takes the compensator and controller
+as arguments and imports none of bridgeflap.model.aeroelastic, so that
+:mod:`bridgeflap.model.aeroelastic.control` imports it without a cycle.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from model.errors import BridgeflapError
+from bridgeflap.model.errors import BridgeflapError
 
 __all__ = ["compensator_tf", "controller_statespace"]
 
@@ -42,8 +45,9 @@ def compensator_tf(compensator):
 
 def controller_statespace(controller):
     """The controller as a ``control.StateSpace`` (module docstring): ``n_flaps`` copies of the
-    compensator's realisation (:meth:`~model.aeroelastic.control.Compensator.state_space`), states
-    ``xc[f,i]``, inputs ``pitch_flap[f]``, outputs ``flap_te[f]`` then ``flap_le[f]``."""
+    compensator's realisation
+    (:meth:`~bridgeflap.model.aeroelastic.control.Compensator.state_space`), states ``xc[f,i]``,
+    inputs ``pitch_flap[f]``, outputs ``flap_te[f]`` then ``flap_le[f]``."""
     control = _control()
     Ac, Bc, Cc, Dc = controller.compensator.state_space()
     nf, nc = controller.n_flaps, Ac.shape[0]

@@ -1,7 +1,7 @@
 """Aeroelastic state space ``x' = A(U) x + B_w(U) w``, ``A(U) = A0 + U A1 + U^2 A2``.
 
 State ``x = (q, q', lag states)`` (named partitions in :class:`StateIndex`). The lift-deficiency
-function is replaced by its lag-form rational approximation (:mod:`model.aero.rfa`)::
+function is replaced by its lag-form rational approximation (:mod:`bridgeflap.model.aero.rfa`)::
 
     C(s_bar) Q = Q/2 + sum_j A_j y_j,     y_j' = (beta_j U / b) (Q - y_j)
 
@@ -22,11 +22,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.aero.basis import StructuralBasis
-from model.aero.rfa import RationalApprox, get_rfa
-from model.aero.strips import StripAero, strip_aero
-from model.aeroelastic import backend as bk
-from model.aeroelastic.assembly import (
+from bridgeflap.model.aero.basis import StructuralBasis
+from bridgeflap.model.aero.rfa import RationalApprox, get_rfa
+from bridgeflap.model.aero.strips import StripAero, strip_aero
+from bridgeflap.model.aeroelastic import backend as bk
+from bridgeflap.model.aeroelastic.assembly import (
     ORDERS,
     FrozenParts,
     OpenPieces,
@@ -35,7 +35,7 @@ from model.aeroelastic.assembly import (
     open_pieces,
     rfa_parts,
 )
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 
 @dataclass(frozen=True)
@@ -92,8 +92,8 @@ class AeroelasticSystem:
         return self.A0.shape[0]
 
     def frozen(self) -> FrozenParts:
-        """First-order matrices with C(k) frozen (:func:`model.aeroelastic.assembly.frozen_parts`),
-        p-k."""
+        """First-order matrices with C(k) frozen
+        (:func:`bridgeflap.model.aeroelastic.assembly.frozen_parts`), p-k."""
         if self.pieces is None or self.pieces.order != "modal":
             raise BridgeflapInputError("order", "the frozen-C (p-k) form is built in modal order")
         return frozen_parts(self.pieces, self.compensator)
@@ -116,7 +116,7 @@ def build(basis: StructuralBasis, half_chord: float, air_density: float,
           lift_slope_buffeting: float = 2 * np.pi,
           moment_slope_buffeting: float = np.pi / 2) -> AeroelasticSystem:
     """Assemble the aeroelastic state space of a structural basis
-    (:mod:`model.aeroelastic.assembly`).
+    (:mod:`bridgeflap.model.aeroelastic.assembly`).
 
     Parameters
     ----------
@@ -162,9 +162,9 @@ def spec_system(spec, basis: StructuralBasis, order: str = "modal",
 
     A bridge whose self-excited loads come from flutter-derivative tables (``[derivatives]``
     of a modal bridge) is refused here: its state space is built by
-    :func:`model.aeroelastic.derivative_system.derivative_bridge_system` for flutter only, and an
-    analysis that builds Theodorsen deck loads (buffeting, flaps and design, sensitivities,
-    state-space export, mode shapes) must not silently use the flat plate instead.
+    :func:`bridgeflap.model.aeroelastic.derivative_system.derivative_bridge_system` for flutter
+    only, and an analysis that builds Theodorsen deck loads (buffeting, flaps and design,
+    sensitivities, state-space export, mode shapes) must not silently use the flat plate instead.
     """
     if getattr(spec, "derivatives", None) is not None:
         raise BridgeflapInputError(
@@ -182,7 +182,7 @@ def exact_dynamic_matrix(system: AeroelasticSystem, p: complex, wind_speed: floa
     """``D(p) = p^2 M_t + p (C + U D_nc) + K - U C(k) P (p G1 + U G0)`` for a given ``C(k)``.
 
     ``det D(p) = 0`` is the exact Theodorsen flutter equation used by the p-k method
-    (:func:`model.aeroelastic.assembly.dynamic_matrices` of the open-loop pieces).
+    (:func:`bridgeflap.model.aeroelastic.assembly.dynamic_matrices` of the open-loop pieces).
     """
     return dynamic_matrices(system.pieces, wind_speed, p, c_value)[0]
 
@@ -192,7 +192,7 @@ def divergence_speed_static(system: AeroelasticSystem) -> float:
 
     ``Q = P G0`` for the open loop; with flaps driven by a compensator ``Q = P G0 + (H0 + g0
     PF) K(0) Phi_a`` (the static flap loads of ``beta = K(0) alpha_f``,
-    :mod:`model.aeroelastic.assembly`). Returns NaN when no positive real root exists.
+    :mod:`bridgeflap.model.aeroelastic.assembly`). Returns NaN when no positive real root exists.
     """
     K = system.basis.K
     mu = np.linalg.eigvals(np.linalg.solve(K, static_aero_stiffness(system)))
@@ -240,9 +240,9 @@ def coordinate_families(system) -> list[str]:
 def divergence_mechanism(system, vec) -> tuple[str, str]:
     """Mechanism and source coordinate of a divergence with state eigenvector ``vec``.
 
-    With ``K q = U^2 Q q`` (:func:`model.aeroelastic.statespace.static_aero_stiffness`), the static
-    aerodynamic work ``q^T Q q`` splits over the coordinates whose deflection generates the
-    load, ``w_j = (q^T Q)_j q_j``. The mechanism is the family (:func:`coordinate_families`)
+    With ``K q = U^2 Q q`` (:func:`bridgeflap.model.aeroelastic.statespace.static_aero_stiffness`),
+    the static aerodynamic work ``q^T Q q`` splits over the coordinates whose deflection generates
+    the load, ``w_j = (q^T Q)_j q_j``. The mechanism is the family (:func:`coordinate_families`)
     with the largest share, the source its largest coordinate. Returns ``("", "")`` when the
     work is not positive (no divergence-like eigenvector).
     """

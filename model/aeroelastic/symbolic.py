@@ -1,9 +1,10 @@
 """Named CasADi functions of the one assembly: open-loop ``A(U, p)``, closed-loop ``A_cl``.
 
-Both are built by :mod:`model.aeroelastic.assembly` from CasADi symbols (the backend shim of
-:mod:`model.aeroelastic.backend`), from the same code as the numeric matrices of
-:mod:`model.aeroelastic.statespace` and :mod:`model.aeroelastic.flaps`. This is one of the two files
-of :mod:`model` allowed to import CasADi.
+Both are built by :mod:`bridgeflap.model.aeroelastic.assembly` from CasADi symbols (the backend shim
+of
+:mod:`bridgeflap.model.aeroelastic.backend`), from the same code as the numeric matrices of
+:mod:`bridgeflap.model.aeroelastic.statespace` and :mod:`bridgeflap.model.aeroelastic.flaps`. This
+is one of the two files of :mod:`bridgeflap.model` allowed to import CasADi.
 
 Open loop, modal lag order: ``A(U, p)``.
 
@@ -27,11 +28,12 @@ the retained mass-normalised nominal modes, ``M(p) = I + sum_k (p_k - 1) Phi^T d
 likewise for ``K``, where ``dM_k = p0_k dM_FE/dp_k`` is the change of the assembled FE matrices
 (central difference of the assembly, exact for the parameters that enter linearly: mass,
 inertia, GJ, EI; first order for the sag and the dead-load part of the deck mass) of the Ritz
-basis of :func:`model.structure.ritz.ritz_basis`. This is
+basis of :func:`bridgeflap.model.structure.ritz.ritz_basis`. This is
 exact at nominal and first-order accurate away from it within the retained basis; the numeric
-path (:func:`model.aeroelastic.statespace.spec_system` on re-solved modes) re-solves the modes
-instead. Half-chord and air density enter exactly. ``U`` enters as ``A0 + U A1 + U^2 A2`` as in
-:mod:`model.aeroelastic.statespace`.
+path (:func:`bridgeflap.model.aeroelastic.statespace.spec_system` on re-solved modes) re-solves the
+modes instead. Half-chord and air density enter exactly. ``U`` enters as ``A0 + U A1 + U^2 A2`` as
+in
+:mod:`bridgeflap.model.aeroelastic.statespace`.
 
 Closed loop (:func:`closed_loop_functions`): ``A_cl(U, theta, w)`` and ``A_parts(theta, w) ->
 (A0, A1, A2)`` with the compensator coefficients ``theta = (b2, b1, b0, a2, a1)`` and the
@@ -40,7 +42,7 @@ per-flap weights ``w``, the functions the compensator optimiser differentiates.
 Spectral RMS (:func:`casadi_spectral_variance`, :func:`buffeting_rms_function`): the one-sided
 output variance ``sigma_j^2 = int_0^omega_max G_yy,jj d omega`` with ``G_yy = H G_ww H^H`` and
 ``H = C (i omega I - A)^{-1} B`` (seed Eqs. (10)-(12), (17)) on a *fixed* grid (trapezoid
-weights), the convention of :mod:`model.spectral`. The complex solve is written in real
+weights), the convention of :mod:`bridgeflap.model.spectral`. The complex solve is written in real
 arithmetic: ``[[-A, -omega I], [omega I, -A]] [Xr; Xi] = [B; 0]``.
 """
 
@@ -51,19 +53,19 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from model.aero.basis import StructuralBasis
-from model.aero.rfa import RationalApprox, get_rfa
-from model.aero.strips import strip_aero
-from model.aeroelastic.assembly import open_pieces, rfa_parts
-from model.aeroelastic.control import canonical_realisation
-from model.arguments import checked, describe
-from model.errors import BridgeflapInputError, BridgeflapTypeError
-from model.spectral import trapezoid_weights
-from model.structure.bridge_arg import BridgeArg, takes_bridge
-from model.structure.fe import assemble
-from model.structure.modes import ModalModel, solve
-from model.structure.ritz import chosen_modes, ritz_basis
-from model.structure.spec import BridgeSpec, get_path
+from bridgeflap.model.aero.basis import StructuralBasis
+from bridgeflap.model.aero.rfa import RationalApprox, get_rfa
+from bridgeflap.model.aero.strips import strip_aero
+from bridgeflap.model.aeroelastic.assembly import open_pieces, rfa_parts
+from bridgeflap.model.aeroelastic.control import canonical_realisation
+from bridgeflap.model.arguments import checked, describe
+from bridgeflap.model.errors import BridgeflapInputError, BridgeflapTypeError
+from bridgeflap.model.spectral import trapezoid_weights
+from bridgeflap.model.structure.bridge_arg import BridgeArg, takes_bridge
+from bridgeflap.model.structure.fe import assemble
+from bridgeflap.model.structure.modes import ModalModel, solve
+from bridgeflap.model.structure.ritz import chosen_modes, ritz_basis
+from bridgeflap.model.structure.spec import BridgeSpec, get_path
 
 __all__ = [
     "SYMBOLIC_PARAMETERS",
@@ -182,10 +184,11 @@ def build_symbolic(bridge: BridgeArg, n_modes: int, rfa: RationalApprox | str = 
 
 
 def _flap_model(value, field: str):
-    """A flap model (:class:`~model.aeroelastic.flaps.ClosedLoopModel`, known by what it has:
-    the flaps room imports this one)."""
+    """A flap model (:class:`~bridgeflap.model.aeroelastic.flaps.ClosedLoopModel`, known by what it
+    has: the flaps room imports this one)."""
     if not all(hasattr(value, name) for name in ("pieces", "open_loop", "n_flaps")):
-        raise BridgeflapTypeError(field, "must be a flap model (model.closed_loop_model), got "
+        raise BridgeflapTypeError(field,
+                                  "must be a flap model (bridgeflap.model.closed_loop_model), got "
                                          f"{describe(value)}")
     return value
 
@@ -196,7 +199,7 @@ def closed_loop_functions(model) -> dict:
 
     Parameters
     ----------
-    model : model.aeroelastic.flaps.ClosedLoopModel
+    model : bridgeflap.model.aeroelastic.flaps.ClosedLoopModel
         Open-loop system (modal order) and flap set.
     """
     theta = ca.SX.sym("theta", 5)
@@ -248,7 +251,7 @@ def casadi_spectral_variance(
         [input unit^2 per rad/s].
     weights : array_like, shape (n_omega,), optional
         Quadrature weights [rad/s]; trapezoid weights of ``omegas`` by default (the rule used
-        by :func:`model.spectral.rms_from_psd`).
+        by :func:`bridgeflap.model.spectral.rms_from_psd`).
     linear_solver : str, optional
         CasADi linear solver plugin for ``ca.solve`` (e.g. ``"lapacklu"``, ``"qr"``); the
         CasADi default when omitted.
@@ -338,11 +341,12 @@ def buffeting_rms_function(A_fun: ca.Function, B_fun: ca.Function, nominal, C_ou
                            linear_solver: str = "lapacklu"):
     """Buffeting RMS of selected outputs as a CasADi Function of the model's parameters.
 
-    The spectral integral of :func:`model.response.buffeting.reduced_response` (one-sided, trapezoid
-    rule on a fixed grid, load CSD projected on the row space of the nominal ``B_gust``) on the
-    named functions of this module, so it is differentiable in whatever they depend on: the
-    relative bridge parameters ``p`` (``SymbolicModel.A_fun``, ``B_fun``) or the compensator
-    coefficients and flap weights (``closed_loop_functions(...)["A_cl"]``, ``["B_gust"]``).
+    The spectral integral of :func:`bridgeflap.model.response.buffeting.reduced_response`
+    (one-sided, trapezoid rule on a fixed grid, load CSD projected on the row space of the nominal
+    ``B_gust``) on the named functions of this module, so it is differentiable in whatever they
+    depend on: the relative bridge parameters ``p`` (``SymbolicModel.A_fun``, ``B_fun``) or the
+    compensator coefficients and flap weights (``closed_loop_functions(...)["A_cl"]``,
+    ``["B_gust"]``).
 
     Parameters
     ----------
@@ -356,7 +360,7 @@ def buffeting_rms_function(A_fun: ca.Function, B_fun: ca.Function, nominal, C_ou
         Strip positions [m] (coherence).
     wind_speed : float
         ``U`` [m/s].
-    gust : model.aero.gust.GustField
+    gust : bridgeflap.model.aero.gust.GustField
     outputs : sequence of int
         Rows of ``C_out``.
     omegas : array_like, optional
@@ -378,8 +382,8 @@ def buffeting_rms_function(A_fun: ca.Function, B_fun: ca.Function, nominal, C_ou
     bridge: every coordinate is a vertical or a torsional mode, so each row of ``P_gust`` is
     one mode's strip shape times a scalar that carries ``b`` and ``rho``.
     """
-    from model.aero.gust import coherence_projection
-    from model.spectral import OMEGA_MAX_FACTOR, adaptive_frequency_grid, row_factor
+    from bridgeflap.model.aero.gust import coherence_projection
+    from bridgeflap.model.spectral import OMEGA_MAX_FACTOR, adaptive_frequency_grid, row_factor
 
     U = float(wind_speed)
     args = [ca.MX.sym(A_fun.name_in(i), A_fun.sparsity_in(i)) for i in range(1, A_fun.n_in())]

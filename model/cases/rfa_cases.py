@@ -1,9 +1,10 @@
-"""The flat-plate flutter cases on which a Theodorsen RFA (:mod:`model.aero.rfa`) is checked.
+"""The flat-plate flutter cases on which a Theodorsen RFA (:mod:`bridgeflap.model.aero.rfa`) is
+checked.
 
 Each case is solved twice on the same structure and strip loads: by the RFA state space
-(:func:`model.stability.sweeps.sweep`) and by the exact-Theodorsen p-k
-(:func:`model.stability.sweeps.pk_sweep`), so the gap between the two flutter speeds is the RFA's
-own error. Cases:
+(:func:`bridgeflap.model.stability.sweeps.sweep`) and by the exact-Theodorsen p-k
+(:func:`bridgeflap.model.stability.sweeps.pk_sweep`), so the gap between the two flutter speeds is
+the RFA's own error. Cases:
 
 ============== =================================================================================
 ``hp-1``       Hodges & Pierce typical section (a = -1/5, e = -1/10, mu = 20, r^2 = 6/25,
@@ -13,7 +14,7 @@ own error. Cases:
 ``section``    the Humber-like 2-DOF section of the golden cases (7660 kg/m, 3.75e5 kg m^2/m,
                0.117 / 0.311 Hz, b = 11 m, rho = 1.225 kg/m^3; ``bridgeflap section``)
 ``iabse-1.1a`` IABSE TG3.1 step 1.1a structure
-(:func:`model.cases.section_cases.load_section_case`),
+(:func:`bridgeflap.model.cases.section_cases.load_section_case`),
                flat plate in its own convention (no apparent-inertia moment), b = 15.5 m
 ``iabse-1.1a-ai`` the same with the apparent-inertia moment kept (the package default)
 ``iabse-2a``   IABSE step 2a bridge (model/bridges/iabse/step2a_bridge.toml, 9 modes, flat
@@ -23,14 +24,15 @@ own error. Cases:
 IABSE 1.1c is not a separate case: its heave and pitch masses, stiffnesses, damping, chord and
 air density are those of 1.1a, so its flat-plate problem is 1.1a's; what differs (the measured
 PoliMi tables and the lateral DOF) is fitted by a Roger RFA of the tables
-(:func:`model.aero.derivatives.fit_roger`), not by :mod:`model.aero.rfa`. Conventions: :mod:`model`.
+(:func:`bridgeflap.model.aero.derivatives.fit_roger`), not by :mod:`bridgeflap.model.aero.rfa`.
+Conventions: :mod:`bridgeflap.model`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["RFA_CHECK_CASES", "case_system", "flutter_gap"]
 
@@ -51,22 +53,23 @@ def case_system(name: str, rfa="rfa4"):
     name : str
         One of :data:`RFA_CHECK_CASES`.
     rfa : str or RationalApprox
-        The approximation of ``C(k)`` of the state space (:func:`model.aero.rfa.get_rfa`).
+        The approximation of ``C(k)`` of the state space
+        (:func:`bridgeflap.model.aero.rfa.get_rfa`).
 
     Returns
     -------
     tuple
-        The :class:`model.aeroelastic.statespace.AeroelasticSystem`, the speed grid of the RFA sweep
-        and of the p-k continuation [m/s, or ``U / (b omega_theta)`` for ``hp-*``], the Brent
-        tolerance on the crossing [same unit] and ``b`` [m].
+        The :class:`bridgeflap.model.aeroelastic.statespace.AeroelasticSystem`, the speed grid of
+        the RFA sweep and of the p-k continuation [m/s, or ``U / (b omega_theta)`` for ``hp-*``],
+        the Brent tolerance on the crossing [same unit] and ``b`` [m].
 
     Raises
     ------
     BridgeflapInputError
         Unknown ``name``.
     """
-    from model.aeroelastic import statespace
-    from model.cases.section import section_basis, typical_section
+    from bridgeflap.model.aeroelastic import statespace
+    from bridgeflap.model.cases.section import section_basis, typical_section
 
     if name in _HP:
         a, e, mu, r2, sigma = _HP[name]
@@ -78,7 +81,7 @@ def case_system(name: str, rfa="rfa4"):
         grid = np.arange(0.0, 100.0 + 1e-9, 0.5)  # flutter 48.2 m/s, divergence 55.5 m/s
         return statespace.build(basis, 11.0, 1.225, rfa=rfa), grid, grid, 1e-7, 11.0
     if name in ("iabse-1.1a", "iabse-1.1a-ai"):
-        from model.cases.section_cases import load_section_case
+        from bridgeflap.model.cases.section_cases import load_section_case
 
         case = load_section_case("iabse-1.1a")
         b = 0.5 * case.derivatives.chord_m
@@ -86,8 +89,8 @@ def case_system(name: str, rfa="rfa4"):
         return (statespace.build(case.basis, b, case.air_density, rfa=rfa,
                                  added_inertia=name.endswith("-ai")), grid, grid, 1e-7, b)
     if name == "iabse-2a":
-        from model import analysis
-        from model.structure.loader import load_bridge
+        from bridgeflap.model import analysis
+        from bridgeflap.model.structure.loader import load_bridge
 
         spec = load_bridge("iabse-2a")
         _, system = analysis.bridge_system(spec, analysis.DEFAULT_MODES, rfa=rfa)
@@ -106,8 +109,8 @@ def flutter_gap(name: str, rfas=("rfa4",)) -> dict:
     name : str
         One of :data:`RFA_CHECK_CASES`.
     rfas : sequence of str or RationalApprox
-        Approximations to compare (names of :data:`model.aero.rfa.RFA_NAMES`, or fits); each is
-        reported under its ``name``.
+        Approximations to compare (names of :data:`bridgeflap.model.aero.rfa.RFA_NAMES`, or fits);
+        each is reported under its ``name``.
 
     Returns
     -------
@@ -119,9 +122,9 @@ def flutter_gap(name: str, rfas=("rfa4",)) -> dict:
         and ``c_error_at_flutter`` (``|C_rfa(ik) - C(k)|`` at the exact flutter ``k`` [-]).
         Speeds in m/s, or ``U / (b omega_theta)`` for ``hp-*``.
     """
-    from model.aero.rfa import get_rfa
-    from model.aero.theodorsen import theodorsen
-    from model.stability import sweeps as stability
+    from bridgeflap.model.aero.rfa import get_rfa
+    from bridgeflap.model.aero.theodorsen import theodorsen
+    from bridgeflap.model.stability import sweeps as stability
 
     fits = [get_rfa(r) if isinstance(r, str) else r for r in rfas]
     if not fits:

@@ -3,18 +3,18 @@
 Used by engineers for quick checks (``bridgeflap section``) and by the tests (Hodges & Pierce
 typical section, docs/humber_data.md#hodges-and-pierce-typical-section). The structure is written in
 mid-chord coordinates ``q = (h_mid, alpha)`` so that the bridge's strip aerodynamics
-(:mod:`model.aero.strips`) applies unchanged; an elastic axis at ``a b`` (Theodorsen's ``a``,
-semichords aft of mid-chord) and a centre of gravity ``x_theta b`` aft of it are handled by the
-transformation ``h_ea = h_mid + a b alpha``.
+(:mod:`bridgeflap.model.aero.strips`) applies unchanged; an elastic axis at ``a b`` (Theodorsen's
+``a``, semichords aft of mid-chord) and a centre of gravity ``x_theta b`` aft of it are handled by
+the transformation ``h_ea = h_mid + a b alpha``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from model.aero.basis import StructuralBasis
-from model.arguments import checked, number
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aero.basis import StructuralBasis
+from bridgeflap.model.arguments import checked, number
+from bridgeflap.model.errors import BridgeflapInputError
 
 
 def _pos(name, v):

@@ -1,8 +1,8 @@
 """Built-in section cases with flutter derivatives: the IABSE TG3.1 steps 1.1a and 1.1c.
 
 A case is a rigid deck section (2 DOF heave/pitch, or 3 DOF with the lateral) on uniform
-damping, with a derivative source (:mod:`model.aero.derivatives`), shipped as plain JSON and CSV
-under ``model/bridges/iabse/`` with its provenance (``README.md`` there). Loadable by name:
+damping, with a derivative source (:mod:`bridgeflap.model.aero.derivatives`), shipped as plain JSON
+and CSV under ``model/bridges/iabse/`` with its provenance (``README.md`` there). Loadable by name:
 :func:`load_section_case` (``"iabse-1.1a"``, ``"iabse-1.1c"``) and analysed by
 :func:`section_case_flutter` (Roger-RFA eigenvalue sweep and exact p-k on the same structure).
 
@@ -20,16 +20,16 @@ from importlib import resources
 
 import numpy as np
 
-from model.aero.basis import StructuralBasis
-from model.aero.derivatives import (
+from bridgeflap.model.aero.basis import StructuralBasis
+from bridgeflap.model.aero.derivatives import (
     FlutterDerivatives,
     PolimiDerivatives,
     RogerFit,
     fit_roger,
     flat_plate,
 )
-from model.aeroelastic.derivative_system import derivative_system
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aeroelastic.derivative_system import derivative_system
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["SECTION_CASES", "SectionCase", "case_fit", "case_system", "default_speeds",
            "load_section_case", "section_case_flutter", "section_system"]
@@ -56,7 +56,7 @@ class SectionCase:
 
 
 def _read(name: str) -> str:
-    return resources.files("model.bridges").joinpath(_FOLDER, name).read_text("utf-8")
+    return resources.files("bridgeflap.model.bridges").joinpath(_FOLDER, name).read_text("utf-8")
 
 
 def _polimi_table(text: str, chord_m: float, origin: str) -> PolimiDerivatives:
@@ -96,7 +96,7 @@ def _vector(d: dict, key: str, n: int) -> np.ndarray:
 
 
 def _scanlan_table(text: str, spec: dict, chord_m: float, origin: str) -> FlutterDerivatives:
-    from model.aero.derivatives import ARGUMENT_KINDS, DERIVATIVE_NAMES, tabulated
+    from bridgeflap.model.aero.derivatives import ARGUMENT_KINDS, DERIVATIVE_NAMES, tabulated
 
     arg = _field(spec, "argument", "derivatives.")
     if arg not in ARGUMENT_KINDS:
@@ -215,13 +215,14 @@ def case_fit(case: SectionCase, n_lags: int | None = None, weighting: str | None
              ) -> RogerFit:
     """The Roger RFA used for a case.
 
-    Flat plate: 4 lags on ``K`` in [0.01, 6] (the range of :func:`model.aero.rfa.fit_theodorsen`
-    doubled, ``K = 2k``). Scanlan tables: 2 lags on the table's range (held end values of
-    Scanlan derivatives, which grow like ``1/K`` or ``1/K^2``, are not physical). PoliMi tables:
-    2 lags on ``K`` from two thirds of the table's lowest value to its highest: the lateral
-    mode's ``K`` at flutter (0.14 for 1.1c) lies below the table (0.18), where the reference's
-    evaluation holds the end values of the (normalised) PoliMi coefficients, as
-    :class:`~model.aero.derivatives.PolimiDerivatives` does.
+    Flat plate: 4 lags on ``K`` in [0.01, 6] (the range of
+    :func:`bridgeflap.model.aero.rfa.fit_theodorsen` doubled, ``K = 2k``). Scanlan tables: 2 lags on
+    the table's range (held end values of Scanlan derivatives, which grow like ``1/K`` or ``1/K^2``,
+    are not physical). PoliMi tables: 2 lags on ``K`` from two thirds of the table's lowest value to
+    its highest: the lateral mode's ``K`` at flutter (0.14 for 1.1c) lies below the table (0.18),
+    where the reference's evaluation holds the end values of the (normalised) PoliMi coefficients,
+    as
+    :class:`~bridgeflap.model.aero.derivatives.PolimiDerivatives` does.
     """
     src = case.derivatives
     d = 2 if case.phi_p is None else 3  # a 2-DOF section ignores lateral derivatives
@@ -255,7 +256,7 @@ def section_system(name: str, added_inertia: bool | None = None):
 def section_case_flutter(case: SectionCase, speeds=None, n_lags: int | None = None,
                          speed_tol: float = 1e-6, weighting: str | None = None) -> dict:
     """Flutter of a case: Roger-RFA eigenvalue sweep and exact p-k (JSON-ready dict)."""
-    from model.stability import sweeps as stability
+    from bridgeflap.model.stability import sweeps as stability
 
     if speeds is None:
         speeds = default_speeds(case)

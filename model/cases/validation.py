@@ -116,14 +116,15 @@ def update_stiffnesses(spec, families=("vertical", "torsional", "lateral"),
 
     Returns
     -------
-    (spec, report) : the updated :class:`~model.structure.spec.BridgeSpec` and, per parameter path,
+    (spec, report) : the updated :class:`~bridgeflap.model.structure.spec.BridgeSpec` and, per
+    parameter path,
         ``{"value", "rms_log_misfit" (the weighted objective at the optimum),
         "rms_log_misfit_unweighted" (every mode of the family weight 1), "success",
         "at_bound"}``.
     """
     from scipy.optimize import minimize_scalar
 
-    from model.structure.modes import modal_model
+    from bridgeflap.model.structure.modes import modal_model
 
     report = {}
     for family in families:

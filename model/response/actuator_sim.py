@@ -1,36 +1,36 @@
 """Time-domain closed loop in turbulent wind with flap angle and rate limits.
 
-Conventions: :mod:`model` (SI units, radians inside; degrees only in the limits' names).
+Conventions: :mod:`bridgeflap.model` (SI units, radians inside; degrees only in the limits' names).
 
 Actuator model
 --------------
-The linear closed loop of :mod:`model.aeroelastic.flaps` imposes ``beta = K(s) alpha`` exactly, with
-``beta'`` and ``beta''`` in the flap loads. A real actuator cannot follow it everywhere: its
-angle is bounded (``|beta| <= beta_max``) and so is its rate (``|beta'| <= r_max``). Here each
-flap is a rate-commanded servo tracking the compensator output ``beta_c = K alpha``::
+The linear closed loop of :mod:`bridgeflap.model.aeroelastic.flaps` imposes ``beta = K(s) alpha``
+exactly, with ``beta'`` and ``beta''`` in the flap loads. A real actuator cannot follow it
+everywhere: its angle is bounded (``|beta| <= beta_max``) and so is its rate (``|beta'| <= r_max``).
+Here each flap is a rate-commanded servo tracking the compensator output ``beta_c = K alpha``::
 
     beta' = r = sat_rmax( beta_c' + omega_a (beta_c - beta) ),   held at 0 on the angle stop
 
 (``beta_c'`` is the compensator's own derivative, feed-forward; ``omega_a`` the servo's
 tracking bandwidth). Within the limits the tracking error ``e = beta_c - beta`` obeys
 ``e' = -omega_a e`` from ``e = 0``: the flap follows ``K alpha`` exactly and the simulation is
-the linear closed loop of :func:`model.aeroelastic.flaps.closed_loop_system` (the spectral buffeting
-RMS of
-:mod:`model.response.buffeting` is its reference, tests/test_actuators.py). In saturation the servo
-recovers with time constant ``1/omega_a``.
+the linear closed loop of :func:`bridgeflap.model.aeroelastic.flaps.closed_loop_system` (the
+spectral buffeting RMS of
+:mod:`bridgeflap.model.response.buffeting` is its reference, tests/test_actuators.py). In saturation
+the servo recovers with time constant ``1/omega_a``.
 
 State and equations. The flap angle's second derivative enters the loads only through the
-non-circulatory flap force ``H2 beta''`` (:mod:`model.aeroelastic.assembly`); with the momentum-like
-coordinate ``p = M_t q' - H2 beta'`` it disappears, so a flap rate with jumps (the rate limit)
-needs no impulse::
+non-circulatory flap force ``H2 beta''`` (:mod:`bridgeflap.model.aeroelastic.assembly`); with the
+momentum-like coordinate ``p = M_t q' - H2 beta'`` it disappears, so a flap rate with jumps (the
+rate limit) needs no impulse::
 
     z = (q, p, lag states, beta, compensator states),   z' = F(U) z + G(U) beta' + B(U) w~
 
 with ``q' = M_t^{-1} (p + H2 beta')`` and the lag states of the rational approximation
-(:mod:`model.aero.rfa`) driven by the deck and flap downwash as in the linear closed loop. The
-compensator sees ``alpha_f`` at its flap; ``beta_c'`` contains ``Dc alpha_f'`` and so ``beta'``
-itself (``r = c(z) + D beta'``, ``D = Dc Phi_a M_t^{-1} H2``, ``|D|`` ~1e-3 on Humber): solved
-exactly when unsaturated, by fixed-point iteration through the saturation otherwise.
+(:mod:`bridgeflap.model.aero.rfa`) driven by the deck and flap downwash as in the linear closed
+loop. The compensator sees ``alpha_f`` at its flap; ``beta_c'`` contains ``Dc alpha_f'`` and so
+``beta'`` itself (``r = c(z) + D beta'``, ``D = Dc Phi_a M_t^{-1} H2``, ``|D|`` ~1e-3 on Humber):
+solved exactly when unsaturated, by fixed-point iteration through the saturation otherwise.
 
 Integrator: classical fixed-step Runge-Kutta 4 on the nonlinear right-hand side (the
 saturation is continuous, its derivative is not: RK4 is then first-order accurate at the
@@ -38,10 +38,10 @@ switching instants only), the gust input sampled at the half steps (no interpola
 angle clipped back onto its stop after each step. The step is at most ``RK4_STEP_FACTOR /
 max|eig|`` of the linear closed loop and a quarter of the synthesis Nyquist period.
 
-Turbulence: :func:`model.aero.turbulence.span_turbulence` with the buffeting spectrum, admittance
-and coherence of :func:`model.aero.gust.gust_field` (the effective gust after the admittance, as the
-buffeting module's own Monte-Carlo path does; the thin-aerofoil gust loads of the closed loop
-are vertical, so only ``w`` is simulated).
+Turbulence: :func:`bridgeflap.model.aero.turbulence.span_turbulence` with the buffeting spectrum,
+admittance and coherence of :func:`bridgeflap.model.aero.gust.gust_field` (the effective gust after
+the admittance, as the buffeting module's own Monte-Carlo path does; the thin-aerofoil gust loads of
+the closed loop are vertical, so only ``w`` is simulated).
 """
 
 from __future__ import annotations
@@ -50,9 +50,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.aeroelastic.actuator_limits import ActuatorLimits
-from model.aeroelastic.assembly import rfa_parts
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aeroelastic.actuator_limits import ActuatorLimits
+from bridgeflap.model.aeroelastic.assembly import rfa_parts
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["ActuatorLimits", "SaturatedLoop", "SimulationRecord", "simulate", "simulate_records"]
 
@@ -67,13 +67,13 @@ RK4_STEP_FACTOR = 0.5
 
 
 class SaturatedLoop:
-    """The closed loop of a :class:`~model.aeroelastic.flaps.ClosedLoopModel` with an actuator per
-    flap.
+    """The closed loop of a :class:`~bridgeflap.model.aeroelastic.flaps.ClosedLoopModel` with an
+    actuator per flap.
 
     Parameters
     ----------
-    model : model.aeroelastic.flaps.ClosedLoopModel
-    compensator : model.aeroelastic.control.Compensator
+    model : bridgeflap.model.aeroelastic.flaps.ClosedLoopModel
+    compensator : bridgeflap.model.aeroelastic.control.Compensator
     """
 
     def __init__(self, model, compensator):
@@ -151,7 +151,8 @@ class SaturatedLoop:
 
     def linear_matrix(self, wind_speed: float, bandwidth: float) -> np.ndarray:
         """The unsaturated closed loop ``F + G (I - D)^{-1} Rc``: the eigenvalues of
-        :func:`model.aeroelastic.flaps.closed_loop_system` plus ``-bandwidth`` once per flap."""
+        :func:`bridgeflap.model.aeroelastic.flaps.closed_loop_system` plus ``-bandwidth`` once per
+        flap."""
         F, G, Rc, D, _ = self.matrices(wind_speed, bandwidth)
         return F + G @ np.linalg.solve(np.eye(self.nF) - D, Rc)
 
@@ -202,8 +203,8 @@ def simulate_records(loop: SaturatedLoop, wind_speed, gust, limits: ActuatorLimi
     loop : SaturatedLoop
     wind_speed : float
         ``U`` [m/s].
-    gust : model.aero.gust.GustField
-        Spectrum, admittance and coherence (:func:`model.aero.gust.gust_field`).
+    gust : bridgeflap.model.aero.gust.GustField
+        Spectrum, admittance and coherence (:func:`bridgeflap.model.aero.gust.gust_field`).
     limits : ActuatorLimits
     duration_s : float
         Analysed length after the transient [s].
@@ -224,7 +225,7 @@ def simulate_records(loop: SaturatedLoop, wind_speed, gust, limits: ActuatorLimi
     record whose deck response passes :data:`DIVERGED_RESPONSE` stops there
     (``diverged_at_s``, no statistics).
     """
-    from model.aero.turbulence import span_turbulence
+    from bridgeflap.model.aero.turbulence import span_turbulence
 
     U = float(wind_speed)
     wa = limits.bandwidth_rad_s

@@ -1,8 +1,8 @@
 """Buffeting: RMS deck response to span-wise correlated vertical turbulence (seed §3 and §5).
 
-Conventions of :mod:`model` apply (SI units; heave ``h`` down, pitch ``alpha`` nose-up about
-mid-chord; ``k = omega b / U``). Spectra are **one-sided in circular frequency** as in
-:mod:`model.spectral` (``sigma^2 = int_0^inf G d omega``); the seed's Eqs. (15) and (17)
+Conventions of :mod:`bridgeflap.model` apply (SI units; heave ``h`` down, pitch ``alpha`` nose-up
+about mid-chord; ``k = omega b / U``). Spectra are **one-sided in circular frequency** as in
+:mod:`bridgeflap.model.spectral` (``sigma^2 = int_0^inf G d omega``); the seed's Eqs. (15) and (17)
 are the same quantities written two-sided (``G = 2 S``).
 
 Model (seed Eqs. (7)-(8), (10)-(17), thin aerofoil with ``C_L = C_M = C_D = 0``)::
@@ -11,9 +11,9 @@ Model (seed Eqs. (7)-(8), (10)-(17), thin aerofoil with ``C_L = C_M = C_D = 0``)
     G_ww(omega) = s_w(omega) chi^2(k) R(omega),   R_ij = exp(-c n |y_i - y_j| / U),  n = omega/2pi
 
 with ``w_tilde`` the strip gust velocities after the admittance ``chi`` (``chi_Lw = chi_Mw``),
-``s_w`` a vertical-turbulence spectrum (:func:`model.aero.wind.vertical_spectrum`, converted to
-``omega``: ``G(omega) = S(n) / (2 pi)``) and ``c`` the Davenport decay constant (an estimate,
-docs/humber_data.md#turbulence-spectrum-and-coherence).
+``s_w`` a vertical-turbulence spectrum (:func:`bridgeflap.model.aero.wind.vertical_spectrum`,
+converted to ``omega``: ``G(omega) = S(n) / (2 pi)``) and ``c`` the Davenport decay constant (an
+estimate, docs/humber_data.md#turbulence-spectrum-and-coherence).
 
 Cost (the load CSD is separable and ``B_gust`` has rank ``r <= n_modes``): ``B_gust = B_l V^T``
 and ``C_out = C_l C_r`` are factorised once per speed (SVD), the load CSD is projected,
@@ -21,7 +21,8 @@ and ``C_out = C_l C_r`` are factorised once per speed (SVD), the load CSD is pro
 (the exponential coherence on a line is the covariance of a Markov process, so ``R v`` is a
 forward plus a backward first-order scan), and the transfer matrix ``C_r (i omega - A)^{-1} B_l``
 (r_c x r) is evaluated in the diagonalised (modal) form of
-:func:`model.spectral.response_psd`. The strip variances are ``diag(C_l P C_l^T)`` with ``P
+:func:`bridgeflap.model.spectral.response_psd`. The strip variances are ``diag(C_l P C_l^T)`` with
+``P
 = int G_qq d omega`` of the reduced outputs, so the strip outputs never enter the frequency loop.
 
 References
@@ -36,15 +37,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.aero.gust import GustField, coherence_projection, gust_field
-from model.aeroelastic.controller_file import as_controller
-from model.arguments import count, flag, number, optional
-from model.errors import BridgeflapError, BridgeflapInputError
-from model.grid import speed_grid
-from model.response.buffeting_inputs import LOADS, resolve_system
-from model.response.simulation import simulate_monte_carlo
-from model.results import ResultData, finite_extreme
-from model.spectral import (
+from bridgeflap.model.aero.gust import GustField, coherence_projection, gust_field
+from bridgeflap.model.aeroelastic.controller_file import as_controller
+from bridgeflap.model.arguments import count, flag, number, optional
+from bridgeflap.model.errors import BridgeflapError, BridgeflapInputError
+from bridgeflap.model.grid import speed_grid
+from bridgeflap.model.response.buffeting_inputs import LOADS, resolve_system
+from bridgeflap.model.response.simulation import simulate_monte_carlo
+from bridgeflap.model.results import ResultData, finite_extreme
+from bridgeflap.model.spectral import (
     OMEGA_MAX_FACTOR,
     adaptive_frequency_grid,
     exponential_coherence,
@@ -52,9 +53,9 @@ from model.spectral import (
     row_factor,
     trapezoid_weights,
 )
-from model.spectrum import spectral_abscissa
-from model.structure.bridge_arg import takes_bridge
-from model.vocabulary import DEFAULT_MODES
+from bridgeflap.model.spectrum import spectral_abscissa
+from bridgeflap.model.structure.bridge_arg import takes_bridge
+from bridgeflap.model.vocabulary import DEFAULT_MODES
 
 __all__ = [
     "LOADS",
@@ -96,8 +97,8 @@ def reduced_response(A, B, C, positions, wind_speed, gust: GustField, *, omega_m
         Output map.
     extra_inputs : sequence of (B, GustField), optional
         Further gust components, uncorrelated with the first and with each other (the
-        along-wind ``u`` of the quasi-steady loads, :mod:`model.aero.quasi_steady`): their response
-        spectra are added on the same grid.
+        along-wind ``u`` of the quasi-steady loads, :mod:`bridgeflap.model.aero.quasi_steady`):
+        their response spectra are added on the same grid.
     positions : array_like, shape (m,)
         Strip coordinates [m].
     wind_speed : float
@@ -109,7 +110,7 @@ def reduced_response(A, B, C, positions, wind_speed, gust: GustField, *, omega_m
     omegas : array_like, optional
         Fixed grid [rad/s] (overrides the adaptive grid).
     n_base, peaks_per_mode, half_widths : optional
-        :func:`model.spectral.adaptive_frequency_grid` settings.
+        :func:`bridgeflap.model.spectral.adaptive_frequency_grid` settings.
     convergence_tol : float, optional
         Relative difference between the grid and its every-other-point coarsening above which
         the adaptive grid is refined (``n_base`` and ``peaks_per_mode`` doubled, at most twice)
@@ -296,11 +297,11 @@ class BuffetingResult(ResultData):
     def plot(self, axes=None, label=None, log: bool = False):
         """Vertical ``max sigma_z / (2b)`` and torsional ``max sigma_alpha`` [deg] on the main
         span against ``U`` (seed Fig. 4 style, two panels;
-        :func:`model.response.plots.buffeting_panels`).
+        :func:`bridgeflap.model.response.plots.buffeting_panels`).
 
         Unstable speeds are NaN and leave a gap; nothing is clipped.
         """
-        from model.response.plots import buffeting_panels
+        from bridgeflap.model.response.plots import buffeting_panels
 
         return buffeting_panels({label: self}, axes, log=log,
                                 title=f"{self.inputs.get('bridge', '')} buffeting "
@@ -350,7 +351,7 @@ def _main_span_mask(spec, strip_x):
 
 
 def _check_speeds(speeds) -> np.ndarray:
-    """``speeds`` [m/s] in any form of :func:`model.grid.speed_grid`, each > 0."""
+    """``speeds`` [m/s] in any form of :func:`bridgeflap.model.grid.speed_grid`, each > 0."""
     return speed_grid(speeds, positive=True)
 
 
@@ -383,7 +384,7 @@ def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
         defaults and the main span; without it every strip counts as main span).
     speeds : str or array_like
         Mean wind speeds at deck height [m/s], > 0: ``"lo:hi:step"`` or ``"10,20"`` text or
-        numbers (:func:`model.grid.speed_grid`).
+        numbers (:func:`bridgeflap.model.grid.speed_grid`).
     spectrum : {"busch-panofsky", "von-karman", "kaimal"} or callable
         Vertical turbulence spectrum (seed Eq. (15) is Busch-Panofsky).
     admittance : {"liepmann", "sears", "unit"} or callable, optional
@@ -392,10 +393,10 @@ def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
     coherence_decay : float, optional
         Davenport ``c`` [-] (seed Eq. (16)); ``spec.aero.coherence_decay`` when omitted.
     n_modes : int, optional
-        Retained vertical + torsional modes (default :data:`model.DEFAULT_MODES`).
+        Retained vertical + torsional modes (default :data:`bridgeflap.model.DEFAULT_MODES`).
     method : {"spectral", "monte-carlo"}
         Frequency-domain quadrature, or time-domain simulation
-        (:func:`model.response.simulation.simulate_monte_carlo`) as an independent check.
+        (:func:`bridgeflap.model.response.simulation.simulate_monte_carlo`) as an independent check.
     spec : BridgeSpec, optional
         Wind defaults and main span when ``bridge`` is a system.
     turbulence_intensity, deck_height_m, length_scale_m, half_chord_m : float, optional
@@ -409,7 +410,7 @@ def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
     omega_max : float, optional
         Integration limit [rad/s] (default 3x the highest damped frequency of ``A(U)``).
     n_base, peaks_per_mode, half_widths, convergence_tol : optional
-        Quadrature grid settings (:func:`model.spectral.adaptive_frequency_grid`).
+        Quadrature grid settings (:func:`bridgeflap.model.spectral.adaptive_frequency_grid`).
     mc_records, mc_seed, mc_points : optional
         Monte-Carlo records, seed and number of synthesis frequencies (default: spacing a
         quarter of the smallest half-power half-bandwidth, at most 8000 points).
@@ -417,7 +418,7 @@ def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
         Gust loads: seed Eq. (8) from ``aero.lift_slope_buffeting`` and
         ``aero.moment_slope_buffeting`` (default for thin-aerofoil bridges), or the
         quasi-steady ``u`` and ``w`` loads of the bridge's ``[static_coefficients]``
-        (:mod:`model.aero.quasi_steady`; default, and the only choice, for a bridge with
+        (:mod:`bridgeflap.model.aero.quasi_steady`; default, and the only choice, for a bridge with
         flutter-derivative self-excited loads, whose ``A(U)`` is the Roger state space).
 
     Returns
@@ -444,8 +445,8 @@ def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
                                                                 "half_chord", None)))
     extra, static = (), None
     if loads == "quasi-steady":
-        from model.aero.gust import GustField
-        from model.aero.quasi_steady import von_karman_u
+        from bridgeflap.model.aero.gust import GustField
+        from bridgeflap.model.aero.quasi_steady import von_karman_u
 
         static = spec.static_coefficients
         if system.extras.get("Bw1_u") is not None:
@@ -540,8 +541,8 @@ def _aero_attr(system, spec, name):
 
 
 def _monte_carlo(A, B, C, strip_x, U, gust, main, ns, n_records, seed, n_points, omega_max):
-    """One speed by :func:`model.response.simulation.simulate_monte_carlo` with the full strip
-    inputs."""
+    """One speed by :func:`bridgeflap.model.response.simulation.simulate_monte_carlo` with the full
+    strip inputs."""
     lam = np.linalg.eigvals(A)
     p = C.shape[0]
     if np.max(lam.real) >= 0:

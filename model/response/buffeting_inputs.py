@@ -1,19 +1,19 @@
 """Buffeting inputs: the state space and the gust-load model of
-:func:`model.response.buffeting.buffeting`.
+:func:`bridgeflap.model.response.buffeting.buffeting`.
 
 The thin-aerofoil gust loads of seed Eq. (8) (vertical turbulence, ``C_L'`` and ``C_M'`` of
-``spec.aero``; :func:`model.aero.strips.strip_aero`) or the quasi-steady loads of the bridge's
-``[static_coefficients]`` (:mod:`model.aero.quasi_steady`: ``u`` and ``w``), on the Theodorsen state
-space or, for a bridge with flutter-derivative loads, on its Roger state space
-(:func:`model.aeroelastic.derivative_system.derivative_bridge_system`). The quasi-steady input
-matrices are built by :func:`model.aeroelastic.gust_input.quasi_steady_inputs` (re-exported
-here). Conventions: :mod:`model`.
+``spec.aero``; :func:`bridgeflap.model.aero.strips.strip_aero`) or the quasi-steady loads of the
+bridge's ``[static_coefficients]`` (:mod:`bridgeflap.model.aero.quasi_steady`: ``u`` and ``w``), on
+the Theodorsen state space or, for a bridge with flutter-derivative loads, on its Roger state space
+(:func:`bridgeflap.model.aeroelastic.derivative_system.derivative_bridge_system`). The quasi-steady
+input matrices are built by :func:`bridgeflap.model.aeroelastic.gust_input.quasi_steady_inputs`
+(re-exported here). Conventions: :mod:`bridgeflap.model`.
 """
 
 from __future__ import annotations
 
-from model.aeroelastic.gust_input import quasi_steady_inputs
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aeroelastic.gust_input import quasi_steady_inputs
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["LOADS", "quasi_steady_inputs", "resolve_system"]
 
@@ -27,10 +27,10 @@ def resolve_system(spec_or_system, n_modes, controller, spec, loads=None):
 
     ``loads`` (None: ``"quasi-steady"`` for a flutter-derivative bridge, else
     ``"thin-aerofoil"``) chooses the gust loads; the quasi-steady ones
-    (:mod:`model.aero.quasi_steady`) replace ``Bw1`` by the ``w`` loads and put the ``u`` loads in
-    ``system.extras["Bw1_u"]``.
+    (:mod:`bridgeflap.model.aero.quasi_steady`) replace ``Bw1`` by the ``w`` loads and put the ``u``
+    loads in ``system.extras["Bw1_u"]``.
     """
-    from model.structure.spec import BridgeSpec
+    from bridgeflap.model.structure.spec import BridgeSpec
 
     if loads not in (None, *LOADS):
         raise BridgeflapInputError("loads", f"must be one of {LOADS}, got {loads!r}")
@@ -50,19 +50,19 @@ def resolve_system(spec_or_system, n_modes, controller, spec, loads=None):
             raise BridgeflapInputError("controller", "closed-loop buffeting is built for the "
                                        "thin-aerofoil gust loads only")
         if controller is not None:
-            from model.aeroelastic.flaps import closed_loop_system
+            from bridgeflap.model.aeroelastic.flaps import closed_loop_system
 
             system = closed_loop_system(spec, controller, n_modes)
         elif der:
-            from model.aeroelastic.derivative_system import derivative_bridge_system
-            from model.structure.fe import assemble
-            from model.structure.modes import solve
+            from bridgeflap.model.aeroelastic.derivative_system import derivative_bridge_system
+            from bridgeflap.model.structure.fe import assemble
+            from bridgeflap.model.structure.modes import solve
 
             system = derivative_bridge_system(spec, solve(assemble(spec)), int(n_modes))
         else:
-            from model.aeroelastic import statespace
-            from model.structure.fe import assemble
-            from model.structure.modes import solve
+            from bridgeflap.model.aeroelastic import statespace
+            from bridgeflap.model.structure.fe import assemble
+            from bridgeflap.model.structure.modes import solve
 
             basis = solve(assemble(spec)).structural_basis(int(n_modes))
             system = statespace.spec_system(spec, basis)

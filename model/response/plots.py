@@ -1,16 +1,16 @@
 """Figures of the buffeting response: RMS on the main span against the wind speed.
 
-:meth:`model.response.buffeting.BuffetingResult.plot` calls :func:`buffeting_panels`
+:meth:`bridgeflap.model.response.buffeting.BuffetingResult.plot` calls :func:`buffeting_panels`
 (matplotlib imported lazily, nothing here calls ``plt.show()``).
 
-May import: the foundation (:mod:`model.axes`) only.
+May import: the foundation (:mod:`bridgeflap.model.axes`) only.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from model.axes import new_axes
+from bridgeflap.model.axes import new_axes
 
 __all__ = ["buffeting_panels"]
 
@@ -19,8 +19,8 @@ def buffeting_panels(curves, axes=None, log: bool = False, title: str = ""):
     """Vertical (left, ``max sigma_z / 2b``) and torsional (right, ``max sigma_alpha``
     [deg]) RMS on the main span against the wind speed.
 
-    ``curves`` maps a label to a :class:`~model.response.buffeting.BuffetingResult` (or one result);
-    unstable speeds are NaN and leave a gap, nothing is clipped.
+    ``curves`` maps a label to a :class:`~bridgeflap.model.response.buffeting.BuffetingResult` (or
+    one result); unstable speeds are NaN and leave a gap, nothing is clipped.
     """
     if not isinstance(curves, dict):
         curves = {None: curves}

@@ -1,6 +1,6 @@
 """Independent checks of the spectral response: white-noise covariance and Monte Carlo.
 
-Same system and one-sided PSD convention as :mod:`model.spectral` (see its docstring)::
+Same system and one-sided PSD convention as :mod:`bridgeflap.model.spectral` (see its docstring)::
 
     x' = A x + B w,    y = C x
 
@@ -25,8 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from model.errors import BridgeflapInputError
-from model.spectral import MODAL_CONDITION_LIMIT, check_system
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.spectral import MODAL_CONDITION_LIMIT, check_system
 
 __all__ = ["CovarianceResult", "MonteCarloResult", "lyapunov_rms", "simulate_monte_carlo"]
 

@@ -6,6 +6,6 @@ Hopf and divergence points (``hopf``, ``hopf_newton``), the exact-Theodorsen p-k
 (``convergence``), the flutter mode along the span (``modeshape``) and the root locus and
 V-g/V-f figures (``plots``).
 
-May import: the foundation, :mod:`model.aero`, :mod:`model.structure` and
-:mod:`model.aeroelastic`.
+May import: the foundation, :mod:`bridgeflap.model.aero`, :mod:`bridgeflap.model.structure` and
+:mod:`bridgeflap.model.aeroelastic`.
 """

@@ -1,11 +1,11 @@
 """Mode-count convergence of the flutter and divergence speeds: ladder study and truncation error.
 
 The aeroelastic state carries the lowest ``n`` vertical and torsional modes
-(:meth:`model.structure.modes.ModalModel.structural_basis`). :func:`mode_convergence` solves the
-same bridge on a ladder of mode counts (default :data:`DEFAULT_MODE_COUNTS`) with one modal model,
-and
+(:meth:`bridgeflap.model.structure.modes.ModalModel.structural_basis`). :func:`mode_convergence`
+solves the same bridge on a ladder of mode counts (default :data:`DEFAULT_MODE_COUNTS`) with one
+modal model, and
 :func:`truncation_error` compares one count with a larger one (``n + 8`` unless told) so that a
-headline number can carry its truncation error. Conventions: see :mod:`model`.
+headline number can carry its truncation error. Conventions: see :mod:`bridgeflap.model`.
 
 Convergence criterion (stated, docs/humber_data.md#mode-count-convergence)
 ------------------------------------------------------------------------
@@ -34,15 +34,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.aeroelastic import statespace
-from model.arguments import MAX_MODES, counts, number
-from model.errors import BridgeflapInputError
-from model.results import ResultData
-from model.stability.sweeps import CONVERGED, check_speeds, sweep
-from model.structure.bridge_arg import BridgeArg, takes_bridge
-from model.structure.fe import assemble
-from model.structure.modes import ModalModel, solve
-from model.structure.spec import BridgeSpec
+from bridgeflap.model.aeroelastic import statespace
+from bridgeflap.model.arguments import MAX_MODES, counts, number
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.results import ResultData
+from bridgeflap.model.stability.sweeps import CONVERGED, check_speeds, sweep
+from bridgeflap.model.structure.bridge_arg import BridgeArg, takes_bridge
+from bridgeflap.model.structure.fe import assemble
+from bridgeflap.model.structure.modes import ModalModel, solve
+from bridgeflap.model.structure.spec import BridgeSpec
 
 __all__ = ["DEFAULT_MODE_COUNTS", "TOLERANCE_PCT", "TRUNCATION_STEP", "ConvergenceResult",
            "mode_convergence", "truncation_error"]
@@ -71,24 +71,25 @@ def _counts(counts) -> tuple[int, ...]:
 
 def _available(modal) -> int:
     """Number of vertical and torsional modes the modal model holds (and lateral ones when
-    flutter-derivative loads retain them, :mod:`model.structure.modal_import`)."""
+    flutter-derivative loads retain them, :mod:`bridgeflap.model.structure.modal_import`)."""
     der = getattr(getattr(modal, "spec", None), "derivatives", None)
     fams = ("vertical", "torsional") + (("lateral",) if der is not None and der.lateral else ())
     return sum(m.family in fams for m in modal.modes)
 
 
 def _modal(spec: BridgeSpec) -> ModalModel:
-    """Statics, assembly and all modes of ``spec`` (as :func:`model.analysis.modal_model`; this
-    module sits below the facade and does not import it)."""
+    """Statics, assembly and all modes of ``spec`` (as
+    :func:`bridgeflap.model.analysis.modal_model`; this module sits below the facade and does not
+    import it)."""
     return solve(assemble(spec))
 
 
 def _solve(spec, modal, n, u, order, rfa, method="dense") -> dict:
-    """One stability sweep with ``n`` modes (``method`` of :func:`model.stability.sweeps.sweep`):
-    the
+    """One stability sweep with ``n`` modes (``method`` of
+    :func:`bridgeflap.model.stability.sweeps.sweep`): the
     numbers the ladder needs."""
     if getattr(spec, "derivatives", None) is not None:  # flutter-derivative loads
-        from model.aeroelastic.derivative_system import derivative_bridge_system
+        from bridgeflap.model.aeroelastic.derivative_system import derivative_bridge_system
 
         system = derivative_bridge_system(spec, modal, int(n))
     else:
@@ -224,7 +225,8 @@ def mode_convergence(bridge: BridgeArg, speeds, counts=DEFAULT_MODE_COUNTS,
     tolerance_pct : float
         Convergence tolerance [%] (module docstring).
     order, rfa : str
-        As :func:`model.analysis.bridge_system` (``"modal"``/``"full"``; ``"rfa4"``/``"jones"``).
+        As :func:`bridgeflap.model.analysis.bridge_system` (``"modal"``/``"full"``;
+        ``"rfa4"``/``"jones"``).
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     u = check_speeds(speeds)
@@ -286,7 +288,7 @@ def truncation_error(bridge: BridgeArg, n_modes: int, speeds, reference_modes: i
     only as good as the modes added: if no mode that matters (a symmetric torsional mode on
     Humber) enters between ``n`` and ``n_ref`` it is too small (module docstring), which is why
     the default step spans 8 modes and why :func:`mode_convergence` checks a whole ladder.
-    ``sweep_method`` is :func:`model.stability.sweeps.sweep`'s ``method`` of both sweeps.
+    ``sweep_method`` is :func:`bridgeflap.model.stability.sweeps.sweep`'s ``method`` of both sweeps.
 
     Returns
     -------

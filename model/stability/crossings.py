@@ -1,16 +1,18 @@
 """Locating, verifying and naming a stability crossing: the steps both sweeps share.
 
-The dense sweep (:func:`model.stability.sweeps.sweep`) and the fast one
-(:func:`model.stability.hopf.fast_sweep`) start their branches alike (:func:`_structural_start`),
-locate a crossing on a grid the same way (:func:`_indicator`, :func:`_locate`, :func:`_refine`,
+The dense sweep (:func:`bridgeflap.model.stability.sweeps.sweep`) and the fast one
+(:func:`bridgeflap.model.stability.hopf.fast_sweep`) start their branches alike
+(:func:`_structural_start`), locate a crossing on a grid the same way (:func:`_indicator`,
+:func:`_locate`, :func:`_refine`,
 :func:`_verify`: Brent's method on the indicator, then the verification described in
-:mod:`model.stability.sweeps`) and name it alike (:func:`_name_flutter`,
+:mod:`bridgeflap.model.stability.sweeps`) and name it alike (:func:`_name_flutter`,
 :func:`_name_divergence`, :func:`_critical_vector`). They live here, below both, so that
 ``sweeps -> hopf -> crossings`` and ``sweeps -> crossings`` with no cycle; the names stay
-importable from :mod:`model.stability.sweeps`.
+importable from :mod:`bridgeflap.model.stability.sweeps`.
 
-May import: the foundation, model.aeroelastic (the state space's static pieces) and
-:mod:`model.stability.tracking`; nothing else of model.stability, nothing above it.
+May import: the foundation, bridgeflap.model.aeroelastic (the state space's static pieces) and
+:mod:`bridgeflap.model.stability.tracking`; nothing else of bridgeflap.model.stability, nothing
+above it.
 """
 
 from __future__ import annotations
@@ -20,8 +22,8 @@ from dataclasses import replace
 import numpy as np
 from scipy.optimize import brentq, linear_sum_assignment
 
-from model.aeroelastic.statespace import divergence_mechanism
-from model.stability.tracking import (
+from bridgeflap.model.aeroelastic.statespace import divergence_mechanism
+from bridgeflap.model.stability.tracking import (
     BRACKET_FAILED,
     CONVERGED,
     NO_CROSSING,
@@ -49,18 +51,18 @@ def _structural_start(system):
     """Branch labels and the branches' values at ``U = 0`` (upper half plane).
 
     The labels are the structural modes' (the dominant coordinate of each eigenvector of the
-    structure alone, :meth:`~model.aeroelastic.statespace.AeroelasticSystem.structural_matrix`). The
-    values are the eigenvalues of the structural block of ``A(0)`` (rows and columns ``q, q'``:
-    the structure with the still-air terms of the aerodynamic model, e.g. the apparent mass of
-    a Roger fit, whose lag states do not act at ``U = 0``), each matched to the structural mode
-    whose shape it has: linear assignment on the mass-weighted overlap
-    ``|phi^H M psi|^2 / (phi^H M phi psi^H M psi)`` of the ``q`` parts. Matching by eigenvalue
-    distance fails where the still-air terms move the spectrum more than the modes' spacing:
-    IABSE 1.1c's fit raises heave from 0.63 to 1.73 rad/s and pitch from 1.75 to 2.78 rad/s,
-    and the sweep's assignment at ``U = 0`` gave pitch's label to the shifted heave mode and
-    heave a lag state's zero; close modes with different apparent masses swap too (IABSE
-    2a:bb3's TS1, 1.749 to 1.730 rad/s, and VA4, 1.769 to 1.747 rad/s, named its TS1-VS1
-    flutter VA4; several close pairs of Humber's 30 modes).
+    structure alone,
+    :meth:`~bridgeflap.model.aeroelastic.statespace.AeroelasticSystem.structural_matrix`). The
+    values are the eigenvalues of the structural block of ``A(0)`` (rows and columns ``q, q'``: the
+    structure with the still-air terms of the aerodynamic model, e.g. the apparent mass of a Roger
+    fit, whose lag states do not act at ``U = 0``), each matched to the structural mode whose shape
+    it has: linear assignment on the mass-weighted overlap ``|phi^H M psi|^2 / (phi^H M phi psi^H M
+    psi)`` of the ``q`` parts. Matching by eigenvalue distance fails where the still-air terms move
+    the spectrum more than the modes' spacing: IABSE 1.1c's fit raises heave from 0.63 to 1.73 rad/s
+    and pitch from 1.75 to 2.78 rad/s, and the sweep's assignment at ``U = 0`` gave pitch's label to
+    the shifted heave mode and heave a lag state's zero; close modes with different apparent masses
+    swap too (IABSE 2a:bb3's TS1, 1.749 to 1.730 rad/s, and VA4, 1.769 to 1.747 rad/s, named its
+    TS1-VS1 flutter VA4; several close pairs of Humber's 30 modes).
     Where ``A(0)`` couples the structure to other states (a compensator), the sweeps' own
     assignment at ``U = 0`` takes these values to the nearest eigenvalues of ``A(0)``.
     """

@@ -1,25 +1,27 @@
 """Flutter and divergence with few eigen-solutions: a coarse tracked sweep, then Newton.
 
-The dense sweep (:func:`model.stability.sweeps.sweep`, ``method="dense"``) solves one eigenvalue
-problem per grid speed (171 on the default 0:85:0.5 m/s grid) plus Brent's and the verification's
-continuations. This module (``method="fast"``) gives the same result with a fraction of them:
+The dense sweep (:func:`bridgeflap.model.stability.sweeps.sweep`, ``method="dense"``) solves one
+eigenvalue problem per grid speed (171 on the default 0:85:0.5 m/s grid) plus Brent's and the
+verification's continuations. This module (``method="fast"``) gives the same result with a fraction
+of them:
 
 1. **coarse sweep** over the same speed range with the sweep's branch tracking
-   (:func:`model.stability.tracking._track_interval`, from ``U = 0``), at an adaptive step: at most
-   ``span / COARSE_INTERVALS``, shortened to ``OVERSHOOT`` times the distance at which any
-   stable branch (or the flutter / divergence indicator) is predicted, from its value, slope and
+   (:func:`bridgeflap.model.stability.tracking._track_interval`, from ``U = 0``), at an adaptive
+   step: at most ``span / COARSE_INTERVALS``, shortened to ``OVERSHOOT`` times the distance at which
+   any stable branch (or the flutter / divergence indicator) is predicted, from its value, slope and
    curvature, to reach ``Re lambda = 0``, never below ``span / MIN_STEP_DIVISOR``; its
    assignment treats coincident eigenvalues as one and tests a near-double pair on its
-   difference (:data:`model.stability.tracking.COINCIDENT`,
-   :func:`model.stability.tracking._pairs_resolved`: Great Belt's identical side spans), where no
-   step halving could separate the two;
+   difference (:data:`bridgeflap.model.stability.tracking.COINCIDENT`,
+   :func:`bridgeflap.model.stability.tracking._pairs_resolved`: Great Belt's identical side spans),
+   where no step halving could separate the two;
 2. **Newton on the critical eigenpair** in the first bracket of a sign change: the Hopf point
    ``(A(U) - i w I) v = 0, c^H v = 1`` (unknowns ``U, w`` real, ``v`` complex) for flutter,
    ``A(U) v = 0, c^T v = 1`` (``U``, ``v`` real) for divergence, with the exact derivative
-   ``dA/dU = A1 + 2 U A2`` (``A(U) = A0 + U A1 + U^2 A2``, :mod:`model.aeroelastic.statespace`); a
-   divergence Newton that fails from the interpolated zero restarts at the smallest static
-   root ``det(K - U^2 Q) = 0`` in the bracket (:func:`model.stability.hopf_newton._static_seeded`);
-3. **verification** as :func:`model.stability.crossings._verify`: the point is a root
+   ``dA/dU = A1 + 2 U A2`` (``A(U) = A0 + U A1 + U^2 A2``,
+   :mod:`bridgeflap.model.aeroelastic.statespace`); a divergence Newton that fails from the
+   interpolated zero restarts at the smallest static root ``det(K - U^2 Q) = 0`` in the bracket
+   (:func:`bridgeflap.model.stability.hopf_newton._static_seeded`);
+3. **verification** as :func:`bridgeflap.model.stability.crossings._verify`: the point is a root
    (Newton residual), ``d Re lambda / dU > 0`` (exact, bordered solve) and the eigenvalue stays
    oscillatory (flutter) or real (divergence) a bracket either side; the eigenpair continued by
    Newton (linear solves only) to the grid speeds of the bracket is stable at the lower and
@@ -43,8 +45,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-from model.aeroelastic.statespace import divergence_speed_static
-from model.stability.crossings import (
+from bridgeflap.model.aeroelastic.statespace import divergence_speed_static
+from bridgeflap.model.stability.crossings import (
     _critical_vector,
     _indicator,
     _locate,
@@ -52,7 +54,9 @@ from model.stability.crossings import (
     _name_flutter,
     _structural_start,
 )
-from model.stability.hopf_newton import (  # noqa: F401 - Newton's solvers are part of this module's face
+
+# Newton's solvers are part of this module's face
+from bridgeflap.model.stability.hopf_newton import (  # noqa: F401
     NEWTON_MAXITER,
     FastPathError,
     _inverse_vector,
@@ -61,8 +65,8 @@ from model.stability.hopf_newton import (  # noqa: F401 - Newton's solvers are p
     hopf_newton,
     static_roots,
 )
-from model.stability.result import StabilitySweep
-from model.stability.tracking import (
+from bridgeflap.model.stability.result import StabilitySweep
+from bridgeflap.model.stability.tracking import (
     _A,
     COINCIDENT,
     CONVERGED,
@@ -99,8 +103,8 @@ NEAR_DEFECTIVE = 1e-8
 
 
 class CountedSystem:
-    """An :class:`~model.aeroelastic.statespace.AeroelasticSystem` whose ``A(U)`` calls are
-    counted."""
+    """An :class:`~bridgeflap.model.aeroelastic.statespace.AeroelasticSystem` whose ``A(U)`` calls
+    are counted."""
 
     def __init__(self, system):
         self._system, self.count = system, 0
@@ -208,8 +212,8 @@ class _March:
 
 
 def _first_bracket(vals, speeds, omega_tol):
-    """Index of the first sign change of ``vals`` (as :func:`model.stability.crossings._locate`), or
-    the
+    """Index of the first sign change of ``vals`` (as
+    :func:`bridgeflap.model.stability.crossings._locate`), or the
     :class:`Crossing` without one (unstable at the first speed, no crossing in range)."""
     if np.isfinite(vals[0]) and vals[0] > 1e-6 * omega_tol:
         return Crossing(float("nan"), float("nan"), UNSTABLE_AT_FIRST, (speeds[0], speeds[0]))
@@ -221,7 +225,8 @@ def _first_bracket(vals, speeds, omega_tol):
 
 def _grid_crossing(system, speeds, march, tol, omega_tol, kind, why, accept=False):
     """A crossing the fast path could not verify (``why``), located as the dense sweep does
-    (:func:`model.stability.crossings._locate`) on the grid speeds around its coarse bracket.
+    (:func:`bridgeflap.model.stability.crossings._locate`) on the grid speeds around its coarse
+    bracket.
 
     Kept only when not converged there (``unverified_crossing``, ``bracket_failed``: e.g. an
     unstable complex pair turning into two positive real eigenvalues, where no eigenvalue
@@ -442,7 +447,8 @@ def _divergence(system, march, tol, omega_tol, name=True):
 
 def _second(system, march, labels, flutter, tol, omega_tol):
     """The next tracked oscillatory branch to cross after the critical one (as
-    :func:`model.stability.sweeps._second_crossing`), by Newton from its coarse bracket."""
+    :func:`bridgeflap.model.stability.sweeps._second_crossing`), by Newton from its coarse
+    bracket."""
     if flutter.status != CONVERGED:
         return Crossing(float("nan"), float("nan"), NOT_EVALUATED)
     n = len(labels)
@@ -486,7 +492,7 @@ def _crossing(find, system, speeds, march, tol, omega_tol, kind, critical_only=F
 
 
 def fast_sweep(system: CountedSystem, speeds, speed_tol, dense, critical_only=False):
-    """:func:`model.stability.sweeps.sweep` with ``method="fast"`` (module docstring).
+    """:func:`bridgeflap.model.stability.sweeps.sweep` with ``method="fast"`` (module docstring).
 
     ``system`` counts its eigen-solutions; ``dense(reason)`` runs the dense sweep on the same
     counted system (the fallback). ``critical_only``: the flutter and divergence crossings

@@ -1,7 +1,7 @@
-"""Newton's solvers of the fast sweep (:mod:`model.stability.hopf`): the Hopf point, the
+"""Newton's solvers of the fast sweep (:mod:`bridgeflap.model.stability.hopf`): the Hopf point, the
 real-eigenvalue crossing, inverse iteration, and the static roots that seed the divergence Newton.
 
-Split from :mod:`model.stability.hopf` (file size); the method is described there.
+Split from :mod:`bridgeflap.model.stability.hopf` (file size); the method is described there.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-from model.stability.tracking import _A, NEWTON_RTOL, _dA, _scale
+from bridgeflap.model.stability.tracking import _A, NEWTON_RTOL, _dA, _scale
 
 #: Newton iterations at most (the residual test is :data:`model.stability.tracking.NEWTON_RTOL`)
 NEWTON_MAXITER = 30
@@ -111,10 +111,10 @@ def _inverse_vector(system, U, shift, real=False):
 
 def static_roots(system) -> np.ndarray:
     """Every ``U > 0`` [m/s] with ``det(K - U^2 Q) = 0`` (the static condition,
-    :func:`model.aeroelastic.statespace.static_aero_stiffness`), ascending; empty when there is none
-    or the
+    :func:`bridgeflap.model.aeroelastic.statespace.static_aero_stiffness`), ascending; empty when
+    there is none or the
     system has no static stiffness (``C(0) = 1``: exact for the RFA)."""
-    from model.aeroelastic.statespace import static_aero_stiffness
+    from bridgeflap.model.aeroelastic.statespace import static_aero_stiffness
 
     try:
         K, Q = np.asarray(system.basis.K, float), static_aero_stiffness(system)

@@ -1,9 +1,9 @@
 """The flutter mode along the span, and the deck modes picked by the frequency-ratio rule.
 
 :func:`flutter_mode_shape` takes the critical eigenvector of the aeroelastic state at the
-flutter speed (the same eigenpair :func:`model.stability.sweeps.sweep` reports: the oscillatory
-eigenvalue with the largest real part), keeps its structural coordinates ``q`` and maps them to
-the physical deck fields with the FE shapes of the retained modes:
+flutter speed (the same eigenpair :func:`bridgeflap.model.stability.sweeps.sweep` reports: the
+oscillatory eigenvalue with the largest real part), keeps its structural coordinates ``q`` and maps
+them to the physical deck fields with the FE shapes of the retained modes:
 
 ``h(x) = sum_j phi_h,j(x) q_j`` (vertical modes, heave [m], positive down) and
 ``alpha(x) = sum_j phi_alpha,j(x) q_j`` (torsional modes, pitch [rad], nose-up),
@@ -14,12 +14,13 @@ reads). The complex scale of an eigenvector is arbitrary: the shape is normalise
 largest pitch amplitude is ``peak_pitch_rad`` (0.01 rad unless told) with zero phase there;
 heave is then in metres per that pitch. Modal participation is the kinetic-energy share of each
 retained mode, ``|q_j|^2`` for mass-normalised modes, as
-:attr:`model.stability.sweeps.StabilitySweep.critical_participation` (taken from there).
+:attr:`bridgeflap.model.stability.sweeps.StabilitySweep.critical_participation` (taken from there).
 
 :func:`ratio_modes` collects the modes a selection rule picks at several erected fractions for
 :func:`plot_ratio_modes`; the rule is passed in (the frequency-ratio study's is
-:func:`model.analysis.first_symmetric_deck_mode`), because this module sits below the facade
-:mod:`model.analysis` and does not import it. Conventions: see :mod:`model`.
+:func:`bridgeflap.model.analysis.first_symmetric_deck_mode`), because this module sits below the
+facade
+:mod:`bridgeflap.model.analysis` and does not import it. Conventions: see :mod:`bridgeflap.model`.
 """
 
 from __future__ import annotations
@@ -29,15 +30,15 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
-from model.aeroelastic import statespace
-from model.errors import BridgeflapError
-from model.results import ResultData
-from model.stability.sweeps import CONVERGED, check_speeds, oscillation_tolerance, sweep
-from model.structure.bridge_arg import BridgeArg, takes_bridge
-from model.structure.fe import assemble
-from model.structure.modes import ModalModel, solve
-from model.structure.spans import span_extents_m, tower_positions_m
-from model.structure.spec import BridgeSpec
+from bridgeflap.model.aeroelastic import statespace
+from bridgeflap.model.errors import BridgeflapError
+from bridgeflap.model.results import ResultData
+from bridgeflap.model.stability.sweeps import CONVERGED, check_speeds, oscillation_tolerance, sweep
+from bridgeflap.model.structure.bridge_arg import BridgeArg, takes_bridge
+from bridgeflap.model.structure.fe import assemble
+from bridgeflap.model.structure.modes import ModalModel, solve
+from bridgeflap.model.structure.spans import span_extents_m, tower_positions_m
+from bridgeflap.model.structure.spec import BridgeSpec
 
 __all__ = ["FlutterModeShape", "RatioModes", "critical_eigenvector", "deck_fields",
            "flutter_mode_shape", "plot_ratio_modes", "ratio_modes", "span_extents_m",
@@ -61,8 +62,9 @@ def _mark_spans(ax, spans, names: bool = True, y: float = 0.97) -> None:
 def critical_eigenvector(system, wind_speed: float) -> tuple[complex, np.ndarray]:
     """``(lambda, v)``: the oscillatory eigenpair of ``A(U)`` with the largest real part.
 
-    The selection of :func:`model.stability.sweeps.sweep` (``|Im lambda|`` above
-    :func:`~model.stability.sweeps.oscillation_tolerance`), upper half plane (``Im lambda > 0``).
+    The selection of :func:`bridgeflap.model.stability.sweeps.sweep` (``|Im lambda|`` above
+    :func:`~bridgeflap.model.stability.sweeps.oscillation_tolerance`), upper half plane (``Im lambda
+    > 0``).
     """
     lam, V = sla.eig(system.A(wind_speed))
     tol = oscillation_tolerance(system)
@@ -77,8 +79,8 @@ def deck_fields(modal: ModalModel, labels, q) -> dict:
     """Physical deck fields of modal coordinates ``q`` on the modes named ``labels``.
 
     Returns ``{"node_heave_m", "node_pitch_rad", "strip_heave_m", "strip_pitch_rad"}``
-    (complex arrays; nodes in :attr:`model.structure.fe.StructuralModel.node_x` order, strips in
-    ``strip_x`` order).
+    (complex arrays; nodes in :attr:`bridgeflap.model.structure.fe.StructuralModel.node_x` order,
+    strips in ``strip_x`` order).
     """
     st = modal.structure
     q = np.asarray(q)
@@ -292,9 +294,9 @@ def flutter_mode_shape(bridge: BridgeArg, speeds, n_modes: int,
         Wind-speed grid [m/s] of the sweep that finds the flutter speed.
     n_modes : int
         Retained vertical + torsional modes (the analyses' default is
-        :data:`model.analysis.DEFAULT_MODES`).
+        :data:`bridgeflap.model.analysis.DEFAULT_MODES`).
     order, rfa : str
-        As :func:`model.analysis.bridge_system`.
+        As :func:`bridgeflap.model.analysis.bridge_system`.
     peak_pitch_rad : float
         Normalisation [rad]: the largest pitch amplitude of the returned shape.
 
@@ -369,9 +371,10 @@ def ratio_modes(spec: BridgeSpec, select, fractions=(0.2, 0.5, 0.8, 1.0),
                 side_spans: str | None = None, erection_gj_factor: float = 0.5) -> RatioModes:
     """The modes ``select(modal, family)`` picks at each erected fraction [-].
 
-    ``select`` is the frequency-ratio rule, :func:`model.analysis.first_symmetric_deck_mode`,
-    or any function of a :class:`~model.structure.modes.ModalModel` and a family name returning a
-    :class:`~model.structure.modes.Mode` or None.
+    ``select`` is the frequency-ratio rule,
+    :func:`bridgeflap.model.analysis.first_symmetric_deck_mode`, or any function of a
+    :class:`~bridgeflap.model.structure.modes.ModalModel` and a family name returning a
+    :class:`~bridgeflap.model.structure.modes.Mode` or None.
     """
     stages = []
     for f in fractions:

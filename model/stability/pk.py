@@ -2,16 +2,18 @@
 
 Branches continued from U = 0 with adaptive sub-steps, flutter refined by Brent's method on the
 crossing branch and verified (docs/methods.md#p-k-check). By default the branches are marched
-together and stopped at the first crossing, on the lean kernel of :mod:`model.stability.pk_kernel`
-(secant k iteration); ``pk_sweep(..., full_grid=True)`` is the reference (whole grid,
-fixed-point k iteration on the frozen system's own matrices). Re-exported by
-:mod:`model.stability.sweeps`. :func:`closed_loop_pk_flutter` is the p-k check of a flapped
-deck's closed loop (it was in :mod:`model.aeroelastic.flaps`, which sits below the stability
-layer).
+together and stopped at the first crossing, on the lean kernel of
+:mod:`bridgeflap.model.stability.pk_kernel` (secant k iteration); ``pk_sweep(..., full_grid=True)``
+is the reference (whole grid, fixed-point k iteration on the frozen system's own matrices).
+Re-exported by
+:mod:`bridgeflap.model.stability.sweeps`. :func:`closed_loop_pk_flutter` is the p-k check of a
+flapped deck's closed loop (it was in :mod:`bridgeflap.model.aeroelastic.flaps`, which sits below
+the stability layer).
 
-May import: the foundation, model.aero, model.aeroelastic (types of the closed loop only under
-``TYPE_CHECKING``) and of model.stability only :mod:`~model.stability.pk_kernel` and
-:mod:`~model.stability.tracking`.
+May import: the foundation, bridgeflap.model.aero, bridgeflap.model.aeroelastic (types of the closed
+loop only under ``TYPE_CHECKING``) and of bridgeflap.model.stability only
+:mod:`~bridgeflap.model.stability.pk_kernel` and
+:mod:`~bridgeflap.model.stability.tracking`.
 """
 
 from __future__ import annotations
@@ -22,12 +24,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.optimize import brentq
 
-from model.aero.theodorsen import theodorsen
-from model.aeroelastic.statespace import AeroelasticSystem, exact_dynamic_matrix
-from model.arguments import checked, flag
-from model.results import ResultData
-from model.stability.pk_kernel import BranchMemory, kernel_for
-from model.stability.tracking import (
+from bridgeflap.model.aero.theodorsen import theodorsen
+from bridgeflap.model.aeroelastic.statespace import AeroelasticSystem, exact_dynamic_matrix
+from bridgeflap.model.arguments import checked, flag
+from bridgeflap.model.results import ResultData
+from bridgeflap.model.stability.pk_kernel import BranchMemory, kernel_for
+from bridgeflap.model.stability.tracking import (
     BRACKET_FAILED,
     CONVERGED,
     NO_CROSSING,
@@ -42,11 +44,11 @@ from model.stability.tracking import (
     continue_adaptive,
     oscillation_tolerance,
 )
-from model.structure.bridge_arg import check_system
+from bridgeflap.model.structure.bridge_arg import check_system
 
 if TYPE_CHECKING:
-    from model.aeroelastic.control import Compensator
-    from model.aeroelastic.flaps import ClosedLoopModel
+    from bridgeflap.model.aeroelastic.control import Compensator
+    from bridgeflap.model.aeroelastic.flaps import ClosedLoopModel
 
 #: relative residual below which a p-k point solves its own frozen-C equation (the k iteration
 #: stops at a relative change of 1e-10; 1e-7 leaves three orders for round-off of larger models)
@@ -109,7 +111,7 @@ class PKResult(ResultData):
 def _frozen_matrix(frozen, U: float, kr: float):
     """First-order matrix at speed ``U`` with the aerodynamics frozen at reduced frequency ``kr``:
     the exact Theodorsen ``C(kr)``, or interpolated flutter derivatives where the frozen system
-    carries them (``matrix_at_k``, :mod:`model.aeroelastic.derivative_system`)."""
+    carries them (``matrix_at_k``, :mod:`bridgeflap.model.aeroelastic.derivative_system`)."""
     if hasattr(frozen, "matrix_at_k"):
         return frozen.matrix_at_k(U, kr)
     return frozen.matrix(U, theodorsen(kr) if kr > 0 else 1.0 + 0j)
@@ -152,13 +154,14 @@ def _pk_continue(point, u0, p0, s0, u1, halvings=12, hint=None):
     """Continue one p-k root from ``(u0, p0)`` (slope ``s0`` [1/s per m/s]) to ``u1`` [m/s].
 
     ``point(U, p_guess, hint)`` is the point solver (:func:`_reference_point`, or
-    :meth:`model.stability.pk_kernel.Kernel.point`). Each sub-step solves the k iteration from the
-    linear prediction and is accepted when it converged and the root is nearer the prediction than
+    :meth:`bridgeflap.model.stability.pk_kernel.Kernel.point`). Each sub-step solves the k iteration
+    from the linear prediction and is accepted when it converged and the root is nearer the
+    prediction than
     :data:`UNAMBIGUOUS` times the next eigenvalue of the same matrix; otherwise the step is
     halved (down to ``2**-halvings`` of ``|u1 - u0|``;
-    :func:`model.stability.tracking.continue_adaptive`). A coarse grid therefore cannot let two
-    branches collapse onto one root. Returns ``(p, slope, ok)``; ``ok`` is False if a step was
-    accepted at the smallest size.
+    :func:`bridgeflap.model.stability.tracking.continue_adaptive`). A coarse grid therefore cannot
+    let two branches collapse onto one root. Returns ``(p, slope, ok)``; ``ok`` is False if a step
+    was accepted at the smallest size.
     """
 
     def step(t, pred):
@@ -237,12 +240,12 @@ def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
     """p-k solution with the exact Theodorsen function on the same coordinates.
 
     Open or closed loop: the first-order matrix with ``C(k)`` frozen
-    (:meth:`~model.aeroelastic.statespace.AeroelasticSystem.frozen`) contains the compensator
-    states, so ``K(p)`` is exact. Each structural branch is continued from its U = 0 eigenvalue with
-    adaptive sub-steps (:func:`_pk_continue`); at each speed the reduced frequency is iterated
-    to consistency, ``k = |Im p| b / U``. Flutter is the first speed where an oscillatory
-    branch's real part changes sign, refined by Brent's method on that branch (continued from
-    the grid speed below) to ``speed_tol`` [m/s], then verified: sign change of the branch
+    (:meth:`~bridgeflap.model.aeroelastic.statespace.AeroelasticSystem.frozen`) contains the
+    compensator states, so ``K(p)`` is exact. Each structural branch is continued from its U = 0
+    eigenvalue with adaptive sub-steps (:func:`_pk_continue`); at each speed the reduced frequency
+    is iterated to consistency, ``k = |Im p| b / U``. Flutter is the first speed where an
+    oscillatory branch's real part changes sign, refined by Brent's method on that branch (continued
+    from the grid speed below) to ``speed_tol`` [m/s], then verified: sign change of the branch
     across ``u -+ max(10 tol, 1e-3 u)``, continuation to the next grid speed landing on the
     branch's own value there (no jump), the k iteration converged and the residuals
     (:func:`pk_residual`, :func:`exact_residual` for the open loop) below
@@ -250,10 +253,10 @@ def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
 
     Two paths give the same crossing and status (docs/methods.md#p-k-check):
 
-    * default: the lean kernel (:mod:`model.stability.pk_kernel`: constant matrices per speed,
-      secant k iteration), all branches marched together speed by speed and stopped at the grid
-      speed above the first crossing; ``speeds``, ``branches`` and ``converged`` of the result then
-      end there (the whole grid without a crossing);
+    * default: the lean kernel (:mod:`bridgeflap.model.stability.pk_kernel`: constant matrices per
+      speed, secant k iteration), all branches marched together speed by speed and stopped at the
+      grid speed above the first crossing; ``speeds``, ``branches`` and ``converged`` of the result
+      then end there (the whole grid without a crossing);
     * ``full_grid=True``, the reference: every branch continued over the whole grid with the
       fixed-point k iteration on the frozen system's own matrices.
     """
@@ -364,8 +367,8 @@ def closed_loop_pk_flutter(model: ClosedLoopModel, compensator: Compensator, spe
     """Closed-loop flutter speed by the p-k method with exact Theodorsen and ``K(p)``.
 
     :func:`pk_sweep` of the closed loop (``model``: a
-    :class:`model.aeroelastic.flaps.ClosedLoopModel`; the compensator states are part of the
-    frozen-C first-order matrix, so ``K(p)`` is exact). Returns ``(speed [m/s],
+    :class:`bridgeflap.model.aeroelastic.flaps.ClosedLoopModel`; the compensator states are part of
+    the frozen-C first-order matrix, so ``K(p)`` is exact). Returns ``(speed [m/s],
     frequency [Hz], status, branches)``.
     """
     res = pk_sweep(model.system(compensator), speeds, speed_tol)

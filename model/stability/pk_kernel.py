@@ -1,18 +1,18 @@
 """Lean inner loop of the p-k method: frozen matrices at one speed and a secant k iteration.
 
-The p-k point (:mod:`model.stability.pk`) solves ``p = eig(A(U, k))`` with ``k = |Im p| b / U``. Its
-reference form rebuilds ``A`` from the frozen system at every iteration
-(``FrozenParts.matrix`` with :func:`model.aero.theodorsen.theodorsen`, or
+The p-k point (:mod:`bridgeflap.model.stability.pk`) solves ``p = eig(A(U, k))`` with ``k = |Im p| b
+/ U``. Its reference form rebuilds ``A`` from the frozen system at every iteration
+(``FrozenParts.matrix`` with :func:`bridgeflap.model.aero.theodorsen.theodorsen`, or
 ``DerivativeFrozen.matrix_at_k`` with the derivatives' generic ``matrix``) and iterates ``k`` by
 fixed-point substitution. Here the same matrices are formed from constants computed once:
 
-* Theodorsen (:class:`~model.aeroelastic.assembly.FrozenParts`):
+* Theodorsen (:class:`~bridgeflap.model.aeroelastic.assembly.FrozenParts`):
   ``A(U, c) = [A0 + U A1 + U^2 A2] + c [U A1c + U^2 A2c]``, both brackets per speed, ``c`` from
-  :func:`model.aero.theodorsen.theodorsen_scalar`;
-* flutter derivatives (:class:`~model.aeroelastic.derivative_system.DerivativeFrozen`): the
-  projection ``M^-1 L Qn R`` of each entry of ``Qn`` once (``Qn`` of the flat plate in closed form,
-  tables by one linear interpolation of all columns, other sources through their ``matrix``), and
-  the blocks written into a preallocated matrix (no ``np.block``);
+  :func:`bridgeflap.model.aero.theodorsen.theodorsen_scalar`;
+* flutter derivatives (:class:`~bridgeflap.model.aeroelastic.derivative_system.DerivativeFrozen`):
+  the projection ``M^-1 L Qn R`` of each entry of ``Qn`` once (``Qn`` of the flat plate in closed
+  form, tables by one linear interpolation of all columns, other sources through their ``matrix``),
+  and the blocks written into a preallocated matrix (no ``np.block``);
 
 and the eigenvalues come from LAPACK ``geev`` without vectors. :meth:`Kernel.point` iterates
 ``k`` on the consistency ``g(k) = |Im p(k)| b / U - k = 0`` by secant steps (the first one with
@@ -28,7 +28,7 @@ import math
 import numpy as np
 from scipy.linalg import lapack
 
-from model.aero.theodorsen import theodorsen_scalar
+from bridgeflap.model.aero.theodorsen import theodorsen_scalar
 
 __all__ = ["BranchMemory", "Kernel", "kernel_for"]
 
@@ -121,7 +121,7 @@ class Kernel:
         (the start of the reference iteration); failing that, ``k = 0`` is tried for a real root
         (:meth:`_real_root`).
         Returns ``(p, converged, eigenvalues of the last matrix, index of p among them)``, as
-        :func:`model.stability.pk._pk_point`.
+        :func:`bridgeflap.model.stability.pk._pk_point`.
         """
         U = float(U)  # Python floats throughout: numpy scalars cost ~20x per operation here
         if U != self.speed:
@@ -190,7 +190,8 @@ class Kernel:
 
 
 class TheodorsenKernel(Kernel):
-    """Kernel of :class:`~model.aeroelastic.assembly.FrozenParts` (exact Theodorsen ``C(k)``)."""
+    """Kernel of :class:`~bridgeflap.model.aeroelastic.assembly.FrozenParts` (exact Theodorsen
+    ``C(k)``)."""
 
     def __init__(self, frozen):
         self.frozen = frozen
@@ -222,7 +223,7 @@ class TheodorsenKernel(Kernel):
 
 
 class DerivativeKernel(Kernel):
-    """Kernel of :class:`~model.aeroelastic.derivative_system.DerivativeFrozen` (flutter
+    """Kernel of :class:`~bridgeflap.model.aeroelastic.derivative_system.DerivativeFrozen` (flutter
     derivatives).
 
     The lower block row of ``A`` (flattened) is ``-[M^-1 K, M^-1 C] + r @ H`` with ``r`` the
@@ -275,8 +276,12 @@ class DerivativeKernel(Kernel):
 def _qn_function(source, d: int):
     """``(K, a, b) -> (a Re Qn(K), b Im Qn(K), 1)`` flattened into one new real array of
     ``2 d^2 + 1`` values, for one reduced frequency ``K > 0``
-    (:meth:`~model.aero.derivatives.FlutterDerivatives.matrix`)."""
-    from model.aero.derivatives import FlatPlateDerivatives, PolimiDerivatives, TabulatedDerivatives
+    (:meth:`~bridgeflap.model.aero.derivatives.FlutterDerivatives.matrix`)."""
+    from bridgeflap.model.aero.derivatives import (
+        FlatPlateDerivatives,
+        PolimiDerivatives,
+        TabulatedDerivatives,
+    )
 
     dd = d * d
     if isinstance(source, FlatPlateDerivatives) and source.c_function is None:
@@ -302,7 +307,7 @@ def _qn_function(source, d: int):
 
         return flat
     if isinstance(source, TabulatedDerivatives) and source.extrapolation == "hold":
-        from model.aero.derivatives import _ENTRIES
+        from bridgeflap.model.aero.derivatives import _ENTRIES
 
         kt = np.asarray(source.K, float)
         vt = 1.0 / kt
@@ -376,15 +381,15 @@ class _Hold:
 
 
 def _polimi_function(source, d: int):
-    """:func:`_qn_function` of :class:`~model.aero.derivatives.PolimiDerivatives`: its 18 columns
-    interpolated as its ``values`` does, then converted by a matrix ``T0 + v T1 + v^2 T2``.
+    """:func:`_qn_function` of :class:`~bridgeflap.model.aero.derivatives.PolimiDerivatives`: its 18
+    columns interpolated as its ``values`` does, then converted by a matrix ``T0 + v T1 + v^2 T2``.
 
-    :func:`~model.aero.derivatives.polimi_to_scanlan` is linear in the coefficients with factors of
-    degree at most 2 in ``v`` (its docstring), so ``T0, T1, T2`` are read off it at three
+    :func:`~bridgeflap.model.aero.derivatives.polimi_to_scanlan` is linear in the coefficients with
+    factors of degree at most 2 in ``v`` (its docstring), so ``T0, T1, T2`` are read off it at three
     reduced velocities with unit coefficient tables, and checked at a fourth (the direct call
     per point, 100 us, is the fallback if that check fails).
     """
-    from model.aero.derivatives import _ENTRIES, polimi_to_scanlan
+    from bridgeflap.model.aero.derivatives import _ENTRIES, polimi_to_scanlan
 
     vt = np.asarray(source.v, float)
     ax = [np.asarray(c, float) for c in source.column_v] or [vt] * 6

@@ -1,7 +1,7 @@
 """Figures of a stability sweep: root locus, V-g / V-f, and both in one figure.
 
-:class:`model.stability.sweeps.StabilitySweep` keeps thin ``plot`` methods that call these
-functions (matplotlib imported lazily, nothing here calls ``plt.show()``). Units are fixed per
+:class:`bridgeflap.model.stability.sweeps.StabilitySweep` keeps thin ``plot`` methods that call
+these functions (matplotlib imported lazily, nothing here calls ``plt.show()``). Units are fixed per
 kind of axis so that figures can be read side by side:
 
 * root locus: ``Re(lambda)`` and ``Im(lambda)``, both in 1/s (rad/s for the imaginary part),
@@ -10,15 +10,15 @@ kind of axis so that figures can be read side by side:
   enclose every tracked branch (nothing is clipped: a branch that runs far negative past
   flutter stays on the axis).
 
-May import: the foundation (:mod:`model.axes`) and model.stability's result vocabulary
-(:mod:`model.stability.tracking`), nothing above model.stability.
+May import: the foundation (:mod:`bridgeflap.model.axes`) and bridgeflap.model.stability's result
+vocabulary (:mod:`bridgeflap.model.stability.tracking`), nothing above bridgeflap.model.stability.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from model.axes import data_limits, new_axes
+from bridgeflap.model.axes import data_limits, new_axes
 
 __all__ = ["ZETA_RAYS", "root_locus", "stability_panels", "vg_vf"]
 
@@ -28,7 +28,8 @@ ZETA_RAYS = (0.0, 0.05, 0.1, 0.2)
 
 def root_locus(sweep, ax=None, title: str = "root locus", reference=None,
                reference_label: str = "open loop", colorbar: bool = True):
-    """Tracked branches of a :class:`~model.stability.sweeps.StabilitySweep` in the complex plane.
+    """Tracked branches of a :class:`~bridgeflap.model.stability.sweeps.StabilitySweep` in the
+    complex plane.
 
     Both axes in 1/s; points coloured by the wind speed [m/s], U = 0 as magenta dots.
     ``reference`` (another sweep, e.g. the open loop of a closed-loop ``sweep``) is drawn
@@ -81,7 +82,7 @@ def root_locus(sweep, ax=None, title: str = "root locus", reference=None,
 def vg_vf(sweep, axes=None, reference=None):
     """Damping ratio [%] (V-g) and frequency [Hz] (V-f) of every tracked branch against the
     wind speed, flutter and divergence marked; axes enclose all the data (no clipping)."""
-    from model.stability.tracking import CONVERGED
+    from bridgeflap.model.stability.tracking import CONVERGED
 
     ax1, ax2 = axes if axes is not None else new_axes(1, 2, figsize=(11, 4.5))
     z, f = 100 * sweep.damping_ratios(), sweep.frequencies_hz()
@@ -133,7 +134,7 @@ def stability_panels(sweep, axes=None, title: str = "", reference=None):
 
 
 def _limit_text(sweep, crossing, name: str) -> str:
-    from model.stability.tracking import CONVERGED, NO_CROSSING
+    from bridgeflap.model.stability.tracking import CONVERGED, NO_CROSSING
 
     if crossing.status == CONVERGED:
         return f"{name} {crossing.speed:.2f} m/s"

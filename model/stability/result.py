@@ -1,12 +1,14 @@
 """The record of a stability sweep: :class:`StabilitySweep` (branches, crossings, summary).
 
-Produced by :func:`model.stability.sweeps.sweep` (dense) and
-:func:`model.stability.hopf.fast_sweep` (fast), so it sits below both; re-exported by
-:mod:`model.stability.sweeps`, its public home. Its ``plot`` methods call
-:mod:`model.stability.plots` lazily.
+Produced by :func:`bridgeflap.model.stability.sweeps.sweep` (dense) and
+:func:`bridgeflap.model.stability.hopf.fast_sweep` (fast), so it sits below both; re-exported by
+:mod:`bridgeflap.model.stability.sweeps`, its public home. Its ``plot`` methods call
+:mod:`bridgeflap.model.stability.plots` lazily.
 
-May import: the foundation, :mod:`model.stability.tracking` (statuses, :class:`Crossing`) and
-:mod:`model.stability.plots` (lazily); nothing else of model.stability, nothing above it.
+May import: the foundation, :mod:`bridgeflap.model.stability.tracking` (statuses, :class:`Crossing`)
+and
+:mod:`bridgeflap.model.stability.plots` (lazily); nothing else of bridgeflap.model.stability,
+nothing above it.
 """
 
 from __future__ import annotations
@@ -15,8 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.results import ResultData, sweep_dataset, sweep_frame
-from model.stability.tracking import (
+from bridgeflap.model.results import ResultData, sweep_dataset, sweep_frame
+from bridgeflap.model.stability.tracking import (
     BRACKET_FAILED,
     CONVERGED,
     NOT_EVALUATED,
@@ -31,7 +33,7 @@ __all__ = ["StabilitySweep"]
 
 @dataclass(frozen=True)
 class StabilitySweep(ResultData):
-    """Result of :func:`model.stability.sweeps.sweep`.
+    """Result of :func:`bridgeflap.model.stability.sweeps.sweep`.
 
     Attributes
     ----------
@@ -46,7 +48,8 @@ class StabilitySweep(ResultData):
     flutter, divergence : Crossing
     divergence_static_speed : float
         Root [m/s] of the static condition, wherever it lies (NaN when none): the summary
-        reports it only inside the grid (:func:`~model.stability.tracking.static_status`).
+        reports it only inside the grid
+        (:func:`~bridgeflap.model.stability.tracking.static_status`).
     critical_participation : dict
         Share of each structural coordinate in the flutter eigenvector (kinetic energy).
     second_flutter : Crossing
@@ -56,7 +59,7 @@ class StabilitySweep(ResultData):
         at the smallest sub-step or with the budget spent.
     method : str
         The sweep that produced the numbers, ``"dense"`` or ``"fast"``
-        (:func:`model.stability.sweeps.sweep`).
+        (:func:`bridgeflap.model.stability.sweeps.sweep`).
     eigen_solutions : int
         Dense eigenvalue problems of ``A(U)`` solved (a fast sweep that fell back to dense
         counts both).
@@ -87,8 +90,8 @@ class StabilitySweep(ResultData):
 
     @property
     def divergence_static_status(self) -> str:
-        """:func:`~model.stability.tracking.static_status` of the static divergence root on this
-        grid."""
+        """:func:`~bridgeflap.model.stability.tracking.static_status` of the static divergence root
+        on this grid."""
         return static_status(self.divergence_static_speed, self.speeds)
 
     def damping_ratios(self) -> np.ndarray:
@@ -157,23 +160,25 @@ class StabilitySweep(ResultData):
         }
 
     def to_dataframe(self):
-        """One row per speed x branch (:func:`model.results.sweep_frame`)."""
+        """One row per speed x branch (:func:`bridgeflap.model.results.sweep_frame`)."""
         return sweep_frame(self)
 
     def to_xarray(self, attrs=None):
-        """The branches on ``(branch, speed_m_s)`` (:func:`model.results.sweep_dataset`)."""
+        """The branches on ``(branch, speed_m_s)``
+        (:func:`bridgeflap.model.results.sweep_dataset`)."""
         return sweep_dataset(self, attrs)
 
     def plot_root_locus(self, ax=None, title: str = "root locus", reference=None):
         """Tracked branches in the complex plane (both axes 1/s, coloured by wind speed);
-        ``reference``: another sweep drawn in grey (:func:`model.stability.plots.root_locus`)."""
-        from model.stability.plots import root_locus
+        ``reference``: another sweep drawn in grey
+        (:func:`bridgeflap.model.stability.plots.root_locus`)."""
+        from bridgeflap.model.stability.plots import root_locus
 
         return root_locus(self, ax, title=title, reference=reference)
 
     def plot(self, axes=None, title: str = "", reference=None):
         """Root locus (left), V-g and V-f (right), unclipped
-        (:func:`model.stability.plots.stability_panels`)."""
-        from model.stability.plots import stability_panels
+        (:func:`bridgeflap.model.stability.plots.stability_panels`)."""
+        from bridgeflap.model.stability.plots import stability_panels
 
         return stability_panels(self, axes, title=title, reference=reference)

@@ -1,11 +1,11 @@
 """Verified static divergence of an open or closed loop.
 
 The static equilibrium of a system ``A(U) = A0 + U A1 + U^2 A2`` is ``K_ae(U) q = f`` with
-``K_ae(U) = K - U^2 Q`` (:func:`model.aeroelastic.statespace.static_aero_stiffness`: ``C(0) = 1``
-for the RFA; with flaps driven by a compensator the static gain ``K(0) = D - C A^{-1} B`` turns the
-flap loads of ``beta = K(0) alpha_f`` into stiffness, ``Q = P G0 + K(0) (H0 + g0 PF) Phi_a``). The
-static divergence speed is the smallest ``U > 0`` with ``det K_ae(U) = 0``: ``1 / U^2`` is a real
-positive eigenvalue of ``K^{-1} Q`` (exact, no grid).
+``K_ae(U) = K - U^2 Q`` (:func:`bridgeflap.model.aeroelastic.statespace.static_aero_stiffness`:
+``C(0) = 1`` for the RFA; with flaps driven by a compensator the static gain ``K(0) = D - C A^{-1}
+B`` turns the flap loads of ``beta = K(0) alpha_f`` into stiffness, ``Q = P G0 + K(0) (H0 + g0 PF)
+Phi_a``). The static divergence speed is the smallest ``U > 0`` with ``det K_ae(U) = 0``: ``1 /
+U^2`` is a real positive eigenvalue of ``K^{-1} Q`` (exact, no grid).
 
 :func:`static_divergence` locates that root and **verifies** it:
 
@@ -40,8 +40,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from model.aeroelastic.statespace import static_aero_stiffness
-from model.stability.tracking import (
+from bridgeflap.model.aeroelastic.statespace import static_aero_stiffness
+from bridgeflap.model.stability.tracking import (
     CONVERGED,
     NO_CROSSING,
     UNVERIFIED,

@@ -25,21 +25,23 @@ Method (docs/methods.md#stability):
 
 ``sweep(..., method="fast")`` gives the same result with a fraction of the eigen-solutions: a
 coarse tracked sweep, Newton on the Hopf point and the real-eigenvalue crossing, and this dense
-sweep as the fallback when unsure (:mod:`model.stability.hopf`); every result counts its
+sweep as the fallback when unsure (:mod:`bridgeflap.model.stability.hopf`); every result counts its
 eigen-solutions (``eigen_solutions``) and names its method (``sweep_method``,
 ``sweep_fallback_reason``).
 
-The building blocks (statuses, :class:`~model.stability.tracking.Crossing`, branch
-continuation) are in :mod:`model.stability.tracking`; :func:`pk_sweep`, the exact-Theodorsen
-p-k cross-check on the same generalised coordinates, is in :mod:`model.stability.pk` (its
-branches are continued with adaptive sub-steps and its crossing is verified the same way). Both
-are re-exported here, as is the sweep's record :class:`~model.stability.result.StabilitySweep`;
-the steps the dense and the fast sweep share (start, locate, verify, name) live in
-:mod:`model.stability.crossings`.
+The building blocks (statuses, :class:`~bridgeflap.model.stability.tracking.Crossing`, branch
+continuation) are in :mod:`bridgeflap.model.stability.tracking`; :func:`pk_sweep`, the
+exact-Theodorsen p-k cross-check on the same generalised coordinates, is in
+:mod:`bridgeflap.model.stability.pk` (its branches are continued with adaptive sub-steps and its
+crossing is verified the same way). Both are re-exported here, as is the sweep's record
+:class:`~bridgeflap.model.stability.result.StabilitySweep`; the steps the dense and the fast sweep
+share (start, locate, verify, name) live in
+:mod:`bridgeflap.model.stability.crossings`.
 
-May import: the foundation, model.aeroelastic, and of model.stability the modules below the
-sweep (tracking, crossings, result, pk, plots) and :mod:`model.stability.hopf` (the fast path,
-lazily); nothing above model.stability.
+May import: the foundation, bridgeflap.model.aeroelastic, and of bridgeflap.model.stability the
+modules below the sweep (tracking, crossings, result, pk, plots) and
+:mod:`bridgeflap.model.stability.hopf` (the fast path, lazily); nothing above
+bridgeflap.model.stability.
 """
 
 from __future__ import annotations
@@ -49,14 +51,15 @@ from dataclasses import replace
 import numpy as np
 from scipy.optimize import brentq
 
-from model.aeroelastic.statespace import (  # noqa: F401 - divergence_mechanism re-exported
+# divergence_mechanism re-exported
+from bridgeflap.model.aeroelastic.statespace import (  # noqa: F401
     AeroelasticSystem,
     divergence_mechanism,
     divergence_speed_static,
 )
-from model.arguments import checked
-from model.errors import BridgeflapInputError
-from model.stability.crossings import (
+from bridgeflap.model.arguments import checked
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.stability.crossings import (
     _critical_vector,
     _locate,
     _name_divergence,
@@ -64,15 +67,19 @@ from model.stability.crossings import (
     _structural_start,
     _verify,
 )
-from model.stability.pk import (  # noqa: F401 - the p-k check is part of this module's public face
+
+# the p-k check is part of this module's public face
+from bridgeflap.model.stability.pk import (  # noqa: F401
     PK_RESIDUAL_TOL,
     PKResult,
     exact_residual,
     pk_residual,
     pk_sweep,
 )
-from model.stability.result import StabilitySweep
-from model.stability.tracking import (  # noqa: F401 - statuses and helpers are re-exported
+from bridgeflap.model.stability.result import StabilitySweep
+
+# statuses and helpers are re-exported
+from bridgeflap.model.stability.tracking import (  # noqa: F401
     BRACKET_FAILED,
     CONVERGED,
     HARD_ONSET_DAMPING_SLOPE_S_PER_M,
@@ -99,7 +106,7 @@ from model.stability.tracking import (  # noqa: F401 - statuses and helpers are 
     oscillation_tolerance,
     static_status,
 )
-from model.structure.bridge_arg import check_system
+from bridgeflap.model.structure.bridge_arg import check_system
 
 # ------------------------------------------------------------------ the sweep
 
@@ -124,18 +131,18 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
         path's Newton converges to round-off).
     method : {"dense", "fast"}
         ``dense``: all eigenvalues at every grid speed; ``fast``: a coarse tracked sweep over
-        the grid's range and Newton on the critical eigenpairs (:mod:`model.stability.hopf`),
-        falling back to ``dense`` when unsure (``fallback_reason``). Both give the same fields and
-        statuses; the fast path's ``speeds``, ``eigenvalues`` and ``branches`` are on its
-        coarse speeds.
+        the grid's range and Newton on the critical eigenpairs
+        (:mod:`bridgeflap.model.stability.hopf`), falling back to ``dense`` when unsure
+        (``fallback_reason``). Both give the same fields and statuses; the fast path's ``speeds``,
+        ``eigenvalues`` and ``branches`` are on its coarse speeds.
     critical_only : bool
         Crossings alone (do no harm): no second branch, no label check
-        (model.stability.hopf.fast_sweep).
+        (bridgeflap.model.stability.hopf.fast_sweep).
     """
     if method not in SWEEP_METHODS:
         raise BridgeflapInputError("sweep", f"must be one of {SWEEP_METHODS}, got {method!r}")
     speeds = check_speeds(speeds)
-    from model.stability.hopf import CountedSystem, fast_sweep
+    from bridgeflap.model.stability.hopf import CountedSystem, fast_sweep
 
     counted = CountedSystem(system)
     if method == "fast":

@@ -1,13 +1,13 @@
 """Branch continuation and the building blocks of a verified stability crossing.
 
 Statuses, the :class:`Crossing` record and the speed-grid check shared by the RFA sweep
-(:mod:`model.stability.sweeps`) and the exact p-k (:mod:`model.stability.pk`); eigenvalue-only
-continuation of branches with adaptive sub-steps (:func:`_track_interval` for all structural
-branches at once,
+(:mod:`bridgeflap.model.stability.sweeps`) and the exact p-k (:mod:`bridgeflap.model.stability.pk`);
+eigenvalue-only continuation of branches with adaptive sub-steps (:func:`_track_interval` for all
+structural branches at once,
 :func:`_follow` for one eigenvalue near a crossing), both on the step-halving loop
 :func:`continue_adaptive` that the p-k continuation shares; one eigenpair continued by Newton,
 linear solves only (:func:`continue_eigenpair`, :func:`eigen_sensitivity`: the fast sweep's,
-:mod:`model.stability.hopf`). Method: docs/methods.md#stability.
+:mod:`bridgeflap.model.stability.hopf`). Method: docs/methods.md#stability.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import linear_sum_assignment
 
-from model.aeroelastic.statespace import AeroelasticSystem
-from model.grid import speed_grid
+from bridgeflap.model.aeroelastic.statespace import AeroelasticSystem
+from bridgeflap.model.grid import speed_grid
 
 CONVERGED = "converged"
 NO_CROSSING = "no_crossing_in_range"
@@ -59,7 +59,7 @@ HARD_ONSET_DAMPING_SLOPE_S_PER_M = 1e-3
 def check_speeds(speeds) -> np.ndarray:
     """Validate a wind-speed grid [m/s]: finite, non-negative, increasing, at least 2 points.
 
-    ``speeds``: any form of :func:`model.grid.speed_grid` (``"0:85:0.5"`` text included).
+    ``speeds``: any form of :func:`bridgeflap.model.grid.speed_grid` (``"0:85:0.5"`` text included).
     """
     return speed_grid(speeds, min_points=2, increasing=True)
 
@@ -75,9 +75,9 @@ class Crossing:
     from U = 0, or ``"participation"``: the largest kinetic-energy share of the crossing
     eigenvector; for divergence ``"static_aero_work"``: the coordinate whose deflection does the
     largest share of the static aerodynamic work,
-    :func:`model.stability.sweeps.divergence_mechanism`); ``reason`` says why a crossing is not
-    ``converged``; ``mechanism`` names a divergence by the family of the coordinates that generate
-    its static aerodynamic load (``"torsional"``
+    :func:`bridgeflap.model.stability.sweeps.divergence_mechanism`); ``reason`` says why a crossing
+    is not ``converged``; ``mechanism`` names a divergence by the family of the coordinates that
+    generate its static aerodynamic load (``"torsional"``
     for strip loads, where only twist makes static lift and moment).
     """
 
@@ -234,11 +234,12 @@ def continue_adaptive(step, u0, y0, s0, u1, halvings, may_halve=None):
     """Continue a value ``y0`` at ``u0`` [m/s] (slope ``s0`` per m/s) to ``u1`` by sub-steps.
 
     The one step-halving loop of the branch continuations (:func:`_track_interval`,
-    :func:`_follow`, the p-k's :func:`model.stability.pk._pk_continue`). ``step(t, prediction)``
-    returns ``(value at t, good)``; a step that is not good is halved (``may_halve()``, when given,
-    must also agree: a budget of extra evaluations) down to ``2**-halvings`` of ``|u1 - u0|``, and
-    accepted as it is below that. The linear predictor's slope is the last accepted secant
-    (none from a denormal-sized step: a grid starting at 5e-324 m/s would overflow it).
+    :func:`_follow`, the p-k's :func:`bridgeflap.model.stability.pk._pk_continue`). ``step(t,
+    prediction)`` returns ``(value at t, good)``; a step that is not good is halved
+    (``may_halve()``, when given, must also agree: a budget of extra evaluations) down to
+    ``2**-halvings`` of ``|u1 - u0|``, and accepted as it is below that. The linear predictor's
+    slope is the last accepted secant (none from a denormal-sized step: a grid starting at 5e-324
+    m/s would overflow it).
     Returns ``(value at u1, slope, number of steps accepted although not good)``.
     """
     u, y, s = float(u0), y0, s0

@@ -7,6 +7,6 @@ modes (``mode`` one mode, ``modes`` the solution), span and tower positions (``s
 Ritz projection (``ritz``), imported modal models (``modal_files``, ``modal_model``,
 ``modal_import``) and the mode-shape figures (``plots``).
 
-May import: the foundation of :mod:`model` and :mod:`model.aero` (an imported modal bridge
-carries its flutter-derivative tables and static coefficients).
+May import: the foundation of :mod:`bridgeflap.model` and :mod:`bridgeflap.model.aero` (an imported
+modal bridge carries its flutter-derivative tables and static coefficients).
 """

@@ -1,13 +1,13 @@
 """Every function that takes a bridge takes a name, a file or a
-:class:`~model.structure.spec.BridgeSpec`.
+:class:`~bridgeflap.model.structure.spec.BridgeSpec`.
 
 :func:`takes_bridge` decorates a public function whose first parameter is the bridge: a
 built-in name (``"humber"``, ``"humber:box"``), a bridge TOML path (``str`` or
-:class:`os.PathLike`) is loaded with :func:`model.structure.loader.load_bridge`; anything else (a
-spec, an erection stage, an aeroelastic system where the function also takes one) is passed on as it
-is. The bad-input contract is :func:`~model.structure.loader.load_bridge`'s: one line naming
-``bridge``. A keyword the API no longer uses (``spec=``, ``count=``, ``wind_speed=``) raises naming
-its new name (:func:`model.vocabulary.check_renamed`).
+:class:`os.PathLike`) is loaded with :func:`bridgeflap.model.structure.loader.load_bridge`; anything
+else (a spec, an erection stage, an aeroelastic system where the function also takes one) is passed
+on as it is. The bad-input contract is :func:`~bridgeflap.model.structure.loader.load_bridge`'s: one
+line naming ``bridge``. A keyword the API no longer uses (``spec=``, ``count=``, ``wind_speed=``)
+raises naming its new name (:func:`bridgeflap.model.vocabulary.check_renamed`).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import inspect
 import os
 from typing import TYPE_CHECKING, Union
 
-from model.arguments import (
+from bridgeflap.model.arguments import (
     check_choice,
     check_path,
     check_text,
@@ -26,10 +26,10 @@ from model.arguments import (
     one_of,
     optional,
 )
-from model.errors import BridgeflapTypeError
+from bridgeflap.model.errors import BridgeflapTypeError
 
 if TYPE_CHECKING:
-    from model.structure.spec import BridgeSpec
+    from bridgeflap.model.structure.spec import BridgeSpec
 
 __all__ = ["BRIDGE_RULES", "BridgeArg", "as_bridge", "as_rfa", "check_bridge_kind", "check_system",
            "takes_bridge"]
@@ -39,19 +39,20 @@ BridgeArg = Union[str, os.PathLike, "BridgeSpec"]  # noqa: UP007 - a forward ref
 
 
 def _is_system(value) -> bool:
-    """An aeroelastic system (``A(U)`` and a basis): what :func:`model.buffeting` also takes."""
+    """An aeroelastic system (``A(U)`` and a basis): what :func:`bridgeflap.model.buffeting` also
+    takes."""
     return callable(getattr(value, "A", None)) and hasattr(value, "basis")
 
 
 def as_bridge(bridge, field: str = "bridge"):
     """``load_bridge(bridge)`` for a name or a path; a spec (an erection stage is one) or an
     aeroelastic system as it is; anything else is a
-    :class:`~model.errors.BridgeflapTypeError` naming ``field``.
+    :class:`~bridgeflap.model.errors.BridgeflapTypeError` naming ``field``.
     """
-    from model.structure.spec import BridgeSpec
+    from bridgeflap.model.structure.spec import BridgeSpec
 
     if isinstance(bridge, str | os.PathLike):
-        from model.structure.loader import load_bridge
+        from bridgeflap.model.structure.loader import load_bridge
 
         check_path(bridge, field)
         return load_bridge(bridge)
@@ -64,14 +65,15 @@ def as_bridge(bridge, field: str = "bridge"):
 def check_system(value, field: str = "system"):
     """``value`` if it is an aeroelastic system (``A(U)`` and a basis)."""
     if not _is_system(value):
-        raise BridgeflapTypeError(field, "must be an aeroelastic system (model.bridge_system), "
+        raise BridgeflapTypeError(field,
+                                  "must be an aeroelastic system (bridgeflap.model.bridge_system), "
                                          f"got {describe(value)}")
     return value
 
 
 def check_bridge_kind(bridge, field: str = "bridge"):
     """``bridge`` if it is a name or a path (read later, by the caller) or a spec."""
-    from model.structure.spec import BridgeSpec
+    from bridgeflap.model.structure.spec import BridgeSpec
 
     if isinstance(bridge, str | os.PathLike):
         return check_path(bridge, field)
@@ -82,9 +84,9 @@ def check_bridge_kind(bridge, field: str = "bridge"):
 
 
 def as_rfa(value, field: str = "rfa"):
-    """``value`` if it names a rational approximation (:data:`model.aero.rfa.RFA_NAMES`) or is
-    a :class:`~model.aero.rfa.RationalApprox`."""
-    from model.aero.rfa import RFA_NAMES, RationalApprox
+    """``value`` if it names a rational approximation (:data:`bridgeflap.model.aero.rfa.RFA_NAMES`)
+    or is a :class:`~bridgeflap.model.aero.rfa.RationalApprox`."""
+    from bridgeflap.model.aero.rfa import RFA_NAMES, RationalApprox
 
     if isinstance(value, RationalApprox):
         return value
@@ -92,11 +94,11 @@ def as_rfa(value, field: str = "rfa"):
 
 
 def _modal(value, field: str = "modal"):
-    from model.structure.modal_model import ImportedModalModel
-    from model.structure.modes import ModalModel
+    from bridgeflap.model.structure.modal_model import ImportedModalModel
+    from bridgeflap.model.structure.modes import ModalModel
 
     if not isinstance(value, ModalModel | ImportedModalModel):
-        raise BridgeflapTypeError(field, "must be a ModalModel (model.modal_model), got "
+        raise BridgeflapTypeError(field, "must be a ModalModel (bridgeflap.model.modal_model), got "
                                          f"{describe(value)}")
     return value
 
@@ -115,7 +117,7 @@ BRIDGE_RULES = {
 def takes_bridge(fn=None, **rules):
     """Decorate ``fn`` so that its first parameter accepts a name, a file or a spec.
 
-    The other arguments pass :func:`model.arguments.checked` (the vocabulary's rules and
+    The other arguments pass :func:`bridgeflap.model.arguments.checked` (the vocabulary's rules and
     ``rules``): ``@takes_bridge`` or ``@takes_bridge(controller=as_controller)``.
     """
     if fn is None:

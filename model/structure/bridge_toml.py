@@ -1,11 +1,13 @@
-"""The bridge TOML text of a :class:`~model.structure.spec.BridgeSpec` (the loader's format).
+"""The bridge TOML text of a :class:`~bridgeflap.model.structure.spec.BridgeSpec` (the loader's
+format).
 
 :func:`bridge_toml` gives the text from the spec's attributes only (it imports no spec
-module, so :meth:`BridgeSpec.to_toml` can call it); :func:`model.structure.spec_writer.to_toml`
-checks its argument and :func:`model.structure.spec_writer.save_bridge` writes the file. The
-round trip ``load_bridge(path) -> to_toml -> write -> load_bridge`` gives an equal spec (``==``)
-with the same ``sources`` and the same lumped ``deck_section``, for every built-in bridge and
-variant (tests/test_spec_writer.py). What is written:
+module, so :meth:`BridgeSpec.to_toml` can call it);
+:func:`bridgeflap.model.structure.spec_writer.to_toml` checks its argument and
+:func:`bridgeflap.model.structure.spec_writer.save_bridge` writes the file. The round trip
+``load_bridge(path) -> to_toml -> write -> load_bridge`` gives an equal spec (``==``) with the same
+``sources`` and the same lumped ``deck_section``, for every built-in bridge and variant
+(tests/test_spec_writer.py). What is written:
 
 * every resolved value (a variant's values applied: ``humber:box`` is written as a plain bridge
   named ``"humber:box"``, without a ``[variants]`` table), as ``{ value, source }`` when the
@@ -32,7 +34,7 @@ import os
 
 import tomli_w
 
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["bridge_toml"]
 
@@ -116,7 +118,8 @@ class _Writer:
 
 
 def _header(w: _Writer, spec) -> None:
-    w.add(f"# Bridge {spec.name!r} written by bridgeflap (model.structure.spec_writer.to_toml): "
+    w.add(f"# Bridge {spec.name!r} written by bridgeflap "
+          f"(bridgeflap.model.structure.spec_writer.to_toml): "
           "every value")
     w.add("# resolved, with its source. Load it with model.load_bridge(<this file>).")
     w.add(f"name = {_lit(spec.name)}")
@@ -166,7 +169,7 @@ def _fe(spec) -> str:
         w.value(path, f.name, v)
     w.add()
     if keep:
-        from model.structure.section_props import _GEOMETRY
+        from bridgeflap.model.structure.section_props import _GEOMETRY
 
         for item in section.items:
             w.add("[[deck_section]]")
@@ -217,8 +220,8 @@ def _modal(spec) -> str:
 
 
 def bridge_toml(spec) -> str:
-    """The bridge TOML text of ``spec``, a :class:`~model.structure.spec.BridgeSpec` (module
-    docstring: what is written, the round trip).
+    """The bridge TOML text of ``spec``, a :class:`~bridgeflap.model.structure.spec.BridgeSpec`
+    (module docstring: what is written, the round trip).
 
     Raises
     ------

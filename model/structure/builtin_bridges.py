@@ -1,6 +1,6 @@
 """The built-in bridges: their names and definition files under ``model/bridges/``.
 
-``load_bridge("humber")`` (:func:`model.structure.loader.load_bridge`) reads
+``load_bridge("humber")`` (:func:`bridgeflap.model.structure.loader.load_bridge`) reads
 ``model/bridges/humber.toml``; files a built-in bridge refers to (modal data, derivative
 tables) are relative to its own folder (:func:`builtin_folder`).
 """
@@ -21,5 +21,6 @@ BUILTIN_BRIDGES = tuple(BUILTIN_FILES)
 def builtin_folder(origin: str) -> Path | None:
     """The folder of built-in bridge ``origin``'s definition file; None for any other origin."""
     if origin in BUILTIN_FILES:
-        return Path(str(resources.files("model.bridges").joinpath(BUILTIN_FILES[origin]))).parent
+        return Path(str(resources.files("bridgeflap.model.bridges").joinpath(
+            BUILTIN_FILES[origin]))).parent
     return None

@@ -16,13 +16,13 @@ Two routes are implemented:
 
 All loads are per cable [N/m] of horizontal length; ``H`` is per cable [N]. The cable's own
 weight is ``m_c g ds/dx`` per horizontal metre (``m_c`` per metre of cable,
-:class:`model.structure.spec.Cable`), taken uniform within each span at the span's mean ``ds/dx =
-S_i/L_i`` (so that each span carries exactly its cable's weight ``m_c g S_i``) and found by a
-fixed-point iteration with the profile (converged to 1e-12 in ``ds/dx``; it changes the weight by up
-to 10 % in an inclined side span). Within a span the true ``ds/dx`` varies by up to 5 % (main span,
-sag/span 1/12); the load distribution error this leaves is second order in the slope. Each span
-has its own cable area (``EA_i``) in the length compatibility, so the compatibility flexibility
-is ``sum_i L_E,i / (E A_i)``. Conventions: see :mod:`model`.
+:class:`bridgeflap.model.structure.spec.Cable`), taken uniform within each span at the span's mean
+``ds/dx = S_i/L_i`` (so that each span carries exactly its cable's weight ``m_c g S_i``) and found
+by a fixed-point iteration with the profile (converged to 1e-12 in ``ds/dx``; it changes the weight
+by up to 10 % in an inclined side span). Within a span the true ``ds/dx`` varies by up to 5 % (main
+span, sag/span 1/12); the load distribution error this leaves is second order in the slope. Each
+span has its own cable area (``EA_i``) in the length compatibility, so the compatibility flexibility
+is ``sum_i L_E,i / (E A_i)``. Conventions: see :mod:`bridgeflap.model`.
 
 References
 ----------
@@ -37,8 +37,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from model.errors import BridgeflapError
-from model.structure.spec import BridgeSpec
+from bridgeflap.model.errors import BridgeflapError
+from bridgeflap.model.structure.spec import BridgeSpec
 
 G = 9.80665  # standard gravity [m/s^2]
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(24)

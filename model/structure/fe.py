@@ -30,8 +30,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.structure.cable import CableStatics, G, dead_load
-from model.structure.spec import BridgeSpec
+from bridgeflap.model.structure.cable import CableStatics, G, dead_load
+from bridgeflap.model.structure.spec import BridgeSpec
 
 FAMILIES = ("vertical", "lateral", "torsional")
 
@@ -201,15 +201,16 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
     ----------
     spec : BridgeSpec
     statics : CableStatics, optional
-        Dead-load state; computed by :func:`model.structure.cable.dead_load` when omitted.
+        Dead-load state; computed by :func:`bridgeflap.model.structure.cable.dead_load` when
+        omitted.
     erection_gj_factor : float
         Fraction of GJ the deck keeps while erecting (seed §2: one half; 1 gives the paper's
         "full GJ" comparison curve of Fig. 2).
-        An imported modal bridge (:mod:`model.structure.modal_import`) gives its strips instead
-        (:func:`model.structure.modal_model.imported_structure`).
+        An imported modal bridge (:mod:`bridgeflap.model.structure.modal_import`) gives its strips
+        instead (:func:`bridgeflap.model.structure.modal_model.imported_structure`).
     """
     if getattr(spec, "structure", None) is not None:
-        from model.structure.modal_model import imported_structure
+        from bridgeflap.model.structure.modal_model import imported_structure
 
         return imported_structure(spec)
     statics = dead_load(spec) if statics is None else statics

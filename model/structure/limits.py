@@ -1,7 +1,8 @@
-"""Plausible ranges and value checks of bridge inputs (used by :mod:`model.structure.spec`).
+"""Plausible ranges and value checks of bridge inputs (used by
+:mod:`bridgeflap.model.structure.spec`).
 
-Every check raises :class:`~model.errors.BridgeflapInputError` naming the field, so that a
-value no bridge can have (1e300, NaN, a negative mass, a zero length) stops at load instead of
+Every check raises :class:`~bridgeflap.model.errors.BridgeflapInputError` naming the field, so that
+a value no bridge can have (1e300, NaN, a negative mass, a zero length) stops at load instead of
 ending in an overflow or in "stiffness is not positive definite" naming no input.
 """
 
@@ -10,7 +11,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["MAX_ELEMENTS", "MAX_SECTION_COORDINATE_M", "MAX_STRIPS", "MIN_SAG_RATIO",
            "PLAUSIBLE_RANGES",
@@ -72,8 +73,8 @@ MAX_SECTION_COORDINATE_M = 1.0e3
 
 
 def check_section_geometry(items: Any) -> None:
-    """Bound the ``*_m`` values of ``[[deck_section]]`` items (:mod:`model.structure.section_props`
-    checks
+    """Bound the ``*_m`` values of ``[[deck_section]]`` items
+    (:mod:`bridgeflap.model.structure.section_props` checks
     the rest: kinds, keys, finiteness, masses)."""
     if not isinstance(items, list):
         return

@@ -1,13 +1,14 @@
 """Reading a bridge: built-in names, TOML files, variants, parsed dicts -> :class:`BridgeSpec`.
 
 A bridge file is TOML. Every physical value is either a bare number or a table
-``{ value = ..., source = "..." }``; built-in bridges (:mod:`model.structure.builtin_bridges`)
-give a source for every value (data-sheet tag, or ``ESTIMATE: reasoning``).
+``{ value = ..., source = "..." }``; built-in bridges
+(:mod:`bridgeflap.model.structure.builtin_bridges`) give a source for every value (data-sheet tag,
+or ``ESTIMATE: reasoning``).
 :func:`load_bridge` reads a name or a file (``"name:variant"`` applies a ``[variants]`` table);
-:func:`spec_from_dict` builds the frozen dataclasses of :mod:`model.structure.spec` from parsed
-TOML, and hands a file with ``[structure]`` (an imported modal model) to
-:func:`model.structure.modal_import.modal_spec_from_dict`. Writing a bridge back is
-:mod:`model.structure.spec_writer`. Conventions: see :mod:`model`.
+:func:`spec_from_dict` builds the frozen dataclasses of :mod:`bridgeflap.model.structure.spec` from
+parsed TOML, and hands a file with ``[structure]`` (an imported modal model) to
+:func:`bridgeflap.model.structure.modal_import.modal_spec_from_dict`. Writing a bridge back is
+:mod:`bridgeflap.model.structure.spec_writer`. Conventions: see :mod:`bridgeflap.model`.
 
 Example
 -------
@@ -23,13 +24,13 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from model.arguments import check_mapping, check_text, checked, optional
-from model.errors import BridgeflapInputError
-from model.structure.builtin_bridges import BUILTIN_BRIDGES, BUILTIN_FILES
-from model.structure.limits import check_section_geometry, to_float
-from model.structure.modal_import import aero_sections, modal_spec_from_dict
-from model.structure.section_props import section_from_list
-from model.structure.spec import (
+from bridgeflap.model.arguments import check_mapping, check_text, checked, optional
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure.builtin_bridges import BUILTIN_BRIDGES, BUILTIN_FILES
+from bridgeflap.model.structure.limits import check_section_geometry, to_float
+from bridgeflap.model.structure.modal_import import aero_sections, modal_spec_from_dict
+from bridgeflap.model.structure.section_props import section_from_list
+from bridgeflap.model.structure.spec import (
     _DECK_KEYS,
     PARAMETER_PATHS,
     Aero,
@@ -93,7 +94,8 @@ def _split_variant(s: str) -> tuple[str, str | None]:
 def _read_source(name_or_path: str | Path) -> tuple[str, str]:
     s = str(name_or_path)
     if s in BUILTIN_BRIDGES:
-        return resources.files("model.bridges").joinpath(BUILTIN_FILES[s]).read_text("utf-8"), s
+        return resources.files("bridgeflap.model.bridges").joinpath(
+            BUILTIN_FILES[s]).read_text("utf-8"), s
     path = Path(s)
     if path.suffix.lower() != ".toml":
         raise BridgeflapInputError(
@@ -128,9 +130,9 @@ def spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = Non
     """Build a :class:`BridgeSpec` from parsed TOML, recording each value's source.
 
     Unknown sections and keys, non-boolean switches and duplicate span names are rejected with
-    the field named. A ``[[deck_section]]`` array (:mod:`model.structure.section_props`) gives the
-    deck mass and mass moment of inertia as sums of lumped items; ``[deck]`` then must not repeat
-    them. ``variant`` applies ``[variants.<variant>]`` (see :func:`load_bridge`).
+    the field named. A ``[[deck_section]]`` array (:mod:`bridgeflap.model.structure.section_props`)
+    gives the deck mass and mass moment of inertia as sums of lumped items; ``[deck]`` then must not
+    repeat them. ``variant`` applies ``[variants.<variant>]`` (see :func:`load_bridge`).
     """
     if isinstance(data, dict) and "structure" in data:  # imported modal model
         return modal_spec_from_dict(data, origin, variant)

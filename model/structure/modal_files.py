@@ -1,9 +1,9 @@
 """Modal data files: reading, checking and writing (``.npz`` without pickles, JSON, CSV).
 
 The file formats and units are in docs/modal_import.md#files; :func:`read_modal_file` returns a
-checked :class:`ModalData` in SI units (heave positive down, :mod:`model`), and
+checked :class:`ModalData` in SI units (heave positive down, :mod:`bridgeflap.model`), and
 :func:`export_modal` writes the modes of an FE model in the same formats. The bridge-definition
-side is :mod:`model.structure.modal_import`.
+side is :mod:`bridgeflap.model.structure.modal_import`.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["FAMILIES", "FREQUENCY_RANGE_HZ", "NORMALISATIONS", "UNIT_FACTORS", "ModalData",
            "export_modal", "needs_fe", "read_modal_file", "read_polimi_derivatives",
@@ -343,7 +343,8 @@ def read_modal_file(path, units: dict, normalisation: str = "mass",
 
 
 def export_modal(modal, path, count: int | None = None) -> Path:
-    """Write the deck shapes of an FE :class:`model.structure.modes.ModalModel` as a modal file.
+    """Write the deck shapes of an FE :class:`bridgeflap.model.structure.modes.ModalModel` as a
+    modal file.
 
     The stations are the FE model's aerodynamic strip mid-points (x from the first span's
     start), so that re-importing with ``deck_segments_m`` = the decked spans and the FE strip
@@ -411,10 +412,10 @@ def read_polimi_derivatives(path, chord_m: float, field_name: str = "derivatives
     ``v_pitch`` (reduced velocities ``U / (omega B)``, increasing), ``abscissa_of_column``
     (which of the two each of the 6 ``h``/``a`` columns is tabulated on; ``p`` is on
     ``v_pitch``) and ``polimi`` ``{"h", "a", "p"}`` tables (rows = reduced velocities, 6
-    columns). Returns a :class:`model.aero.derivatives.PolimiDerivatives` (linear interpolation of
-    the PoliMi coefficients in ``v``, end values held, then
-    :func:`model.aero.derivatives.polimi_to_scanlan`) with ``lateral=True`` when ``p`` or the
-    lateral ``h``/``a`` columns are non-zero.
+    columns). Returns a :class:`bridgeflap.model.aero.derivatives.PolimiDerivatives` (linear
+    interpolation of the PoliMi coefficients in ``v``, end values held, then
+    :func:`bridgeflap.model.aero.derivatives.polimi_to_scanlan`) with ``lateral=True`` when ``p`` or
+    the lateral ``h``/``a`` columns are non-zero.
 
     Raises
     ------
@@ -422,7 +423,7 @@ def read_polimi_derivatives(path, chord_m: float, field_name: str = "derivatives
         Missing file or key, tables of the wrong size, NaN, axes not positive and increasing,
         non-zero columns whose conversion is ambiguous (``h6``, ``a6``, ``p4``, ``p6``).
     """
-    from model.aero.derivatives import PolimiDerivatives
+    from bridgeflap.model.aero.derivatives import PolimiDerivatives
 
     path = Path(path)
     if not path.is_file():

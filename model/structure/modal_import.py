@@ -5,26 +5,30 @@ gives natural frequencies, damping ratios, generalised masses and the deck mode 
 (vertical, torsional, optionally lateral) at stations along the deck, read from a plain file
 (``.npz`` without pickles, ``.json``, or ``.csv``) with the units stated. Three modules:
 
-* :mod:`model.structure.modal_files` reads and checks the file (:func:`read_modal_file` ->
+* :mod:`bridgeflap.model.structure.modal_files` reads and checks the file (:func:`read_modal_file`
+  ->
   :class:`ModalData`: stations strictly increasing, no NaN, matching station and mode counts,
   positive frequencies and masses) and writes FE modes (:func:`export_modal`);
 * this module parses the definition (:class:`ModalStructure`: deck segments and strips, linear
   interpolation of the shapes onto them, the generalised-mass check) and builds the bridge
   (:class:`ModalBridgeSpec`);
-* :mod:`model.structure.modal_model` gives the :class:`ImportedModalModel`, with the interface of
-  :class:`model.structure.modes.ModalModel` (``modes``, ``table``, ``find``, ``structural_basis``,
-  ``plot``), so that flutter, buffeting, the state-space export, flaps and control design,
-  sensitivities to aerodynamic inputs and DOE run on it unchanged.
+* :mod:`bridgeflap.model.structure.modal_model` gives the :class:`ImportedModalModel`, with the
+  interface of
+  :class:`bridgeflap.model.structure.modes.ModalModel` (``modes``, ``table``, ``find``,
+  ``structural_basis``, ``plot``), so that flutter, buffeting, the state-space export, flaps and
+  control design, sensitivities to aerodynamic inputs and DOE run on it unchanged.
 
-The hook: :func:`model.structure.loader.spec_from_dict` hands a file with ``[structure]`` to
-:func:`modal_spec_from_dict`, :func:`model.structure.fe.assemble` returns an
-:class:`ImportedStructure` for such a bridge and :func:`model.structure.modes.solve` turns it into
-the :class:`ImportedModalModel`. The bridge is a :class:`ModalBridgeSpec` (a
-:class:`model.structure.spec.BridgeSpec` whose cable, mesh and FE deck properties raise one-line
-:class:`~model.errors.BridgeflapInputError` s: erection, cable statics and FE modes need the
-built-in cable model). Conventions (signs, ``b``, x):
-:mod:`model`; the file's own vertical sign is stated (``vertical_positive``) and converted to
-heave down.
+The hook: :func:`bridgeflap.model.structure.loader.spec_from_dict` hands a file with ``[structure]``
+to
+:func:`modal_spec_from_dict`, :func:`bridgeflap.model.structure.fe.assemble` returns an
+:class:`ImportedStructure` for such a bridge and :func:`bridgeflap.model.structure.modes.solve`
+turns it into the :class:`ImportedModalModel`. The bridge is a :class:`ModalBridgeSpec` (a
+:class:`bridgeflap.model.structure.spec.BridgeSpec` whose cable, mesh and FE deck properties raise
+one-line
+:class:`~bridgeflap.model.errors.BridgeflapInputError` s: erection, cable statics and FE modes need
+the built-in cable model). Conventions (signs, ``b``, x):
+:mod:`bridgeflap.model`; the file's own vertical sign is stated (``vertical_positive``) and
+converted to heave down.
 """
 
 from __future__ import annotations
@@ -37,11 +41,11 @@ from pathlib import Path
 
 import numpy as np
 
-from model.errors import BridgeflapInputError
-from model.structure import spec as sm
-from model.structure.builtin_bridges import builtin_folder
-from model.structure.limits import MAX_STRIPS
-from model.structure.modal_files import (
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure import spec as sm
+from bridgeflap.model.structure.builtin_bridges import builtin_folder
+from bridgeflap.model.structure.limits import MAX_STRIPS
+from bridgeflap.model.structure.modal_files import (
     FAMILIES,
     UNIT_FACTORS,
     ModalData,
@@ -50,8 +54,8 @@ from model.structure.modal_files import (
     read_polimi_derivatives,
     units_from_table,
 )
-from model.structure.modal_files import needs_fe as _needs_fe
-from model.structure.modal_model import (
+from bridgeflap.model.structure.modal_files import needs_fe as _needs_fe
+from bridgeflap.model.structure.modal_model import (
     ImportedModalModel,
     ImportedStructure,
     compare_modes,
@@ -289,15 +293,15 @@ class DerivativeLoads:
     """The ``[derivatives]`` section: self-excited loads from flutter-derivative tables.
 
     Instead of the thin-aerofoil (Theodorsen) strip loads, the deck's self-excited loads come
-    from measured flutter derivatives (:mod:`model.aero.derivatives`), turned into a Roger RFA
-    state space on the modal coordinates
-    (:func:`model.aeroelastic.derivative_system.derivative_bridge_system`). ``file`` is a
+    from measured flutter derivatives (:mod:`bridgeflap.model.aero.derivatives`), turned into a
+    Roger RFA state space on the modal coordinates
+    (:func:`bridgeflap.model.aeroelastic.derivative_system.derivative_bridge_system`). ``file`` is a
     table of the ``form`` ``"polimi-json"``
-    (:func:`model.structure.modal_files.read_polimi_derivatives`, the IABSE step-2a "BB3" file);
-    ``lateral`` includes the lateral DOF (the drag and lateral-coupling derivatives on the lateral
-    shapes of the modes, lateral modes retained) when the modal file has lateral shapes; ``n_lags``,
-    ``fit_k_range`` (``[K_min, K_max]`` of ``K = B omega / U``, default the table's) and
-    ``weighting`` set the RFA (:func:`model.aero.derivatives.fit_roger`).
+    (:func:`bridgeflap.model.structure.modal_files.read_polimi_derivatives`, the IABSE step-2a "BB3"
+    file); ``lateral`` includes the lateral DOF (the drag and lateral-coupling derivatives on the
+    lateral shapes of the modes, lateral modes retained) when the modal file has lateral shapes;
+    ``n_lags``, ``fit_k_range`` (``[K_min, K_max]`` of ``K = B omega / U``, default the table's) and
+    ``weighting`` set the RFA (:func:`bridgeflap.model.aero.derivatives.fit_roger`).
     """
 
     file: str
@@ -309,8 +313,8 @@ class DerivativeLoads:
     source: str = ""
 
     def table(self, chord_m: float):
-        """The :class:`~model.aero.derivatives.FlutterDerivatives` of the file (deck chord B
-        [m])."""
+        """The :class:`~bridgeflap.model.aero.derivatives.FlutterDerivatives` of the file (deck
+        chord B [m])."""
         return _derivative_table(self.file, float(chord_m))
 
     def fit(self, chord_m: float, n_dof: int):
@@ -325,7 +329,7 @@ def _derivative_table(file: str, chord_m: float):
 
 @functools.lru_cache(maxsize=8)
 def _derivative_fit(loads: DerivativeLoads, chord_m: float, n_dof: int):
-    from model.aero.derivatives import fit_roger
+    from bridgeflap.model.aero.derivatives import fit_roger
 
     return fit_roger(loads.table(chord_m), n_lags=loads.n_lags, n_dof=n_dof,
                      k_range=loads.fit_k_range, weighting=loads.weighting)
@@ -376,7 +380,7 @@ def aero_sections(data: dict, origin: str = "<dict>", prefix: str = "") -> dict:
     Only the keys present in ``data`` are returned; files are relative to the bridge file's
     folder (``origin``); ``prefix`` names a variant in the error messages.
     """
-    from model.aero.quasi_steady import static_from_dict
+    from bridgeflap.model.aero.quasi_steady import static_from_dict
 
     base = builtin_folder(origin)
     if base is None:
@@ -437,8 +441,8 @@ class ModalDeck:
 class ModalBridgeSpec(sm.BridgeSpec):
     """A bridge whose structure is an imported modal model (module docstring).
 
-    A :class:`model.structure.spec.BridgeSpec` (``isinstance`` works) with ``structure`` set; the
-    cable, the mesh and the FE deck properties raise one-line input errors, erection stages
+    A :class:`bridgeflap.model.structure.spec.BridgeSpec` (``isinstance`` works) with ``structure``
+    set; the cable, the mesh and the FE deck properties raise one-line input errors, erection stages
     are refused, and :meth:`replace` accepts :data:`MODAL_PARAMETER_PATHS`.
     """
 

@@ -1,10 +1,11 @@
 """The modal model of an imported bridge: strips, modes and the structural basis.
 
-:class:`ImportedStructure` is what :func:`model.structure.fe.assemble` returns for a bridge with
-``[structure] kind = "modal"`` (:mod:`model.structure.modal_import`), and
-:class:`ImportedModalModel` what :func:`model.structure.modes.solve` makes of it: the interface of
-:class:`model.structure.modes.ModalModel` (``modes``, ``table``, ``find``, ``structural_basis``,
-``plot``). docs/modal_import.md.
+:class:`ImportedStructure` is what :func:`bridgeflap.model.structure.fe.assemble` returns for a
+bridge with ``[structure] kind = "modal"`` (:mod:`bridgeflap.model.structure.modal_import`), and
+:class:`ImportedModalModel` what :func:`bridgeflap.model.structure.modes.solve` makes of it: the
+interface of
+:class:`bridgeflap.model.structure.modes.ModalModel` (``modes``, ``table``, ``find``,
+``structural_basis``, ``plot``). docs/modal_import.md.
 """
 
 from __future__ import annotations
@@ -14,10 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.aero.basis import StructuralBasis
-from model.errors import BridgeflapError, BridgeflapInputError
-from model.structure.modal_files import needs_fe as _needs_fe
-from model.structure.mode import Mode
+from bridgeflap.model.aero.basis import StructuralBasis
+from bridgeflap.model.errors import BridgeflapError, BridgeflapInputError
+from bridgeflap.model.structure.modal_files import needs_fe as _needs_fe
+from bridgeflap.model.structure.mode import Mode
 
 __all__ = ["ImportedModalModel", "ImportedStructure", "compare_modes", "imported_structure"]
 
@@ -27,7 +28,8 @@ __all__ = ["ImportedModalModel", "ImportedStructure", "compare_modes", "imported
 
 @dataclass(frozen=True)
 class ImportedStructure:
-    """What :func:`model.structure.fe.assemble` returns for a modal bridge: the strips and the data.
+    """What :func:`bridgeflap.model.structure.fe.assemble` returns for a modal bridge: the strips
+    and the data.
 
     FE-only attributes (``statics``, ``families``, ``elements``) raise one-line input errors.
     """
@@ -66,7 +68,8 @@ class ImportedStructure:
 
 
 def imported_structure(spec) -> ImportedStructure:
-    """The strips of a :class:`ModalBridgeSpec` (the :func:`model.structure.fe.assemble` hook)."""
+    """The strips of a :class:`ModalBridgeSpec` (the :func:`bridgeflap.model.structure.fe.assemble`
+    hook)."""
     sx, sl = spec.structure.strips()
     return ImportedStructure(spec=spec, strip_x=sx - spec.structure.deck_segments_m[0][0],
                              strip_length=sl)
@@ -74,11 +77,12 @@ def imported_structure(spec) -> ImportedStructure:
 
 @dataclass(frozen=True)
 class ImportedModalModel:
-    """An imported modal model with the interface of :class:`model.structure.modes.ModalModel`.
+    """An imported modal model with the interface of
+    :class:`bridgeflap.model.structure.modes.ModalModel`.
 
     Attributes
     ----------
-    modes : tuple of model.structure.modes.Mode
+    modes : tuple of bridgeflap.model.structure.modes.Mode
         Sorted by frequency; labels from the file, else ``VS1``-style from the shapes.
     order : tuple of int
         Column of :attr:`ModalStructure.data` of each entry of ``modes``.
@@ -116,7 +120,7 @@ class ImportedModalModel:
 
     def table(self, fmt: str = "github") -> str:
         """:meth:`to_dataframe` as text (``fmt``: any :mod:`tabulate` format)."""
-        from model.results import table_text
+        from bridgeflap.model.results import table_text
 
         return table_text(self.to_dataframe(), fmt)
 
@@ -153,7 +157,7 @@ class ImportedModalModel:
 
     def derivative_basis(self, count: int, lateral: bool = True) -> tuple:
         """``(basis, phi_p)`` for flutter-derivative loads
-        (:mod:`model.aeroelastic.derivative_system`).
+        (:mod:`bridgeflap.model.aeroelastic.derivative_system`).
 
         With ``lateral`` and lateral shapes in the file: the lowest ``count`` modes of all
         families together (lateral modes included, since the drag derivatives act on them)
@@ -181,16 +185,16 @@ class ImportedModalModel:
         return basis, self.strip_shapes["lateral"][:, cols]
 
     def plot(self, labels=None, ax=None, per_family: int = 3):
-        """Mode shapes by family (as :meth:`model.structure.modes.ModalModel.plot`); returns the
-        Figure."""
-        from model.results import figure_of
+        """Mode shapes by family (as :meth:`bridgeflap.model.structure.modes.ModalModel.plot`);
+        returns the Figure."""
+        from bridgeflap.model.results import figure_of
 
         return figure_of(self._plot_axes(labels, ax, per_family))
 
     def _plot_axes(self, labels=None, ax=None, per_family: int = 3):
         """Imported deck shapes, one panel per family, the main-span ends marked
-        (:func:`model.structure.plots.imported_mode_shapes`)."""
-        from model.structure.plots import imported_mode_shapes
+        (:func:`bridgeflap.model.structure.plots.imported_mode_shapes`)."""
+        from bridgeflap.model.structure.plots import imported_mode_shapes
 
         return imported_mode_shapes(self, per_family, ax, labels)
 

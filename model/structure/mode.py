@@ -1,8 +1,8 @@
 """One structural mode: family, symmetry, frequency, damping ratio, shares and its label.
 
-The record of :mod:`model.structure.modes` (the FE modes) and of
-:mod:`model.structure.modal_model` (the modes of an imported modal model); it imports no
-structural model, so both can use it. ``model.structure.modes.Mode`` is the same class.
+The record of :mod:`bridgeflap.model.structure.modes` (the FE modes) and of
+:mod:`bridgeflap.model.structure.modal_model` (the modes of an imported modal model); it imports no
+structural model, so both can use it. ``bridgeflap.model.structure.modes.Mode`` is the same class.
 """
 
 from __future__ import annotations

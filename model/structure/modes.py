@@ -4,8 +4,8 @@ Rayleigh damping ``C = a_M M + a_K K`` gives 1 % (``spec.damping.ratio``) in the
 and the first torsional mode (seed §2); every other mode's ratio follows from
 ``zeta = a_M/(2 omega) + a_K omega/2``. The three families are uncoupled, so the mass-normalised
 modes of each family diagonalise ``M``, ``K`` and ``C`` of the whole structure. One mode's
-record, :class:`Mode`, lives in :mod:`model.structure.mode` (the imported modal models use it
-too) and is importable from here.
+record, :class:`Mode`, lives in :mod:`bridgeflap.model.structure.mode` (the imported modal models
+use it too) and is importable from here.
 """
 
 from __future__ import annotations
@@ -15,12 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from model.aero.basis import StructuralBasis
-from model.errors import BridgeflapError, BridgeflapInputError
-from model.results import ResultData, jsonable
-from model.structure.fe import StructuralModel, assemble
-from model.structure.mode import Mode
-from model.structure.spec import BridgeSpec
+from bridgeflap.model.aero.basis import StructuralBasis
+from bridgeflap.model.errors import BridgeflapError, BridgeflapInputError
+from bridgeflap.model.results import ResultData, jsonable
+from bridgeflap.model.structure.fe import StructuralModel, assemble
+from bridgeflap.model.structure.mode import Mode
+from bridgeflap.model.structure.spec import BridgeSpec
 
 
 @dataclass(frozen=True)
@@ -146,9 +146,9 @@ class ModalModel(ResultData):
     def plot(self, labels=None, ax=None, per_family: int = 3):
         """Mode shapes along the bridge, one panel per family (vertical, torsional, lateral),
         towers marked: the lowest ``per_family`` of each family, or the modes named in
-        ``labels`` (:func:`model.structure.plots.mode_shapes_by_family`; ``ax``: one axis per
-        family)."""
-        from model.structure.plots import mode_shapes_by_family
+        ``labels`` (:func:`bridgeflap.model.structure.plots.mode_shapes_by_family`; ``ax``: one axis
+        per family)."""
+        from bridgeflap.model.structure.plots import mode_shapes_by_family
 
         return mode_shapes_by_family(self, per_family, ax, labels)
 
@@ -187,8 +187,9 @@ def solve(structure: StructuralModel, count: int | None = None) -> ModalModel:
     count : int, optional
         Keep the lowest ``count`` modes of each family (all when omitted).
 
-    An imported modal bridge's structure (:class:`model.structure.modal_import.ImportedStructure`)
-    gives its :class:`model.structure.modal_import.ImportedModalModel`, which has the same
+    An imported modal bridge's structure
+    (:class:`bridgeflap.model.structure.modal_import.ImportedStructure`) gives its
+    :class:`bridgeflap.model.structure.modal_import.ImportedModalModel`, which has the same
     interface.
     """
     imported = getattr(structure, "modal_model", None)

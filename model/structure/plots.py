@@ -1,20 +1,20 @@
 """Figures of the structure: deck mode shapes by family, towers and span names marked.
 
 The modal models keep thin ``plot`` methods that call these functions
-(:meth:`model.structure.modes.ModalModel.plot`,
-:meth:`model.structure.modal_model.ImportedModalModel.plot`); matplotlib is imported lazily,
-nothing here calls ``plt.show()``. Positions along the bridge are in km from the north
+(:meth:`bridgeflap.model.structure.modes.ModalModel.plot`,
+:meth:`bridgeflap.model.structure.modal_model.ImportedModalModel.plot`); matplotlib is imported
+lazily, nothing here calls ``plt.show()``. Positions along the bridge are in km from the north
 anchorage, towers as dotted lines; each shape is normalised to a peak of 1.
 
-May import: the foundation (:mod:`model.axes`) and model.structure only.
+May import: the foundation (:mod:`bridgeflap.model.axes`) and bridgeflap.model.structure only.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from model.axes import new_axes
-from model.structure.spans import span_extents_m
+from bridgeflap.model.axes import new_axes
+from bridgeflap.model.structure.spans import span_extents_m
 
 __all__ = ["imported_mode_shapes", "mark_spans", "mode_shapes_by_family"]
 
@@ -24,7 +24,7 @@ _FAMILY_UNIT = {"vertical": "heave", "torsional": "pitch", "lateral": "sway"}
 
 def mark_spans(ax, spans, names: bool = True, y: float = 0.97, km: bool = True) -> None:
     """Towers (span boundaries) as dotted lines and the span names at height ``y`` (axes
-    fraction); ``spans`` is :func:`model.structure.spans.span_extents_m`."""
+    fraction); ``spans`` is :func:`bridgeflap.model.structure.spans.span_extents_m`."""
     s = 1000.0 if km else 1.0
     for i, (_, _, b) in enumerate(spans[:-1]):
         ax.axvline(b / s, color="k", lw=1.2, ls=":", label="tower" if i == 0 else None)
@@ -79,8 +79,8 @@ def _finish_family_axis(ax, fam: str) -> None:
 
 def imported_mode_shapes(modal, per_family: int = 3, axes=None, labels=None):
     """:func:`mode_shapes_by_family` for an imported modal model
-    (:class:`model.structure.modal_model.ImportedModalModel`): file coordinates, the main-span ends
-    (``structure.main_span_m``) dotted."""
+    (:class:`bridgeflap.model.structure.modal_model.ImportedModalModel`): file coordinates, the
+    main-span ends (``structure.main_span_m``) dotted."""
     d = modal.spec.structure.data
     fams = [f for f in _FAMILIES if any(m.family == f for m in modal.modes)]
     if axes is None:

@@ -5,8 +5,8 @@ families are uncoupled), a structure with changed parameters is represented by
 ``M_r = Phi^T M(p) Phi``, ``K_r = Phi^T K(p) Phi`` and the strip maps of ``Phi``. Holding the
 basis fixed avoids the sign flips and re-ordering of re-solved modes; at the nominal point the
 projection *is* the nominal modal model. Used by the symbolic ``A(U, p)``
-(:mod:`model.aeroelastic.symbolic`) and by the implicit-function sensitivities
-(:mod:`design.sensitivity.local`).
+(:mod:`bridgeflap.model.aeroelastic.symbolic`) and by the implicit-function sensitivities
+(:mod:`bridgeflap.design.sensitivity.local`).
 """
 
 from __future__ import annotations
@@ -14,11 +14,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-from model.aero.basis import StructuralBasis
-from model.errors import BridgeflapError
-from model.structure.fe import assemble
-from model.structure.modes import ModalModel, rayleigh_coefficients
-from model.structure.spec import BridgeSpec
+from bridgeflap.model.aero.basis import StructuralBasis
+from bridgeflap.model.errors import BridgeflapError
+from bridgeflap.model.structure.fe import assemble
+from bridgeflap.model.structure.modes import ModalModel, rayleigh_coefficients
+from bridgeflap.model.structure.spec import BridgeSpec
 
 __all__ = ["chosen_modes", "first_frequency", "ritz_basis"]
 
@@ -27,7 +27,7 @@ AEROELASTIC_FAMILIES = ("vertical", "torsional")
 
 def chosen_modes(modal: ModalModel, n_modes: int) -> list[int]:
     """Indices of the retained modes, as
-    :meth:`model.structure.modes.ModalModel.structural_basis`."""
+    :meth:`bridgeflap.model.structure.modes.ModalModel.structural_basis`."""
     cand = [i for i, m in enumerate(modal.modes) if m.family in AEROELASTIC_FAMILIES]
     return cand[:int(n_modes)]
 
@@ -52,7 +52,7 @@ def ritz_basis(spec: BridgeSpec, nominal: ModalModel, n_modes: int,
     n_modes : int
         Retained coordinates, chosen as in :meth:`ModalModel.structural_basis`.
     erection_gj_factor : float
-        Deck GJ factor of an erection stage [-] (as :func:`model.structure.fe.assemble`).
+        Deck GJ factor of an erection stage [-] (as :func:`bridgeflap.model.structure.fe.assemble`).
     shape_offset : dict, optional
         Family -> (n_dof, n_family) added to the nominal shapes (moved basis).
 
@@ -60,8 +60,8 @@ def ritz_basis(spec: BridgeSpec, nominal: ModalModel, n_modes: int,
     -----
     ``M_r = Phi^T M(p) Phi`` and ``K_r = Phi^T K(p) Phi`` per family, Rayleigh damping
     ``C_r = a_M M_r + a_K K_r`` with ``(a_M, a_K)`` from the perturbed first vertical and
-    torsional frequencies of the full FE families (as :func:`model.structure.modes.solve` does). At
-    ``spec == nominal.spec`` this reproduces ``nominal.structural_basis(n_modes)``.
+    torsional frequencies of the full FE families (as :func:`bridgeflap.model.structure.modes.solve`
+    does). At ``spec == nominal.spec`` this reproduces ``nominal.structural_basis(n_modes)``.
     """
     if getattr(spec, "structure", None) is not None:  # imported modes: nothing to project
         return nominal.structural_basis(n_modes)      # (a modal bridge varies aero inputs only)

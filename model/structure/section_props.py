@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 KINDS = ("plate", "line", "point", "area")
 _GEOMETRY = {

@@ -1,10 +1,10 @@
 """Span geometry along the deck: where each span starts and ends, where the towers stand.
 
-Distances in metres from the north anchorage, spans north to south (see :mod:`model`). Used
-by the mode-shape figures (:mod:`model.structure.plots`) and the flutter mode shape
-(:mod:`model.stability.modeshape`, which re-exports both names).
+Distances in metres from the north anchorage, spans north to south (see :mod:`bridgeflap.model`).
+Used by the mode-shape figures (:mod:`bridgeflap.model.structure.plots`) and the flutter mode shape
+(:mod:`bridgeflap.model.stability.modeshape`, which re-exports both names).
 
-May import: the foundation and model.structure only (the bridge definition, for types).
+May import: the foundation and bridgeflap.model.structure only (the bridge definition, for types).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from model.structure.spec import BridgeSpec
+    from bridgeflap.model.structure.spec import BridgeSpec
 
 __all__ = ["span_extents_m", "tower_positions_m"]
 

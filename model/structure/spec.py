@@ -2,12 +2,12 @@
 
 :class:`BridgeSpec` is a whole bridge or one of its erection stages; :data:`PARAMETER_PATHS`
 are the dotted paths a study may vary (:meth:`BridgeSpec.replace`, :func:`get_path`). Reading a
-bridge file (TOML, every value with its source) is :mod:`model.structure.loader`; writing one
-is :mod:`model.structure.spec_writer`. Conventions: see :mod:`model`.
+bridge file (TOML, every value with its source) is :mod:`bridgeflap.model.structure.loader`; writing
+one is :mod:`bridgeflap.model.structure.spec_writer`. Conventions: see :mod:`bridgeflap.model`.
 
 Example
 -------
->>> from model.structure.loader import load_bridge      # doctest: +SKIP
+>>> from bridgeflap.model.structure.loader import load_bridge      # doctest: +SKIP
 >>> spec = load_bridge("humber")            # doctest: +SKIP
 >>> spec.erected(0.6).deck.half_chord_m      # doctest: +SKIP
 """
@@ -19,17 +19,17 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from model.errors import BridgeflapInputError
-from model.structure.limits import (
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure.limits import (
     MAX_ELEMENTS,
     MIN_SAG_RATIO,
     PLAUSIBLE_RANGES,
 )
-from model.structure.limits import check_finite as _finite
-from model.structure.limits import check_in_range as _in_range
-from model.structure.limits import check_nonnegative as _nonnegative
-from model.structure.limits import check_positive as _positive
-from model.structure.section_props import DeckSection
+from bridgeflap.model.structure.limits import check_finite as _finite
+from bridgeflap.model.structure.limits import check_in_range as _in_range
+from bridgeflap.model.structure.limits import check_nonnegative as _nonnegative
+from bridgeflap.model.structure.limits import check_positive as _positive
+from bridgeflap.model.structure.section_props import DeckSection
 
 
 @dataclass(frozen=True)
@@ -81,7 +81,7 @@ class Cable:
     ``mass_kg_per_m`` is per metre **of cable** (not per horizontal metre) for a cable of steel
     area ``area_m2``; in a span with its own ``cable_area_m2`` it scales with the area. The
     statics and the mass matrices apply it along the cable (``m_c ds/dx``,
-    :mod:`model.structure.cable`).
+    :mod:`bridgeflap.model.structure.cable`).
     """
 
     area_m2: float
@@ -294,9 +294,9 @@ class BridgeSpec:
 
     def to_toml(self) -> str:
         """This bridge as bridge-file text, sources kept
-        (:func:`model.structure.spec_writer.to_toml`; the text is
-        :func:`model.structure.bridge_toml.bridge_toml`)."""
-        from model.structure.bridge_toml import bridge_toml
+        (:func:`bridgeflap.model.structure.spec_writer.to_toml`; the text is
+        :func:`bridgeflap.model.structure.bridge_toml.bridge_toml`)."""
+        from bridgeflap.model.structure.bridge_toml import bridge_toml
 
         return bridge_toml(self)
 

@@ -1,10 +1,10 @@
-"""Write a :class:`~model.structure.spec.BridgeSpec` back as a bridge TOML file (the loader's
-format).
+"""Write a :class:`~bridgeflap.model.structure.spec.BridgeSpec` back as a bridge TOML file (the
+loader's format).
 
 :func:`to_toml` gives the text (checking that it is given a spec), :func:`save_bridge` writes it
 (a name, a file or a spec); :meth:`BridgeSpec.to_toml` is the same text. What is written and the
 round trip ``load_bridge(path) -> to_toml -> write -> load_bridge`` (an equal spec with the same
-``sources``): :mod:`model.structure.bridge_toml`, which builds the text.
+``sources``): :mod:`bridgeflap.model.structure.bridge_toml`, which builds the text.
 """
 
 from __future__ import annotations
@@ -12,22 +12,22 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from model.errors import BridgeflapInputError
-from model.structure.bridge_arg import takes_bridge
-from model.structure.bridge_toml import bridge_toml
-from model.structure.spec import BridgeSpec
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure.bridge_arg import takes_bridge
+from bridgeflap.model.structure.bridge_toml import bridge_toml
+from bridgeflap.model.structure.spec import BridgeSpec
 
 __all__ = ["save_bridge", "to_toml"]
 
 
 def to_toml(spec) -> str:
-    """The bridge TOML text of ``spec`` (:func:`model.structure.bridge_toml.bridge_toml`: what is
-    written, the round trip).
+    """The bridge TOML text of ``spec`` (:func:`bridgeflap.model.structure.bridge_toml.bridge_toml`:
+    what is written, the round trip).
 
     Raises
     ------
     BridgeflapInputError
-        ``bridge`` when ``spec`` is not a :class:`~model.structure.spec.BridgeSpec`;
+        ``bridge`` when ``spec`` is not a :class:`~bridgeflap.model.structure.spec.BridgeSpec`;
         ``erected_fraction`` for an erection stage.
     """
     if not isinstance(spec, BridgeSpec):
@@ -40,7 +40,7 @@ def save_bridge(bridge, path: str | os.PathLike) -> Path:
     """Write ``bridge`` (a name, a file or a spec) as a bridge TOML file (:func:`to_toml`) at
     ``path`` (``.toml``).
 
-    Returns the path written. Raises :class:`~model.errors.BridgeflapInputError` naming
+    Returns the path written. Raises :class:`~bridgeflap.model.errors.BridgeflapInputError` naming
     ``path`` for another suffix or an unwritable place.
     """
     p = Path(path)

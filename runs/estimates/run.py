@@ -17,11 +17,11 @@ import sys
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from design.io.options import parse_range
-from model.analysis import flutter, modal_model
-from model.cases.validation import log_misfit
-from model.structure.loader import load_bridge
-from model.structure.spec import get_path
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.model.analysis import flutter, modal_model
+from bridgeflap.model.cases.validation import log_misfit
+from bridgeflap.model.structure.loader import load_bridge
+from bridgeflap.model.structure.spec import get_path
 
 RANGES = {
     # path: (low, high, reasoning)

@@ -6,7 +6,7 @@ Renders two figures (model/stability/modeshape.py):
   flutter speed (16 modes, 0-85 m/s grid as ``bridgeflap flutter``), towers marked, with the
   kinetic-energy shares of the retained modes (seed §4: "mainly TS1, VS1 and VS2");
 * ``ratio_modes.png``: the first symmetric vertical and torsional deck modes that the
-  frequency-ratio rule (model.analysis.first_symmetric_deck_mode) picks at 20, 50, 80 and
+  frequency-ratio rule (bridgeflap.model.analysis.first_symmetric_deck_mode) picks at 20, 50, 80 and
   100 % of the main-span deck (half GJ, EI = 0, the file's side-span sequence);
 * ``ratio_modes_jumps.png``: the same at 30, 35, 95 and 100 %, where the rule passes over a
   TS1 split into two hybrids with the bare side-span cable and picks a higher mode;
@@ -22,11 +22,11 @@ import argparse
 import json
 from pathlib import Path
 
-from design.io.files import atomic_write_json, ensure_writable_dir, to_jsonable
-from design.io.options import parse_range
-from model.analysis import DEFAULT_MODES, first_symmetric_deck_mode
-from model.stability.modeshape import flutter_mode_shape, plot_ratio_modes, ratio_modes
-from model.structure.loader import load_bridge
+from bridgeflap.design.io.files import atomic_write_json, ensure_writable_dir, to_jsonable
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.model.analysis import DEFAULT_MODES, first_symmetric_deck_mode
+from bridgeflap.model.stability.modeshape import flutter_mode_shape, plot_ratio_modes, ratio_modes
+from bridgeflap.model.structure.loader import load_bridge
 
 
 def main():

@@ -3,10 +3,11 @@ modal model (model/bridges/great_belt.toml, docs/great_belt.md#updating).
 
 One family at a time (the FE families are uncoupled), bounded Brent search on log10 of the
 stiffness minimising the RMS log misfit of the paired modes: the step-2a main-span modes paired
-with the FE main-span modes by (family, symmetry, order) -- ``model.structure.modal_import`` compare
-rows. Run: ``python runs/great_belt_updating/run.py``; prints one JSON object: the updated values to
-put in the TOML, the misfits and the mode comparison (tests/test_runs.py checks that the values
-are the ones in model/bridges/great_belt.toml).
+with the FE main-span modes by (family, symmetry, order) --
+``bridgeflap.model.structure.modal_import`` compare rows. Run: ``python
+runs/great_belt_updating/run.py``; prints one JSON object: the updated values to put in the TOML,
+the misfits and the mode comparison (tests/test_runs.py checks that the values are the ones in
+model/bridges/great_belt.toml).
 """
 
 import json
@@ -14,9 +15,9 @@ import json
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from model.analysis import modal_model
-from model.structure.loader import load_bridge
-from model.structure.modal_import import compare_modes
+from bridgeflap.model.analysis import modal_model
+from bridgeflap.model.structure.loader import load_bridge
+from bridgeflap.model.structure.modal_import import compare_modes
 
 #: the step-2a modes each family is updated to (the surely paired ones, docs/great_belt.md)
 TARGETS = {"vertical": ("deck.ei_vertical_nm2", ("VA1", "VS1", "VS2", "VA2"), (10.0, 14.0)),

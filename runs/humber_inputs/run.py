@@ -13,12 +13,12 @@ Hessle cable area are in every row (they are code, not inputs). No row is tuned.
 import argparse
 import json
 
-from design.io.files import to_jsonable
-from design.io.options import parse_range
-from design.studies.analyses import DEFAULT_SPEEDS
-from model.analysis import flutter
-from model.cases.validation import update_stiffnesses
-from model.structure.loader import load_bridge
+from bridgeflap.design.io.files import to_jsonable
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.design.studies.analyses import DEFAULT_SPEEDS
+from bridgeflap.model.analysis import flutter
+from bridgeflap.model.cases.validation import update_stiffnesses
+from bridgeflap.model.structure.loader import load_bridge
 
 FIRST_LANDING_MASS = {"deck.mass_kg_per_m": 7660.0, "deck.mass_inertia_kgm2_per_m": 3.75e5}
 

@@ -20,11 +20,15 @@ import sys
 
 import numpy as np
 
-from design.io.files import atomic_write_json, to_jsonable
-from design.io.options import parse_range
-from design.studies.screening import DEFAULT_UNCERTAIN_RANGES
-from model.stability.convergence import DEFAULT_MODE_COUNTS, TOLERANCE_PCT, mode_convergence
-from model.structure.loader import load_bridge
+from bridgeflap.design.io.files import atomic_write_json, to_jsonable
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.design.studies.screening import DEFAULT_UNCERTAIN_RANGES
+from bridgeflap.model.stability.convergence import (
+    DEFAULT_MODE_COUNTS,
+    TOLERANCE_PCT,
+    mode_convergence,
+)
+from bridgeflap.model.structure.loader import load_bridge
 
 #: buffeting-only inputs do not enter flutter or divergence
 BUFFETING_ONLY = ("aero.coherence_decay",)

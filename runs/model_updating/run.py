@@ -2,10 +2,11 @@
 
 Updates, one family at a time, EI_vertical (vertical modes), GJ (torsional modes) and
 EI_lateral (lateral modes) to seed Table 1 (Brownjohn et al. 1994), all other inputs as in the
-built-in file. The objective (model.cases.validation.log_misfit) weights the flutter-critical modes
-VS1 and TS1 (model.cases.validation.CRITICAL_WEIGHT, default infinity: fitted exactly, the other
-modes of the family validate); the lateral family is an unweighted RMS fit. Masses, sag and geometry
-are not touched. Prints the updated values for humber.toml and the resulting Table 1 comparison.
+built-in file. The objective (bridgeflap.model.cases.validation.log_misfit) weights the
+flutter-critical modes VS1 and TS1 (bridgeflap.model.cases.validation.CRITICAL_WEIGHT, default
+infinity: fitted exactly, the other modes of the family validate); the lateral family is an
+unweighted RMS fit. Masses, sag and geometry are not touched. Prints the updated values for
+humber.toml and the resulting Table 1 comparison.
 
     python runs/model_updating/run.py [--json]
     python runs/model_updating/run.py --weights 1,10,inf [--json]
@@ -19,16 +20,16 @@ weight (docs/methods.md#model-updating). The weight is chosen on modal grounds, 
 import argparse
 import json
 
-from model.cases.validation import compare_table1, update_stiffnesses
-from model.structure.loader import load_bridge
-from model.structure.modes import modal_model
+from bridgeflap.model.cases.validation import compare_table1, update_stiffnesses
+from bridgeflap.model.structure.loader import load_bridge
+from bridgeflap.model.structure.modes import modal_model
 
 
 def weight_table(weights):
     """One row per critical-mode weight: updated EI, GJ, VS1, TS1, flutter and divergence."""
-    from design.io.options import parse_range
-    from design.studies.analyses import DEFAULT_SPEEDS
-    from model.analysis import flutter
+    from bridgeflap.design.io.options import parse_range
+    from bridgeflap.design.studies.analyses import DEFAULT_SPEEDS
+    from bridgeflap.model.analysis import flutter
 
     rows = []
     for w in weights:

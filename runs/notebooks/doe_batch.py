@@ -26,8 +26,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-import design
-import model
+from bridgeflap import design, model
 
 OPTIONS = {"speeds": "0:120:2", "modes": 6, "truncation_check": False}
 config = design.doe_from_dict({

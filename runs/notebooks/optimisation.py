@@ -26,8 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-import design
-import model
+from bridgeflap import design, model
 
 base = model.load_bridge("humber:box")
 spec = base.replace(**{"mesh.element_length_m": 70.0,

@@ -25,8 +25,7 @@ import sys
 
 import numpy as np
 
-import design
-import model
+from bridgeflap import design, model
 
 PARAMETERS = ["deck.gj_nm2", "deck.half_chord_m"]
 MODES, SPEEDS = 6, "0:120:2"
@@ -56,7 +55,8 @@ for row in res.rows:
     assert abs(ift - fd) <= 1e-3 * abs(fd), (row["parameter"], ift, fd)
 
 cli = json.loads(subprocess.run(
-    [sys.executable, "-m", "design.cli.main", "sensitivity", "--parameters", ",".join(PARAMETERS),
+    [sys.executable, "-m", "bridgeflap.design.cli.main", "sensitivity", "--parameters",
+     ",".join(PARAMETERS),
      "--modes", str(MODES), "--speeds", SPEEDS, "--json"],
     capture_output=True, text=True, check=True).stdout)
 assert np.isclose(cli["flutter_speed_m_s"], res.flutter_speed_m_s, rtol=1e-9, atol=0)

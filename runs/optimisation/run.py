@@ -1,10 +1,10 @@
 """Scripted flap-controller optimisation on the Humber case (seed Fig. 5).
 
-Designs the compensator K(s) with :func:`design.control.driver.design` from the packaged definition
-``runs/humber_flaps.toml`` on a bridge specification built in this script (``--quick``: the
-coarse 47 m mesh, :func:`design.control.settings.quick_settings`, one start; otherwise the built-in
-mesh and 4 starts). Writes ``manifest.json`` (configuration, versions, commit),
-``result.json`` (the ``bridgeflap optimise`` summary) and ``controller.toml``.
+Designs the compensator K(s) with :func:`bridgeflap.design.control.driver.design` from the packaged
+definition ``runs/humber_flaps.toml`` on a bridge specification built in this script (``--quick``:
+the coarse 47 m mesh, :func:`bridgeflap.design.control.settings.quick_settings`, one start;
+otherwise the built-in mesh and 4 starts). Writes ``manifest.json`` (configuration, versions,
+commit), ``result.json`` (the ``bridgeflap optimise`` summary) and ``controller.toml``.
 
 Exits 1 when the design is not ``converged`` (every start's status is in ``result.json``);
 an error is a traceback and a non-zero exit.
@@ -20,12 +20,12 @@ import os
 import sys
 from pathlib import Path
 
-from design.control.driver import design
-from design.control.settings import load_settings, quick_settings
-from design.io.files import atomic_write_json, ensure_writable_dir
-from design.io.manifest import build_manifest
-from model.aeroelastic.controller_file import save_controller
-from model.structure.loader import load_bridge
+from bridgeflap.design.control.driver import design
+from bridgeflap.design.control.settings import load_settings, quick_settings
+from bridgeflap.design.io.files import atomic_write_json, ensure_writable_dir
+from bridgeflap.design.io.manifest import build_manifest
+from bridgeflap.model.aeroelastic.controller_file import save_controller
+from bridgeflap.model.structure.loader import load_bridge
 
 DEFINITION = Path(__file__).resolve().parents[1] / "humber_flaps.toml"
 #: Changes to the built-in Humber specification in quick mode (numerics only).

@@ -3,12 +3,12 @@
 The default ``rfa4`` (unweighted least squares on 1e-3 <= k <= 3) reads up to
 0.13 % high on the 2-D flat-plate cases and 0.18 % on Humber. ``rfa4-band`` is the same form
 and lag count, fitted with weight 10 on the bridge-flutter band 0.05 <= k <= 0.5
-(:data:`model.aero.rfa.FLUTTER_BAND_K`, :data:`model.aero.rfa.BAND_WEIGHT`). This run prints and
-writes:
+(:data:`bridgeflap.model.aero.rfa.FLUTTER_BAND_K`, :data:`bridgeflap.model.aero.rfa.BAND_WEIGHT`).
+This run prints and writes:
 
-* per case of :data:`model.cases.rfa_cases.RFA_CHECK_CASES`: the exact-Theodorsen p-k flutter speed,
-  each fit's RFA state-space flutter speed and its gap [%], the flutter reduced frequency and
-  ``|C_rfa - C|`` there;
+* per case of :data:`bridgeflap.model.cases.rfa_cases.RFA_CHECK_CASES`: the exact-Theodorsen p-k
+  flutter speed, each fit's RFA state-space flutter speed and its gap [%], the flutter reduced
+  frequency and ``|C_rfa - C|`` there;
 * the built-in Humber (16 modes, 0-85 m/s): exact p-k, ``rfa4`` and ``rfa4-band``, i.e. how
   far the default bridge's numbers would move if the package default switched;
 * (not with ``--quick``) the trade-off: band weights 1, 3, 10, 30 and 1e4 and unweighted 5-
@@ -28,13 +28,13 @@ from pathlib import Path
 
 import numpy as np
 
-from design.io.files import atomic_write_json, ensure_writable_dir, to_jsonable
-from design.io.manifest import build_manifest
-from model import analysis
-from model.aero.rfa import FLUTTER_BAND_K, band_error, fit_theodorsen, get_rfa
-from model.cases.rfa_cases import RFA_CHECK_CASES, flutter_gap
-from model.stability import sweeps as stability
-from model.structure.loader import load_bridge
+from bridgeflap.design.io.files import atomic_write_json, ensure_writable_dir, to_jsonable
+from bridgeflap.design.io.manifest import build_manifest
+from bridgeflap.model import analysis
+from bridgeflap.model.aero.rfa import FLUTTER_BAND_K, band_error, fit_theodorsen, get_rfa
+from bridgeflap.model.cases.rfa_cases import RFA_CHECK_CASES, flutter_gap
+from bridgeflap.model.stability import sweeps as stability
+from bridgeflap.model.structure.loader import load_bridge
 
 FITS = ("rfa4", "rfa4-band")
 SCAN_WEIGHTS = (1.0, 3.0, 10.0, 30.0, 1e4)
@@ -82,7 +82,7 @@ def scan(humber_too: bool) -> list[dict]:
         for name, v in res["rfa"].items():
             gaps[name][case] = v["gap_percent"]
     if humber_too:
-        from model.aeroelastic import statespace
+        from bridgeflap.model.aeroelastic import statespace
 
         spec = load_bridge("humber")
         modal, system = analysis.bridge_system(spec, analysis.DEFAULT_MODES)

@@ -3,7 +3,7 @@
 1. Local: exact derivatives by the implicit-function theorem, checked by finite differences of
    the fully re-solved pipeline, and a tornado plot of the relative derivatives.
 2. Global: Morris elementary effects over the stated ranges of the estimated inputs
-   (design.studies.screening.DEFAULT_UNCERTAIN_RANGES), run through the DOE batch runner;
+   (bridgeflap.design.studies.screening.DEFAULT_UNCERTAIN_RANGES), run through the DOE batch runner;
    indices and the 5/50/95 % band of both speeds.
 
     python runs/sensitivity/run.py [--quick] [--out DIR] [--workers N] [--method morris|sobol]
@@ -21,11 +21,11 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from design.io.files import atomic_write_json, ensure_writable_dir  # noqa: E402
-from design.io.manifest import build_manifest  # noqa: E402
-from design.sensitivity.local import DEFAULT_PARAMETERS, local_sensitivity  # noqa: E402
-from design.studies.screening import DEFAULT_UNCERTAIN_RANGES, global_sensitivity  # noqa: E402
-from model.structure.loader import load_bridge  # noqa: E402
+from bridgeflap.design.io.files import atomic_write_json, ensure_writable_dir  # noqa: E402
+from bridgeflap.design.io.manifest import build_manifest  # noqa: E402
+from bridgeflap.design.sensitivity.local import DEFAULT_PARAMETERS, local_sensitivity  # noqa: E402
+from bridgeflap.design.studies.screening import DEFAULT_UNCERTAIN_RANGES, global_sensitivity  # noqa: E402
+from bridgeflap.model.structure.loader import load_bridge  # noqa: E402
 
 
 def main():

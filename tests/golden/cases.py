@@ -67,7 +67,7 @@ def _extra(name: str, out: Path) -> dict:
 
 def run_case(name: str, argv: list[str], out: Path) -> dict:
     """Run one CLI command in-process and return its JSON plus the file numbers."""
-    from design.cli.main import main
+    from bridgeflap.design.cli.main import main
 
     argv = [a.replace("{out}", str(out)) for a in argv] + ["--json"]
     buf, err = io.StringIO(), io.StringIO()

@@ -1,8 +1,8 @@
 """The scripting API's bad-input contract: every public function of ``model.__all__`` and
 ``design.__all__`` refuses a bad argument at the door with a typed error (a
-:class:`~model.errors.BridgeflapInputError`; :class:`~model.errors.BridgeflapTypeError` for the
-wrong type or kind) whose message is one line naming the argument, before any work and
-without writing anything.
+:class:`~bridgeflap.model.errors.BridgeflapInputError`;
+:class:`~bridgeflap.model.errors.BridgeflapTypeError` for the wrong type or kind) whose message is
+one line naming the argument, before any work and without writing anything.
 
 The matrix is generated: each argument a function checks is given the wrong type (an
 ``object()``) with every other argument valid; the cases the survey found (a path where a
@@ -18,20 +18,22 @@ import types
 
 import pytest
 
-import design
-import model
-from model.aeroelastic.control import Compensator, Controller
-from model.errors import BridgeflapError, BridgeflapInputError, BridgeflapTypeError
+from bridgeflap import design, model
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.errors import BridgeflapError, BridgeflapInputError, BridgeflapTypeError
 
 #: public functions that check their arguments themselves rather than by
 #: ``model.arguments.checked``: the reason for each
 CHECKED_INSIDE = {
-    "model.load_bridge": "its one argument is read by load_bridge's own checks",
-    "design.design": "design.io.api_args.check_design_args on its first line",
-    "design.accept": "its controller, settings, checks and counts on its first lines",
-    "design.open_run": "model.arguments.check_path on its folder, then the folder's marker",
-    "design.quick_settings": "design.io.api_args.check_settings on its first line",
-    "design.load_settings": "design.io.api_args.check_load_settings_args on its first line",
+    "bridgeflap.model.load_bridge": "its one argument is read by load_bridge's own checks",
+    "bridgeflap.design.design": "bridgeflap.design.io.api_args.check_design_args on its first line",
+    "bridgeflap.design.accept": "its controller, settings, checks and counts on its first lines",
+    "bridgeflap.design.open_run": "bridgeflap.model.arguments.check_path on its folder, then the "
+    "folder's marker",
+    "bridgeflap.design.quick_settings": "bridgeflap.design.io.api_args.check_settings on its first "
+    "line",
+    "bridgeflap.design.load_settings": "bridgeflap.design.io.api_args.check_load_settings_args on "
+    "its first line",
 }
 
 _CONTROLLER = Controller(Compensator(0.0, 0.1, 0.5, 0.0, 0.1), flap_strip_positions_m=(0.0,),
@@ -40,47 +42,51 @@ _SYSTEM = types.SimpleNamespace(A=lambda U: None, basis=None)  # passes the kind
 _S = "0:10:10"
 #: valid values of the required arguments (the argument under test is replaced)
 BASE = {
-    "model.bridge_system": {"bridge": "humber"},
-    "model.buffeting": {"bridge": "humber", "speeds": "10"},
-    "model.build_symbolic": {"bridge": "humber", "n_modes": 2},
-    "model.closed_loop": {"bridge": "humber", "speed": 10.0, "controller": _CONTROLLER},
-    "model.closed_loop_flutter": {"bridge": "humber", "controller": _CONTROLLER, "speeds": _S},
-    "model.closed_loop_model": {"bridge": "humber", "positions_m": [0.0], "width_m": 10.0},
-    "model.closed_loop_state_space": {"bridge": "humber", "controller": _CONTROLLER,
+    "bridgeflap.model.bridge_system": {"bridge": "humber"},
+    "bridgeflap.model.buffeting": {"bridge": "humber", "speeds": "10"},
+    "bridgeflap.model.build_symbolic": {"bridge": "humber", "n_modes": 2},
+    "bridgeflap.model.closed_loop": {"bridge": "humber", "speed": 10.0, "controller": _CONTROLLER},
+    "bridgeflap.model.closed_loop_flutter": {"bridge": "humber", "controller": _CONTROLLER,
+                                             "speeds": _S},
+    "bridgeflap.model.closed_loop_model": {"bridge": "humber", "positions_m": [0.0],
+                                           "width_m": 10.0},
+    "bridgeflap.model.closed_loop_state_space": {"bridge": "humber", "controller": _CONTROLLER,
                                       "speed": 10.0},
-    "model.erection": {"bridge": "humber", "fractions": "1", "speeds": _S},
-    "model.flutter": {"bridge": "humber", "speeds": _S},
-    "model.flutter_mode_shape": {"bridge": "humber", "speeds": _S, "n_modes": 2},
-    "model.frequency_ratio": {"bridge": "humber", "fractions": "1"},
-    "model.load_controller": {"path": "c.toml"},
-    "model.modal_model": {"bridge": "humber"},
-    "model.mode_convergence": {"bridge": "humber", "speeds": _S},
-    "model.pk_flutter": {"bridge": "humber", "speeds": _S},
-    "model.pk_sweep": {"system": _SYSTEM, "speeds": _S},
-    "model.plant": {"bridge": "humber", "speed": 10.0},
-    "model.plant_data": {"bridge": "humber", "speed": 10.0},
-    "model.plant_family": {"bridge": "humber", "speeds": "10"},
-    "model.save_bridge": {"bridge": "humber", "path": "out.toml"},
-    "model.save_controller": {"controller": _CONTROLLER, "path": "c.toml"},
-    "model.section_basis": {"mass_kg_per_m": 1e4, "inertia_kgm2_per_m": 1e6, "f_heave_hz": 0.1,
+    "bridgeflap.model.erection": {"bridge": "humber", "fractions": "1", "speeds": _S},
+    "bridgeflap.model.flutter": {"bridge": "humber", "speeds": _S},
+    "bridgeflap.model.flutter_mode_shape": {"bridge": "humber", "speeds": _S, "n_modes": 2},
+    "bridgeflap.model.frequency_ratio": {"bridge": "humber", "fractions": "1"},
+    "bridgeflap.model.load_controller": {"path": "c.toml"},
+    "bridgeflap.model.modal_model": {"bridge": "humber"},
+    "bridgeflap.model.mode_convergence": {"bridge": "humber", "speeds": _S},
+    "bridgeflap.model.pk_flutter": {"bridge": "humber", "speeds": _S},
+    "bridgeflap.model.pk_sweep": {"system": _SYSTEM, "speeds": _S},
+    "bridgeflap.model.plant": {"bridge": "humber", "speed": 10.0},
+    "bridgeflap.model.plant_data": {"bridge": "humber", "speed": 10.0},
+    "bridgeflap.model.plant_family": {"bridge": "humber", "speeds": "10"},
+    "bridgeflap.model.save_bridge": {"bridge": "humber", "path": "out.toml"},
+    "bridgeflap.model.save_controller": {"controller": _CONTROLLER, "path": "c.toml"},
+    "bridgeflap.model.section_basis": {"mass_kg_per_m": 1e4, "inertia_kgm2_per_m": 1e6,
+                                       "f_heave_hz": 0.1,
                             "f_torsion_hz": 0.3, "half_chord_m": 10.0},
-    "model.spec_from_dict": {"data": {}},
-    "model.sweep": {"system": _SYSTEM, "speeds": _S},
-    "model.truncation_error": {"bridge": "humber", "n_modes": 2, "speeds": _S},
-    "model.typical_section": {"mu": 50.0, "r2": 0.25, "sigma": 0.4, "a": 0.0, "x_theta": 0.0},
-    "model.closed_loop_functions": {"model": None},
-    "design.local_sensitivity": {"bridge": "humber"},
-    "design.global_sensitivity": {},
-    "design.load_study": {},
-    "design.run_study": {},
-    "design.study_from_dict": {"data": {}},
-    "design.load_doe": {"path": "doe.toml"},
-    "design.run_doe": {"config": "doe.toml"},
-    "design.doe_from_dict": {"data": {}},
-    "design.run_batch": {"fn": len, "cases": [{}], "out_dir": "b"},
-    "design.make_design": {"kind": "full-factorial"},
-    "design.parse_range": {"text": "0:1:1", "field": "x"},
-    "design.main": {},
+    "bridgeflap.model.spec_from_dict": {"data": {}},
+    "bridgeflap.model.sweep": {"system": _SYSTEM, "speeds": _S},
+    "bridgeflap.model.truncation_error": {"bridge": "humber", "n_modes": 2, "speeds": _S},
+    "bridgeflap.model.typical_section": {"mu": 50.0, "r2": 0.25, "sigma": 0.4, "a": 0.0,
+                                         "x_theta": 0.0},
+    "bridgeflap.model.closed_loop_functions": {"model": None},
+    "bridgeflap.design.local_sensitivity": {"bridge": "humber"},
+    "bridgeflap.design.global_sensitivity": {},
+    "bridgeflap.design.load_study": {},
+    "bridgeflap.design.run_study": {},
+    "bridgeflap.design.study_from_dict": {"data": {}},
+    "bridgeflap.design.load_doe": {"path": "doe.toml"},
+    "bridgeflap.design.run_doe": {"config": "doe.toml"},
+    "bridgeflap.design.doe_from_dict": {"data": {}},
+    "bridgeflap.design.run_batch": {"fn": len, "cases": [{}], "out_dir": "b"},
+    "bridgeflap.design.make_design": {"kind": "full-factorial"},
+    "bridgeflap.design.parse_range": {"text": "0:1:1", "field": "x"},
+    "bridgeflap.design.main": {},
 }
 
 
@@ -210,7 +216,7 @@ def test_a_planted_unchecked_argument_is_found():
 
 def test_a_controller_path_is_loaded(tmp_path, monkeypatch):
     # the right kind of file where a controller is expected is read, not refused
-    from model.aeroelastic.controller_file import as_controller
+    from bridgeflap.model.aeroelastic.controller_file import as_controller
 
     path = model.save_controller(_CONTROLLER, tmp_path / "c.toml")
     assert as_controller(path).compensator == _CONTROLLER.compensator

@@ -45,7 +45,8 @@ def _runtime_nodes(tree: ast.AST):
 
 
 def import_graph() -> dict[str, set[str]]:
-    """module -> the package modules it imports (top level or lazy). A package's own
+    """module -> the package modules it imports (top level or lazy). Modules are named by
+    their source folders (``model.aero.rfa`` for ``bridgeflap.model.aero.rfa``). A package's own
     ``__init__`` (the lazy public face) is not a node: importing ``model`` names nothing."""
     mods = _modules()
     graph: dict[str, set[str]] = {m: set() for m in mods if m not in PACKAGES}
@@ -57,6 +58,7 @@ def import_graph() -> dict[str, set[str]]:
                 targets = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
             else:
                 continue
+            targets = [t.removeprefix("bridgeflap.") for t in targets]
             graph[name].update(t for t in targets if t in graph and t != name)
     return graph
 

@@ -4,6 +4,7 @@ tests' mirror of the rooms, the CasADi boundary."""
 from __future__ import annotations
 
 import ast
+import importlib
 import subprocess
 import sys
 from pathlib import Path
@@ -62,14 +63,14 @@ def test_tests_mirror_the_rooms():
 
 @pytest.mark.parametrize("package", ["model", "design"])
 def test_public_face_resolves_every_name(package):
-    mod = __import__(package)
+    mod = importlib.import_module(f"bridgeflap.{package}")
     for name in mod.__all__:
         assert getattr(mod, name) is not None, name
 
 
 def test_importing_the_packages_stays_light():
     # the public face is lazy: importing model and design loads neither CasADi nor matplotlib
-    code = ("import sys, model, design; "
+    code = ("import sys, bridgeflap, bridgeflap.model, bridgeflap.design; "
             "print(sorted(m for m in ('casadi', 'matplotlib', 'dask') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
@@ -83,12 +84,13 @@ def test_an_old_flat_module_names_its_new_home(package):
     import importlib
     import re
 
-    mod = importlib.import_module(package)
+    mod = importlib.import_module(f"bridgeflap.{package}")
     assert len(mod._MOVED) >= 45  # 48 in model, 62 in design
     for old, new in mod._MOVED.items():
         with pytest.raises(ModuleNotFoundError, match=re.escape(f"moved to {new}")):
-            importlib.import_module(f"{package}.{old}")
-        for target in re.findall(r"(?:model|design)(?:\.\w+)+", new):
+            importlib.import_module(f"bridgeflap.{package}.{old}")
+        for target in re.findall(r"bridgeflap\.(?:model|design)(?:\.\w+)+", new):
             importlib.import_module(target)
-    with pytest.raises(ModuleNotFoundError, match="No module named 'model.no_such_module'$"):
-        importlib.import_module("model.no_such_module")
+    with pytest.raises(ModuleNotFoundError,
+                       match="No module named 'bridgeflap.model.no_such_module'$"):
+        importlib.import_module("bridgeflap.model.no_such_module")

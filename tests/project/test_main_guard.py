@@ -1,6 +1,6 @@
 """A script without ``if __name__ == "__main__":`` that starts worker processes: the spawned
 workers would re-run it ("lock held", "Nanny failed to start"); the batch
-refuses before starting any, in one line naming the fix (:mod:`model.workers`)."""
+refuses before starting any, in one line naming the fix (:mod:`bridgeflap.model.workers`)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from model.workers import MAIN_GUARD_REASON, check_main_guard
+from bridgeflap.model.workers import MAIN_GUARD_REASON, check_main_guard
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -33,7 +33,7 @@ def test_unguarded_batch_is_refused_in_one_line(tmp_path, workers):
     """One worker too: a local Dask cluster of one worker is a spawned nanny all the same."""
     proc = _run(f"""
         import sys
-        import design
+        from bridgeflap import design
 
         design.run_batch(dict, [{{"x": 1.0}}, {{"x": 2.0}}], sys.argv[1], workers={workers},
                          progress=False)
@@ -41,7 +41,7 @@ def test_unguarded_batch_is_refused_in_one_line(tmp_path, workers):
         """, tmp_path)
     assert proc.returncode == 1 and "ran" not in proc.stdout
     last = proc.stderr.strip().splitlines()[-1]
-    assert last == f"model.errors.BridgeflapInputError: workers: {MAIN_GUARD_REASON}"
+    assert last == f"bridgeflap.model.errors.BridgeflapInputError: workers: {MAIN_GUARD_REASON}"
     # refused before any worker started: no worker's error, no output folder
     assert "Nanny" not in proc.stderr and "lock" not in proc.stderr
     assert proc.stderr.count("Traceback") == 1
@@ -52,7 +52,7 @@ def test_unguarded_serial_batch_runs(tmp_path):
     """``scheduler="serial"`` starts no process: an unguarded script may run it."""
     proc = _run("""
         import sys
-        import design
+        from bridgeflap import design
 
         design.run_batch(dict, [{"x": 1.0}], sys.argv[1], scheduler="serial", progress=False)
         print("ran")
@@ -64,7 +64,7 @@ def test_guard_reads_the_script(tmp_path):
     """The same call under the guard passes the check; so does any call with a forked pool
     (no re-import) or one worker; the reversed comparison is a guard too."""
     proc = _run("""
-        from model.workers import check_main_guard
+        from bridgeflap.model.workers import check_main_guard
 
         check_main_guard(2, "fork")
         check_main_guard(1, "spawn")

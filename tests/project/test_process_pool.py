@@ -1,6 +1,6 @@
 """One process-pool mechanism: every local pool of worker processes is made
-by :func:`model.workers.process_pool`, which checks the ``if __name__ == "__main__":`` guard
-before any process starts (:mod:`model.workers`; tests/test_main_guard.py)."""
+by :func:`bridgeflap.model.workers.process_pool`, which checks the ``if __name__ == "__main__":``
+guard before any process starts (:mod:`bridgeflap.model.workers`; tests/test_main_guard.py)."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ import sys
 import textwrap
 from pathlib import Path
 
-from model.workers import MAIN_GUARD_REASON, process_pool
+from bridgeflap.model.workers import MAIN_GUARD_REASON, process_pool
 
 ROOT = Path(__file__).resolve().parents[2]
-REFUSED = f"model.errors.BridgeflapInputError: workers: {MAIN_GUARD_REASON}"
+REFUSED = f"bridgeflap.model.errors.BridgeflapInputError: workers: {MAIN_GUARD_REASON}"
 
 
 def _run(script: str, tmp_path: Path) -> subprocess.CompletedProcess:
@@ -44,7 +44,7 @@ def test_factory_refuses_an_unguarded_script_under_spawn(tmp_path):
     proc = _run("""
         import multiprocessing
 
-        from model.workers import process_pool
+        from bridgeflap.model.workers import process_pool
 
         multiprocessing.set_start_method("spawn")
         print("before")
@@ -60,7 +60,7 @@ def test_factory_runs_a_guarded_script_under_spawn(tmp_path):
     proc = _run("""
         import multiprocessing
 
-        from model.workers import process_pool
+        from bridgeflap.model.workers import process_pool
 
         if __name__ == "__main__":
             multiprocessing.set_start_method("spawn")
@@ -76,8 +76,8 @@ def test_do_no_harm_refuses_an_unguarded_script(tmp_path):
     proc = _run("""
         import multiprocessing
 
-        from design.assessment.harm import do_no_harm
-        from model.aeroelastic.control import Compensator, Controller
+        from bridgeflap.design.assessment.harm import do_no_harm
+        from bridgeflap.model.aeroelastic.control import Compensator, Controller
 
         multiprocessing.set_start_method("spawn")
         k = Compensator(-1.05, 0.72, -4.99, 0.25, 0.20)

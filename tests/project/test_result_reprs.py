@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import design
-import design.studies.experiments  # noqa: F401 - design.studies.experiments.DoeResult below
-import model
-from model.results import REPR_LIMIT, ResultData
+# design.studies.experiments.DoeResult below
+import bridgeflap.design.studies.experiments  # noqa: F401
+from bridgeflap import design, model
+from bridgeflap.model.results import REPR_LIMIT, ResultData
 
 SPEEDS = np.arange(0.0, 90.0, 2.0)
 CONTROLLER = model.Controller(model.Compensator(-1.0852, 0.2781, -3.8118, 0.3097, 0.0242),
@@ -54,14 +54,14 @@ def analyses(coarse_humber):
 
 def records(fl) -> dict:
     """The batch, design and study records, from their constructors."""
-    from design.assessment.accept import AcceptanceResult
-    from design.assessment.erection_control import ErectionControlResult
-    from design.assessment.failsafe import FailSafeResult
-    from design.assessment.harm import HarmResult
-    from design.batch.runner import BatchResult
-    from design.sensitivity.local import SensitivityResult
-    from design.studies.screening import GlobalSensitivityResult
-    from design.studies.study import StudyResult, study_from_dict
+    from bridgeflap.design.assessment.accept import AcceptanceResult
+    from bridgeflap.design.assessment.erection_control import ErectionControlResult
+    from bridgeflap.design.assessment.failsafe import FailSafeResult
+    from bridgeflap.design.assessment.harm import HarmResult
+    from bridgeflap.design.batch.runner import BatchResult
+    from bridgeflap.design.sensitivity.local import SensitivityResult
+    from bridgeflap.design.studies.screening import GlobalSensitivityResult
+    from bridgeflap.design.studies.study import StudyResult, study_from_dict
 
     rows = (OK_ROW, BAD_ROW)
     config = design.doe_from_dict({
@@ -89,7 +89,7 @@ def records(fl) -> dict:
                                       None, np.array([0.0, 1.0]), np.array([np.nan, -1.0]),
                                       None, 1.0),
         "batch": BatchResult(2, 1, 1, Path("table.csv"), rows),
-        "doe": design.studies.experiments.DoeResult(config, Path("out"), 2, 1, 1, 0,
+        "doe": bridgeflap.design.studies.experiments.DoeResult(config, Path("out"), 2, 1, 1, 0,
                                                     Path("table.csv"),
                                             rows),
         "sensitivity": SensitivityResult("humber", 60.0, 70.0, "converged", "converged", 6,

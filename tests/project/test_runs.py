@@ -21,7 +21,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 RUNS = ROOT / "runs"
-CLI = [sys.executable, "-c", "import sys; from design.cli.main import main; sys.exit(main())"]
+CLI = [sys.executable, "-c",
+       "import sys; from bridgeflap.design.cli.main import main; sys.exit(main())"]
 
 
 def _run(args, cwd, env=None):
@@ -62,7 +63,7 @@ EXAMPLES = {
 
 def test_packaged_design_definition_is_the_runs_copy():
     # `bridgeflap optimise` reads the packaged file; the runs/ copy is what users edit
-    from design.cli.optimise import DEFAULT_DEFINITION
+    from bridgeflap.design.cli.optimise import DEFAULT_DEFINITION
 
     assert DEFAULT_DEFINITION.read_bytes() == (RUNS / "humber_flaps.toml").read_bytes()
 
@@ -113,7 +114,7 @@ def test_optimisation_example(tmp_path):
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["config"]["quick"] is True
     assert manifest["config"]["spec_changes"] == {"mesh.element_length_m": 47.0}
-    from model.aeroelastic.controller_file import load_controller
+    from bridgeflap.model.aeroelastic.controller_file import load_controller
 
     ctrl = load_controller(out / "controller.toml")
     # the default card places the flaps: whole mirror pairs out of 25 candidates
@@ -165,7 +166,7 @@ def test_model_updating_example(tmp_path):
         assert _finite_in(u["rms_log_misfit"], 0.0, 0.3), path
     # GJ updated to the measured torsional frequencies (humber.toml: 4.743e11 N m^2); the
     # script re-updates from the file, so it must land on the file's value (search xatol 0.02 %)
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.structure.loader import load_bridge
     gj = load_bridge("humber").deck.gj_nm2
     assert out["updated"]["deck.gj_nm2"]["value"] == pytest.approx(gj, rel=1e-3)
     rows = out["table1"]
@@ -178,9 +179,9 @@ def test_humber_inputs_example(tmp_path):
     """Each reading of deck mass and half-chord, stiffnesses re-updated: the built-in row
     (lumped section, b = 14.25 m) equals `bridgeflap flutter` on the built-in file (the
     updating lands on the file's values within its 0.02 % search tolerance)."""
-    from design.io.options import parse_range
-    from model.analysis import flutter
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.io.options import parse_range
+    from bridgeflap.model.analysis import flutter
+    from bridgeflap.model.structure.loader import load_bridge
 
     r = _run([*_script("humber_inputs"), "--json"], tmp_path)
     rows = json.loads(r.stdout)["rows"]
@@ -289,7 +290,7 @@ def test_rfa_fit_example(tmp_path):
 def test_great_belt_updating_example(tmp_path):
     # the updated stiffnesses in model/bridges/great_belt.toml are the ones the run finds (the
     # file gives 4 figures; Brent's xatol 1e-4 on log10 is 0.02 %)
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.structure.loader import load_bridge
 
     r = _run(_script("great_belt_updating"), tmp_path)
     out = json.loads(r.stdout)

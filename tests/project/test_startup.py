@@ -23,7 +23,7 @@ HEAVY = ("casadi", "matplotlib", "dask", "distributed", "SALib", "pandas", "xarr
 
 _PROBE = f"""
 import json, sys
-from design.cli.main import main
+from bridgeflap.design.cli.main import main
 rc = main(sys.argv[1:])
 print(json.dumps({{"rc": rc, "loaded": sorted(m for m in {HEAVY!r} if m in sys.modules)}}))
 """
@@ -56,7 +56,7 @@ def test_probe_sees_a_heavy_import(tmp_path):
 
 
 def test_import_of_the_packages_is_light():
-    code = ("import sys, model, design, design.cli.main; "
+    code = ("import sys, bridgeflap, bridgeflap.design.cli.main; "
             f"print(sorted(m for m in {HEAVY!r} if m in sys.modules))")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT,
                        env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=300)

@@ -15,10 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import design
-import model
-from model.errors import BridgeflapInputError
-from model.vocabulary import DEFAULT_MODES, RENAMED, RenamedArgumentError
+from bridgeflap import design, model
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.vocabulary import DEFAULT_MODES, RENAMED, RenamedArgumentError
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "api_vocabulary.md"
 
@@ -51,7 +50,7 @@ def test_the_doc_table_and_the_code_agree():
     # (the sampler's old spellings are values, not keywords)
     doc_old = {old: new for new, olds in rows.items() for old in olds if new != "kind"}
     assert doc_old == RENAMED
-    assert f"`model.DEFAULT_MODES` = {DEFAULT_MODES}" in DOC.read_text(encoding="utf-8")
+    assert f"`bridgeflap.model.DEFAULT_MODES` = {DEFAULT_MODES}" in DOC.read_text(encoding="utf-8")
 
 
 def test_every_public_function_uses_the_canonical_names():
@@ -62,7 +61,7 @@ def test_every_public_function_uses_the_canonical_names():
         names = list(params)
         # buffeting's keyword-only ``spec`` is the BridgeSpec of a built system (documented)
         bad = [n for n in names if n in old
-               and not (qual == "model.buffeting" and n == "spec"
+               and not (qual == "bridgeflap.model.buffeting" and n == "spec"
                         and params[n].kind is inspect.Parameter.KEYWORD_ONLY)]
         assert not bad, f"{qual} takes {bad}: the vocabulary's names are {RENAMED}"
         if getattr(fn, "takes_bridge", False):
@@ -95,8 +94,8 @@ def test_an_old_keyword_raises_naming_the_new(call, old, new):
 
 
 def test_one_speed_grammar():
-    from model.grid import speed_grid
-    from model.stability.sweeps import check_speeds
+    from bridgeflap.model.grid import speed_grid
+    from bridgeflap.model.stability.sweeps import check_speeds
 
     want = 0.5 * np.arange(171)  # 0:85:0.5, 85 included
     for form in ("0:85:0.5", list(want), tuple(want), want):
@@ -114,7 +113,7 @@ def test_one_speed_grammar():
 
 
 def test_sampler_spelling():
-    from design.batch.designs import DESIGN_KINDS
+    from bridgeflap.design.batch.designs import DESIGN_KINDS
 
     assert set(DESIGN_KINDS) == {"full_factorial", "latin_hypercube", "sobol"}
     with pytest.raises(BridgeflapInputError) as e:
@@ -134,19 +133,21 @@ def test_sampler_spelling():
 def test_public_functions_are_not_shadowed_by_submodules():
     import importlib
 
-    import model.response.buffeting  # noqa: F401 - the submodule of the same name, imported
-    import model.structure.modal_model  # noqa: F401
+    # the submodule of the same name, imported
+    import bridgeflap.model.response.buffeting  # noqa: F401
+    import bridgeflap.model.structure.modal_model  # noqa: F401
 
     assert inspect.isfunction(model.buffeting) and model.buffeting.__name__ == "buffeting"
     assert inspect.isfunction(model.modal_model)
-    assert inspect.ismodule(importlib.import_module("model.response.buffeting"))
-    from model.response.buffeting import BuffetingResult  # the submodule's names still import
+    assert inspect.ismodule(importlib.import_module("bridgeflap.model.response.buffeting"))
+    # the submodule's names still import
+    from bridgeflap.model.response.buffeting import BuffetingResult
 
     assert BuffetingResult.__name__ == "BuffetingResult"
 
 
 def test_load_settings_is_the_default_card():
-    from design.control.settings import DEFAULT_CARD, DesignSettings
+    from bridgeflap.design.control.settings import DEFAULT_CARD, DesignSettings
 
     assert design.load_settings() == design.load_settings(DEFAULT_CARD)
     assert design.load_settings(None) == DesignSettings()
@@ -156,7 +157,7 @@ def test_load_settings_is_the_default_card():
 def test_results_table_is_a_method_and_the_path_has_its_own_name():
     import dataclasses
 
-    from design.studies.experiments import DoeResult
+    from bridgeflap.design.studies.experiments import DoeResult
 
     fields = {f.name for f in dataclasses.fields(DoeResult)}
     assert "table_path" in fields and "table" not in fields

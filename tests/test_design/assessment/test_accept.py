@@ -1,6 +1,7 @@
 """A design you can install: the acceptance verdict is part of the status (harm is never
 ``converged``), the certificate's Clopper-Pearson bound, independent fresh draws, and the public
-:func:`design.accept` on a controller that does harm (design.assessment.accept)."""
+:func:`bridgeflap.design.accept` on a controller that does harm
+(bridgeflap.design.assessment.accept)."""
 
 from __future__ import annotations
 
@@ -10,13 +11,13 @@ import numpy as np
 import pytest
 from scipy.stats import binom
 
-from design.assessment.accept import ACCEPTANCE_STATUS, accept
-from design.assessment.acceptance import AcceptanceOptions
-from design.assessment.harm import _sample, clopper_pearson_upper
-from design.control.settings import load_settings
-from model.aeroelastic.control import Compensator, Controller
-from model.errors import BridgeflapInputError
-from model.structure.loader import load_bridge
+from bridgeflap.design.assessment.accept import ACCEPTANCE_STATUS, accept
+from bridgeflap.design.assessment.acceptance import AcceptanceOptions
+from bridgeflap.design.assessment.harm import _sample, clopper_pearson_upper
+from bridgeflap.design.control.settings import load_settings
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure.loader import load_bridge
 
 #: the designed K of tests/test_design/assessment/test_harm.py (18 placed pairs) and its sign
 #: reversed, which drives the flaps the wrong way (flutter 68.85 -> 57.33 m/s on 8 modes)

@@ -1,4 +1,5 @@
-"""The acceptance checks of ``bridgeflap optimise`` (design.assessment.acceptance, issue 28).
+"""The acceptance checks of ``bridgeflap optimise`` (bridgeflap.design.assessment.acceptance, issue
+28).
 
 (a) the independent closed loop (the controller closed around the exported flap plant by the
 feedthrough formula) has the design loop's eigenvalues to 1e-6, and a loop of another K(s) is
@@ -12,7 +13,7 @@ from __future__ import annotations
 
 import pytest
 
-from design.assessment.acceptance import (
+from bridgeflap.design.assessment.acceptance import (
     CHECKS,
     EIGENVALUE_RTOL,
     AcceptanceOptions,
@@ -22,11 +23,11 @@ from design.assessment.acceptance import (
     independent_check,
     parse_checks,
 )
-from design.cli.main import main
-from design.control.driver import build_model
-from design.control.settings import load_settings
-from model.aeroelastic.control import Compensator, Controller
-from model.errors import BridgeflapInputError
+from bridgeflap.design.cli.main import main
+from bridgeflap.design.control.driver import build_model
+from bridgeflap.design.control.settings import load_settings
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.errors import BridgeflapInputError
 
 #: the default design's K(s) (as tests/test_harm_fast.py), on a 5-pair layout
 K = Compensator(-1.0520215923792988, 0.724204088492299, -4.9906722869878095,

@@ -9,13 +9,13 @@ import json
 import numpy as np
 import pytest
 
-from design.assessment.erection_control import erection_closed_loop, flaps_on_deck
-from design.cli.main import main
-from design.io.files import to_jsonable
-from model.aeroelastic.control import Compensator, Controller
-from model.aeroelastic.controller_file import save_controller
-from model.analysis import closed_loop_flutter
-from model.structure.loader import load_bridge
+from bridgeflap.design.assessment.erection_control import erection_closed_loop, flaps_on_deck
+from bridgeflap.design.cli.main import main
+from bridgeflap.design.io.files import to_jsonable
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.aeroelastic.controller_file import save_controller
+from bridgeflap.model.analysis import closed_loop_flutter
+from bridgeflap.model.structure.loader import load_bridge
 
 #: the default card's K (tests/test_harm.py) on its 18 placed strips (+-225.6 .. 676.8 m)
 K = Compensator(-1.0520215923792988, 0.724204088492299, -4.9906722869878095,
@@ -70,7 +70,7 @@ def test_cli_erection_with_controller(tmp_path, capsys):
 
 
 def test_stage_flap_count_is_the_strips_that_fit(humber):
-    from design.assessment.erection_control import stage_flap_count
+    from bridgeflap.design.assessment.erection_control import stage_flap_count
 
     # 20 % of 1410 m = 282 m = 5 x 56.4 m exactly (the edge case: 1e-9 slack); 10 %: 2.5 -> 2
     assert stage_flap_count(humber, 0.2, 56.4) == 5
@@ -93,7 +93,7 @@ def test_a_stage_design_lifts_its_stage(humber):
     # the 20 % stage (open loop 32.6 m/s on 30 modes) on a 6-mode model: the stage design's
     # closed-loop critical speed lies above the stage's open-loop one (measured 30 modes:
     # 55 m/s against 32.6 m/s, README)
-    from design.assessment.erection_control import design_for_stage
+    from bridgeflap.design.assessment.erection_control import design_for_stage
 
     res = design_for_stage(humber, 0.2, n_modes=6, verification_modes=6,
                            fresh_variant_modes=6)

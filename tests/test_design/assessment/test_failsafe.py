@@ -17,20 +17,20 @@ import math
 import numpy as np
 import pytest
 
-from design.assessment.failsafe import _stuck_response, single_pair_failures
-from design.cli.main import main
-from model.aeroelastic.control import Compensator, Controller
-from model.aeroelastic.controller_file import save_controller
-from model.aeroelastic.flaps import _main_span_frame, closed_loop_model
-from model.stability.static_divergence import (
+from bridgeflap.design.assessment.failsafe import _stuck_response, single_pair_failures
+from bridgeflap.design.cli.main import main
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.aeroelastic.controller_file import save_controller
+from bridgeflap.model.aeroelastic.flaps import _main_span_frame, closed_loop_model
+from bridgeflap.model.stability.static_divergence import (
     DYNAMIC_MATCH_TOL_M_S,
     _det_sign,
     static_divergence,
     static_response,
     static_stiffness,
 )
-from model.stability.sweeps import sweep
-from model.structure.loader import load_bridge
+from bridgeflap.model.stability.sweeps import sweep
+from bridgeflap.model.structure.loader import load_bridge
 
 #: the 5 m flap design of tests/test_controller_file.py (a fixed, designed compensator)
 K5 = Compensator(-1.1668156764187112, -0.03901371153086817, -1.6746219244786549,
@@ -167,7 +167,7 @@ def test_cli_failures(tmp_path, capsys):
 
 
 def test_closed_loop_flutter_reports_the_verified_static_divergence(humber):
-    from model.analysis import closed_loop_flutter
+    from bridgeflap.model.analysis import closed_loop_flutter
 
     c = Controller(K5, FOUR, 56.4, flap_chord_m=5.0)
     s = closed_loop_flutter(humber, c, U, 8, sweep_method="fast").summary()

@@ -14,11 +14,11 @@ import json
 import numpy as np
 import pytest
 
-from design.assessment.harm import HarmResult, do_no_harm, harm_row
-from design.cli.main import main
-from model.aeroelastic.control import Compensator, Controller
-from model.aeroelastic.controller_file import save_controller
-from model.structure.loader import load_bridge
+from bridgeflap.design.assessment.harm import HarmResult, do_no_harm, harm_row
+from bridgeflap.design.cli.main import main
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.aeroelastic.controller_file import save_controller
+from bridgeflap.model.structure.loader import load_bridge
 
 #: K(s) of the default card (`bridgeflap optimise`, built-in b = 14.25 m Humber, 3 m flaps,
 #: 18 placed pairs; run 2026-12-03 after issue 27's model updating): a fixed, designed
@@ -99,7 +99,7 @@ def test_cli_robustness_exit_and_table(tmp_path, capsys):
 
 
 def test_an_unverified_crossing_above_the_critical_one_does_not_hide_it():
-    from design.assessment.harm import _crit
+    from bridgeflap.design.assessment.harm import _crit
 
     base = {"flutter_status": "converged", "critical_speed_m_s": 102.3,
             "critical_mechanism": "flutter"}

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from design.assessment.harm import (
+from bridgeflap.design.assessment.harm import (
     SCREEN_CHECK_FRACTION,
     SCREEN_MARGIN_REL,
     _extreme_candidates,
@@ -22,11 +22,11 @@ from design.assessment.harm import (
     harm_row,
     near_decision,
 )
-from design.assessment.harm_fast import static_crossing
-from model.aeroelastic.control import Compensator, Controller
-from model.aeroelastic.flaps import closed_loop_model
-from model.stability.sweeps import sweep
-from model.structure.loader import load_bridge
+from bridgeflap.design.assessment.harm_fast import static_crossing
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.aeroelastic.flaps import closed_loop_model
+from bridgeflap.model.stability.sweeps import sweep
+from bridgeflap.model.structure.loader import load_bridge
 
 #: the default design's K(s) and layout (as tests/test_harm.py)
 K = Compensator(-1.0520215923792988, 0.724204088492299, -4.9906722869878095,
@@ -62,8 +62,8 @@ def test_fast_rows_equal_the_reference(humber):
     """Four fresh variants and the nominal bridge, 8 modes, no screening: the critical speeds to
     the crossings' tolerance and the same verdicts, for the designed loop and the reversed one
     (harm)."""
-    from design.assessment.harm import _sample
-    from design.studies.screening import DEFAULT_UNCERTAIN_RANGES
+    from bridgeflap.design.assessment.harm import _sample
+    from bridgeflap.design.studies.screening import DEFAULT_UNCERTAIN_RANGES
 
     ranges = {k: v for k, v in DEFAULT_UNCERTAIN_RANGES.items()
               if k not in ("deck.half_chord_m", "aero.coherence_decay")}

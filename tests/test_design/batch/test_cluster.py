@@ -1,4 +1,5 @@
-"""The local Dask cluster's workers run with :data:`design.batch.cluster.LOCAL_WORKER_CONFIG`.
+"""The local Dask cluster's workers run with
+:data:`bridgeflap.design.batch.cluster.LOCAL_WORKER_CONFIG`.
 
 A worker of distributed's defaults spent +45 % CPU on a flutter case (``bench/doe.py``): its
 nanny sets ``MALLOC_TRIM_THRESHOLD_`` before spawning it, which switches glibc's dynamic
@@ -20,7 +21,7 @@ import sys
 
 import pytest
 
-from design.batch.cluster import LOCAL_WORKER_CONFIG, cluster_client
+from bridgeflap.design.batch.cluster import LOCAL_WORKER_CONFIG, cluster_client
 
 GLIBC = sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"
 

@@ -20,16 +20,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from design.batch.designs import full_factorial, latin_hypercube, make_design, sobol
-from design.batch.runner import run_batch
-from design.io.files import (
+from bridgeflap.design.batch.designs import full_factorial, latin_hypercube, make_design, sobol
+from bridgeflap.design.batch.runner import run_batch
+from bridgeflap.design.io.files import (
     atomic_savez,
     atomic_write_json,
     ensure_writable_dir,
     to_jsonable,
 )
-from design.io.manifest import build_manifest, git_info
-from model.errors import BridgeflapInputError
+from bridgeflap.design.io.manifest import build_manifest, git_info
+from bridgeflap.model.errors import BridgeflapInputError
 
 RANGES = {"wind_speed": (10.0, 80.0), "flap_gain": (-1.0, 1.0), "damping_ratio": (0.001, 0.02)}
 

@@ -2,9 +2,9 @@
 
 A batch writes straight into its folder only when the folder is new (or empty) or, with
 ``resume``, holds this very run; over any other previous output it writes a temporary sibling
-and swaps it in when complete (:func:`design.batch.runner.run_batch`). So: a smaller design leaves
-no case file of a larger earlier one, and a run of another definition that is killed or
-interrupted leaves the previous output byte-identical.
+and swaps it in when complete (:func:`bridgeflap.design.batch.runner.run_batch`). So: a smaller
+design leaves no case file of a larger earlier one, and a run of another definition that is killed
+or interrupted leaves the previous output byte-identical.
 """
 
 import json
@@ -17,11 +17,12 @@ from pathlib import Path
 
 import pytest
 
-from design.batch.runner import run_batch
-from design.cli.main import main
-from design.io.outputs import FAULT_ENV, OUTPUT_MARKER
+from bridgeflap.design.batch.runner import run_batch
+from bridgeflap.design.cli.main import main
+from bridgeflap.design.io.outputs import FAULT_ENV, OUTPUT_MARKER
 
-CLI = [sys.executable, "-c", "import sys; from design.cli.main import main; sys.exit(main())"]
+CLI = [sys.executable, "-c",
+       "import sys; from bridgeflap.design.cli.main import main; sys.exit(main())"]
 DOE = """
 name = "swapdoe"
 bridge = "humber"

@@ -15,11 +15,11 @@ import math
 
 import pytest
 
-from design.batch.runner import run_batch
-from design.studies.cases import flutter_case
-from design.studies.study import run_study
-from model.analysis import erection
-from model.structure.loader import load_bridge
+from bridgeflap.design.batch.runner import run_batch
+from bridgeflap.design.studies.cases import flutter_case
+from bridgeflap.design.studies.study import run_study
+from bridgeflap.model.analysis import erection
+from bridgeflap.model.structure.loader import load_bridge
 
 #: coarse mesh, few modes and a coarse grid: each stage or case takes a fraction of a second
 MESH = {"mesh.element_length_m": 50.0}
@@ -93,7 +93,7 @@ def test_study_with_two_workers_writes_the_serial_results(tmp_path):
 
 
 def test_study_refuses_a_bad_worker_count(tmp_path):
-    from model.errors import BridgeflapInputError
+    from bridgeflap.model.errors import BridgeflapInputError
 
     with pytest.raises(BridgeflapInputError, match="workers"):
         run_study(None, out_dir=tmp_path / "x", quick=True, workers=0)

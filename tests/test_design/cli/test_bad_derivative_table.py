@@ -8,12 +8,12 @@ from importlib import resources
 
 import pytest
 
-from design.cli.main import main
+from bridgeflap.design.cli.main import main
 
 
 @pytest.fixture()
 def nan_bridge(tmp_path):
-    bridges = resources.files("model.bridges")
+    bridges = resources.files("bridgeflap.model.bridges")
     table = json.loads(bridges.joinpath("iabse/step2a_bb3_derivatives.json").read_text("utf-8"))
     table["v_heave"][0] = float("nan")
     (tmp_path / "bad.json").write_text(json.dumps(table), "utf-8")

@@ -4,12 +4,12 @@ The contract (design/cli/main.py): an input fault gives exit status 2, exactly o
 ``bridgeflap: error: <field>: <reason>`` on stderr, no traceback, nothing on stdout (also with
 ``--json``, as tests/test_cli.py fixes), nothing written in the output location and an earlier
 result there left byte-identical. An internal fault (anything that is not a
-:class:`~model.errors.BridgeflapError`) gives exit status 1 and one line saying it is a bug; the
-traceback only with ``--debug``.
+:class:`~bridgeflap.model.errors.BridgeflapError`) gives exit status 1 and one line saying it is a
+bug; the traceback only with ``--debug``.
 
-Cases run in-process through :func:`design.cli.main.main` (capsys), in a folder that holds earlier
-outputs of every command (``prev.*``) and is the working directory, so that a default output
-location is watched too; a few run in a subprocess. Every case fails before any analysis runs
+Cases run in-process through :func:`bridgeflap.design.cli.main.main` (capsys), in a folder that
+holds earlier outputs of every command (``prev.*``) and is the working directory, so that a default
+output location is watched too; a few run in a subprocess. Every case fails before any analysis runs
 or right after the cheap modal model, so the matrix takes seconds.
 """
 
@@ -25,11 +25,11 @@ from pathlib import Path
 
 import pytest
 
-from design.cli import main as cli
-from design.cli.main import COMMANDS, main
+from bridgeflap.design.cli import main as cli
+from bridgeflap.design.cli.main import COMMANDS, main
 
 ROOT = Path(__file__).resolve().parents[3]
-HUMBER = resources.files("model.bridges").joinpath("humber.toml").read_text("utf-8")
+HUMBER = resources.files("bridgeflap.model.bridges").joinpath("humber.toml").read_text("utf-8")
 SECTION = ["--mass", "12460", "--inertia", "9.56e5", "--f-heave", "0.1166",
            "--f-torsion", "0.2979", "--half-chord", "11"]
 
@@ -392,7 +392,7 @@ def _argv(argv, folder) -> list[str]:
 
 
 def test_matrix_covers_every_command():
-    """At least 60 cases, and every command of design.cli.main.COMMANDS has some."""
+    """At least 60 cases, and every command of bridgeflap.design.cli.main.COMMANDS has some."""
     assert len(CASES) >= 60
     used = {argv[0] for _, argv, _ in CASES}
     assert {c.name for c in COMMANDS} <= used
@@ -436,10 +436,11 @@ SUBPROCESS_CASES = [
 @pytest.mark.parametrize("argv,field", SUBPROCESS_CASES, ids=["section", "buffeting",
                                                               "optimise"])
 def test_bad_input_subprocess(folder, argv, field):
-    """The real process: exit 2, one line, no traceback (python -m design.cli.main of this tree)."""
+    """The real process: exit 2, one line, no traceback (python -m bridgeflap.design.cli.main of
+    this tree)."""
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(ROOT))
     before = _snapshot(folder)
-    p = subprocess.run([sys.executable, "-m", "design.cli.main", *_argv(argv, folder)],
+    p = subprocess.run([sys.executable, "-m", "bridgeflap.design.cli.main", *_argv(argv, folder)],
                        capture_output=True, text=True, env=env, cwd=folder, timeout=300)
     assert p.returncode == 2, p.stderr
     assert p.stdout == ""
@@ -509,7 +510,7 @@ def test_controller_over_its_gain_limit_is_flagged(capsys, folder):
 def test_modes_retained_is_what_was_asked(capsys):
     """``modes_retained`` equals the request, and a request beyond the model is refused
     (the bad-input matrix has that case); here the largest allowed request on Humber."""
-    from design.io.options import MAX_MODES
+    from bridgeflap.design.io.options import MAX_MODES
 
     rc = main(["flutter", "--modes", str(MAX_MODES), "--speeds", "0:10:10", "--json"])
     cap = capsys.readouterr()
@@ -538,8 +539,8 @@ def test_spec_ranges_hold_through_replace(humber, path):
     """The ranges apply to every way a value enters (here ``spec.replace``, which DOE and
     sensitivity cases use), naming the field; the built-in bridge and its variants are inside
     them (the fixture loads it)."""
-    from model.errors import BridgeflapInputError
-    from model.structure.spec import PLAUSIBLE_RANGES
+    from bridgeflap.model.errors import BridgeflapInputError
+    from bridgeflap.model.structure.spec import PLAUSIBLE_RANGES
 
     lo, hi = PLAUSIBLE_RANGES[path]
     for bad in (hi * 10, float("nan"), -1.0):

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from design.cli.main import main
-from model.errors import BridgeflapInputError
-from model.structure.loader import load_bridge
+from bridgeflap.design.cli.main import main
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure.loader import load_bridge
 
 UNITS_TOML = 'units = { frequency = "Hz", length = "m", rotation = "rad", mass = "kg" }\n'
 
@@ -201,7 +201,7 @@ def test_empty_robust_speed_list_refused_before_the_design(tmp_path, capsys, nam
     """An empty robust speed list ran the design 30 s, then failed on a broadcast (exit 1)."""
     from importlib import resources as _res
 
-    card = _res.files("design.studies").joinpath("humber_flaps.toml").read_text("utf-8")
+    card = _res.files("bridgeflap.design.studies").joinpath("humber_flaps.toml").read_text("utf-8")
     import re as _re
 
     text, n = _re.subn(rf"^{name} = \[[^\]]*\]", f"{name} = []", card, flags=_re.M)

@@ -29,8 +29,8 @@ from pathlib import Path
 
 import pytest
 
-from design.cli.main import COMMANDS, main
-from design.io.outputs import OUTPUT_MARKER
+from bridgeflap.design.cli.main import COMMANDS, main
+from bridgeflap.design.io.outputs import OUTPUT_MARKER
 
 STUDY = ('name = "tiny"\nbridge = "humber"\nanalyses = ["modes"]\n[quick]\n'
          'element_length_m = 50.0\n[modes]\ncount = {count}\n')
@@ -61,8 +61,8 @@ def _error(capsys, rc: int, code: int = 2) -> str:
 @pytest.fixture(scope="module")
 def _template(tmp_path_factory):
     """Inputs and earlier outputs, made once: a study and a DOE folder, a controller file."""
-    from model.aeroelastic.control import Compensator, Controller
-    from model.aeroelastic.controller_file import plant_record, save_controller
+    from bridgeflap.model.aeroelastic.control import Compensator, Controller
+    from bridgeflap.model.aeroelastic.controller_file import plant_record, save_controller
 
     d = tmp_path_factory.mktemp("template") / "d"
     d.mkdir()
@@ -230,11 +230,11 @@ def test_optimise_out_of_space_is_one_line_and_removes_its_temporary(tmp_path, c
     the writing of its folder."""
     import types
 
-    import design.control.driver
+    import bridgeflap.design.control.driver
 
     fake = types.SimpleNamespace(summary=lambda: {"status": "failed"}, history=lambda: [],
                                  candidate=None, controller=None, extras={})
-    monkeypatch.setattr(design.control.driver, "design",
+    monkeypatch.setattr(bridgeflap.design.control.driver, "design",
                         lambda settings, progress=None, **kw: fake)
     out = tmp_path / "opt"
     _enospc_after(monkeypatch, 2)  # the marker written, then no room for the history
@@ -246,13 +246,13 @@ def test_optimise_out_of_space_is_one_line_and_removes_its_temporary(tmp_path, c
 
 
 def test_an_os_error_without_a_path_is_still_not_a_bug(capsys, monkeypatch):
-    import design.cli.main
+    import bridgeflap.design.cli.main
 
     def run(args):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
-    monkeypatch.setattr(design.cli.main, "cmd_rfa", run)
-    monkeypatch.setattr(design.cli.main, "COMMANDS", tuple(
+    monkeypatch.setattr(bridgeflap.design.cli.main, "cmd_rfa", run)
+    monkeypatch.setattr(bridgeflap.design.cli.main, "COMMANDS", tuple(
         c if c.name != "rfa" else type(c)(c.name, c.help, c.arguments, run)
         for c in COMMANDS))
     line = _error(capsys, main(["rfa"]))
@@ -275,14 +275,14 @@ def _raise_keyboard_interrupt(*args, **kwargs):
 
 #: command -> (module, function) where the serial run is interrupted
 INTERRUPT_AT = {
-    "study": ("design.studies.study", "_run_one"),
-    "doe": ("design.batch.runner", "_execute_case"),
-    "doe-new": ("design.batch.runner", "_execute_case"),
+    "study": ("bridgeflap.design.studies.study", "_run_one"),
+    "doe": ("bridgeflap.design.batch.runner", "_execute_case"),
+    "doe-new": ("bridgeflap.design.batch.runner", "_execute_case"),
     "flutter-plot": ("os", "fsync"),
     "modes-plot": ("os", "fsync"),
     "state-space": ("os", "fsync"),
-    "robustness": ("design.assessment.harm", "_rows_of"),
-    "buffeting-plot": ("model.response.buffeting", "buffeting"),
+    "robustness": ("bridgeflap.design.assessment.harm", "_rows_of"),
+    "buffeting-plot": ("bridgeflap.model.response.buffeting", "buffeting"),
 }
 
 
@@ -324,7 +324,8 @@ def _ctrl_c_group(argv: list[str], progress: str, cwd: Path) -> str:
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "MPLBACKEND": "Agg",
            "PYTHONPATH": os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p)}
     proc = subprocess.Popen([sys.executable, "-c",
-                             "import sys; from design.cli.main import main; sys.exit(main())",
+                             "import sys; from bridgeflap.design.cli.main import main; "
+                             "sys.exit(main())",
                               *argv],
                             cwd=cwd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             start_new_session=True)
@@ -404,8 +405,8 @@ def test_bare_bridgeflap_is_a_short_usage_and_exit_2(capsys):
 @pytest.fixture()
 def box_controller(tmp_path):
     """A controller file designed on humber:box: ``--bridge`` defaults to it, with a note."""
-    from model.aeroelastic.control import Compensator, Controller
-    from model.aeroelastic.controller_file import plant_record, save_controller
+    from bridgeflap.model.aeroelastic.control import Compensator, Controller
+    from bridgeflap.model.aeroelastic.controller_file import plant_record, save_controller
 
     k = Compensator(-1.1668156764187112, -0.03901371153086817, -1.6746219244786549,
                     0.7122695359413691, 0.08664867156606472)
@@ -430,14 +431,14 @@ def test_a_note_then_a_refusal_is_one_line(capsys, box_controller):
 def test_a_python_warning_then_a_refusal_is_one_line(capsys, monkeypatch):
     import warnings
 
-    import design.cli.main
-    from model.errors import BridgeflapInputError
+    import bridgeflap.design.cli.main
+    from bridgeflap.model.errors import BridgeflapInputError
 
     def run(args):
         warnings.warn("a deprecated spelling", UserWarning, stacklevel=1)
         raise BridgeflapInputError("name", "refused after the warning")
 
-    monkeypatch.setattr(design.cli.main, "COMMANDS", tuple(
+    monkeypatch.setattr(bridgeflap.design.cli.main, "COMMANDS", tuple(
         c if c.name != "rfa" else type(c)(c.name, c.help, c.arguments, run)
         for c in COMMANDS))
     rc = main(["rfa"])

@@ -14,9 +14,8 @@ import json
 import numpy as np
 import pytest
 
-import design
-import model
-from model.errors import BatchFailedError, BridgeflapInputError
+from bridgeflap import design, model
+from bridgeflap.model.errors import BatchFailedError, BridgeflapInputError
 
 #: the coarse mesh of the fast tests (tests/conftest.py) and a small flutter case
 COARSE = {"mesh.element_length_m": 47.0}
@@ -62,7 +61,7 @@ def test_doe_on_an_in_memory_spec(tmp_path, base, stiffer):
             "options": dict(CASE),
             "design": {"kind": "full-factorial", "levels": 2},
             "parameters": {"aero.air_density_kg_m3": [1.2, 1.25]}}
-    from design.studies.experiments import doe_fingerprint
+    from bridgeflap.design.studies.experiments import doe_fingerprint
 
     cfg = design.doe_from_dict(data)
     assert cfg.bridge is stiffer

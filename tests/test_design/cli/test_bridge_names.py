@@ -9,10 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from design.studies.experiments import doe_fingerprint, doe_from_dict
-from design.studies.study import load_study
-from model.errors import BridgeflapInputError
-from model.structure.loader import load_bridge
+from bridgeflap.design.studies.experiments import doe_fingerprint, doe_from_dict
+from bridgeflap.design.studies.study import load_study
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure.loader import load_bridge
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -56,8 +56,8 @@ def _always_fails(params):
 
 
 def test_batch_where_every_case_fails_raises(tmp_path):
-    from design.batch.runner import run_batch
-    from model.errors import BatchFailedError
+    from bridgeflap.design.batch.runner import run_batch
+    from bridgeflap.model.errors import BatchFailedError
 
     cases = [{"case_id": f"c{i}", "x": float(i)} for i in range(3)]
     with pytest.raises(BatchFailedError) as err:
@@ -69,7 +69,7 @@ def test_batch_where_every_case_fails_raises(tmp_path):
 
 
 def test_global_sensitivity_of_fe_parameters_on_modal_bridge_refused(tmp_path, capsys):
-    from design.cli.main import main
+    from bridgeflap.design.cli.main import main
 
     out = tmp_path / "g"
     rc = main(["sensitivity", "--bridge", "iabse-2a", "--global", "morris", "--out", str(out),
@@ -81,7 +81,7 @@ def test_global_sensitivity_of_fe_parameters_on_modal_bridge_refused(tmp_path, c
 
 @pytest.mark.parametrize("analysis", ["erection", "frequency_ratio"])
 def test_study_of_fe_analysis_on_modal_bridge_refused(tmp_path, capsys, analysis):
-    from design.cli.main import main
+    from bridgeflap.design.cli.main import main
 
     study = tmp_path / "study.toml"
     study.write_text(f'name = "s"\nbridge = "iabse-2a"\nanalyses = ["{analysis}"]\n', "utf-8")

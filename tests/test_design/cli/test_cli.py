@@ -1,9 +1,10 @@
 """The ``bridgeflap`` command line: JSON contracts, output files and bad-input behaviour.
 
-Commands run in-process through :func:`design.cli.main.main` (stdout/stderr captured by capsys) and
-once through the installed console script in a subprocess. The contract (design/cli/main.py):
-``--json`` prints exactly one JSON object on stdout; bad input gives exit status 2, one line
-``bridgeflap: error: <field>: <reason>`` on stderr, nothing on stdout and no file written.
+Commands run in-process through :func:`bridgeflap.design.cli.main.main` (stdout/stderr captured by
+capsys) and once through the installed console script in a subprocess. The contract
+(design/cli/main.py): ``--json`` prints exactly one JSON object on stdout; bad input gives exit
+status 2, one line ``bridgeflap: error: <field>: <reason>`` on stderr, nothing on stdout and no file
+written.
 """
 
 from __future__ import annotations
@@ -19,11 +20,11 @@ import numpy as np
 import pytest
 import scipy.io
 
-from design.cli.main import main
-from design.io.options import parse_range
-from design.studies.analyses import DEFAULT_SPEEDS
-from model.analysis import DEFAULT_MODES, bridge_system, flutter
-from model.structure.loader import load_bridge
+from bridgeflap.design.cli.main import main
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.design.studies.analyses import DEFAULT_SPEEDS
+from bridgeflap.model.analysis import DEFAULT_MODES, bridge_system, flutter
+from bridgeflap.model.structure.loader import load_bridge
 
 FLUTTER_KEYS = {"flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
                 "divergence_speed_m_s", "divergence_status", "critical_branch"}
@@ -175,7 +176,7 @@ def test_console_script_subprocess(tmp_path):
 def bad_files(tmp_path):
     """A malformed TOML file and a humber copy with a negative deck-plate mass."""
     (tmp_path / "malformed.toml").write_text("[deck\nmass = \n", encoding="utf-8")
-    text = resources.files("model.bridges").joinpath("humber.toml").read_text("utf-8")
+    text = resources.files("bridgeflap.model.bridges").joinpath("humber.toml").read_text("utf-8")
     head, tail = text.split("[[deck_section]]", 1)
     tail, n = re.subn(r"(mass_kg_per_m\s*=\s*)([0-9.eE+]+)", r"\1-\2", tail, count=1)
     assert n == 1

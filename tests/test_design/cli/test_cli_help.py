@@ -12,8 +12,8 @@ import re
 
 import pytest
 
-from design.cli.common import LOGGER, log, set_verbosity
-from design.cli.main import COMMANDS, build_parser
+from bridgeflap.design.cli.common import LOGGER, log, set_verbosity
+from bridgeflap.design.cli.main import COMMANDS, build_parser
 
 #: Sphinx roles (``:func:`x```), double backticks and reST substitutions
 MARKUP = re.compile(r":[a-z]+:`|``|\|[a-z]+\|")

@@ -4,9 +4,9 @@ import math
 
 import pytest
 
-from design.cli.main import main
-from design.control.checks import limits_text as _limits_text
-from design.io.text import number_text, speed_text
+from bridgeflap.design.cli.main import main
+from bridgeflap.design.control.checks import limits_text as _limits_text
+from bridgeflap.design.io.text import number_text, speed_text
 
 
 @pytest.mark.parametrize("missing", [None, math.nan])

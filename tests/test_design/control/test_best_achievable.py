@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import json
 
-from design.control.driver import design
-from design.control.settings import load_settings
+from bridgeflap.design.control.driver import design
+from bridgeflap.design.control.settings import load_settings
 
 
 def test_infeasible_design_reports_its_best_candidate_and_why():

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from design.control.critical_speed import (
+from bridgeflap.design.control.critical_speed import (
     FAILED,
     FEASIBLE,
     NOT_FEASIBLE,
@@ -16,8 +16,8 @@ from design.control.critical_speed import (
     search_design_speed,
     settings_at,
 )
-from design.control.settings import load_settings
-from model.errors import BridgeflapInputError
+from bridgeflap.design.control.settings import load_settings
+from bridgeflap.model.errors import BridgeflapInputError
 
 CARD = Path(__file__).resolve().parents[3] / "design" / "studies" / "humber_flaps_speed.toml"
 
@@ -40,7 +40,7 @@ def test_bad_settings_name_the_field(over, field):
 
 
 def test_cli_bad_objective_exits_2_and_writes_nothing(tmp_path, capsys):
-    from design.cli.main import main
+    from bridgeflap.design.cli.main import main
 
     out = tmp_path / "out"
     assert main(["optimise", "--objective", "fastest", "--out", str(out), "--json"]) == 2
@@ -155,7 +155,7 @@ def test_end_to_end_design_speed_is_verified_and_the_next_is_not():
     # humber:box on 6 modes, 5 flap pairs, coarse grids (seconds per inner solve): the chosen
     # design is re-checked here on its own dense grid to its design speed, and the next
     # evaluated speed above it is reported not feasible with a reason
-    from design.control.driver import design, verify_layout
+    from bridgeflap.design.control.driver import design, verify_layout
 
     s = load_settings(None, bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
                       robust_design_speeds_m_s=(30.0, 60.0), n_robust_omega=8,

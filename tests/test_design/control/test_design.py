@@ -1,5 +1,5 @@
-"""Compensator design (design.control.settings, nlp, robust, driver): settings, derivatives, a real
-Humber design (slow)."""
+"""Compensator design (bridgeflap.design.control.settings, nlp, robust, driver): settings,
+derivatives, a real Humber design (slow)."""
 
 from dataclasses import replace
 
@@ -7,15 +7,15 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from design.control.buffeting_term import BuffetingCost
-from design.control.driver import build_model, select_start
-from design.control.nlp import DesignProblem
-from design.control.plant import plant_factors
-from design.control.records import RobustMargin, StartRecord, Verification
-from design.control.robust import refine_peaks, robust_point_function, true_t_peak
-from design.control.settings import load_settings
-from model.aeroelastic.control import Compensator, Controller
-from model.errors import BridgeflapInputError
+from bridgeflap.design.control.buffeting_term import BuffetingCost
+from bridgeflap.design.control.driver import build_model, select_start
+from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.plant import plant_factors
+from bridgeflap.design.control.records import RobustMargin, StartRecord, Verification
+from bridgeflap.design.control.robust import refine_peaks, robust_point_function, true_t_peak
+from bridgeflap.design.control.settings import load_settings
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.errors import BridgeflapInputError
 
 THETA = np.array([0.3, 0.25, -1.5, 0.08, 0.5])
 
@@ -58,7 +58,7 @@ def test_settings_reject_bad_gain_bound(tmp_path):
 
 
 def test_cli_optimise_bad_input_writes_nothing(tmp_path):
-    from design.cli.main import main
+    from bridgeflap.design.cli.main import main
 
     f = tmp_path / "d.toml"
     f.write_text("gain_limit = -1.0\n")
@@ -70,7 +70,7 @@ def test_cli_optimise_bad_input_writes_nothing(tmp_path):
 def test_packaged_definition_loads():
     from pathlib import Path
 
-    from model.analysis import DEFAULT_MODES
+    from bridgeflap.model.analysis import DEFAULT_MODES
 
     s = load_settings(Path(__file__).resolve().parents[3] / "runs" / "humber_flaps.toml")
     assert s.flap_count == 25 and s.gain_limit == 15.0
@@ -127,7 +127,7 @@ def test_lowrank_robust_form_equals_the_full_solve(small):
     # n_modes solve into an r x r one. Same algebra, so values and Jacobians in theta and
     # in the flap weights agree with robust_point_function to round-off (1e-10 relative:
     # ~1e6 ulps, far below any effect, far above the ~1e-15 observed)
-    from design.control.robust import lowrank_point_function, lowrank_robust_data
+    from bridgeflap.design.control.robust import lowrank_point_function, lowrank_robust_data
 
     s, model = small
     om = np.array([0.3, 1.2, 2.5])
@@ -271,7 +271,7 @@ def test_a_phase_1_point_has_no_design_objective():
     # solve, 1.4 against start 0's design objective): it must not win on that number
     from types import SimpleNamespace
 
-    from design.control.start import _phase_1
+    from bridgeflap.design.control.start import _phase_1
 
     rounds = (SimpleNamespace(placement="phase 1 (feasibility, no robust epigraph)"),
               SimpleNamespace(placement=None))
@@ -314,7 +314,7 @@ def test_robust_cuts_report_dense_peak(small):
 
 
 def test_buffeting_callback_value_and_gradient(buffeting_problem):
-    from model.response.buffeting import buffeting
+    from bridgeflap.model.response.buffeting import buffeting
 
     s, spec, model = buffeting_problem
     prob = DesignProblem(s, model, spec=spec)
@@ -381,10 +381,10 @@ def test_humber_design_stable_on_16_modes(tmp_path, capsys):
     # every start's Ipopt status reported.
     import json
 
-    from design.cli.main import main
-    from model.aeroelastic.controller_file import load_controller
-    from model.analysis import DEFAULT_MODES, closed_loop_flutter
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.cli.main import main
+    from bridgeflap.model.aeroelastic.controller_file import load_controller
+    from bridgeflap.model.analysis import DEFAULT_MODES, closed_loop_flutter
+    from bridgeflap.model.structure.loader import load_bridge
 
     out = tmp_path / "opt"
     rc = main(["optimise", "--out", str(out), "--json"])
@@ -406,7 +406,7 @@ def test_humber_design_stable_on_16_modes(tmp_path, capsys):
     # 1e-9 relative: the reported sup is a root-polished stationary point
     assert ctrl.compensator.max_gain() <= 15.0 * (1 + 1e-9)
     # on the bridge the design definition names (runs/humber_flaps.toml: humber:box)
-    from design.cli.optimise import DEFAULT_DEFINITION
+    from bridgeflap.design.cli.optimise import DEFAULT_DEFINITION
 
     s = load_settings(DEFAULT_DEFINITION)
     res = closed_loop_flutter(load_bridge(s.bridge), ctrl,
@@ -440,7 +440,7 @@ def test_failed_design_summary_keeps_the_optimise_contract():
     from dataclasses import FrozenInstanceError
     from pathlib import Path
 
-    from design.control.result import DesignResult
+    from bridgeflap.design.control.result import DesignResult
 
     s = load_settings(None)
     failed = StartRecord(start=0, theta0=(0.0,) * 5, ipopt_status="failed: x", success=False,
@@ -472,7 +472,7 @@ def test_failed_design_summary_keeps_the_optimise_contract():
 
 def test_round_layout_keeps_whole_mirror_pairs_within_budget():
     # 5 flaps, 3 groups (outer pair, inner pair, centre): w = S z
-    from design.control.driver import round_layout
+    from bridgeflap.design.control.driver import round_layout
 
     S = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 1, 0], [1, 0, 0]], float)
     # budget 3: the inner pair (0.9) and the centre (0.8) fit, the outer pair (0.85) would not
@@ -502,7 +502,11 @@ def test_damping_constraint_is_active_when_only_regularised(small_box):
     # objective |theta/scale|^2 only (no robust term): it pulls K towards 0, the open loop
     # (K = 0) flutters at 70 m/s on this model, so the NLP optimum must sit on a damping
     # constraint -- the constraints act (issue 14: the decay-rate constraints never did)
-    from design.control.driver import ACTIVE_ABS_TOL_1_S, active_constraints, nlp_active_speeds
+    from bridgeflap.design.control.driver import (
+        ACTIVE_ABS_TOL_1_S,
+        active_constraints,
+        nlp_active_speeds,
+    )
 
     s, model = small_box
     s2 = replace(s, weight_robust=0.0, max_iter=80)
@@ -526,8 +530,8 @@ def test_damping_constraint_is_active_when_only_regularised(small_box):
 def test_copies_of_lag_and_compensator_poles_are_excluded(small):
     # the excluded eigenvalues are exactly the fixed copies: -p_i U / b and the roots of
     # a2 s^2 + a1 s + 1; every other eigenvalue is kept
-    from design.control.eigen import fixed_pole_copies
-    from design.control.plant import lag_rates
+    from bridgeflap.design.control.eigen import fixed_pole_copies
+    from bridgeflap.design.control.plant import lag_rates
 
     s, model = small
     prob = DesignProblem(s, model)
@@ -564,8 +568,8 @@ def test_peak_tracking_margin_matches_verified_within_one_percent(small_box):
 def test_symbolic_buffeting_term_matches_numeric_and_is_differentiable(buffeting_problem):
     # the CasADi spectral integral (frozen grid) against model.response.buffeting's adaptive one at
     # the reference design, and its AD gradient against central differences of itself
-    from design.control.buffeting_term import SymbolicBuffeting
-    from model.response.buffeting import buffeting
+    from bridgeflap.design.control.buffeting_term import SymbolicBuffeting
+    from bridgeflap.model.response.buffeting import buffeting
 
     s, spec, model = buffeting_problem
     prob = DesignProblem(s, model, spec=spec)
@@ -598,8 +602,8 @@ def test_multi_model_design_constrains_every_variant(small_box):
     # two variants of the small humber:box model (Sobol' over the estimated-input ranges,
     # half-chord held): the NLP carries one damping block per model, and a short solve_with_cuts
     # reports feasibility only when every variant's dense check meets zeta_min
-    from design.control.driver import sample_variants
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.control.driver import sample_variants
+    from bridgeflap.model.structure.loader import load_bridge
 
     s, model = small_box
     s2 = replace(s, max_iter=30, resolve_max_iter=20, cutting_plane_rounds=1,
@@ -624,9 +628,9 @@ def test_multi_model_design_constrains_every_variant(small_box):
 def test_closed_loop_limits_reported_with_mechanism(small_box):
     # the reported limits are model.analysis.closed_loop_flutter's, searched to 2 x 85 m/s,
     # and the governing one is the lower of the sweep's critical speed and the static check
-    from design.control.driver import closed_loop_limits
-    from model.analysis import closed_loop_flutter
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.control.driver import closed_loop_limits
+    from bridgeflap.model.analysis import closed_loop_flutter
+    from bridgeflap.model.structure.loader import load_bridge
 
     s, model = small_box
     ctrl = Controller(Compensator(*THETA), tuple(s.positions()), s.flap_width_m)
@@ -659,7 +663,7 @@ def test_b1425_with_5m_flaps_is_stable_to_85(tmp_path):
     # limit above 85 m/s and the gain limit met (3 m flaps: no such K found, the golden case)
     from pathlib import Path
 
-    from design.control.driver import design
+    from bridgeflap.design.control.driver import design
 
     card = Path(__file__).resolve().parents[3] / "design" / "studies" / "humber_b1425_flaps5m.toml"
     s = load_settings(card, starts=1, parallel=False)
@@ -674,7 +678,7 @@ def test_b1425_with_5m_flaps_is_stable_to_85(tmp_path):
 def test_iteration_callback_history_and_warm_start(small_box):
     # the Ipopt iteration callback fires once per iteration (and once for iteration 0), the
     # saved history has one entry per call, and a warm start is parsed from a Controller
-    from design.control.driver import warm_start_theta
+    from bridgeflap.design.control.driver import warm_start_theta
 
     s, model = small_box
     prob = DesignProblem(replace(s, max_iter=6), model)
@@ -694,7 +698,7 @@ def test_iteration_callback_history_and_warm_start(small_box):
 def test_pareto_points_are_each_verified(small_box):
     # K re-optimised per count; each point's "verified" is recomputed here from an
     # independent dense check of its own theta on its own layout (damping, gain, stability)
-    from design.control.driver import flap_count_pareto, verify_layout
+    from bridgeflap.design.control.driver import flap_count_pareto, verify_layout
 
     s, _ = small_box
     s2 = replace(s, max_iter=40, resolve_max_iter=20, cutting_plane_rounds=1,
@@ -715,9 +719,9 @@ def test_closed_loop_limits_fast_path_on_the_default_design():
     # the default card's design on its 30-mode verification model (230 states): the fast
     # sweep of the closed-loop limits against the dense reference sweep, 1e-4 relative (issue
     # 16 goal 2's agreement), the same statuses and mechanism
-    from design.cli.optimise import DEFAULT_DEFINITION
-    from model.analysis import closed_loop_flutter
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.cli.optimise import DEFAULT_DEFINITION
+    from bridgeflap.model.analysis import closed_loop_flutter
+    from bridgeflap.model.structure.loader import load_bridge
 
     s = load_settings(DEFAULT_DEFINITION)
     # the default card's design since issue 27 (built-in b = 14.25 m, 18 placed pairs, README
@@ -742,9 +746,9 @@ def test_lazy_variant_constraints_meet_every_variant(small_box):
     # reaches a design that meets zeta_min on the nominal bridge and on every variant's dense
     # check -- the constraints left out are verified, not assumed. The loop's own test (the
     # refined check) gives the dense check's maximum violation on every variant.
-    from design.control.driver import sample_variants
-    from design.control.nlp_tolerances import VIOLATION_TOL
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.control.driver import sample_variants
+    from bridgeflap.design.control.nlp_tolerances import VIOLATION_TOL
+    from bridgeflap.model.structure.loader import load_bridge
 
     s, model = small_box
     base = load_bridge(s.bridge)

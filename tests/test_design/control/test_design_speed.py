@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from design.control.driver import build_model
-from design.control.eigen import inverse_iteration
-from design.control.nlp import DesignProblem
-from design.control.settings import load_settings
+from bridgeflap.design.control.driver import build_model
+from bridgeflap.design.control.eigen import inverse_iteration
+from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.settings import load_settings
 
 THETA = np.array([0.3, 0.25, -1.5, 0.08, 0.5])
 
@@ -89,10 +89,10 @@ def test_fresh_variants_reported_stable_are_stable(small_box_fresh):
     # stable 0..speed_max is stable in an independent sweep (model.stability.sweeps.sweep on the
     # closed-loop system of that variant, same grid and modes), and every one it counts as
     # unstable is not -- so the reported fraction is the sweep's
-    from design.control.driver import fresh_variant_check, sample_variants
-    from model.aeroelastic.control import Compensator, Controller
-    from model.stability.sweeps import sweep
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.control.driver import fresh_variant_check, sample_variants
+    from bridgeflap.model.aeroelastic.control import Compensator, Controller
+    from bridgeflap.model.stability.sweeps import sweep
+    from bridgeflap.model.structure.loader import load_bridge
 
     s = small_box_fresh
     base = load_bridge(s.bridge)
@@ -116,7 +116,7 @@ def test_flap_count_search_in_two_processes_equals_the_serial_one(small_box_fres
     # minimum, the stopping rule applied count by count (exact: same computation per count)
     from dataclasses import replace
 
-    from design.control.driver import minimum_flap_count
+    from bridgeflap.design.control.driver import minimum_flap_count
 
     s = small_box_fresh
     theta = (0.0, 0.5, -1.0, 0.05, 0.5)
@@ -126,7 +126,7 @@ def test_flap_count_search_in_two_processes_equals_the_serial_one(small_box_fres
     assert len(ser.counts) >= 1
     # the full layout's check already made (a start's verification) is reused as its row:
     # the same computation, so the same search to the last bit
-    from design.control.driver import verify_layout
+    from bridgeflap.design.control.driver import verify_layout
 
     ver = verify_layout(s, theta, s.positions())
     assert minimum_flap_count(replace(s, parallel=True), theta,
@@ -165,7 +165,7 @@ def test_damping_callback_lazy_vectors_values_and_jacobian(small):
 def test_closed_form_compensator_poles_equal_numpy_roots():
     # the copy test's compensator poles in closed form: the roots np.roots gives (real pair,
     # complex pair, double root), to round-off (1e-15 relative)
-    from design.control.eigen import _quadratic_roots
+    from bridgeflap.design.control.eigen import _quadratic_roots
 
     for a2, a1 in [(0.05, 0.5), (0.0268, 0.8375), (1.0, 0.1), (1e-3, 10.0), (0.25, 1.0)]:
         got = np.sort_complex(np.array(_quadratic_roots(a2, a1), complex))
@@ -200,8 +200,8 @@ def test_compensator_reduction_keeps_every_constraint_and_derivative(small, plac
     # damping constraints and their Jacobians equal the full-state ones (the same eigenvalues
     # and, T being constant, the same derivatives; 1e-9 relative: FD rows use 1e-6 steps,
     # identical in both paths, the analytic rows agree to round-off).
-    import design.control.nlp as nlp
-    from design.control.plant import compensator_reduction
+    import bridgeflap.design.control.nlp as nlp
+    from bridgeflap.design.control.plant import compensator_reduction
 
     s, model = small
     s = s if not placement else load_settings(None, n_modes=6, flap_count=5,
@@ -244,8 +244,8 @@ def test_robust_check_plant_cache_is_exact(small):
     # frequency is solved on its own in both paths), so the margins, peaks and the factors
     # themselves must be identical, at a first theta (cache filled) and a second (reused),
     # and the cache must actually hold the fixed grid after the first call.
-    from design.control.plant import plant_factors
-    from design.control.robust import cached_plant, robust_margin
+    from bridgeflap.design.control.plant import plant_factors
+    from bridgeflap.design.control.robust import cached_plant, robust_margin
 
     s, model = small
     prob = DesignProblem(s, model)
@@ -275,7 +275,11 @@ def _feed(cb, violations, ub=0.0):
 
 @pytest.mark.parametrize("stall", [True, False])
 def test_divergence_watchdog_stops_a_stall_not_a_falling_violation(stall):
-    from design.control.ipopt_hooks import DIVERGE_ITERATIONS, DIVERGE_LEVEL, IterationCallback
+    from bridgeflap.design.control.ipopt_hooks import (
+        DIVERGE_ITERATIONS,
+        DIVERGE_LEVEL,
+        IterationCallback,
+    )
 
     cb = IterationCallback("w", 1, 1, watch=([-np.inf], [0.0], DIVERGE_LEVEL,
                                              DIVERGE_ITERATIONS))
@@ -321,8 +325,8 @@ def test_multi_model_design_in_two_processes_reports_every_variant(small_box_fre
     # variant, in order), and the design variants' checks are reported one per variant
     from dataclasses import replace
 
-    from design.control.driver import design, fresh_variant_check, sample_variants
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.control.driver import design, fresh_variant_check, sample_variants
+    from bridgeflap.model.structure.loader import load_bridge
 
     # 3 rounds of 60 iterations: since issue 27's model updating 1 x 30 ends infeasible (max
     # gain 58.5) and leaves no candidate to check; 3 x 60 converges (measured, gain 15.00)

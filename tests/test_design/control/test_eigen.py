@@ -7,8 +7,12 @@ import pytest
 import scipy.linalg
 import scipy.optimize
 
-from design.control.eigen import PolynomialTopRealParts
-from model.spectrum import eigenvalue_derivative, eigenvalue_derivatives, spectral_abscissa
+from bridgeflap.design.control.eigen import PolynomialTopRealParts
+from bridgeflap.model.spectrum import (
+    eigenvalue_derivative,
+    eigenvalue_derivatives,
+    spectral_abscissa,
+)
 
 
 def _top(A_fun, m, **kwargs):

@@ -1,8 +1,8 @@
 """The robust margin re-checked between the robust speeds (issue 32 item 2).
 
-:func:`design.control.checks.margin_on_speed_grid` evaluates ``1 / max sigma_max(T)`` on a 0.5 m/s
-grid over the whole speed range that contains the robust speeds, then refines the worst grid
-speed, so its margin can never exceed the margin at the robust speeds alone (the same function
+:func:`bridgeflap.design.control.checks.margin_on_speed_grid` evaluates ``1 / max sigma_max(T)`` on
+a 0.5 m/s grid over the whole speed range that contains the robust speeds, then refines the worst
+grid speed, so its margin can never exceed the margin at the robust speeds alone (the same function
 on a superset of speeds: equality to round-off at most). On the default design the grid finds
 0.1722 at 76.2 m/s against 0.1861 at the robust speeds; here a small model keeps the test
 quick.
@@ -15,9 +15,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from design.control.checks import MARGIN_GRID_STEP_M_S, margin_on_speed_grid
-from design.control.settings import load_settings
-from model.aeroelastic.control import Compensator, Controller
+from bridgeflap.design.control.checks import MARGIN_GRID_STEP_M_S, margin_on_speed_grid
+from bridgeflap.design.control.settings import load_settings
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
 
 
 def test_grid_margin_is_the_minimum_over_the_whole_speed_range():
@@ -38,8 +38,8 @@ def test_grid_margin_is_the_minimum_over_the_whole_speed_range():
     # independent check: a 0.02 m/s brute-force grid about the worst grid speed finds no
     # larger peak (1e-4 relative: the refined speed is within xatol 0.01 m/s of the local
     # maximum of a smooth peak, whose relative drop there is second order)
-    from design.control.driver import build_model
-    from design.control.nlp import DesignProblem
+    from bridgeflap.design.control.driver import build_model
+    from bridgeflap.design.control.nlp import DesignProblem
 
     _, model = build_model(s, positions=np.asarray(pos))
     prob = DesignProblem(replace(s, optimise_placement=False), model, numeric=True)

@@ -13,11 +13,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from design.control.driver import build_model
-from design.control.nlp import DesignProblem
-from design.control.pair_failure import FailedPairProblem, extra_models
-from design.control.settings import load_settings
-from model.aeroelastic.control import Compensator
+from bridgeflap.design.control.driver import build_model
+from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.pair_failure import FailedPairProblem, extra_models
+from bridgeflap.design.control.settings import load_settings
+from bridgeflap.model.aeroelastic.control import Compensator
 
 THETA = np.array([0.3, 0.25, -1.5, 0.08, 0.5])
 
@@ -55,7 +55,7 @@ def test_extra_models_only_with_the_card_key(small_box, tmp_path):
     card = tmp_path / "card.toml"
     card.write_text("[variants]\ndesign_for_pair_failure = true\n", encoding="utf-8")
     assert load_settings(card).design_for_pair_failure is True
-    from model.errors import BridgeflapInputError
+    from bridgeflap.model.errors import BridgeflapInputError
 
     with pytest.raises(BridgeflapInputError, match="design_for_pair_failure"):
         load_settings(None, design_for_pair_failure="yes")

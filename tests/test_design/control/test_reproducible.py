@@ -1,6 +1,7 @@
 """The discrete choices of a design do not depend on last-bit differences: the start chosen
 among near-equal ones, the layout rounded from relaxed weights near the 0.5 threshold, and the
-compensator's pole damping constraint (design.control.start, design.control.loop_algebra)."""
+compensator's pole damping constraint (bridgeflap.design.control.start,
+bridgeflap.design.control.loop_algebra)."""
 
 from __future__ import annotations
 
@@ -11,20 +12,20 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from design.control.loop_algebra import (
+from bridgeflap.design.control.loop_algebra import (
     COMPENSATOR_DAMPING_RTOL,
     compensator_damped,
     compensator_damping_ratio,
 )
-from design.control.records import RobustMargin, StartRecord, Verification
-from design.control.start import (
+from bridgeflap.design.control.records import RobustMargin, StartRecord, Verification
+from bridgeflap.design.control.start import (
     DEAD_BAND_GROUPS,
     START_TIE_REL,
     layout_candidates,
     round_layout,
     select_start,
 )
-from model.aeroelastic.control import Compensator
+from bridgeflap.model.aeroelastic.control import Compensator
 
 
 def _rec(start, objective, flaps=10, margin=0.3):
@@ -127,7 +128,7 @@ def test_compensator_damping_ratio():
 def _small_card():
     # the default card's problem (scenarios at the corners, compensator damping, a fixed layout
     # of the outer pairs) on 8 modes and 150 m flaps: the same code path at a test's cost
-    from design.control.settings import load_settings
+    from bridgeflap.design.control.settings import load_settings
 
     return load_settings("default", n_modes=8, verification_modes=8, flap_count=9,
                          flap_width_m=150.0, flap_positions_m=(-600.0, -450.0, -300.0, 300.0,
@@ -149,8 +150,8 @@ def test_a_last_bit_perturbation_of_the_model_gives_the_same_design(monkeypatch)
     # closed-loop critical speed within 0.01 m/s (the tolerances a user can rely on between
     # machines: the issue's kernel study saw K move > 10 % where a choice was taken on
     # unconverged iterates)
-    from design.control.driver import design
-    from design.control.problem_model import PERTURB_ENV
+    from bridgeflap.design.control.driver import design
+    from bridgeflap.design.control.problem_model import PERTURB_ENV
 
     card = _small_card()
     base = _design_numbers(design(card))

@@ -1,13 +1,13 @@
-"""Scenario design (design.control.scenarios): the scenario bridges and the do-no-harm range of
-each, read from its own open loop."""
+"""Scenario design (bridgeflap.design.control.scenarios): the scenario bridges and the do-no-harm
+range of each, read from its own open loop."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from design.control.problem_model import build_model
-from design.control.scenarios import (
+from bridgeflap.design.control.problem_model import build_model
+from bridgeflap.design.control.scenarios import (
     NO_HARM_GRID_FACTOR,
     NO_HARM_SPEED_MARGIN,
     corner_specs,
@@ -15,11 +15,11 @@ from design.control.scenarios import (
     scenario_settings,
     scenario_specs,
 )
-from design.control.settings import load_settings
-from design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
-from model.analysis import flutter
-from model.errors import BridgeflapInputError
-from model.structure.loader import load_bridge
+from bridgeflap.design.control.settings import load_settings
+from bridgeflap.design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
+from bridgeflap.model.analysis import flutter
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure.loader import load_bridge
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,7 @@ stale resumes, busy ports, unreachable schedulers, oversized designs.
 The commands run as subprocesses where a process must die or two must overlap; the studies are
 tiny (one ``modes`` analysis on a 50 m mesh, about a second) and the DOEs use the ``modes``
 analysis with the serial scheduler unless a Dask cluster is the point of the test. Fault
-injection uses the test hook :data:`design.io.outputs.FAULT_ENV` (unset in normal use).
+injection uses the test hook :data:`bridgeflap.design.io.outputs.FAULT_ENV` (unset in normal use).
 """
 
 import json
@@ -17,14 +17,21 @@ from pathlib import Path
 
 import pytest
 
-from design.batch.runner import case_hash, run_batch
-from design.cli.main import main
-from design.io.outputs import FAULT_ENV, OUTPUT_MARKER, claim_output, lock_path, write_marker
-from design.studies.experiments import MAX_DOE_CASES, doe_from_dict
-from design.studies.study import run_study
-from model.errors import BridgeflapInputError
+from bridgeflap.design.batch.runner import case_hash, run_batch
+from bridgeflap.design.cli.main import main
+from bridgeflap.design.io.outputs import (
+    FAULT_ENV,
+    OUTPUT_MARKER,
+    claim_output,
+    lock_path,
+    write_marker,
+)
+from bridgeflap.design.studies.experiments import MAX_DOE_CASES, doe_from_dict
+from bridgeflap.design.studies.study import run_study
+from bridgeflap.model.errors import BridgeflapInputError
 
-CLI = [sys.executable, "-c", "import sys; from design.cli.main import main; sys.exit(main())"]
+CLI = [sys.executable, "-c",
+       "import sys; from bridgeflap.design.cli.main import main; sys.exit(main())"]
 STUDY = """
 name = "tiny"
 bridge = "humber"
@@ -235,8 +242,8 @@ def test_lock_is_reentrant_in_one_thread_and_exclusive_across_threads_and_proces
     out = tmp_path / "out"
     with claim_output(out) as folder, claim_output(out):
         assert lock_path(folder) == tmp_path / ".out.lock" and lock_path(folder).exists()
-        code = ("import sys; from design.io.outputs import claim_output\n"
-                "from model.errors import BridgeflapInputError\n"
+        code = ("import sys; from bridgeflap.design.io.outputs import claim_output\n"
+                "from bridgeflap.model.errors import BridgeflapInputError\n"
                 "try:\n    claim_output(sys.argv[1]).__enter__()\n"
                 "except BridgeflapInputError as e:\n    print(e); sys.exit(2)\n")
         r = subprocess.run([sys.executable, "-c", code, str(out)], env=_env(),
@@ -265,7 +272,7 @@ def test_stale_resume_recomputes_the_cases_of_another_doe(tmp_path):
     bridge = tmp_path / "bridge.toml"
     from importlib import resources
 
-    text = resources.files("model.bridges").joinpath("humber.toml").read_text("utf-8")
+    text = resources.files("bridgeflap.model.bridges").joinpath("humber.toml").read_text("utf-8")
     bridge.write_text(text)
     doe = tmp_path / "doe.toml"
     out = tmp_path / "out"

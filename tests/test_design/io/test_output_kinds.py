@@ -1,8 +1,8 @@
 """Typed output folders: one command's output is never replaced by another's.
 
 Every bridgeflap output folder carries a marker naming the command that wrote it
-(:func:`design.io.outputs.write_marker`). ``study --out``, ``optimise --out`` and ``doe --out``
-refuse a folder that holds another kind of output, before any work and with nothing written:
+(:func:`bridgeflap.design.io.outputs.write_marker`). ``study --out``, ``optimise --out`` and ``doe
+--out`` refuse a folder that holds another kind of output, before any work and with nothing written:
 exit 2, one line naming ``out`` and both kinds, the folder byte-identical afterwards. Each CLI
 case is refused before its analysis runs (the check follows only the input parsing), so this
 file takes seconds.
@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from design.cli.main import main
-from design.io.outputs import check_replaceable, claim_output, write_marker
-from model.errors import BridgeflapInputError
+from bridgeflap.design.cli.main import main
+from bridgeflap.design.io.outputs import check_replaceable, claim_output, write_marker
+from bridgeflap.model.errors import BridgeflapInputError
 
 ROOT = Path(__file__).resolve().parents[3]
 

@@ -10,9 +10,9 @@ import signal
 
 import pytest
 
-from design.cli.run import run
-from design.io.outputs import claim_output, lock_path, recover_output, write_marker
-from model.errors import BridgeflapInputError
+from bridgeflap.design.cli.run import run
+from bridgeflap.design.io.outputs import claim_output, lock_path, recover_output, write_marker
+from bridgeflap.model.errors import BridgeflapInputError
 
 
 def _dead_pid() -> int:

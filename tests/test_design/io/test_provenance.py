@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from design.io.manifest import UNKNOWN, build_info, build_manifest, provenance
+from bridgeflap.design.io.manifest import UNKNOWN, build_info, build_manifest, provenance
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -33,13 +33,13 @@ def test_manifest_takes_the_build_commit_outside_a_checkout(tmp_path):
 
 
 def test_manifest_names_version_and_commit():
-    import design.io.manifest
+    import bridgeflap.design.io.manifest
 
     m = build_manifest({})
     assert m["bridgeflap"]["version"] != UNKNOWN
     # where the imported package lives decides: a checkout (worktrees have a .git file), or an
     # installed wheel (CI: built from this clone, so its record names this clone's HEAD)
-    package_root = Path(design.io.manifest.__file__).resolve().parents[2]
+    package_root = Path(bridgeflap.design.io.manifest.__file__).resolve().parents[2]
     if (package_root / ".git").exists():
         assert m["git"]["source"] == "checkout" and m["git"]["commit"] != UNKNOWN
         assert m["bridgeflap"]["commit"] == m["git"]["commit"]
@@ -74,12 +74,13 @@ def test_built_wheel_carries_the_commit(tmp_path):
                        check=True, timeout=120, capture_output=True)
         wheel = next((tmp_path / "dist").glob("bridgeflap-*.whl"))
         with zipfile.ZipFile(wheel) as z:
-            info = json.loads(z.read("model/_build_info.json"))
+            info = json.loads(z.read("bridgeflap/model/_build_info.json"))
     else:  # the build step every wheel build runs, which writes the record
         subprocess.run([sys.executable, "setup.py", "-q", "build_py", "-d",
                         str(tmp_path / "lib")], cwd=src, check=True, timeout=120,
                        capture_output=True)
-        info = json.loads((tmp_path / "lib" / "model" / "_build_info.json").read_text())
+        info = json.loads((
+            tmp_path / "lib" / "bridgeflap" / "model" / "_build_info.json").read_text())
     assert info["commit"] == head and info["dirty"] is False
     try:
         import tomllib

@@ -11,8 +11,8 @@ import json
 import numpy as np
 import pytest
 
-from model.analysis import erection, flutter, modal_model
-from model.results import UNIT_SUFFIXES, UNITLESS_COLUMNS, jsonable, sweep_dataset
+from bridgeflap.model.analysis import erection, flutter, modal_model
+from bridgeflap.model.results import UNIT_SUFFIXES, UNITLESS_COLUMNS, jsonable, sweep_dataset
 
 SPEEDS = np.arange(0.0, 90.0, 2.0)
 
@@ -63,7 +63,7 @@ def test_flutter_result_as_data(flutter_result):
 def test_sweep_netcdf_round_trip(flutter_result, tmp_path):
     import xarray as xr
 
-    from design.io.files import atomic_save_netcdf
+    from bridgeflap.design.io.files import atomic_save_netcdf
 
     ds = flutter_result.to_xarray()
     assert ds.speed_m_s.attrs["units"] == "m/s"
@@ -100,7 +100,7 @@ def test_erection_as_data(coarse_humber):
 
 
 def test_buffeting_as_data(coarse_humber):
-    from model.response.buffeting import buffeting
+    from bridgeflap.model.response.buffeting import buffeting
 
     res = buffeting(coarse_humber, [10.0, 20.0], n_modes=4)
     strict_round_trip(res.to_dict())
@@ -112,7 +112,7 @@ def test_buffeting_as_data(coarse_humber):
 def test_batch_rows_are_flat():
     from pathlib import Path
 
-    from design.batch.runner import BatchResult
+    from bridgeflap.design.batch.runner import BatchResult
 
     rows = ({"case_id": "c0", "params": {"deck.mass_kg_m": 1.0}, "status": "ok", "error": None,
              "result": {"critical_speed_m_s": 60.0, "x": {"y_m": float("nan")}},
@@ -127,9 +127,9 @@ def test_batch_rows_are_flat():
 
 
 def test_design_result_is_strict_json():
-    from design.control.result import DesignResult
-    from design.control.settings import DesignSettings
-    from model.aeroelastic.control import Compensator, Controller
+    from bridgeflap.design.control.result import DesignResult
+    from bridgeflap.design.control.settings import DesignSettings
+    from bridgeflap.model.aeroelastic.control import Compensator, Controller
 
     ctrl = Controller(Compensator(0.0, 0.1, -0.5, 0.01, 0.2), (-56.4, 0.0, 56.4), 56.4)
     res = DesignResult("failed", DesignSettings(), None, ctrl, (), None, np.array([0.0, 1.0]),

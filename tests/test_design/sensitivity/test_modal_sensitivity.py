@@ -19,9 +19,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from design.sensitivity.local import local_sensitivity
-from model.errors import BridgeflapInputError
-from model.structure.loader import load_bridge
+from bridgeflap.design.sensitivity.local import local_sensitivity
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure.loader import load_bridge
 
 SPEEDS = np.arange(0.0, 100.01, 1.0)
 FLAT = ["mode.TS1.frequency_hz", "mode.TS1.damping_ratio", "mode.TS1.generalised_mass",

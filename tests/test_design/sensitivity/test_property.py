@@ -1,18 +1,19 @@
 """Property-based test of the stability contract over the estimated-input ranges.
 
-Random bridges from :data:`design.studies.screening.DEFAULT_UNCERTAIN_RANGES` (the estimated
-Humber inputs; ``aero.coherence_decay`` enters buffeting only and is left out), random erection
-stages and random speed grids, on the coarse 47 m mesh with 10 modes so that each example is a
-fraction of a second. For every example:
+Random bridges from :data:`bridgeflap.design.studies.screening.DEFAULT_UNCERTAIN_RANGES` (the
+estimated Humber inputs; ``aero.coherence_decay`` enters buffeting only and is left out), random
+erection stages and random speed grids, on the coarse 47 m mesh with 10 modes so that each example
+is a fraction of a second. For every example:
 
 * no crash: a valid grid returns a result, an invalid one raises
-  :class:`~model.errors.BridgeflapInputError` naming ``speeds``, and nothing else is raised;
+  :class:`~bridgeflap.model.errors.BridgeflapInputError` naming ``speeds``, and nothing else is
+  raised;
 * every ``converged`` crossing (flutter, divergence, second-critical flutter) lies inside the
   grid and is re-checked independently here: the critical eigenvalue of ``A(U)``, continued in
   small nearest-eigenvalue steps to ``U -+ d``, changes the sign of its real part and stays
   oscillatory (flutter) or real (divergence);
 * ``critical_speed_m_s`` is the lower of the flutter and divergence speeds where both converge
-  (:func:`model.analysis.critical_speed`);
+  (:func:`bridgeflap.model.analysis.critical_speed`);
 * statuses agree with the grid: ``unstable_at_first_speed`` exactly when the indicator is
   positive at the first speed, ``no_crossing_in_range`` only when the grid shows no
   stable-to-unstable change of the indicator.
@@ -29,10 +30,10 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from design.studies.screening import DEFAULT_UNCERTAIN_RANGES
-from model import analysis
-from model.errors import BridgeflapInputError
-from model.stability import sweeps as stability
+from bridgeflap.design.studies.screening import DEFAULT_UNCERTAIN_RANGES
+from bridgeflap.model import analysis
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.stability import sweeps as stability
 
 RANGES = {k: v for k, v in DEFAULT_UNCERTAIN_RANGES.items() if k != "aero.coherence_decay"}
 N_MODES = 10

@@ -9,16 +9,16 @@ import json
 import numpy as np
 import pytest
 
-from design.cli.main import main
-from design.sensitivity.local import (
+from bridgeflap.design.cli.main import main
+from bridgeflap.design.sensitivity.local import (
     local_sensitivity,
     ritz_system,
     speed_derivative_ift,
 )
-from design.studies.screening import global_sensitivity
-from model.analysis import bridge_system, modal_model
-from model.stability.sweeps import oscillation_tolerance
-from model.structure.loader import load_bridge
+from bridgeflap.design.studies.screening import global_sensitivity
+from bridgeflap.model.analysis import bridge_system, modal_model
+from bridgeflap.model.stability.sweeps import oscillation_tolerance
+from bridgeflap.model.structure.loader import load_bridge
 
 COARSE = {"mesh.element_length_m": 50.0}
 N_MODES = 10
@@ -96,7 +96,7 @@ def test_relative_derivative_is_unit_free():
     spec = load_bridge("humber").replace(**COARSE)
     nominal = modal_model(spec)
     _, system = bridge_system(spec, N_MODES, modal=nominal)
-    from design.sensitivity.local import critical_speeds
+    from bridgeflap.design.sensitivity.local import critical_speeds
 
     U = critical_speeds(system, np.arange(0.0, 121.0, 1.0))["flutter_speed_m_s"]
     p0 = spec.deck.gj_nm2
@@ -153,8 +153,8 @@ def test_cli_contract_and_bad_parameter(tmp_path, capsys):
     assert out["flutter_speed_m_s"] > 0
     assert (tmp_path / "t.png").stat().st_size > 0
     # the result object: unit-named derivative keys, strict JSON, a table with units
-    from design.sensitivity.local import local_sensitivity
-    from model.structure.loader import load_bridge
+    from bridgeflap.design.sensitivity.local import local_sensitivity
+    from bridgeflap.model.structure.loader import load_bridge
 
     res = local_sensitivity(load_bridge("humber"), ["deck.half_chord_m"], "0:120:2", 6)
     dd = json.loads(json.dumps(res.to_dict(), allow_nan=False))["derivatives"]

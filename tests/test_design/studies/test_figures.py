@@ -16,19 +16,19 @@ import pytest
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from design.cli.common import save_figure  # noqa: E402
-from design.control.figures import (  # noqa: E402
+from bridgeflap.design.cli.common import save_figure  # noqa: E402
+from bridgeflap.design.control.figures import (  # noqa: E402
     bode,
     compensator_response,
     flap_layout,
     margins,
 )
-from design.sensitivity.figures import morris_mu_sigma  # noqa: E402
-from design.studies.document import Document  # noqa: E402
-from design.studies.figures import fig5  # noqa: E402
-from model.aeroelastic.control import Compensator, Controller  # noqa: E402
-from model.analysis import flutter, modal_model  # noqa: E402
-from model.axes import data_limits  # noqa: E402
+from bridgeflap.design.sensitivity.figures import morris_mu_sigma  # noqa: E402
+from bridgeflap.design.studies.document import Document  # noqa: E402
+from bridgeflap.design.studies.figures import fig5  # noqa: E402
+from bridgeflap.model.aeroelastic.control import Compensator, Controller  # noqa: E402
+from bridgeflap.model.analysis import flutter, modal_model  # noqa: E402
+from bridgeflap.model.axes import data_limits  # noqa: E402
 
 SPEEDS = np.arange(0.0, 100.0 + 1e-9, 2.0)
 
@@ -93,7 +93,7 @@ def test_mode_shapes_one_panel_per_family_with_towers(coarse_humber):
 
 
 def test_erection_completed_bridge_is_its_own_marker():
-    from model.analysis import ErectionResult
+    from bridgeflap.model.analysis import ErectionResult
 
     st = [{"erected_fraction": f, "flutter_speed_m_s": 40.0 + 10 * f,
            "divergence_speed_m_s": 50.0} for f in (0.4, 0.7, 1.0)]
@@ -205,7 +205,7 @@ def test_document_renders_the_same_cells_twice(tmp_path):
 
 
 def test_imported_mode_shapes_by_family_with_the_main_span_ends():
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.structure.loader import load_bridge
 
     axes = modal_model(load_bridge("iabse-2a")).plot().axes
     assert [ax.get_ylabel().split("\n")[0] for ax in axes] == ["vertical", "torsional",

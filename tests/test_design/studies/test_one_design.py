@@ -5,10 +5,15 @@ from __future__ import annotations
 
 import pytest
 
-from design.control.settings import DEFAULT_CARD, load_settings, packaged_card, quick_settings
-from design.studies.analyses import ANALYSES, design_settings
-from design.studies.study import load_study
-from model.errors import BridgeflapInputError
+from bridgeflap.design.control.settings import (
+    DEFAULT_CARD,
+    load_settings,
+    packaged_card,
+    quick_settings,
+)
+from bridgeflap.design.studies.analyses import ANALYSES, design_settings
+from bridgeflap.design.studies.study import load_study
+from bridgeflap.model.errors import BridgeflapInputError
 
 
 def _study_design_options(quick=False):
@@ -17,7 +22,7 @@ def _study_design_options(quick=False):
 
 
 def test_default_study_designs_with_the_optimise_card():
-    import design.cli.optimise as cmd
+    import bridgeflap.design.cli.optimise as cmd
 
     study, opts = _study_design_options()
     assert cmd.DEFAULT_DEFINITION == DEFAULT_CARD

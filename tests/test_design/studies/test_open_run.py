@@ -1,12 +1,12 @@
-"""A finished run folder read back (``design.open_run``) and the results' common face."""
+"""A finished run folder read back (``bridgeflap.design.open_run``) and the results' common face."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-import design
-from model.errors import BridgeflapInputError
+from bridgeflap import design
+from bridgeflap.model.errors import BridgeflapInputError
 
 CHEAP = {"speeds": "0:120:4", "modes": 4, "truncation_check": False}
 
@@ -49,7 +49,7 @@ def test_open_run_refuses_a_folder_it_did_not_write(tmp_path):
 
 
 def test_summary_is_plain_python_and_plot_is_a_figure():
-    import model
+    from bridgeflap import model
 
     res = model.flutter("humber", np.arange(0.0, 100.0, 2.0), n_modes=6, sweep_method="fast")
     s = res.summary()

@@ -14,17 +14,17 @@ import sys
 
 import pytest
 
-import model.analysis
-from design.cli.main import COMMANDS, build_parser, main
-from design.io.options import parse_range
-from design.studies.analyses import ANALYSES, DEFAULT_MODES, DEFAULT_SPEEDS, RunContext
-from design.studies.experiments import doe_from_dict
-from design.studies.study import study_from_dict
-from model.errors import BridgeflapInputError
+import bridgeflap.model.analysis
+from bridgeflap.design.cli.main import COMMANDS, build_parser, main
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.design.studies.analyses import ANALYSES, DEFAULT_MODES, DEFAULT_SPEEDS, RunContext
+from bridgeflap.design.studies.experiments import doe_from_dict
+from bridgeflap.design.studies.study import study_from_dict
+from bridgeflap.model.errors import BridgeflapInputError
 
 
 def test_default_modes_are_defined_once():
-    assert DEFAULT_MODES is model.analysis.DEFAULT_MODES
+    assert DEFAULT_MODES is bridgeflap.model.analysis.DEFAULT_MODES
     for name in ("flutter", "erection", "buffeting", "sensitivity"):
         assert ANALYSES[name].defaults["modes"] is DEFAULT_MODES
 
@@ -72,7 +72,7 @@ def test_doe_case_without_options_gives_the_cli_flutter_speed(tmp_path):
 
 
 def test_study_runner_without_options_gives_the_cli_flutter_speed():
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.structure.loader import load_bridge
 
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(io.StringIO()):
@@ -96,10 +96,12 @@ def test_cli_is_an_explicit_table():
 
 
 def test_library_import_leaves_the_environment_alone():
-    """Only ``design.cli.main.main`` sets BLAS thread defaults; importing the library does not."""
+    """Only ``bridgeflap.design.cli.main.main`` sets BLAS thread defaults; importing the library
+    does not."""
     code = ("import os; before = dict(os.environ); "
-            "import design.cli.main, design.studies.study, design.studies.experiments, "
-            "design.studies.cases, design.batch.runner; "
+            "import bridgeflap.design.cli.main, bridgeflap.design.studies.study, "
+            "bridgeflap.design.studies.experiments, "
+            "bridgeflap.design.studies.cases, bridgeflap.design.batch.runner; "
             "assert dict(os.environ) == before, set(os.environ) ^ set(before)")
     env = {k: v for k, v in os.environ.items()
            if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}

@@ -9,8 +9,8 @@ from types import MappingProxyType, SimpleNamespace
 
 import pytest
 
-from design.studies.report import study_document
-from design.studies.study import load_study, run_study
+from bridgeflap.design.studies.report import study_document
+from bridgeflap.design.studies.study import load_study, run_study
 
 
 class _Tables(HTMLParser):
@@ -153,6 +153,6 @@ def test_design_section_numbers_are_the_design_summary():
 
 
 def test_report_file_names_are_listed_in_the_study_docstring():
-    import design.studies.study
+    import bridgeflap.design.studies.study
 
-    assert "report.html" in Path(design.studies.study.__file__).read_text()
+    assert "report.html" in Path(bridgeflap.design.studies.study.__file__).read_text()

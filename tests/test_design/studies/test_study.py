@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import design.studies.study as study_mod
-from design.cli.main import main
-from design.studies.study import default_study_path, load_study, run_study
+import bridgeflap.design.studies.study as study_mod
+from bridgeflap.design.cli.main import main
+from bridgeflap.design.studies.study import default_study_path, load_study, run_study
 
 ROOT = Path(__file__).resolve().parents[3]
 SMALL_STUDY = """
@@ -46,7 +46,8 @@ kind = "full-factorial"
 """
 
 
-CLI = [sys.executable, "-c", "import sys; from design.cli.main import main; sys.exit(main())"]
+CLI = [sys.executable, "-c",
+       "import sys; from bridgeflap.design.cli.main import main; sys.exit(main())"]
 
 
 def _env():

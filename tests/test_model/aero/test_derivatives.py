@@ -1,5 +1,5 @@
-"""Flutter derivatives (model.aero.derivatives): flat plate = Theodorsen, RFA, p-k, converters,
-input.
+"""Flutter derivatives (bridgeflap.model.aero.derivatives): flat plate = Theodorsen, RFA, p-k,
+converters, input.
 
 The flat plate written as Scanlan derivatives must reproduce the thin-aerofoil path:
 
@@ -16,14 +16,14 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
-from model.aero import derivatives as dv
-from model.aero.rfa import get_rfa
-from model.aero.theodorsen import theodorsen
-from model.aeroelastic import derivative_system as ds
-from model.aeroelastic import statespace
-from model.cases.section import section_basis, typical_section
-from model.errors import BridgeflapInputError
-from model.stability import sweeps as stability
+from bridgeflap.model.aero import derivatives as dv
+from bridgeflap.model.aero.rfa import get_rfa
+from bridgeflap.model.aero.theodorsen import theodorsen
+from bridgeflap.model.aeroelastic import derivative_system as ds
+from bridgeflap.model.aeroelastic import statespace
+from bridgeflap.model.cases.section import section_basis, typical_section
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.stability import sweeps as stability
 
 # 1.1a structure (wawi tests/models/model_11a) and a Hodges & Pierce section with a != 0
 M11A, I11A, B11A, RHO11A = 22740.0, 2.47e6, 31.0, 1.22
@@ -206,7 +206,7 @@ def test_bad_input_names_the_field():
 
 def test_humber_flat_plate_derivatives_equal_theodorsen(coarse_humber):
     """Humber (coarse mesh, 10 modes): the strip projection of the derivative loads."""
-    from model import analysis
+    from bridgeflap.model import analysis
 
     spec = coarse_humber
     _, sys_t = analysis.bridge_system(spec, 10)
@@ -231,8 +231,8 @@ def _run_cmd(argv, capsys):
     """design/cmd_derivatives through its own add_parser (registration is the integrator's)."""
     import json
 
-    from design.cli import derivatives as cmd_derivatives
-    from design.cli.common import Parser
+    from bridgeflap.design.cli import derivatives as cmd_derivatives
+    from bridgeflap.design.cli.common import Parser
 
     p = Parser(prog="bridgeflap")
     cmd_derivatives.add_parser(p.add_subparsers(dest="command", parser_class=Parser))

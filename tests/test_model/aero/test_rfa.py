@@ -1,11 +1,11 @@
-"""Tests of model.aero.rfa: lag-form rational approximations of Theodorsen's function."""
+"""Tests of bridgeflap.model.aero.rfa: lag-form rational approximations of Theodorsen's function."""
 
 import numpy as np
 import pytest
 
-from model.aero.rfa import RationalApprox, fit_theodorsen, get_rfa, jones
-from model.aero.theodorsen import theodorsen
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aero.rfa import RationalApprox, fit_theodorsen, get_rfa, jones
+from bridgeflap.model.aero.theodorsen import theodorsen
+from bridgeflap.model.errors import BridgeflapInputError
 
 # Dense independent check grid (not the fitting grid): log-spaced, 0 < k <= 3.
 K_CHECK = np.geomspace(1e-6, 3.0, 30001)

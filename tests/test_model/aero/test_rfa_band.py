@@ -1,10 +1,11 @@
 """The band-weighted 4-lag RFA ``rfa4-band`` and the unchanged default ``rfa4``.
 
-``rfa4-band`` is the lag form of :mod:`model.aero.rfa` with the same 4 lags, least squares weighted
-10 on the bridge-flutter band 0.05 <= k <= 0.5 (:data:`model.aero.rfa.FLUTTER_BAND_K`). Checks:
-(a) its error on the band and on 0 < k <= 3 against stated bounds, on an independent grid;
-(b) the invariants C(0) = 1 and C(inf) = 1/2, stable sorted poles; (c) the flutter speed of each
-2-D case of :mod:`model.cases.rfa_cases` within 0.05 % of the exact-Theodorsen p-k (the issue's
+``rfa4-band`` is the lag form of :mod:`bridgeflap.model.aero.rfa` with the same 4 lags, least
+squares weighted 10 on the bridge-flutter band 0.05 <= k <= 0.5
+(:data:`bridgeflap.model.aero.rfa.FLUTTER_BAND_K`). Checks: (a) its error on the band and on 0 < k
+<= 3 against stated bounds, on an independent grid; (b) the invariants C(0) = 1 and C(inf) = 1/2,
+stable sorted poles; (c) the flutter speed of each 2-D case of
+:mod:`bridgeflap.model.cases.rfa_cases` within 0.05 % of the exact-Theodorsen p-k (the issue's
 bound), and closer than ``rfa4``; and the default ``rfa4`` has the coefficients it had before.
 Measured numbers: ``python runs/rfa_fit/run.py``.
 """
@@ -14,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from design.cli.main import main as cli_main
-from model.aero.rfa import (
+from bridgeflap.design.cli.main import main as cli_main
+from bridgeflap.model.aero.rfa import (
     BAND_WEIGHT,
     FLUTTER_BAND_K,
     RFA_NAMES,
@@ -23,9 +24,9 @@ from model.aero.rfa import (
     fit_theodorsen,
     get_rfa,
 )
-from model.aero.theodorsen import theodorsen
-from model.cases.rfa_cases import RFA_CHECK_CASES, case_system, flutter_gap
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aero.theodorsen import theodorsen
+from bridgeflap.model.cases.rfa_cases import RFA_CHECK_CASES, case_system, flutter_gap
+from bridgeflap.model.errors import BridgeflapInputError
 
 # Dense independent check grids (not the fitting grid, not band_error's grid).
 K_ALL = np.geomspace(1e-6, 3.0, 30001)
@@ -160,9 +161,9 @@ def test_cli_accepts_the_band_fit(capsys):
 @pytest.mark.slow
 def test_humber_band_fit_shift():
     """Humber, 16 modes: exact p-k 69.389 m/s; rfa4 +0.177 %, rfa4-band +0.047 %."""
-    from model import analysis
-    from model.stability import sweeps as stability
-    from model.structure.loader import load_bridge
+    from bridgeflap.model import analysis
+    from bridgeflap.model.stability import sweeps as stability
+    from bridgeflap.model.structure.loader import load_bridge
 
     spec = load_bridge("humber")
     modal, system = analysis.bridge_system(spec, analysis.DEFAULT_MODES)

@@ -1,10 +1,11 @@
-"""Tests of model.aero.theodorsen: exact C(k), Sears, T-functions and steady flap derivatives."""
+"""Tests of bridgeflap.model.aero.theodorsen: exact C(k), Sears, T-functions and steady flap
+derivatives."""
 
 import numpy as np
 import pytest
 from scipy.special import jv, yv
 
-from model.aero.theodorsen import (
+from bridgeflap.model.aero.theodorsen import (
     flap_steady_coefficients,
     liepmann_admittance_sq,
     sears,
@@ -13,7 +14,7 @@ from model.aero.theodorsen import (
     theodorsen,
     unit_admittance_sq,
 )
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 # (a) Published values of C(k) = F + iG. k = 0.1, 0.3: docs/humber_data.md#theodorsen-loads (4
 # decimals); k = 0.5, 1.0: Bisplinghoff, Ashley & Halfman (1955) table of F, G (4 decimals).

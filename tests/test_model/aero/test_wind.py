@@ -1,11 +1,11 @@
-"""Tests of model.aero.wind: vertical turbulence spectra, coherence and admittance."""
+"""Tests of bridgeflap.model.aero.wind: vertical turbulence spectra, coherence and admittance."""
 
 import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from model.aero.theodorsen import sears_admittance_sq
-from model.aero.wind import (
+from bridgeflap.model.aero.theodorsen import sears_admittance_sq
+from bridgeflap.model.aero.wind import (
     SPECTRUM_KINDS,
     admittance_sq,
     busch_panofsky,
@@ -19,7 +19,7 @@ from model.aero.wind import (
     vertical_spectrum,
     von_karman_w,
 )
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 U, Z = 40.0, 30.0  # representative deck wind speed [m/s] and height [m]
 # QUADPACK on [0, inf) (variable map to [0, 1]) handles the slowly decaying n^(-5/3) tail and

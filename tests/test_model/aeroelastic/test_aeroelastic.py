@@ -14,7 +14,7 @@ speed depends on the aerodynamic load level with a sensitivity of order 1/2 (U_F
 a fixed reduced-frequency solution), so 2 eps is a safe bound on the relative flutter-speed and
 frequency error of an RFA model against exact Theodorsen: 3.0e-3 (rfa4), 2.9e-2 (jones).
 
-Conventions (h down, alpha nose-up, b the half-chord, k = omega b / U): see :mod:`model`.
+Conventions (h down, alpha nose-up, b the half-chord, k = omega b / U): see :mod:`bridgeflap.model`.
 """
 
 from __future__ import annotations
@@ -26,17 +26,17 @@ import pytest
 import scipy.linalg as sla
 from scipy.optimize import linear_sum_assignment, root
 
-from design.cli.main import main as cli_main
-from design.io.options import parse_range
-from design.studies.analyses import DEFAULT_SPEEDS
-from model import analysis
-from model.aero.rfa import get_rfa
-from model.aero.theodorsen import theodorsen
-from model.aeroelastic import statespace
-from model.cases.section import typical_section
-from model.errors import BridgeflapInputError
-from model.stability import sweeps as stability
-from model.structure.loader import load_bridge
+from bridgeflap.design.cli.main import main as cli_main
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.design.studies.analyses import DEFAULT_SPEEDS
+from bridgeflap.model import analysis
+from bridgeflap.model.aero.rfa import get_rfa
+from bridgeflap.model.aero.theodorsen import theodorsen
+from bridgeflap.model.aeroelastic import statespace
+from bridgeflap.model.cases.section import typical_section
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.stability import sweeps as stability
+from bridgeflap.model.structure.loader import load_bridge
 
 RFA4_EPS = get_rfa("rfa4").max_error
 JONES_EPS = get_rfa("jones").max_error
@@ -607,7 +607,7 @@ def test_grid_starting_above_the_limits_is_not_a_missing_crossing(humber):
 def test_section_participation_is_kinetic_energy_not_metres_plus_radians():
     """2-DOF section: the flutter eigenvector's shares weight heave by m and pitch by I (the
     old |q|^2 added m^2 and rad^2: a pitch branch showed 99 % heave)."""
-    from model.cases.section import section_basis
+    from bridgeflap.model.cases.section import section_basis
 
     basis = section_basis(7660.0, 375000.0, 0.117, 0.311, 11.0)
     system = statespace.build(basis, 11.0, 1.225)

@@ -15,15 +15,15 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
-from model.aeroelastic.assembly import dynamic_matrices
-from model.aeroelastic.control import Compensator
-from model.aeroelastic.flaps import closed_loop_model, section_model
-from model.aeroelastic.statespace import build
-from model.aeroelastic.symbolic import build_symbolic
-from model.analysis import bridge_system
-from model.cases.section import section_basis
-from model.stability.pk import closed_loop_pk_flutter
-from model.stability.sweeps import pk_sweep
+from bridgeflap.model.aeroelastic.assembly import dynamic_matrices
+from bridgeflap.model.aeroelastic.control import Compensator
+from bridgeflap.model.aeroelastic.flaps import closed_loop_model, section_model
+from bridgeflap.model.aeroelastic.statespace import build
+from bridgeflap.model.aeroelastic.symbolic import build_symbolic
+from bridgeflap.model.analysis import bridge_system
+from bridgeflap.model.cases.section import section_basis
+from bridgeflap.model.stability.pk import closed_loop_pk_flutter
+from bridgeflap.model.stability.sweeps import pk_sweep
 
 ROOT = Path(__file__).resolve().parents[3]
 THETA = (0.5, 2.0, 3.0, 0.05, 0.3)
@@ -192,7 +192,7 @@ def test_closed_loop_abscissa_from_casadi_parts_equals_numeric(flap_model):
     """The CasADi closed-loop parts and the numeric closed loop give one abscissa (1e-10)."""
     import scipy.linalg
 
-    from model.aeroelastic.symbolic import closed_loop_functions
+    from bridgeflap.model.aeroelastic.symbolic import closed_loop_functions
 
     speeds = np.array([0.0, 20.0, 60.0])
     comp = Compensator(*THETA)
@@ -248,7 +248,7 @@ def test_model_never_imports_its_facade_from_below():
             continue
         tree = ast.parse(path.read_text())
         mods = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
-        assert "model.analysis" not in mods, path.name
+        assert "bridgeflap.model.analysis" not in mods, path.name
 
 
 @pytest.mark.parametrize("b0", [0.0, 0.3, -0.3, 1.0])
@@ -256,7 +256,7 @@ def test_closed_loop_static_divergence_includes_the_compensator(b0):
     # Cross-method: the static check det(K - U^2 Q) = 0 with the static flap loads of
     # beta = K(0) alpha equals the real eigenvalue crossing zero in the closed-loop sweep
     # (Brent tolerance 1e-3 m/s); K(0) = b0 moves it (it used to stay at the open loop's).
-    from model.stability.sweeps import sweep
+    from bridgeflap.model.stability.sweeps import sweep
 
     basis = section_basis(7660.0, 3.75e5, 0.116, 0.30, B, 0.005)
     m = section_model(basis, B, RHO, CHORD)

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from model.aeroelastic.control import Compensator, Controller
-from model.aeroelastic.controller_file import load_controller, save_controller
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.aeroelastic.controller_file import load_controller, save_controller
+from bridgeflap.model.errors import BridgeflapInputError
 
 # A lead compensator with an underdamped denominator (zeta ~ 0.67, w_n ~ 4.5 rad/s) and a
 # first-order one; coefficients of the size the seed paper's gain limit 15 allows.

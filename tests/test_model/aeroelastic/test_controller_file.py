@@ -12,14 +12,18 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from design.cli.common import controller_from_args
-from design.cli.main import main
-from design.io.options import parse_range
-from design.studies.analyses import ANALYSES
-from model.aeroelastic.control import Compensator, Controller
-from model.aeroelastic.controller_file import load_controller, plant_record, save_controller
-from model.analysis import closed_loop_flutter
-from model.structure.loader import load_bridge
+from bridgeflap.design.cli.common import controller_from_args
+from bridgeflap.design.cli.main import main
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.design.studies.analyses import ANALYSES
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.aeroelastic.controller_file import (
+    load_controller,
+    plant_record,
+    save_controller,
+)
+from bridgeflap.model.analysis import closed_loop_flutter
+from bridgeflap.model.structure.loader import load_bridge
 
 #: K(s) of ``bridgeflap optimise design/studies/humber_b1425_flaps5m.toml`` (built-in Humber,
 #: b = 14.25 m, 25 touching 56.4 m flap pairs with 5 m chord; run 2026-12-03 on this branch,
@@ -69,7 +73,7 @@ def test_variant_record_and_partial_record_rejected(tmp_path):
     assert rec.bridge_sha256 == plant_record("humber", 16).bridge_sha256  # same file
     path = save_controller(_controller(), tmp_path / "c.toml")
     path.write_text(path.read_text().replace("design_modes = 16\n", ""))
-    from model.errors import BridgeflapInputError
+    from bridgeflap.model.errors import BridgeflapInputError
 
     with pytest.raises(BridgeflapInputError, match="design_modes"):
         load_controller(path)
@@ -97,7 +101,7 @@ def test_same_bridge_is_silent_another_bridge_warns(tmp_path, capsys):
     assert "designed on bridge humber" in err[0] and "bridge_variant" in err[0]
     # a bridge file with other content under the same name: the hash differs
     other = tmp_path / "humber_copy.toml"
-    src = resources.files("model.bridges").joinpath("humber.toml").read_text("utf-8")
+    src = resources.files("bridgeflap.model.bridges").joinpath("humber.toml").read_text("utf-8")
     other.write_text(src + "\n# edited\n")
     rec = _controller().plant
     assert load_bridge(str(other)).name == rec.bridge_name
@@ -162,8 +166,8 @@ def test_state_space_and_buffeting_use_the_files_chord(tmp_path, capsys):
     # from the 3 m one; buffeting's RMS equals the in-process 5 m value to round-off (rel 1e-9,
     # as above) and is not the 3 m one (1 % apart). 4 modes for state-space, 6 for buffeting
     # (the first four are vertical: no pitch, no flap action on the RMS), one speed: seconds.
-    from model.aeroelastic.control_plant import closed_loop_plant
-    from model.response.buffeting import buffeting
+    from bridgeflap.model.aeroelastic.control_plant import closed_loop_plant
+    from bridgeflap.model.response.buffeting import buffeting
 
     path = save_controller(_controller(), tmp_path / "c.toml")
     out = tmp_path / "cl.npz"
@@ -190,7 +194,7 @@ def test_state_space_and_buffeting_use_the_files_chord(tmp_path, capsys):
 def test_default_bridge_is_the_files(tmp_path, capsys):
     """Without --bridge a controller is re-checked on the bridge it was designed on (the
     default card designs on humber:box), with one note line; --bridge still wins."""
-    from design.cli.common import default_bridge
+    from bridgeflap.design.cli.common import default_bridge
 
     path = save_controller(_controller(chord=3.0, bridge="humber:box"),
                            tmp_path / "controller.toml")

@@ -6,19 +6,19 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
-from model.aero.strips import flap_section_loads
-from model.aero.theodorsen import flap_steady_coefficients
-from model.aeroelastic.control import Compensator, Controller
-from model.aeroelastic.flaps import (
+from bridgeflap.model.aero.strips import flap_section_loads
+from bridgeflap.model.aero.theodorsen import flap_steady_coefficients
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.aeroelastic.flaps import (
     closed_loop_model,
     closed_loop_system,
     section_model,
 )
-from model.cases.section import section_basis
-from model.errors import BridgeflapInputError
-from model.stability.pk import closed_loop_pk_flutter
-from model.stability.sweeps import sweep
-from model.structure.loader import load_bridge
+from bridgeflap.model.cases.section import section_basis
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.stability.pk import closed_loop_pk_flutter
+from bridgeflap.model.stability.sweeps import sweep
+from bridgeflap.model.structure.loader import load_bridge
 
 B, RHO, CHORD = 11.0, 1.225, 3.0
 C_HINGE = (B - CHORD) / B
@@ -105,7 +105,7 @@ def test_casadi_function_matches_numeric_assembly(humber_model):
 
 
 def test_eigenvalue_constraint_gradient_matches_finite_differences(humber_model):
-    from design.control.eigen import PolynomialTopRealParts
+    from bridgeflap.design.control.eigen import PolynomialTopRealParts
 
     A_parts = humber_model.casadi_functions()["A_parts"]
     p = ca.SX.sym("p", 5)
@@ -151,7 +151,7 @@ def test_closed_loop_system_interface():
 
 
 def test_cli_bad_controller_exit_2(tmp_path):
-    from design.cli.main import main
+    from bridgeflap.design.cli.main import main
 
     bad = tmp_path / "c.toml"
     bad.write_text("b2 = 1.0\nb1 = 0.0\nb0 = 0.0\na2 = 0.0\na1 = 0.3\n"

@@ -1,10 +1,11 @@
-"""The plant for control engineers (model.aeroelastic.control_plant, ``bridgeflap state-space
+"""The plant for control engineers (bridgeflap.model.aeroelastic.control_plant, ``bridgeflap
+state-space
 --inputs``).
 
 (c) cross-method: the open-loop plant with flap inputs, closed in python-control with the
 built-in compensator, has the eigenvalues of the package's own closed loop
-(:func:`model.aeroelastic.flaps.closed_loop_system`, what ``bridgeflap flutter --controller``
-sweeps).
+(:func:`bridgeflap.model.aeroelastic.flaps.closed_loop_system`, what ``bridgeflap flutter
+--controller`` sweeps).
 """
 
 from __future__ import annotations
@@ -17,12 +18,12 @@ import pytest
 import scipy.io
 import scipy.linalg as sla
 
-import model
-from design.cli.main import main
-from model.aeroelastic.control import Compensator, Controller
-from model.aeroelastic.control_plant import plant_data
-from model.aeroelastic.flaps import closed_loop_system
-from model.errors import BridgeflapError
+from bridgeflap import model
+from bridgeflap.design.cli.main import main
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.aeroelastic.control_plant import plant_data
+from bridgeflap.model.aeroelastic.flaps import closed_loop_system
+from bridgeflap.model.errors import BridgeflapError
 
 control = pytest.importorskip("control")
 
@@ -76,7 +77,7 @@ def test_python_control_loop_matches_closed_loop_eigenvalues(coarse_humber, spee
 
 
 def test_gust_plant_is_the_open_loop_system(coarse_humber):
-    from model.analysis import bridge_system
+    from bridgeflap.model.analysis import bridge_system
 
     _, system = bridge_system(coarse_humber, N_MODES)
     p = plant_data(coarse_humber, SPEED, "gust", N_MODES, system=system)

@@ -1,5 +1,5 @@
-"""python-control first-class (model.aeroelastic.control_interop): K(s), the controller, the closed
-loop, the plant family; cross-checked against the package's own objects.
+"""python-control first-class (bridgeflap.model.aeroelastic.control_interop): K(s), the controller,
+the closed loop, the plant family; cross-checked against the package's own objects.
 """
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import model
-from model.aeroelastic.control import Compensator, Controller
-from model.aeroelastic.flaps import closed_loop_state_space
+from bridgeflap import model
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.aeroelastic.flaps import closed_loop_state_space
 
 control = pytest.importorskip("control")
 
@@ -107,7 +107,7 @@ def test_plant_family_closed_with_the_controller_is_the_closed_loop(coarse_humbe
 
 
 def test_plant_family_by_name_and_bad_speeds():
-    from model.errors import BridgeflapInputError
+    from bridgeflap.model.errors import BridgeflapInputError
 
     fam = model.plant_family("humber", [10.0], n_modes=2)
     assert fam[10.0].input_labels[0] == "gust[0]"
@@ -123,7 +123,7 @@ def test_plant_family_by_name_and_bad_speeds():
 def test_without_python_control_one_line(monkeypatch):
     import sys
 
-    from model.errors import BridgeflapError
+    from bridgeflap.model.errors import BridgeflapError
 
     monkeypatch.setitem(sys.modules, "control", None)
     for call in (K2.to_control, CTRL.to_statespace):

@@ -6,10 +6,10 @@ import pytest
 from conftest import coarse
 from scipy.optimize import linear_sum_assignment
 
-from model.aeroelastic.symbolic import SYMBOLIC_PARAMETERS, build_symbolic
-from model.analysis import bridge_system
-from model.structure.loader import load_bridge
-from model.structure.spec import get_path
+from bridgeflap.model.aeroelastic.symbolic import SYMBOLIC_PARAMETERS, build_symbolic
+from bridgeflap.model.analysis import bridge_system
+from bridgeflap.model.structure.loader import load_bridge
+from bridgeflap.model.structure.spec import get_path
 
 N_MODES = 10
 

@@ -1,11 +1,11 @@
 """IABSE TG3.1 step 2a with the measured "BB3" flutter derivatives: ``iabse-2a:bb3``.
 
 The bridge file's ``[variants.bb3.derivatives]`` section (model/bridges/iabse/
-step2a_bridge.toml, :class:`model.structure.modal_import.DerivativeLoads`) drives the self-excited
-loads from the shipped BB3 PoliMi tables (step2a_bb3_derivatives.json) through a 3-lag Roger RFA on
-all 12 modes with the lateral DOF
-(:func:`model.aeroelastic.derivative_system.derivative_bridge_system`, the hook of
-:func:`model.analysis.bridge_system`); the exact p-k on the interpolated tables is the
+step2a_bridge.toml, :class:`bridgeflap.model.structure.modal_import.DerivativeLoads`) drives the
+self-excited loads from the shipped BB3 PoliMi tables (step2a_bb3_derivatives.json) through a 3-lag
+Roger RFA on all 12 modes with the lateral DOF
+(:func:`bridgeflap.model.aeroelastic.derivative_system.derivative_bridge_system`, the hook of
+:func:`bridgeflap.model.analysis.bridge_system`); the exact p-k on the interpolated tables is the
 cross-check. Reference: 69.8 m/s (wawi tests/test_IABSE_step2a.py, "reference value from
 paper", 3 figures); the independent wawi-style p-k of tests/test_modal_import.py gives 69.855
 m/s with the lateral DOF and 68.31 m/s without.
@@ -20,12 +20,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from model.aeroelastic.derivative_system import DerivativeSystem
-from model.analysis import bridge_system, flutter
-from model.errors import BridgeflapInputError
-from model.stability import sweeps as stability
-from model.structure.loader import load_bridge
-from model.structure.modal_import import derivatives_from_dict
+from bridgeflap.model.aeroelastic.derivative_system import DerivativeSystem
+from bridgeflap.model.analysis import bridge_system, flutter
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.stability import sweeps as stability
+from bridgeflap.model.structure.loader import load_bridge
+from bridgeflap.model.structure.modal_import import derivatives_from_dict
 
 SPEEDS = np.arange(0.0, 100.01, 0.5)
 PK_SPEEDS = np.arange(1.0, 100.0, 1.0)   # p-k continued from still air
@@ -69,7 +69,8 @@ def test_bb3_rfa_flutter_within_2_percent_of_the_reference(bb3):
 
 
 def test_bb3_exact_pk_and_rfa_agree(bb3):
-    """Exact p-k on the interpolated tables (model.stability.sweeps.pk_sweep on ``frozen()``).
+    """Exact p-k on the interpolated tables (bridgeflap.model.stability.sweeps.pk_sweep on
+    ``frozen()``).
 
     Against the wawi-style p-k on the file's nodes: 0.5 %, the strip vs trapezoid integration
     of piecewise-linear shapes (0.25 % on the flat plate, test_modal_import.py); measured
@@ -148,7 +149,7 @@ def test_bad_derivative_file_names_the_field(tmp_path):
 
 
 def test_cli_flutter_bb3_has_the_humber_keys_and_pk(capsys):
-    from design.cli.main import main
+    from bridgeflap.design.cli.main import main
 
     rc = main(["flutter", "--bridge", "iabse-2a:bb3", "--json", "--pk"])
     out = json.loads(capsys.readouterr().out)
@@ -166,7 +167,7 @@ def test_cli_flutter_bb3_has_the_humber_keys_and_pk(capsys):
 
 
 def test_cli_derivatives_reports_the_bb3_fit(capsys):
-    from design.cli.main import main
+    from bridgeflap.design.cli.main import main
 
     rc = main(["derivatives", "--bridge", "iabse-2a:bb3", "--json"])
     out = json.loads(capsys.readouterr().out)

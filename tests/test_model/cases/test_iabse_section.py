@@ -1,4 +1,5 @@
-"""IABSE TG3.1 section benchmarks 1.1a and 1.1c (model.cases.section_cases, model/bridges/iabse).
+"""IABSE TG3.1 section benchmarks 1.1a and 1.1c (bridgeflap.model.cases.section_cases,
+model/bridges/iabse).
 
 Tolerances:
 
@@ -23,14 +24,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from model.cases.section_cases import (
+from bridgeflap.model.cases.section_cases import (
     SECTION_CASES,
     load_section_case,
     section_case_flutter,
     section_system,
 )
-from model.errors import BridgeflapInputError
-from model.stability import sweeps as stability
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.stability import sweeps as stability
 
 
 @pytest.fixture(scope="module")
@@ -94,8 +95,8 @@ def test_in_wind_torsion_branch(name, speed, f_hz):
 
 def test_flutter_summary_has_the_humber_keys(coarse_humber):
     """The hook for ``flutter --bridge iabse-1.1a``: the keys of the Humber flutter summary."""
-    from design.cli.derivatives import section_case_result
-    from model import analysis
+    from bridgeflap.design.cli.derivatives import section_case_result
+    from bridgeflap.model import analysis
 
     humber = analysis.flutter(coarse_humber, np.linspace(0.0, 80.0, 41), n_modes=4).summary()
     res = section_case_result("iabse-1.1a", np.linspace(0.0, 120.0, 61))
@@ -125,7 +126,7 @@ def test_user_section_file_with_a_scanlan_table(tmp_path):
 
     Linear interpolation in v between points 2.5 % apart and the 2-lag default fit of a table
     leave the p-k within 0.1 % and the RFA within 0.3 % of the closed-form 77.48 m/s."""
-    from model.aero.derivatives import convert_argument, flat_plate
+    from bridgeflap.model.aero.derivatives import convert_argument, flat_plate
 
     vr = np.geomspace(2.0, 60.0, 40)
     vals = flat_plate(31.0).values(convert_argument(vr, "vred_hz", "K"))
@@ -160,10 +161,10 @@ def test_two_dof_section_with_lateral_derivatives(tmp_path):
     import json
     from importlib import resources
 
-    csv_text = resources.files("model.bridges").joinpath(
+    csv_text = resources.files("bridgeflap.model.bridges").joinpath(
         "iabse", "storebaelt_polimi_ads.csv").read_text("utf-8")
     (tmp_path / "sb.csv").write_text(csv_text)
-    d = json.loads(resources.files("model.bridges").joinpath(
+    d = json.loads(resources.files("bridgeflap.model.bridges").joinpath(
         "iabse", "iabse-1.1c.json").read_text("utf-8"))
     d.update(dofs=["heave", "pitch"], mass_kg_per_m=d["mass_kg_per_m"][1:],
              stiffness_n_per_m2=d["stiffness_n_per_m2"][1:],

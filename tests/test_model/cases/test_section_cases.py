@@ -1,4 +1,4 @@
-"""model.cases.section_cases.section_system: the one builder of the named section cases.
+"""bridgeflap.model.cases.section_cases.section_system: the one builder of the named section cases.
 
 The benchmarks (bench/sweep_cases.py) and the tests (tests/test_hopf.py) build the IABSE
 sections through it; it must be the system that :func:`section_case_flutter` analyses.
@@ -9,14 +9,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from model.cases.section_cases import (
+from bridgeflap.model.cases.section_cases import (
     SECTION_CASES,
     case_system,
     default_speeds,
     load_section_case,
     section_system,
 )
-from model.errors import BridgeflapInputError
+from bridgeflap.model.errors import BridgeflapInputError
 
 
 @pytest.mark.parametrize("name", SECTION_CASES)

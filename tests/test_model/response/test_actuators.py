@@ -13,13 +13,13 @@ import json
 import numpy as np
 import pytest
 
-from model.aeroelastic.actuator_limits import (
+from bridgeflap.model.aeroelastic.actuator_limits import (
     ACTUATOR_DEFAULTS,
     ActuatorLimits,
     check_actuator_value,
 )
-from model.aeroelastic.control import Compensator, Controller
-from model.errors import BridgeflapInputError
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.errors import BridgeflapInputError
 
 MODES = 6
 #: the default design (README, `bridgeflap optimise`): K(s) and its 10 flap pairs
@@ -32,10 +32,10 @@ BIG = ActuatorLimits(90.0, 1e4)      # limits no record reaches at 20 m/s: the l
 
 @pytest.fixture(scope="module")
 def setup():
-    from model.aero.gust import gust_field
-    from model.aeroelastic.flaps import closed_loop_model
-    from model.response.actuator_sim import SaturatedLoop
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.aero.gust import gust_field
+    from bridgeflap.model.aeroelastic.flaps import closed_loop_model
+    from bridgeflap.model.response.actuator_sim import SaturatedLoop
+    from bridgeflap.model.structure.loader import load_bridge
 
     spec = load_bridge("humber:box")
     c = CONTROLLER
@@ -46,7 +46,7 @@ def setup():
 
 # ------------------------------------------------------------------ limits (card and checks)
 def test_card_keys_default_and_refusals():
-    from design.control.settings import load_settings
+    from bridgeflap.design.control.settings import load_settings
 
     s = load_settings("runs/humber_flaps.toml")
     assert s.flap_angle_limit_deg == ACTUATOR_DEFAULTS["flap_angle_limit_deg"] == 20.0
@@ -68,8 +68,8 @@ def test_design_json_leaves_default_limits_out():
     them when a card changes them."""
     from dataclasses import asdict
 
-    from design.control.result import ACTUATOR_FIELDS
-    from design.control.settings import load_settings
+    from bridgeflap.design.control.result import ACTUATOR_FIELDS
+    from bridgeflap.design.control.settings import load_settings
 
     s = load_settings(None, flap_rate_limit_deg_s=30.0)
     kept = {k for k, v in asdict(s).items()
@@ -80,8 +80,8 @@ def test_design_json_leaves_default_limits_out():
 # ------------------------------------------------------------------ the unsaturated loop
 @pytest.mark.parametrize("speed", [0.0, 20.0, 60.0])
 def test_unsaturated_loop_is_the_linear_closed_loop(setup, speed):
-    """Eigenvalues: those of model.aeroelastic.flaps.closed_loop_system, plus -omega_a once per
-    flap."""
+    """Eigenvalues: those of bridgeflap.model.aeroelastic.flaps.closed_loop_system, plus -omega_a
+    once per flap."""
     _, model, loop, _ = setup
     lam_cl = np.linalg.eigvals(model.system(K).A(speed))
     lam = np.linalg.eigvals(loop.linear_matrix(speed, 10.0))
@@ -100,12 +100,12 @@ def test_large_limits_match_the_spectral_closed_loop_buffeting(setup):
     0.978, twist 1.018). 10 % is > 3 standard errors plus that. Compared at the main-span strip
     of the spectral maximum (the maximum of noisy strip estimates is biased upwards).
     """
-    from model.response.actuator_sim import simulate_records
-    from model.response.buffeting import reduced_response
+    from bridgeflap.model.response.actuator_sim import simulate_records
+    from bridgeflap.model.response.buffeting import reduced_response
 
     spec, model, loop, gust = setup
     U = 20.0
-    from model.response.buffeting import buffeting
+    from bridgeflap.model.response.buffeting import buffeting
 
     ref = buffeting(spec, [U], controller=CONTROLLER, n_modes=MODES)
     main, ns = ref.main_span, ref.main_span.size
@@ -132,7 +132,7 @@ def test_large_limits_match_the_spectral_closed_loop_buffeting(setup):
 
 # ------------------------------------------------------------------ saturation
 def test_tiny_angle_limit_holds(setup):
-    from model.response.actuator_sim import simulate
+    from bridgeflap.model.response.actuator_sim import simulate
 
     _, _, loop, gust = setup
     lim = ActuatorLimits(angle_deg=0.05, rate_deg_s=40.0)
@@ -144,7 +144,7 @@ def test_tiny_angle_limit_holds(setup):
 
 
 def test_tiny_rate_limit_holds(setup):
-    from model.response.actuator_sim import simulate
+    from bridgeflap.model.response.actuator_sim import simulate
 
     _, _, loop, gust = setup
     lim = ActuatorLimits(angle_deg=20.0, rate_deg_s=0.1)
@@ -157,7 +157,7 @@ def test_tiny_rate_limit_holds(setup):
 
 
 def test_same_seed_same_record(setup):
-    from model.response.actuator_sim import simulate
+    from bridgeflap.model.response.actuator_sim import simulate
 
     _, _, loop, gust = setup
     lim = ActuatorLimits(angle_deg=0.2, rate_deg_s=1.0)
@@ -179,9 +179,9 @@ def test_turbulence_has_the_buffeting_spectrum_and_coherence():
     """
     from scipy.signal import welch
 
-    from model.aero.gust import gust_field
-    from model.aero.turbulence import span_turbulence
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.aero.gust import gust_field
+    from bridgeflap.model.aero.turbulence import span_turbulence
+    from bridgeflap.model.structure.loader import load_bridge
 
     gust = gust_field(load_bridge("humber:box"))
     U, h, n = 20.0, 0.1, 2 ** 15
@@ -207,7 +207,7 @@ def test_turbulence_has_the_buffeting_spectrum_and_coherence():
 
 
 def test_ar1_factor_is_the_cholesky_factor():
-    from model.aero.turbulence import ar1_coherent_phasors
+    from bridgeflap.model.aero.turbulence import ar1_coherent_phasors
 
     y = np.array([30.0, 0.0, 5.0, 12.0, 12.0])
     omega, U, c = 0.7, 15.0, 8.0
@@ -219,8 +219,8 @@ def test_ar1_factor_is_the_cholesky_factor():
 
 # ------------------------------------------------------------------ the command
 def test_cli_actuators_json_and_table(tmp_path, capsys):
-    from design.cli.main import main
-    from model.aeroelastic.controller_file import save_controller
+    from bridgeflap.design.cli.main import main
+    from bridgeflap.model.aeroelastic.controller_file import save_controller
 
     path = save_controller(CONTROLLER, tmp_path / "ctrl.toml")
     out = tmp_path / "table.csv"

@@ -1,7 +1,7 @@
 """Tests of the buffeting analysis (model/response/buffeting.py) and its CLI
 (design/cli/buffeting.py).
 
-Conventions: spectra one-sided in omega (model.spectral docstring); heave down, pitch
+Conventions: spectra one-sided in omega (bridgeflap.model.spectral docstring); heave down, pitch
 nose-up. Each tolerance is justified next to its assertion.
 """
 
@@ -12,17 +12,17 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from design.cli.main import main
-from model.aero.basis import StructuralBasis
-from model.aero.gust import GustField, coherence_projection, gust_field
-from model.aero.wind import admittance_sq
-from model.aeroelastic import statespace
-from model.analysis import bridge_system
-from model.errors import BridgeflapInputError
-from model.response.buffeting import CONVERGENCE_TOL, buffeting, reduced_response
-from model.response.simulation import lyapunov_rms
-from model.spectral import white_noise_intensity
-from model.structure.loader import load_bridge
+from bridgeflap.design.cli.main import main
+from bridgeflap.model.aero.basis import StructuralBasis
+from bridgeflap.model.aero.gust import GustField, coherence_projection, gust_field
+from bridgeflap.model.aero.wind import admittance_sq
+from bridgeflap.model.aeroelastic import statespace
+from bridgeflap.model.analysis import bridge_system
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.response.buffeting import CONVERGENCE_TOL, buffeting, reduced_response
+from bridgeflap.model.response.simulation import lyapunov_rms
+from bridgeflap.model.spectral import white_noise_intensity
+from bridgeflap.model.structure.loader import load_bridge
 
 
 # ----------------------------------------------------------------------------------------------
@@ -189,7 +189,7 @@ def test_spectral_against_monte_carlo(humber, humber6):
 
 @pytest.fixture(scope="module")
 def casadi_case(humber, humber6):
-    from model.aeroelastic.symbolic import buffeting_rms_function, build_symbolic
+    from bridgeflap.model.aeroelastic.symbolic import buffeting_rms_function, build_symbolic
 
     U = 20.0
     g = gust_field(humber)
@@ -295,7 +295,7 @@ def test_zero_gain_controller_equals_open_loop(humber):
     # K(s) = 0: the flaps stay at zero, so the closed loop has the open-loop response; the
     # extra (uncontrollable, unobservable) compensator states change nothing but round-off
     # and the grid (peaks of the extra states), hence the 2 x convergence-flag tolerance.
-    from model.aeroelastic.control import Compensator, Controller
+    from bridgeflap.model.aeroelastic.control import Compensator, Controller
 
     ctrl = Controller(Compensator(0.0, 0.0, 0.0, 0.1, 0.5), (0.0, 100.0), 3.0)
     cl = buffeting(humber, [12.0], controller=ctrl, n_modes=6)

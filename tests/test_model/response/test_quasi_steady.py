@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from model.aero.quasi_steady import StaticCoefficients, static_from_dict, von_karman_u
-from model.aeroelastic.derivative_system import DerivativeSystem
-from model.analysis import bridge_system
-from model.errors import BridgeflapInputError
-from model.response.buffeting import buffeting
-from model.stability import sweeps as stability
-from model.structure.loader import load_bridge
+from bridgeflap.model.aero.quasi_steady import StaticCoefficients, static_from_dict, von_karman_u
+from bridgeflap.model.aeroelastic.derivative_system import DerivativeSystem
+from bridgeflap.model.analysis import bridge_system
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.response.buffeting import buffeting
+from bridgeflap.model.stability import sweeps as stability
+from bridgeflap.model.structure.loader import load_bridge
 
 SPEEDS = [20.0, 40.0]
 
@@ -80,8 +80,8 @@ def test_u_and_w_responses_add_in_variance(flat):
 
 def test_bb3_static_coefficients_match_the_tables_quasi_steady_limit():
     """K^2 H3* -> C_L', K^2 A3* -> C_M', K^2 P3* -> C_D' D/B as K -> 0 (Scanlan form of
-    model.aero.derivatives). The tables end at K = 0.37, not 0: 15 % covers the unsteady part
-    there (measured 3.6 %, 12.5 %, 0.2 %); the signs are what the test is for (the moment
+    bridgeflap.model.aero.derivatives). The tables end at K = 0.37, not 0: 15 % covers the unsteady
+    part there (measured 3.6 %, 12.5 %, 0.2 %); the signs are what the test is for (the moment
     pair is flipped from the benchmark file's, model/bridges/iabse/step2a_bridge.toml)."""
     spec = load_bridge("iabse-2a:bb3")
     c = spec.static_coefficients.on_width(31.0)
@@ -144,8 +144,8 @@ def test_cli_modes_of_an_imported_bridge(capsys):
     (the step-2a file's own numbers, exact)."""
     import json
 
-    from design.cli.main import main
-    from model.analysis import modal_model
+    from bridgeflap.design.cli.main import main
+    from bridgeflap.model.analysis import modal_model
 
     assert main(["modes", "--bridge", "iabse-2a", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
@@ -161,7 +161,7 @@ def test_cli_modes_of_an_imported_bridge(capsys):
 def test_cli_buffeting_derivative_bridge(capsys):
     import json
 
-    from design.cli.main import main
+    from bridgeflap.design.cli.main import main
 
     assert main(["buffeting", "--bridge", "iabse-2a:bb3", "--speeds", "30", "--modes", "12",
                  "--json"]) == 0

@@ -1,7 +1,7 @@
 """Random-response engine: model/spectral.py, model/response/simulation.py, CasADi form in
 model/aeroelastic/symbolic.py.
 
-PSD convention under test (module docstring of model.spectral): one-sided in omega >= 0,
+PSD convention under test (module docstring of bridgeflap.model.spectral): one-sided in omega >= 0,
 sigma^2 = int_0^inf G d omega; white noise of intensity Q has G0 = Q / pi (two-sided Q / 2 pi).
 """
 
@@ -11,9 +11,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from model.aeroelastic.symbolic import casadi_spectral_rms
-from model.response.simulation import lyapunov_rms, simulate_monte_carlo
-from model.spectral import (
+from bridgeflap.model.aeroelastic.symbolic import casadi_spectral_rms
+from bridgeflap.model.response.simulation import lyapunov_rms, simulate_monte_carlo
+from bridgeflap.model.spectral import (
     adaptive_frequency_grid,
     exponential_coherence,
     response_psd,

@@ -1,9 +1,9 @@
 """Divergence named by its mechanism.
 
 The static aerodynamic work of a divergence eigenvector ``q`` (``K q = U_D^2 Q q``,
-:func:`model.aeroelastic.statespace.static_aero_stiffness`) splits over the coordinates whose
-deflection generates the load. With strip loads only twist makes static lift and moment, so every
-divergence of a strip-theory deck is torsional, whatever share of its strain energy the heave
+:func:`bridgeflap.model.aeroelastic.statespace.static_aero_stiffness`) splits over the coordinates
+whose deflection generates the load. With strip loads only twist makes static lift and moment, so
+every divergence of a strip-theory deck is torsional, whatever share of its strain energy the heave
 modes carry (VS1 carries 80 % on the built-in Humber: the twist's lift bends the deck).
 """
 
@@ -12,11 +12,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from model import analysis
-from model.aeroelastic import statespace
-from model.cases.section import typical_section
-from model.stability import sweeps as stability
-from model.structure.loader import load_bridge
+from bridgeflap.model import analysis
+from bridgeflap.model.aeroelastic import statespace
+from bridgeflap.model.cases.section import typical_section
+from bridgeflap.model.stability import sweeps as stability
+from bridgeflap.model.structure.loader import load_bridge
 
 
 @pytest.fixture(scope="module")

@@ -7,10 +7,11 @@ spans give near-double pairs of branches that no step halving separates (the coa
 assignment treats them as one, model/stability/tracking.py); with bb3 derivatives its divergence is
 an ``unverified_crossing`` in the dense sweep, which the fast path reproduces on the grid speeds of
 its coarse bracket. IABSE 1.1c, whose Roger fit moves the still-air spectrum far from the
-structure's, checks the start of the branches at U = 0 (model.stability.crossings._structural_start:
-matched by mode shape, not eigenvalue distance) and the low-speed tracking after it. The
-fallback is checked on constructed hard cases: no tracking sub-steps allowed (every ambiguous
-coarse step forced), a Newton that fails, a crossing that Newton misses but the grid converges.
+structure's, checks the start of the branches at U = 0
+(bridgeflap.model.stability.crossings._structural_start: matched by mode shape, not eigenvalue
+distance) and the low-speed tracking after it. The fallback is checked on constructed hard cases: no
+tracking sub-steps allowed (every ambiguous coarse step forced), a Newton that fails, a crossing
+that Newton misses but the grid converges.
 """
 
 from __future__ import annotations
@@ -18,12 +19,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from design.io.options import parse_range
-from design.studies.analyses import DEFAULT_SPEEDS
-from model.cases.section_cases import section_system
-from model.errors import BridgeflapInputError
-from model.stability import crossings, hopf
-from model.stability import sweeps as stability
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.design.studies.analyses import DEFAULT_SPEEDS
+from bridgeflap.model.cases.section_cases import section_system
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.stability import crossings, hopf
+from bridgeflap.model.stability import sweeps as stability
 
 #: agreement of the fast and dense speeds, relative (as bench/sweep_cases.py's, which
 #: the tests cannot import: CI runs them against the installed wheel, which does not ship
@@ -32,8 +33,8 @@ REL_TOL = 1e-4
 
 
 def _bridge(name, n_modes, speeds=DEFAULT_SPEEDS):
-    from model.analysis import bridge_system
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.analysis import bridge_system
+    from bridgeflap.model.structure.loader import load_bridge
 
     _, system = bridge_system(load_bridge(name), n_modes)
     return name, system, parse_range(speeds, "speeds", 0.0)

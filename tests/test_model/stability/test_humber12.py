@@ -6,8 +6,8 @@
 * model/stability/modeshape.py: the flutter shape rebuilt from the modal coordinates through the FE
   shapes equals the physical strip heave/pitch of the *full-order* state space (per-strip lag
   states, a different realisation) at the flutter speed; its participation is the sweep's.
-* the frequency-ratio rule (model.analysis.first_symmetric_deck_mode) never picks a mode with
-  less than DECK_SHARE_FACTOR of the main span's uniform-motion deck share. (The same rule with
+* the frequency-ratio rule (bridgeflap.model.analysis.first_symmetric_deck_mode) never picks a mode
+  with less than DECK_SHARE_FACTOR of the main span's uniform-motion deck share. (The same rule with
   the factor written out as 0.5 is tested on more stages in tests/test_aeroelastic.py; this test
   reads the constant and covers the stages of the runs/flutter_mode_shape figure.)
 """
@@ -17,12 +17,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from design.io.options import parse_range
-from model import analysis
-from model.errors import BridgeflapInputError
-from model.stability.convergence import mode_convergence, truncation_error
-from model.stability.modeshape import deck_fields, flutter_mode_shape, ratio_modes
-from model.stability.sweeps import CONVERGED, sweep
+from bridgeflap.design.io.options import parse_range
+from bridgeflap.model import analysis
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.stability.convergence import mode_convergence, truncation_error
+from bridgeflap.model.stability.modeshape import deck_fields, flutter_mode_shape, ratio_modes
+from bridgeflap.model.stability.sweeps import CONVERGED, sweep
 
 SPEEDS = parse_range("0:85:0.5", "speeds", 0.0)
 
@@ -46,7 +46,7 @@ def test_truncation_error_falls_with_the_mode_count(humber):
 
 
 def test_truncation_error_is_the_facade_difference(humber):
-    """The estimate is |U(16) - U(24)| / U(24) of model.analysis.flutter itself."""
+    """The estimate is |U(16) - U(24)| / U(24) of bridgeflap.model.analysis.flutter itself."""
     e = truncation_error(humber, 16, SPEEDS)
     a = analysis.flutter(humber, SPEEDS, 16).summary()
     b = analysis.flutter(humber, SPEEDS, 24).summary()

@@ -16,15 +16,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from model.aero.derivatives import flat_plate, tabulated
-from model.aero.theodorsen import theodorsen, theodorsen_scalar
-from model.aeroelastic.derivative_system import derivative_system
-from model.aeroelastic.statespace import build
-from model.cases.section import section_basis
-from model.cases.section_cases import load_section_case, section_system
-from model.stability import pk_kernel
-from model.stability import sweeps as stability
-from model.stability.tracking import continue_adaptive
+from bridgeflap.model.aero.derivatives import flat_plate, tabulated
+from bridgeflap.model.aero.theodorsen import theodorsen, theodorsen_scalar
+from bridgeflap.model.aeroelastic.derivative_system import derivative_system
+from bridgeflap.model.aeroelastic.statespace import build
+from bridgeflap.model.cases.section import section_basis
+from bridgeflap.model.cases.section_cases import load_section_case, section_system
+from bridgeflap.model.stability import pk_kernel
+from bridgeflap.model.stability import sweeps as stability
+from bridgeflap.model.stability.tracking import continue_adaptive
 
 SPEED_M_S = 1e-4
 FREQ_HZ = 1e-6
@@ -145,8 +145,8 @@ def test_fast_pk_on_a_coarse_grid_from_zero():
     ("iabse-2a", 30, (0.0, 100.0, 0.5)), ("iabse-2a:bb3", 30, (0.0, 100.0, 0.5)),
     ("humber", 12, (0.0, 85.0, 0.5))])
 def test_fast_pk_equals_the_reference_on_bridges(name, modes, grid):
-    from model.analysis import bridge_system
-    from model.structure.loader import load_bridge
+    from bridgeflap.model.analysis import bridge_system
+    from bridgeflap.model.structure.loader import load_bridge
 
     _, system = bridge_system(load_bridge(name), modes)
     lo, hi, step = grid

@@ -1,4 +1,4 @@
-"""The coarse march's assignment of near-double pairs (model.stability.tracking._assign,
+"""The coarse march's assignment of near-double pairs (bridgeflap.model.stability.tracking._assign,
 ``coincident``).
 
 Great Belt's identical side spans give pairs of branches 3.6e-7 and 9e-6 rad/s apart that move
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from model.stability.tracking import COINCIDENT, UNAMBIGUOUS, _assign
+from bridgeflap.model.stability.tracking import COINCIDENT, UNAMBIGUOUS, _assign
 
 OMEGA_TOL = 1e-3  # [rad/s], far below the 2 rad/s pair
 CENTRE = -0.01 + 2.0j  # [1/s]

@@ -13,14 +13,14 @@ import json
 import numpy as np
 import pytest
 
-from design.batch.branch_flags import flag_branch_neighbours
-from design.cli.main import main as cli_main
-from model import analysis
-from model.aeroelastic import statespace
-from model.aeroelastic.control import Compensator, Controller
-from model.cases.section import section_basis
-from model.stability import crossings
-from model.stability import sweeps as stability
+from bridgeflap.design.batch.branch_flags import flag_branch_neighbours
+from bridgeflap.design.cli.main import main as cli_main
+from bridgeflap.model import analysis
+from bridgeflap.model.aeroelastic import statespace
+from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.cases.section import section_basis
+from bridgeflap.model.stability import crossings
+from bridgeflap.model.stability import sweeps as stability
 
 SPEED_TOL = 1e-3  # default Brent xtol of sweep / pk_sweep [m/s]
 # two refinements of the same root, each within xtol of it (plus the 1e-12 rtol): 2 xtol apart
@@ -143,7 +143,7 @@ def test_every_converged_crossing_is_verified_and_labelled_from_zero(coarse_syst
                                                                      grid):
     """A6: on coarse and late-starting grids the critical branch is still TS1 (it was VA2 for a
     grid from 60 m/s), from tracking; A2: the crossing is the fine grid's and re-checks."""
-    from design.io.options import parse_range
+    from bridgeflap.design.io.options import parse_range
 
     sw = stability.sweep(coarse_system, parse_range(grid, "speeds", 0.0))
     assert sw.flutter.status == stability.CONVERGED
@@ -267,7 +267,7 @@ def test_onset_classification_threshold():
 
 
 def test_sensitivity_rows_say_their_branch(coarse_humber):
-    from design.sensitivity.local import local_sensitivity
+    from bridgeflap.design.sensitivity.local import local_sensitivity
 
     res = local_sensitivity(coarse_humber, ("deck.gj_nm2",), speeds="0:90:1", n_modes=10,
                             check=True)
@@ -325,7 +325,7 @@ def test_grid_starting_at_a_denormal_speed(coarse_humber):
     far below any eigenvalue change: 1e-9 relative)."""
     import numpy as np
 
-    from model.analysis import flutter
+    from bridgeflap.model.analysis import flutter
 
     u = np.arange(0.0, 100.01, 5.0)
     v = u.copy()

@@ -14,11 +14,11 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from design.cli.main import main
-from model.analysis import modal_model
-from model.structure.builtin_bridges import BUILTIN_BRIDGES
-from model.structure.loader import load_bridge
-from model.structure.modal_import import compare_modes
+from bridgeflap.design.cli.main import main
+from bridgeflap.model.analysis import modal_model
+from bridgeflap.model.structure.builtin_bridges import BUILTIN_BRIDGES
+from bridgeflap.model.structure.loader import load_bridge
+from bridgeflap.model.structure.modal_import import compare_modes
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +41,8 @@ def test_builtin_and_sourced():
     assert spec.deck.half_chord_m == 15.5                                  # B = 31 m
     # the benchmark's 22,740 kg/m read as deck plus both cables (CHOICE in the file)
     assert spec.deck.mass_kg_per_m + 2 * spec.cable.mass_kg_per_m == pytest.approx(22740.0)
-    text = resources.files("model.bridges").joinpath("great_belt.toml").read_text("utf-8")
+    text = resources.files("bridgeflap.model.bridges").joinpath("great_belt.toml").read_text(
+        "utf-8")
     # every physical value has a source, and each source says where it comes from
     assert all(v != "not stated" for v in spec.sources.values())
     tags = re.compile(r"\[(WEB|CODE)-\d+\]|\[DERIVED\]|ESTIMATE|UPDATED|CHOICE|numerical choice"

@@ -13,14 +13,14 @@ import numpy as np
 import pytest
 import tomllib
 
-from model.errors import BridgeflapInputError
-from model.structure import cable, fe
-from model.structure.loader import load_bridge, spec_from_dict
-from model.structure.section_props import section_from_list
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure import cable, fe
+from bridgeflap.model.structure.loader import load_bridge, spec_from_dict
+from bridgeflap.model.structure.section_props import section_from_list
 
 
 def _humber_dict() -> dict:
-    text = resources.files("model.bridges").joinpath("humber.toml").read_text("utf-8")
+    text = resources.files("bridgeflap.model.bridges").joinpath("humber.toml").read_text("utf-8")
     return tomllib.loads(text)
 
 
@@ -171,7 +171,7 @@ def test_frequency_ratio_rule_follows_the_deck_fundamental_through_hybrids():
     curve of its neighbours. Bound: the ratio rises by less than 0.1 per 5 % of erection between
     30 and 40 % (the neighbours 1.17 -> 1.21) and stays below the completed bridge's at 100 %
     closed-deck (half GJ can only lower TS1)."""
-    from model.analysis import frequency_ratio
+    from bridgeflap.model.analysis import frequency_ratio
 
     res = frequency_ratio(load_bridge("humber"), [0.3, 0.35, 0.4, 0.95, 1.0])
     r = [s["ratio_half_gj"] for s in res.stages]

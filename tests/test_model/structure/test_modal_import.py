@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from design.cli.main import main
-from model.analysis import bridge_system, flutter, modal_model
-from model.errors import BridgeflapInputError
-from model.stability.sweeps import pk_sweep
-from model.structure.loader import load_bridge, spec_from_dict
-from model.structure.modal_import import ImportedModalModel, export_modal
-from model.structure.spec import BridgeSpec
+from bridgeflap.design.cli.main import main
+from bridgeflap.model.analysis import bridge_system, flutter, modal_model
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.stability.sweeps import pk_sweep
+from bridgeflap.model.structure.loader import load_bridge, spec_from_dict
+from bridgeflap.model.structure.modal_import import ImportedModalModel, export_modal
+from bridgeflap.model.structure.spec import BridgeSpec
 
 UNITS = {"frequency": "Hz", "length": "m", "rotation": "rad", "mass": "kg"}
 SPEEDS = np.arange(0.0, 85.5, 0.5)
@@ -389,7 +389,7 @@ def test_step2a_sensitivities_to_aero_inputs(step2a):
     -1/2 and (b/U) dU/db = -1 exactly; 1e-6 covers the central difference of A (relative step
     1e-4, error O(1e-8)) and the Brent tolerance of the crossing.
     """
-    from design.sensitivity.local import local_sensitivity
+    from bridgeflap.design.sensitivity.local import local_sensitivity
 
     spec, _ = step2a
     res = local_sensitivity(spec, ("aero.air_density_kg_m3", "deck.half_chord_m"),

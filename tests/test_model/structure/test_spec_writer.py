@@ -1,19 +1,20 @@
-"""BridgeSpec.to_toml / save_bridge (model.structure.spec_writer): the loader's format, round trip.
+"""BridgeSpec.to_toml / save_bridge (bridgeflap.model.structure.spec_writer): the loader's format,
+round trip.
 
 ``load_bridge -> to_toml -> write -> load_bridge`` gives an equal spec with the same sources
 and deck section, for every built-in bridge and variant. The IABSE section cases
-(``iabse-1.1a``, ``iabse-1.1c``) are 2-DOF section cases (:mod:`model.cases.section_cases`), not
-bridges: they have no BridgeSpec to write.
+(``iabse-1.1a``, ``iabse-1.1c``) are 2-DOF section cases
+(:mod:`bridgeflap.model.cases.section_cases`), not bridges: they have no BridgeSpec to write.
 """
 
 from __future__ import annotations
 
 import pytest
 
-import model
-from model.errors import BridgeflapInputError
-from model.structure.loader import load_bridge
-from model.structure.spec_writer import save_bridge, to_toml
+from bridgeflap import model
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure.loader import load_bridge
+from bridgeflap.model.structure.spec_writer import save_bridge, to_toml
 
 BRIDGES = ["humber", "humber:box", "humber:flap_deck_flap", "great-belt",
            "great-belt:benchmark_mass_is_deck", "iabse-2a", "iabse-2a:bb3"]

@@ -1,6 +1,7 @@
-"""Tests of the structural layer: model.structure.cable (Irvine statics), model.structure.fe
-(assembly) and model.structure.modes (eigen-solution, labels, Rayleigh damping), against analytic
-results, invariants, cross-method agreement and the measured Humber frequencies of seed Table 1.
+"""Tests of the structural layer: bridgeflap.model.structure.cable (Irvine statics),
+bridgeflap.model.structure.fe (assembly) and bridgeflap.model.structure.modes (eigen-solution,
+labels, Rayleigh damping), against analytic results, invariants, cross-method agreement and the
+measured Humber frequencies of seed Table 1.
 
 Theory referred to (docs/humber_data.md#reconstructed-equations): per cable, ``H`` the dead-load
 horizontal tension, ``w`` the dead load per length, ``m`` the total mass per length (deck + both
@@ -17,12 +18,12 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from model.cases.validation import TABLE1, compare_table1
-from model.errors import BridgeflapInputError
-from model.structure import cable, fe, modes
-from model.structure.cable import G
-from model.structure.loader import load_bridge, spec_from_dict
-from model.structure.spec import BridgeSpec
+from bridgeflap.model.cases.validation import TABLE1, compare_table1
+from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.structure import cable, fe, modes
+from bridgeflap.model.structure.cable import G
+from bridgeflap.model.structure.loader import load_bridge, spec_from_dict
+from bridgeflap.model.structure.spec import BridgeSpec
 
 # --------------------------------------------------------------------------- case factories
 
