@@ -82,6 +82,24 @@ def _closed_loop(args, spec):
     return 0
 
 
+def _check_save_target(path) -> None:
+    """``--save-controller``: a file whose folder exists and is writable, checked before the
+    design (minutes) runs."""
+    import os
+    from pathlib import Path
+
+    from bridgeflap.model.errors import BridgeflapInputError
+
+    p = Path(path)
+    if p.is_dir():
+        raise BridgeflapInputError("--save-controller", f"is a folder, not a file: {p}")
+    parent = p.resolve().parent
+    if not parent.is_dir():
+        raise BridgeflapInputError("--save-controller", f"folder does not exist: {parent}")
+    if not os.access(parent, os.W_OK) or not parent.stat().st_mode & 0o222:
+        raise BridgeflapInputError("--save-controller", f"folder not writable: {parent}")
+
+
 def _design_stage(args, spec):
     """``--design-stage``: a controller designed for one stage (the worst open-loop one by
     default), then every stage's closed loop with its strips
@@ -106,6 +124,12 @@ def _design_stage(args, spec):
         except (ValueError, BridgeflapInputError):
             raise BridgeflapInputError("--design-stage", "'worst' or an erected fraction in "
                                        f"(0, 1], got {args.design_stage!r}") from None
+    if args.card is not None:   # the card and the controller's target before any work
+        from bridgeflap.design.control.settings import load_settings, packaged_card
+
+        load_settings(packaged_card(args.card))
+    if args.save_controller:
+        _check_save_target(args.save_controller)
     if args.design_stage == "worst":
         ol = _run("erection", spec, fractions=args.fractions, speeds=args.speeds,
                   modes=args.modes, side_spans=args.side_spans or "", workers=args.workers)

@@ -30,9 +30,12 @@ def cmd_optimise(args):
     from bridgeflap.design.assessment.acceptance import parse_checks
 
     parse_checks(args.checks)  # a bad --checks stops here, before the design runs
-    for name, v in (("check-samples", args.check_samples), ("workers", args.workers)):
-        if v is not None and v < 1:
-            raise BridgeflapInputError(name, f"must be at least 1, got {v}")
+    from bridgeflap.design.assessment.accept import MAX_SAMPLES
+
+    for name, v, top in (("check-samples", args.check_samples, MAX_SAMPLES),
+                         ("workers", args.workers, 1024)):
+        if v is not None and not 1 <= v <= top:
+            raise BridgeflapInputError(name, f"must be an integer in [1, {top}], got {v}")
     settings = load_settings(args.definition or DEFAULT_DEFINITION, **over)
     if args.quick:
         settings = quick_settings(settings)

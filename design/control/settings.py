@@ -44,6 +44,16 @@ CRITICAL_SPEED_FIELDS = ("objective", "margin_min", "critical_speed_step_m_s",
                          "critical_speed_evaluations")
 
 
+#: Upper bounds of the card's counts (a card is refused before any work beyond them): modes as
+#: bridgeflap.model.arguments.MAX_MODES (a 100-mode eigenproblem, ~600 states, takes 0.1 s per
+#: speed); scenario variants cost a model and lazy constraints each (12 take the default design
+#: ~2 minutes); fresh variants ~1 s each; Ipopt iterations and starts beyond these are days.
+_UPPER = {"n_modes": 100, "verification_modes": 100, "fresh_variant_modes": 100,
+          "flap_count": 200, "starts": 64, "max_iter": 100_000, "resolve_max_iter": 100_000,
+          "n_eig": 50, "n_omega": 10_000, "n_robust_omega": 10_000, "pareto_step": 200,
+          "variants": 256, "fresh_variants": 4096}
+
+
 def _num(field_name, v, positive=False, nonneg=False):
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         raise BridgeflapInputError(field_name, f"must be a number, got {v!r}")
@@ -182,8 +192,10 @@ class DesignSettings:
                      "n_robust_omega", "starts", "max_iter", "resolve_max_iter",
                      "pareto_step", "fresh_variant_modes"):
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise BridgeflapInputError(name, f"must be a positive integer, got {v!r}")
+            top = _UPPER.get(name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1 or (top and v > top):
+                raise BridgeflapInputError(name, "must be a positive integer" + (
+                    f" (at most {top})" if top else "") + f", got {v!r}")
         if self.omega_max_rad_s <= self.omega_min_rad_s:
             raise BridgeflapInputError("omega_max_rad_s", "must exceed omega_min_rad_s")
         if self.robust_omega_max_rad_s <= self.robust_omega_min_rad_s:
@@ -256,8 +268,10 @@ class DesignSettings:
                                                  f"{self.bridge!r}")
         for name in ("variants", "fresh_variants", "variant_seed"):
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-                raise BridgeflapInputError(name, f"must be an integer >= 0, got {v!r}")
+            top = _UPPER.get(name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0 or (top and v > top):
+                raise BridgeflapInputError(name, "must be an integer >= 0" + (
+                    f" and at most {top}" if top else "") + f", got {v!r}")
         if self.variant_speeds not in ("lazy", "all"):
             raise BridgeflapInputError("variant_speeds", "must be 'lazy' (constraint generation "
                                        "over variant and speed, "
