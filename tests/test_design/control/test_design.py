@@ -376,9 +376,9 @@ def test_buffeting_weight_lowers_rms(buffeting_problem):
 
 @pytest.mark.slow
 def test_humber_design_stable_on_16_modes(tmp_path, capsys):
-    # The packaged design (16 modes, 2 starts, cutting planes) through the CLI: stable on the
-    # 16-mode model of `bridgeflap flutter` at every 0.25 m/s speed 0..85 m/s, gain <= 15,
-    # every start's Ipopt status reported.
+    # The packaged design (16 modes, 1 start, scenarios, cutting planes) through the CLI:
+    # stable on the 16-mode model of `bridgeflap flutter` at every 0.25 m/s speed 0..85 m/s,
+    # gain <= 15, every start's Ipopt status reported.
     import json
 
     from bridgeflap.design.cli.main import main
@@ -387,21 +387,24 @@ def test_humber_design_stable_on_16_modes(tmp_path, capsys):
     from bridgeflap.model.structure.loader import load_bridge
 
     out = tmp_path / "opt"
-    rc = main(["optimise", "--out", str(out), "--json"])
+    # the acceptance checks that judge the status, at a test's size: the independent closed
+    # loop and 50 fresh variants (the default 1000 and the failure and actuator checks are
+    # measured in bench.design)
+    rc = main(["optimise", "--out", str(out), "--json", "--checks",
+               "independent_check,robustness", "--check-samples", "50"])
     payload = json.loads(capsys.readouterr().out)
-    # The exit status is the acceptance verdict (0 passed, 1 harm or a disagreeing loop). The
-    # verdict is the optimiser's outcome, which is not the same on every machine: the
-    # recorded design (README) passed; on an AMD EPYC (OpenBLAS SkylakeX kernel) the same
-    # code designs another K(s) (21 pairs, margin 0.165) that harms 33 % of the variants
-    # (worst ratio 0.20), and the command says so with exit 1. What must hold on every
-    # machine is asserted: the status agrees with the verdict, and the design is stable.
-    verdict = payload["acceptance"]["status"]
-    assert verdict in ("passed", "harm", "failed"), verdict
-    assert rc == (1 if verdict in ("harm", "failed") else 0), (rc, verdict)
-    assert payload["status"] == "converged"
-    assert len(payload["starts"]) == 2
+    # The scenario design does no harm by construction: the verdict is "passed" and the
+    # status "converged" on every machine (the same layout and critical speed on other BLAS
+    # kernels and thread counts, tests/test_design/control/test_reproducible.py)
+    assert payload["acceptance"]["status"] == "passed", payload["acceptance"]["status"]
+    assert rc == 0 and payload["status"] == "converged"
+    rob = payload["acceptance"]["robustness"]
+    assert rob["harmed_count"] == 0 and rob["variants"] == 50
+    assert len(payload["starts"]) == 1     # the card's nominal start
     assert all(isinstance(st["status"], str) and st["status"] for st in payload["starts"])
     assert payload["verification"]["modes"] == DEFAULT_MODES
+    # the compensator's poles keep the card's damping (30 %): no resonant peak
+    assert payload["starts"][0]["compensator_damping_ratio"] >= 0.3 * (1 - 1e-5)
     ctrl = load_controller(out / "controller.toml")
     # 1e-9 relative: the reported sup is a root-polished stationary point
     assert ctrl.compensator.max_gain() <= 15.0 * (1 + 1e-9)
