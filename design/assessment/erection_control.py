@@ -169,6 +169,7 @@ def design_for_stage(spec: BridgeSpec, fraction: float, card=None, progress=None
     if n < 1:
         raise BridgeflapInputError("fraction", f"{fraction:g}: no {base.flap_width_m:g} m flap "
                                    "strip fits on the erected deck")
-    settings = load_settings(card, **({"flap_count": n} | STAGE_DESIGN | overrides))
+    settings = load_settings(card, **({"flap_count": n, "flap_positions_m": ()} | STAGE_DESIGN
+                                      | overrides))
     stage = spec.erected(float(fraction), side_spans=side_spans)
     return design(settings, progress=progress, bridge=stage, progress_bar=False)
