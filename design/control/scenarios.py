@@ -78,7 +78,8 @@ def open_loop_limit(settings, spec, model) -> float:
            float(settings.check_step_m_s))
     if key not in _LIMITS:
         top = replace(settings, speed_max_m_s=NO_HARM_GRID_FACTOR * settings.speed_max_m_s,
-                      optimise_placement=False, compensator_damping_min=0.0)
+                      optimise_placement=False, compensator_damping_min=0.0,
+                      objective="margin")
         ver = DesignProblem(top, model, numeric=True).verify(
             np.array([0.0, 0.0, 0.0, 1.0, 1.0]), refined=True)
         _LIMITS[key] = float(top.speed_max_m_s if ver.stable_everywhere else ver.stable_to_m_s)
@@ -94,4 +95,7 @@ def scenario_settings(settings, spec, model):
     if u < NO_HARM_MIN_SPEED_M_S:
         return None
     top = NO_HARM_GRID_FACTOR * settings.speed_max_m_s
-    return replace(settings, speed_max_m_s=float(min(u * (1.0 + NO_HARM_SPEED_MARGIN), top)))
+    # a scenario's problem carries constraints and checks only: the objective's own settings
+    # (the critical-speed search's range) do not apply to it
+    return replace(settings, speed_max_m_s=float(min(u * (1.0 + NO_HARM_SPEED_MARGIN), top)),
+                   objective="margin")
