@@ -20,7 +20,7 @@ import numpy as np
 
 from bridgeflap.model.axes import data_limits, new_axes
 
-__all__ = ["ZETA_RAYS", "root_locus", "stability_panels", "vg_vf"]
+__all__ = ["ZETA_RAYS", "branch_styles", "root_locus", "stability_panels", "vg_vf"]
 
 #: constant damping ratios [-] drawn as rays on the root locus
 ZETA_RAYS = (0.0, 0.05, 0.1, 0.2)
@@ -75,8 +75,30 @@ def root_locus(sweep, ax=None, title: str = "root locus", reference=None,
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="lower left")
     if sc is not None and colorbar:
-        ax.figure.colorbar(sc, ax=ax, label="wind speed U [m/s]", pad=0.12)
+        _speed_colorbar(ax, sc, sec)
     return ax
+
+
+def _speed_colorbar(ax, mappable, sec):
+    """The wind-speed colour bar of a root locus, right of the frequency axis ``sec`` and clear
+    of its label.
+
+    A constrained layout places the bar after the axis' decorations by itself (a small pad). In
+    any other layout the pad is a fraction of the axes width, so it is measured: the width of the
+    frequency axis with its ticks and label, plus a margin, and a third more in case a tight
+    layout shrinks the axes afterwards (the label keeps its size, the fraction does not).
+    """
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    fig = ax.figure
+    if isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine):
+        pad = 0.03
+    else:
+        renderer = fig.canvas.get_renderer()
+        box, extent = sec.get_tightbbox(renderer), ax.get_window_extent(renderer)
+        margin = 0.1 * fig.dpi  # [px] 0.1 in
+        pad = max(0.05, 1.3 * (box.x1 - extent.x1 + margin) / max(extent.width, 1.0))
+    return fig.colorbar(mappable, ax=ax, label="wind speed U [m/s]", pad=pad)
 
 
 def vg_vf(sweep, axes=None, reference=None):
@@ -86,10 +108,12 @@ def vg_vf(sweep, axes=None, reference=None):
 
     ax1, ax2 = axes if axes is not None else new_axes(1, 2, figsize=(11, 4.5))
     z, f = 100 * sweep.damping_ratios(), sweep.frequencies_hz()
-    for k, lab in enumerate(sweep.branch_labels):
-        style = "-" if lab.startswith("T") else "--"
-        ax1.plot(sweep.speeds, z[k], style, lw=1.2, color=f"C{k % 10}", label=lab)
-        ax2.plot(sweep.speeds, f[k], style, lw=1.2, color=f"C{k % 10}", label=lab)
+    for k, (lab, kw) in enumerate(zip(sweep.branch_labels, branch_styles(sweep.branch_labels),
+                                      strict=True)):
+        every = max(1, len(sweep.speeds) // 8)  # markers on the line, staggered per branch
+        kw = {**kw, "markevery": ((k * every) // 5 % every, every), "ms": 4}
+        ax1.plot(sweep.speeds, z[k], lw=1.2, label=lab, **kw)
+        ax2.plot(sweep.speeds, f[k], lw=1.2, label=lab, **kw)
     if reference is not None:
         zr, fr = 100 * reference.damping_ratios(), reference.frequencies_hz()
         for k in range(zr.shape[0]):
@@ -113,8 +137,32 @@ def vg_vf(sweep, axes=None, reference=None):
     ax2.set_ylabel("frequency [Hz]")
     ax1.set_title("V-g: damping ratio (solid: torsional, dashed: vertical)", fontsize=9)
     ax2.set_title("V-f: frequency", fontsize=9)
-    ax2.legend(fontsize=7, ncol=1, loc="center left", bbox_to_anchor=(1.02, 0.5))
+    n_entries = len(ax2.get_legend_handles_labels()[1])  # columns of at most ~16 entries
+    ax2.legend(fontsize=7, ncol=1 + (n_entries - 1) // 16, loc="center left",
+               bbox_to_anchor=(1.02, 0.5))
     return ax1, ax2
+
+
+#: markers of the second, third, ... round of the ten colours (the first round has none)
+_ROUND_MARKERS = ("o", "s", "^", "v", "D", "x", "+", "*")
+
+
+def branch_styles(labels) -> list[dict]:
+    """Line keywords (``color``, ``ls``, ``marker``) of each branch of a V-g / V-f plot, unique
+    per branch: the line style says the family (solid: torsional ``T...``, dashed: vertical and
+    the rest), the colour runs through the ten default colours within the family, and each
+    further round of ten in a family takes a marker. Two branches never share colour, style and
+    marker (for up to 90 branches of a family; beyond, the markers repeat)."""
+    count = {"T": 0, "V": 0}
+    out = []
+    for lab in labels:
+        fam = "T" if str(lab).startswith("T") else "V"
+        i = count[fam]
+        count[fam] += 1
+        rnd = i // 10
+        marker = None if rnd == 0 else _ROUND_MARKERS[(rnd - 1) % len(_ROUND_MARKERS)]
+        out.append({"color": f"C{i % 10}", "ls": "-" if fam == "T" else "--", "marker": marker})
+    return out
 
 
 def stability_panels(sweep, axes=None, title: str = "", reference=None):

@@ -77,6 +77,42 @@ def test_root_locus_one_unit_system_and_open_loop_overlay(sweep):
     assert "open loop" in labels and "closed loop" in labels
 
 
+def test_every_v_g_branch_has_its_own_colour_style_and_marker():
+    from bridgeflap.model.stability.plots import branch_styles
+
+    # Humber's 30-mode labels: 17+ vertical branches used to repeat colour and style (VS1/VS5)
+    labels = ([f"VS{i}" for i in range(1, 10)] + [f"VA{i}" for i in range(1, 7)]
+              + [f"V-barton{i}" for i in range(1, 5)] + [f"TS{i}" for i in range(1, 5)]
+              + ["TA1", "TA2", "T-barton1", "T-hessle1"] + [f"X{i}" for i in range(25)])
+    styles = branch_styles(labels)
+    keys = [(s["color"], s["ls"], s["marker"]) for s in styles]
+    assert len(set(keys)) == len(labels)
+    # the family stays in the line style
+    assert all((s["ls"] == "-") == lab.startswith("T") for s, lab in zip(styles, labels,
+                                                                         strict=True))
+
+
+def test_v_g_lines_are_unique_on_a_real_sweep(coarse_humber):
+    res = flutter(coarse_humber, SPEEDS, 30).sweep
+    assert len(res.branch_labels) > 20
+    ax1 = res.plot().axes[1]  # root locus, V-g, V-f
+    lines = [ln for ln in ax1.get_lines() if ln.get_label() in res.branch_labels]
+    keys = {(ln.get_color(), ln.get_linestyle(), ln.get_marker()) for ln in lines}
+    assert len(lines) == len(res.branch_labels) == len(keys)
+
+
+@pytest.mark.parametrize("layout", [None, "tight", "constrained"])
+def test_root_locus_colour_bar_clears_the_frequency_axis(sweep, layout):
+    fig, ax = plt.subplots(figsize=(6, 4.5), layout=layout)
+    sweep.plot_root_locus(ax=ax)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    cbar = fig.axes[-1]
+    sec = [c for c in ax.child_axes if "Hz" in c.get_ylabel()][0]
+    # the frequency axis' ticks and label end left of the colour bar's box
+    assert sec.get_tightbbox(renderer).x1 < cbar.get_window_extent(renderer).x0
+
+
 def test_mode_shapes_one_panel_per_family_with_towers(coarse_humber):
     modal = modal_model(coarse_humber)
     axes = modal.plot().axes
