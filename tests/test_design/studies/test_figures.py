@@ -142,6 +142,28 @@ def test_erection_completed_bridge_is_its_own_marker():
     assert all(70.0 not in ln.get_ydata() for ln in erecting)  # not joined to the curve
 
 
+def test_erection_and_frequency_ratio_ring_the_hybrid_stages():
+    from bridgeflap.model.analysis import ErectionResult, FrequencyRatioResult
+
+    st = [{"erected_fraction": f, "flutter_speed_m_s": 40.0 + 10 * f,
+           "divergence_speed_m_s": 50.0, "critical_mechanism": "flutter",
+           "critical_branch_label": lab}
+          for f, lab in ((0.2, "T-barton1"), (0.5, "TS1"), (0.95, "V-hessle2"))]
+    ax = ErectionResult("b", tuple(st), {}, "bare").plot().axes[0]
+    ring = [ln for ln in ax.get_lines() if ln.get_label().startswith("hybrid stage")]
+    assert len(ring) == 1 and list(ring[0].get_xdata()) == [20.0, 95.0]
+    assert list(ring[0].get_ydata()) == [42.0, 49.5]  # on the flutter curve: it governs
+    assert sorted(t.get_text() for t in ax.texts) == ["T-barton1", "V-hessle2"]
+    rows = [{"erected_fraction": f, "ratio_full_gj": 1.2, "ratio_half_gj": 1.1 + f,
+             "torsional_mode": tm, "vertical_mode": "VS1", "torsional_hybrid": h,
+             "vertical_hybrid": False}
+            for f, tm, h in ((0.3, "T-barton1", True), (0.6, "TS1", False))]
+    ax = FrequencyRatioResult("b", tuple(rows), {"ratio": 2.0}, "bare").plot().axes[0]
+    ring = [ln for ln in ax.get_lines() if ln.get_label().startswith("hybrid stage")]
+    assert len(ring) == 1 and list(ring[0].get_xdata()) == [30.0]
+    assert [t.get_text() for t in ax.texts] == ["T-barton1"]
+
+
 K = Compensator(b2=0.5, b1=-1.2, b0=-2.4, a2=0.08, a1=0.4)
 
 
