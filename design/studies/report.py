@@ -62,7 +62,8 @@ _CAPTIONS = {
     "erection": ("Fig. 3 (right)", "Flutter and divergence against deck completion; the "
                  "completed bridge (joints closed) is its own marker at 100 %. The paper "
                  "compares with Brancaleoni's findings, which we do not have as numbers."),
-    "buffeting": ("Fig. 4", "Vertical RMS over 2b and torsional RMS against wind speed. The "
+    "buffeting": ("Fig. 4", "Vertical RMS [mm] (over 2b, the paper's ordinate, on the right "
+                  "axis) and torsional RMS [deg] against wind speed. The "
                   "measured curve of the paper's ref. [6] is not available as numbers, so only "
                   "our curve is shown."),
     "design": ("Fig. 5", "Closed loop with the optimised flap compensator: root locus 0-85 m/s "
@@ -349,13 +350,19 @@ def _design_section(doc: Document, d: dict) -> None:
         doc.paragraph("Buffeting, open vs closed loop (max RMS on the main span):")
         tor_o = buf.get("open_loop_rms_torsion_rad") or [None] * len(buf["speeds_m_s"])
         tor_c = buf.get("closed_loop_rms_torsion_rad") or [None] * len(buf["speeds_m_s"])
-        doc.table([(f"{u:g}", _fmt(o, ".4f"), _fmt(cl, ".4f"), _pct(cl, o),
-                    _fmt(to, ".3e"), _fmt(tc, ".3e"), _pct(tc, to))
+        def mm(x):  # [m] -> [mm]
+            return None if x is None else 1000.0 * x
+
+        def deg(x):  # [rad] -> [deg]
+            return None if x is None else float(np.degrees(x))
+
+        doc.table([(f"{u:g}", _fmt(mm(o), ".1f"), _fmt(mm(cl), ".1f"), _pct(cl, o),
+                    _fmt(deg(to), ".3g"), _fmt(deg(tc), ".3g"), _pct(tc, to))
                    for u, o, cl, to, tc in zip(buf["speeds_m_s"], buf["open_loop_rms_vertical_m"],
                                                buf["closed_loop_rms_vertical_m"], tor_o, tor_c,
                                                strict=False)],
-                  ["U [m/s]", "vertical, open loop [m]", "vertical, closed loop [m]",
-                   "vertical change", "torsion, open loop [rad]", "torsion, closed loop [rad]",
+                  ["U [m/s]", "vertical, open loop [mm]", "vertical, closed loop [mm]",
+                   "vertical change", "torsion, open loop [deg]", "torsion, closed loop [deg]",
                    "torsion change"])
     doc.paragraph("The paper hand-tunes one compensator and shows its root locus; here Ipopt "
                   "maximises the robust margin subject to a minimum damping ratio of every "

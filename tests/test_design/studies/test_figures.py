@@ -212,7 +212,7 @@ def test_margins_plot_the_robust_margin_per_speed():
 def test_fig5_marks_the_given_open_loop_flutter_and_both_buffeting_panels(sweep):
     def buf(scale):
         return SimpleNamespace(speeds=np.array([10.0, 20.0, 30.0]),
-                               rms_vertical_over_width=scale * np.array([1e-4, 1e-3, 3e-3]),
+                               rms_vertical=scale * np.array([3e-3, 3e-2, 9e-2]),
                                rms_torsion=scale * np.array([1e-5, 1e-4, 3e-4]))
 
     fig = fig5(sweep, sweep, buf(1.0), buf(0.5), _controller(), open_loop_flutter_m_s=65.45)
@@ -220,8 +220,24 @@ def test_fig5_marks_the_given_open_loop_flutter_and_both_buffeting_panels(sweep)
     for ax in (ax1, ax2):
         labels = [t.get_text() for t in ax.get_legend().get_texts()]
         assert {"open loop", "closed loop", "open-loop flutter 65.45 m/s"} <= set(labels)
-    assert "[deg]" in ax2.get_ylabel()
+    assert "[deg]" in ax2.get_ylabel() and "[mm]" in ax1.get_ylabel()
     _inside(ax2, y=np.degrees([1e-5, 3e-4]))
+    _inside(ax1, y=[3.0, 90.0])  # [mm]
+
+
+def test_buffeting_panels_in_mm_and_deg_with_the_seed_ordinate_on_the_right():
+    from bridgeflap.model.response.plots import buffeting_panels
+
+    res = SimpleNamespace(speeds=np.array([10.0, 20.0, 30.0]),
+                          rms_vertical=np.array([2e-3, 1e-2, 4e-2]),
+                          rms_torsion=np.array([1e-5, 1e-4, 3e-4]), deck_width_m=28.5,
+                          status=("ok", "ok", "ok"), inputs={})
+    ax0, ax1 = buffeting_panels({"a": res})
+    assert ax0.get_ylabel().endswith("[mm]") and ax1.get_ylabel().endswith("[deg]")
+    np.testing.assert_allclose(ax0.get_lines()[0].get_ydata(), [2.0, 10.0, 40.0])
+    np.testing.assert_allclose(ax1.get_lines()[0].get_ydata(), np.degrees([1e-5, 1e-4, 3e-4]))
+    sec = [c for c in ax0.child_axes if "2b" in c.get_ylabel()]
+    assert len(sec) == 1  # sigma_z / 2b, the seed's Fig. 4 ordinate, for comparison
 
 
 def test_morris_plane_holds_every_input():

@@ -158,8 +158,9 @@ def test_design_section_numbers_are_the_design_summary():
     margin = _table(tables, "U [m/s]")
     assert margin["85"]["margin [-]"] == f"{1 / 9.988:.3f}"
     buf = [t for t in tables if t[0][0] == "U [m/s]"][-1]
-    assert buf[1] == ["10", "0.0200", "0.0100", "-50.0 %", "1.000e-03", "2.000e-03",
-                      "+100.0 %"]
+    # vertical in mm, torsion in deg (the summary keeps m and rad)
+    assert buf[0][1:3] == ["vertical, open loop [mm]", "vertical, closed loop [mm]"]
+    assert buf[1] == ["10", "20.0", "10.0", "-50.0 %", "0.0573", "0.115", "+100.0 %"]
     assert _table(tables, "start")["0"]["Ipopt status"] == "Solve_Succeeded"
 
 
