@@ -211,15 +211,6 @@ class _StagesResult(ResultData):
         return [dict(r) for r in self.stages] + ([dict(self.completed)] if self.completed else [])
 
 
-def _axes(ax):
-    """``ax``, or the axes of a new 6 x 4 in figure."""
-    if ax is None:
-        import matplotlib.pyplot as plt
-
-        _, ax = plt.subplots(figsize=(6, 4), layout="constrained")
-    return ax
-
-
 def _nan(v) -> float:
     return float("nan") if v is None else float(v)
 
@@ -231,46 +222,11 @@ class ErectionResult(_StagesResult):
     _HEADLINE_KEYS = ("critical_speed_m_s", "flutter_speed_m_s", "divergence_speed_m_s")
 
     def plot(self, ax=None):
-        """Flutter and divergence speed against deck completion (seed Fig. 3 right); the
-        completed bridge is its own marker at 100 %, not joined to the erection curve; hybrid
-        stages (critical on a side-span cable mode) ringed in red with the branch label."""
-        ax = _axes(ax)
-        f = np.array([s["erected_fraction"] for s in self.stages]) * 100
-        uf = np.array([_nan(s["flutter_speed_m_s"]) for s in self.stages])
-        ud = np.array([_nan(s["divergence_speed_m_s"]) for s in self.stages])
-        ax.plot(f, uf, "o-", color="C0", label="flutter (erecting)")
-        ax.plot(f, ud, "s--", color="C1", label="torsional divergence (erecting)")
-        # hybrid stages: the critical branch is a deck mode hybridised with a bare side-span
-        # cable (a side-span label, "T-barton1"): ringed in red on the governing curve, named
-        hyb = [(fx, s) for fx, s in zip(f, self.stages, strict=True)
-               if _side_span_label(s.get("critical_branch_label"))]
-        if hyb:
-            ys = [_nan(s["divergence_speed_m_s"] if str(s.get("critical_mechanism", ""))
-                       .startswith("divergence") else s["flutter_speed_m_s"]) for _, s in hyb]
-            ax.plot([fx for fx, _ in hyb], ys, "o", ms=13, mfc="none", mec="C3", mew=1.5,
-                    zorder=4, label="hybrid stage: critical branch on a side-span cable mode")
-            for k, ((fx, s), y) in enumerate(zip(hyb, ys, strict=True)):
-                ax.annotate(s["critical_branch_label"], (fx, y),
-                            xytext=(0, -15 if k % 2 == 0 else 9), textcoords="offset points",
-                            ha="center", fontsize=6, color="C3")
-        if self.completed:
-            ax.plot([100], [_nan(self.completed["flutter_speed_m_s"])], "*", color="C0", ms=14,
-                    label="flutter, completed bridge")
-            ax.plot([100], [_nan(self.completed["divergence_speed_m_s"])], "P", color="C1",
-                    ms=11, label="divergence, completed bridge")
-        ax.set_xlabel("main-span deck erected [%]")
-        ax.set_ylabel("critical wind speed [m/s]")
-        ax.set_title(f"{self.bridge}: stability during erection (side spans {self.side_spans})\n"
-                     "half GJ, zero EI until the joints close; 100 % = closed deck")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-        return ax
+        """Flutter and divergence speed against deck completion (seed Fig. 3 right):
+        :func:`bridgeflap.model.stability.plots.erection_speeds`."""
+        from bridgeflap.model.stability.plots import erection_speeds
 
-
-def _side_span_label(label) -> bool:
-    """A mode label of a side span (``T-barton1``, ``V-hessle2``): the family letter, a dash,
-    the side span's name (main-span labels are ``VS1``, ``TA2``, ...)."""
-    return isinstance(label, str) and len(label) > 2 and label[1] == "-"
+        return erection_speeds(self, ax)
 
 
 _STAGE_KEYS = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
@@ -357,35 +313,10 @@ class FrequencyRatioResult(_StagesResult):
     _HEADLINE_KEYS = ("ratio_full_gj", "ratio_half_gj", "ratio")
 
     def plot(self, ax=None):
-        """Seed Fig. 2 style plot; the completed bridge is its own marker at 100 %, hybrid
-        stages (``torsional_hybrid`` / ``vertical_hybrid``) ringed in red with the picked
-        mode's label."""
-        ax = _axes(ax)
-        f = [100 * s["erected_fraction"] for s in self.stages]
-        ax.plot(f, [s["ratio_full_gj"] for s in self.stages], "o-", label="full GJ")
-        ax.plot(f, [s["ratio_half_gj"] for s in self.stages], "s--", label="half GJ")
-        # hybrid stages (the picked deck mode is split between modes, _ratio_row; the modes are
-        # the half-GJ ones): the ratio there rests on one of the hybrids, ringed and named
-        hyb = [(fx, s) for fx, s in zip(f, self.stages, strict=True)
-               if s.get("torsional_hybrid") or s.get("vertical_hybrid")]
-        if hyb:
-            ax.plot([fx for fx, _ in hyb], [s["ratio_half_gj"] for _, s in hyb], "o", ms=13,
-                    mfc="none", mec="C3", mew=1.5, zorder=4,
-                    label="hybrid stage (half GJ): deck mode split between modes")
-            for k, (fx, s) in enumerate(hyb):  # names below and above in turn: no overlap
-                ax.annotate("/".join(s[f"{fam}_mode"] for fam in ("torsional", "vertical")
-                                     if s.get(f"{fam}_hybrid")),
-                            (fx, s["ratio_half_gj"]), xytext=(0, -15 if k % 2 == 0 else 9),
-                            textcoords="offset points", ha="center", fontsize=6, color="C3")
-        if self.completed:
-            ax.plot([100], [self.completed["ratio"]], "k*", ms=14, label="completed bridge")
-        ax.set_xlabel("main-span deck erected [%]")
-        ax.set_ylabel("f(TS1) / f(VS1) [-]")
-        ax.set_title(f"{self.bridge}: torsion-to-bending frequency ratio\n"
-                     f"(EI = 0 while erecting; side spans {self.side_spans})")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-        return ax
+        """Seed Fig. 2 style plot: :func:`bridgeflap.model.structure.plots.frequency_ratio`."""
+        from bridgeflap.model.structure.plots import frequency_ratio
+
+        return frequency_ratio(self, ax)
 
 
 def _fractions(fractions) -> np.ndarray:

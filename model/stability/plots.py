@@ -1,4 +1,5 @@
-"""Figures of a stability sweep: root locus, V-g / V-f, and both in one figure.
+"""Figures of a stability sweep: root locus, V-g / V-f, and both in one figure; the critical
+speeds of the erection stages (seed Fig. 3 right).
 
 :class:`bridgeflap.model.stability.sweeps.StabilitySweep` keeps thin ``plot`` methods that call
 these functions (matplotlib imported lazily, nothing here calls ``plt.show()``). Units are fixed per
@@ -18,9 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from bridgeflap.model.axes import data_limits, new_axes
+from bridgeflap.model.axes import axes_or_new, data_limits, new_axes, number_or_nan, ring_points
 
-__all__ = ["ZETA_RAYS", "branch_styles", "root_locus", "stability_panels", "vg_vf"]
+__all__ = ["ZETA_RAYS", "branch_styles", "erection_speeds", "root_locus", "stability_panels",
+           "vg_vf"]
 
 #: constant damping ratios [-] drawn as rays on the root locus
 ZETA_RAYS = (0.0, 0.05, 0.1, 0.2)
@@ -189,3 +191,39 @@ def _limit_text(sweep, crossing, name: str) -> str:
     if crossing.status == NO_CROSSING:
         return f"no {name} in {sweep.speeds[0]:g}-{sweep.speeds[-1]:g} m/s"
     return f"{name}: {crossing.status}"
+
+
+def erection_speeds(result, ax=None):
+    """Flutter and divergence speed against deck completion (seed Fig. 3 right) of a
+    :class:`bridgeflap.model.analysis.ErectionResult`; the completed bridge is its own marker at
+    100 %, not joined to the erection curve; hybrid stages (the critical branch is a deck mode
+    hybridised with a bare side-span cable: a side-span label, ``T-barton1``, not ``TS1``)
+    ringed in red on the governing curve with the branch label."""
+    ax = axes_or_new(ax, figsize=(6, 4))
+    stages = result.stages
+    f = np.array([s["erected_fraction"] for s in stages]) * 100
+    uf = np.array([number_or_nan(s["flutter_speed_m_s"]) for s in stages])
+    ud = np.array([number_or_nan(s["divergence_speed_m_s"]) for s in stages])
+    ax.plot(f, uf, "o-", color="C0", label="flutter (erecting)")
+    ax.plot(f, ud, "s--", color="C1", label="torsional divergence (erecting)")
+    hyb = [(fx, s) for fx, s in zip(f, stages, strict=True)
+           if str(s.get("critical_branch_label") or "")[1:2] == "-"]
+    ring_points(ax, [fx for fx, _ in hyb],
+                [number_or_nan(s["divergence_speed_m_s"]
+                               if str(s.get("critical_mechanism", "")).startswith("divergence")
+                               else s["flutter_speed_m_s"]) for _, s in hyb],
+                [s["critical_branch_label"] for _, s in hyb],
+                "hybrid stage: critical branch on a side-span cable mode")
+    done = result.completed
+    if done:
+        ax.plot([100], [number_or_nan(done["flutter_speed_m_s"])], "*", color="C0", ms=14,
+                label="flutter, completed bridge")
+        ax.plot([100], [number_or_nan(done["divergence_speed_m_s"])], "P", color="C1",
+                ms=11, label="divergence, completed bridge")
+    ax.set_xlabel("main-span deck erected [%]")
+    ax.set_ylabel("critical wind speed [m/s]")
+    ax.set_title(f"{result.bridge}: stability during erection (side spans {result.side_spans})\n"
+                 "half GJ, zero EI until the joints close; 100 % = closed deck")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return ax
