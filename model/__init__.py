@@ -2,9 +2,9 @@
 
 Rooms, bottom to top (each imports only itself and the rooms below it;
 tests/project/test_layering.py holds the rule): the foundation (the top-level modules
-``errors``, ``lazy``, ``results``, ``vocabulary``, ``grid``, ``workers``, ``spectrum``,
-``spectral``, ``axes``), :mod:`bridgeflap.model.aero`, :mod:`bridgeflap.model.structure`,
-:mod:`bridgeflap.model.aeroelastic`,
+``errors``, ``lazy``, ``results``, ``vocabulary``, ``grid``, ``workers``, ``progress``,
+``spectrum``, ``spectral``, ``axes``), :mod:`bridgeflap.model.aero`,
+:mod:`bridgeflap.model.structure`, :mod:`bridgeflap.model.aeroelastic`,
 :mod:`bridgeflap.model.stability`, :mod:`bridgeflap.model.response`, the facade
 :mod:`bridgeflap.model.analysis`, and the reference cases :mod:`bridgeflap.model.cases`. Nothing in
 :mod:`bridgeflap.model` imports :mod:`bridgeflap.design`.

@@ -211,15 +211,6 @@ class _StagesResult(ResultData):
         return [dict(r) for r in self.stages] + ([dict(self.completed)] if self.completed else [])
 
 
-def _axes(ax):
-    """``ax``, or the axes of a new 6 x 4 in figure."""
-    if ax is None:
-        import matplotlib.pyplot as plt
-
-        _, ax = plt.subplots(figsize=(6, 4), layout="constrained")
-    return ax
-
-
 def _nan(v) -> float:
     return float("nan") if v is None else float(v)
 
@@ -231,26 +222,11 @@ class ErectionResult(_StagesResult):
     _HEADLINE_KEYS = ("critical_speed_m_s", "flutter_speed_m_s", "divergence_speed_m_s")
 
     def plot(self, ax=None):
-        """Flutter and divergence speed against deck completion (seed Fig. 3 right); the
-        completed bridge is its own marker at 100 %, not joined to the erection curve."""
-        ax = _axes(ax)
-        f = np.array([s["erected_fraction"] for s in self.stages]) * 100
-        uf = np.array([_nan(s["flutter_speed_m_s"]) for s in self.stages])
-        ud = np.array([_nan(s["divergence_speed_m_s"]) for s in self.stages])
-        ax.plot(f, uf, "o-", color="C0", label="flutter (erecting)")
-        ax.plot(f, ud, "s--", color="C1", label="torsional divergence (erecting)")
-        if self.completed:
-            ax.plot([100], [_nan(self.completed["flutter_speed_m_s"])], "*", color="C0", ms=14,
-                    label="flutter, completed bridge")
-            ax.plot([100], [_nan(self.completed["divergence_speed_m_s"])], "P", color="C1",
-                    ms=11, label="divergence, completed bridge")
-        ax.set_xlabel("main-span deck erected [%]")
-        ax.set_ylabel("critical wind speed [m/s]")
-        ax.set_title(f"{self.bridge}: stability during erection (side spans {self.side_spans})\n"
-                     "half GJ, zero EI until the joints close; 100 % = closed deck")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-        return ax
+        """Flutter and divergence speed against deck completion (seed Fig. 3 right):
+        :func:`bridgeflap.model.stability.plots.erection_speeds`."""
+        from bridgeflap.model.stability.plots import erection_speeds
+
+        return erection_speeds(self, ax)
 
 
 _STAGE_KEYS = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
@@ -337,20 +313,10 @@ class FrequencyRatioResult(_StagesResult):
     _HEADLINE_KEYS = ("ratio_full_gj", "ratio_half_gj", "ratio")
 
     def plot(self, ax=None):
-        """Seed Fig. 2 style plot; the completed bridge is its own marker at 100 %."""
-        ax = _axes(ax)
-        f = [100 * s["erected_fraction"] for s in self.stages]
-        ax.plot(f, [s["ratio_full_gj"] for s in self.stages], "o-", label="full GJ")
-        ax.plot(f, [s["ratio_half_gj"] for s in self.stages], "s--", label="half GJ")
-        if self.completed:
-            ax.plot([100], [self.completed["ratio"]], "k*", ms=14, label="completed bridge")
-        ax.set_xlabel("main-span deck erected [%]")
-        ax.set_ylabel("f(TS1) / f(VS1) [-]")
-        ax.set_title(f"{self.bridge}: torsion-to-bending frequency ratio\n"
-                     f"(EI = 0 while erecting; side spans {self.side_spans})")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-        return ax
+        """Seed Fig. 2 style plot: :func:`bridgeflap.model.structure.plots.frequency_ratio`."""
+        from bridgeflap.model.structure.plots import frequency_ratio
+
+        return frequency_ratio(self, ax)
 
 
 def _fractions(fractions) -> np.ndarray:

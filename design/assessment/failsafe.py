@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.progress import Eta
 from bridgeflap.model.results import ResultData
 
 __all__ = ["DEFAULT_STUCK_ANGLE_DEG", "FailSafeResult", "single_pair_failures"]
@@ -317,14 +318,25 @@ def single_pair_failures(controller, bridge=None, n_modes: int = 30,
         jobs.append((f, w))
     say(f"fail-safe: {n_f} pairs + intact, open loop, controller off ({n_modes} modes, "
         f"0..{grid_max:g} m/s)")
+    eta, every = Eta(len(jobs)), max(1, len(jobs) // 10)
+
+    def tick(i):  # a line at every tenth of the sweeps, with the time left
+        if (i + 1) % every == 0 or i + 1 == len(jobs):
+            say(f"fail-safe: {i + 1}/{len(jobs)} sweeps {eta.text(i + 1)}")
+
+    out = []
     if workers == 1:
-        out = [_case(model, k, w, u, sweep_method, grid_max) for _, w in jobs]
+        for i, (_, w) in enumerate(jobs):
+            out.append(_case(model, k, w, u, sweep_method, grid_max))
+            tick(i)
     else:
         from bridgeflap.model.workers import process_pool
 
         with process_pool(workers) as ex:
             futs = [ex.submit(_case, model, k, w, u, sweep_method, grid_max) for _, w in jobs]
-            out = [f.result() for f in futs]
+            for i, f in enumerate(futs):
+                out.append(f.result())
+                tick(i)
     cases = {label: _stability(s, st, grid_max, speed_max_m_s)
              for (label, _), (s, st) in zip(jobs, out, strict=True)}
     intact, ol = cases["intact"], cases["open_loop"]

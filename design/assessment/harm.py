@@ -42,6 +42,7 @@ from bridgeflap.design.assessment.harm_verdict import (
     near_decision,
 )
 from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.progress import Eta
 from bridgeflap.model.results import ResultData
 
 __all__ = ["DEFAULT_SCREEN_MODES", "HARM_METHODS", "HARM_TOL_REL", "SAMPLINGS",
@@ -322,11 +323,13 @@ class _Runner:
         confirm = dict(zip(indices, confirm, strict=True)) if confirm is not None else {}
         rows: dict = {}
         step = max(1, len(indices) // 10)
+        eta = Eta(len(indices))
 
         def done(i, row):
             rows[i] = row
             if len(rows) % step == 0 or len(rows) == len(indices):
-                self.say(f"do no harm: {len(rows)}/{len(indices)} variants")
+                self.say(f"do no harm: {len(rows)}/{len(indices)} variants "
+                         f"{eta.text(len(rows))}")
 
         if self.ex is None:
             for i in indices:

@@ -29,6 +29,7 @@ from bridgeflap.design.cli.common import (
 from bridgeflap.design.io.options import parse_range
 from bridgeflap.design.studies.analyses import ANALYSES
 from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.progress import counted
 
 __all__ = ["cmd_doe", "cmd_sensitivity", "cmd_study", "doe_arguments", "sensitivity_arguments",
            "study_arguments"]
@@ -84,9 +85,11 @@ def cmd_sensitivity(args):
     spec = spec_from_args(args)
     params = (args.parameters if args.parameters
               else ",".join(ANALYSES["sensitivity"].defaults["parameters"]))
+    n = len([p for p in params.split(",") if p.strip()])
     res = local_sensitivity(spec, params, speeds=parse_range(args.speeds, "speeds", 0.0),
                             n_modes=args.modes, check=not args.no_check,
-                            progress=lambda p: log(f"sensitivity: {p} done"))
+                            progress=counted(n, log,
+                                             lambda p, k: f"sensitivity: {p} done ({k}/{n})"))
     if args.plot:
         save_plot(res, args.plot)
     text = (f"{spec.name}: flutter {speed_text(res.flutter_speed_m_s, 3)} "

@@ -84,6 +84,7 @@ from bridgeflap.design.control.start import (  # noqa: F401 - re-exported (tests
 )
 from bridgeflap.design.io.api_args import check_design_args
 from bridgeflap.model.aeroelastic.control import Compensator, Controller
+from bridgeflap.model.progress import Eta
 from bridgeflap.model.structure.loader import load_bridge
 from bridgeflap.model.vocabulary import renamed
 
@@ -165,17 +166,29 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     mark("screening starts")
     if not given:  # minutes of Ipopt before the next line: say what runs
         log(f"{n} start(s), each at most {settings.iteration_cap()} Ipopt iterations ...")
+    eta = Eta(n)
+
+    def finished(r):  # one line per start, with the time left at the rate so far
+        log(f"start {r.start} finished ({len(records)}/{n}): {r.ipopt_status} "
+            f"{eta.text(len(records))}")
+
     if given:
         records = list(records)
     elif settings.parallel and settings.starts > 1:
         from bridgeflap.model.workers import process_pool
 
+        records = []
         with process_pool(min(2, settings.starts)) as ex:
-            records = list(ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n,
-                                  [progress_bar] * n, [variants] * n))
+            for r in ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n,
+                            [progress_bar] * n, [variants] * n):
+                records.append(r)
+                finished(r)
     else:
-        records = [run_start(settings, th, i, spec, progress_bar, variants)
-                   for i, th in enumerate(starts0)]
+        records = []
+        for i, th in enumerate(starts0):
+            records.append(run_start(settings, th, i, spec, progress_bar, variants,
+                                     say=progress))
+            finished(records[-1])
     for r in records:
         log(f"start {r.start}: {r.ipopt_status} in {r.time_s:.1f} s, "
             f"{r.iterations} iterations, {r.cut_rounds} cut rounds, "

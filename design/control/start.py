@@ -19,6 +19,7 @@ from bridgeflap.design.control.problem_model import build_model, verify_layout
 from bridgeflap.design.control.records import RobustMargin, StartRecord
 from bridgeflap.design.control.settings import DesignSettings
 from bridgeflap.model.aeroelastic.control import Compensator
+from bridgeflap.model.progress import Eta
 
 NAN = float("nan")
 
@@ -206,13 +207,15 @@ def _progress_bar(index: int, show, total: int):
 
 
 def run_start(settings: DesignSettings, theta0, index: int, spec=None,
-              progress_bar=None, variants=()) -> StartRecord:
+              progress_bar=None, variants=(), say=None) -> StartRecord:
     """One start: solve with cuts (placement: round the weights, re-solve), then the dense
     robust margin and the check on the verification model. A failure is a record (STYLE).
     ``spec``: the bridge (default ``settings.bridge``); ``progress_bar``: a tqdm bar of the
     Ipopt iterations on stderr (None: when stderr is a terminal); ``variants``: bridge
     variants (BridgeSpec) of a multi-model design -- every damping constraint and check on
-    every variant as well."""
+    every variant as well; ``say``: a progress function (None: silent), told at every tenth of
+    the iteration cap how many Ipopt iterations ran, with the elapsed time and the time left at
+    the rate so far (an upper bound: the cap is rarely reached)."""
     from bridgeflap.design.control.pair_failure import extra_models
 
     t0 = time.perf_counter()
@@ -228,11 +231,19 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     # card to 3.4 min, round 0 capped infeasible, against ~1 min)
     if not settings.optimise_placement:
         prob.variants = extra_models(settings, model, spec, variants)
-    bar = _progress_bar(index, progress_bar, settings.iteration_cap())
-    if bar is not None:
+    cap = settings.iteration_cap()
+    bar = _progress_bar(index, progress_bar, cap)
+    if bar is not None or say is not None:
+        eta, every, count = Eta(cap), max(1, cap // 10), [0]
+
         def tick(i, f, x):
-            bar.update(1)
-            bar.set_postfix_str(f"objective {f:.4g}", refresh=False)
+            count[0] += 1  # over every Ipopt solve of the start (i restarts with each)
+            if bar is not None:
+                bar.update(1)
+                bar.set_postfix_str(f"objective {f:.4g}", refresh=False)
+            if say is not None and count[0] % every == 0:
+                say(f"start {index}: {count[0]} Ipopt iterations of at most {cap}, "
+                    f"objective {f:.4g} {eta.text(count[0])}")
         prob.on_iteration = tick
     theta0 = tuple(float(v) for v in theta0)
     w_cont = layout_choice = None

@@ -62,10 +62,13 @@ import scipy.linalg as sla
 # the IFT core, also served from here (design.sensitivity.ift)
 from bridgeflap.design.sensitivity.ift import (
     _REL_STEP_A,
+    KINK_STEP,
     SensitivityResult,
+    any_kink,
     critical_eigenpair,
     critical_speeds,
     empty_entries,
+    kink_entries,
     sensitivity_result,
     speed_derivative_ift,
 )
@@ -198,11 +201,13 @@ def _parameters(value, field: str) -> tuple[str, ...]:
 
 
 @takes_bridge(parameters=_parameters, check=flag, rel_step=number(0.0, 0.5, strict=True),
-              fd_step=number(0.0, 0.5, strict=True), progress=optional(check_callable))
+              fd_step=number(0.0, 0.5, strict=True), kink_step=number(0.0, 0.5, strict=True),
+              progress=optional(check_callable))
 def local_sensitivity(bridge: BridgeArg, parameters: Sequence[str] = DEFAULT_PARAMETERS,
                       speeds="0:120:1", n_modes: int = DEFAULT_MODES, rfa: str = "rfa4",
                       order: str = "modal", check: bool = True,
                       rel_step: float = _REL_STEP_A, fd_step: float = _REL_STEP_FD,
+                      kink_step: float = KINK_STEP,
                       progress: Callable[[str], None] | None = None) -> SensitivityResult:
     """IFT derivatives of ``U_F`` and ``U_D`` with finite-difference checks.
 
@@ -218,13 +223,18 @@ def local_sensitivity(bridge: BridgeArg, parameters: Sequence[str] = DEFAULT_PAR
         Retained vertical + torsional modes.
     check : bool
         Also compute the Ritz and the full-pipeline finite differences (two extra sweeps per
-        parameter each).
+        parameter each) and the kink check (two more full-pipeline sweeps, at ``kink_step``).
     rel_step : float
         Relative step of the central difference of ``A(U; p)`` (truncation error
         ``O(rel_step^2)``; cable statics are solved to ~1e-9 relative, so round-off in the
         quotient is ~1e-9/rel_step).
     fd_step : float
         Relative step of the finite-difference checks of ``U`` itself.
+    kink_step : float
+        Relative step of the kink check: the one-sided slopes of ``U`` over ``-+kink_step p``
+        of the full pipeline against the IFT derivative; a row is flagged (``kink``) when the
+        critical branch changes within the step or a slope disagrees beyond the tolerance of
+        :func:`bridgeflap.design.sensitivity.ift.kink_check`.
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     parameters = check_parameters(parameters)
@@ -233,7 +243,7 @@ def local_sensitivity(bridge: BridgeArg, parameters: Sequence[str] = DEFAULT_PAR
         from bridgeflap.design.sensitivity.modal import modal_sensitivity
 
         return modal_sensitivity(spec, parameters, u, n_modes, check, rel_step, fd_step,
-                                 progress)
+                                 progress, kink_step)
     nominal = modal_model(spec)
     _, system0 = bridge_system(spec, n_modes, order, rfa, modal=nominal)
     omega_tol = oscillation_tolerance(system0)
@@ -294,15 +304,24 @@ def local_sensitivity(bridge: BridgeArg, parameters: Sequence[str] = DEFAULT_PAR
                         row[f"{q}_fd_same_branch"] = (
                             plus[f"{q}_branch_label"] == minus[f"{q}_branch_label"]
                             == crit[f"{q}_branch_label"])
+                    # the kink check: is the derivative still the slope a few per cent away?
+                    hk = kink_step * abs(p0)
+                    plus = _full_speeds(spec.replace(**{path: p0 + hk}), u, n_modes, rfa, order)
+                    minus = _full_speeds(spec.replace(**{path: p0 - hk}), u, n_modes, rfa, order)
+                    for q in ("flutter", "divergence"):
+                        row.update(kink_entries(q, p0, hk, crit, minus, plus,
+                                                row[f"d_{q}_speed"]))
                 except BridgeflapError as exc:
                     row["check_status"] = f"finite differences failed: {exc}"
+        row["kink"] = any_kink(row)
         rows.append(row)
         if progress:
             progress(path)
     return sensitivity_result(
         spec, crit, rows, n_modes,
         {"speeds_m_s": [float(u[0]), float(u[-1])], "rfa": rfa, "order": order,
-         "rel_step_A": rel_step, "rel_step_fd": fd_step, "erected_fraction": spec.erected_fraction,
+         "rel_step_A": rel_step, "rel_step_fd": fd_step, "rel_step_kink": kink_step,
+         "erected_fraction": spec.erected_fraction,
          "method": "IFT on the critical eigenvalue; dA/dp by central difference of "
                    "the projected A: on the nominal modes moved along their "
                    "out-of-subspace derivative (d_*), and on the fixed nominal modes "

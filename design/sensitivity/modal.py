@@ -99,12 +99,14 @@ def _system_factory(spec, n_modes: int):
 
 def modal_sensitivity(spec, parameters: Sequence[str], speeds, n_modes: int, check: bool = True,
                       rel_step: float = 1e-4, fd_step: float = 1e-3,
-                      progress: Callable[[str], None] | None = None):
+                      progress: Callable[[str], None] | None = None, kink_step: float = 0.05):
     """IFT derivatives of ``U_F``, ``U_D`` to modal data, as a
     :class:`bridgeflap.design.sensitivity.ift.SensitivityResult` (same row keys)."""
     from bridgeflap.design.sensitivity.ift import (
+        any_kink,
         critical_speeds,
         empty_entries,
+        kink_entries,
         sensitivity_result,
         speed_derivative_ift,
     )
@@ -156,13 +158,20 @@ def modal_sensitivity(spec, parameters: Sequence[str], speeds, n_modes: int, che
                             f"{q}_fd_same_branch": (plus[f"{q}_branch_label"]
                                                     == minus[f"{q}_branch_label"]
                                                     == crit[f"{q}_branch_label"])})
+            hk = kink_step * abs(p0)  # the kink check (local.local_sensitivity's)
+            plus = critical_speeds(make(perturbed_basis(basis0, label, quantity, p0 + hk)), u)
+            minus = critical_speeds(make(perturbed_basis(basis0, label, quantity, p0 - hk)), u)
+            for q in ("flutter", "divergence"):
+                row.update(kink_entries(q, p0, hk, crit, minus, plus, row[f"d_{q}_speed"]))
+        row["kink"] = any_kink(row)
         rows.append(row)
         if progress:
             progress(path)
     return sensitivity_result(
         spec, crit, rows, n_modes,
         {"speeds_m_s": [float(u[0]), float(u[-1])], "rel_step_A": rel_step,
-         "rel_step_fd": fd_step, "erected_fraction": spec.erected_fraction,
+         "rel_step_fd": fd_step, "rel_step_kink": kink_step,
+         "erected_fraction": spec.erected_fraction,
          "method": "IFT on the critical eigenvalue; dA/dp by central difference of A "
                    "rebuilt on the basis with the modal quantity changed (shapes "
                    "held); checked by the central difference of the speed"})

@@ -34,6 +34,7 @@ from bridgeflap.design.io.options import (
 from bridgeflap.design.sensitivity.local import DEFAULT_PARAMETERS
 from bridgeflap.model.analysis import DEFAULT_MODES
 from bridgeflap.model.errors import BridgeflapInputError
+from bridgeflap.model.progress import counted
 from bridgeflap.model.structure.builtin_bridges import BUILTIN_BRIDGES
 from bridgeflap.model.structure.spec import BridgeSpec
 
@@ -359,9 +360,12 @@ def _flutter_case(outcome: Outcome) -> dict:
 def _run_erection(spec, opts, context) -> Outcome:
     from bridgeflap.model.analysis import erection
 
-    res = erection(spec, grid(opts["fractions"], "fractions"),
+    fractions = grid(opts["fractions"], "fractions")
+    res = erection(spec, fractions,
                    grid(opts["speeds"], "speeds", 0.0), int(opts["modes"]),
-                   progress=lambda f: context.say(f"erection stage {f:.3f} done"),
+                   progress=counted(len(fractions), context.say,
+                                    lambda f, k: f"erection stage {f:.3f} done "
+                                                 f"({k}/{len(fractions)})"),
                    side_spans=opts["side_spans"] or None, workers=context.workers)
     bad = [st for st in res.stages if st["flutter_status"] != "converged"]
     status = "ok" if not bad else (f"{len(bad)} of {len(res.stages)} stages: flutter "
@@ -376,8 +380,12 @@ def _run_sensitivity(spec, opts, context) -> Outcome:
     # design/sensitivity/local.py (H1): one import line
     from bridgeflap.design.sensitivity.local import local_sensitivity
 
-    res = local_sensitivity(spec, opts["parameters"], speeds=grid(opts["speeds"], "speeds", 0.0),
-                            n_modes=int(opts["modes"]), check=bool(opts["check"]))
+    params = opts["parameters"]
+    n = len([p for p in params.split(",") if p.strip()] if isinstance(params, str) else params)
+    res = local_sensitivity(spec, params, speeds=grid(opts["speeds"], "speeds", 0.0),
+                            n_modes=int(opts["modes"]), check=bool(opts["check"]),
+                            progress=counted(n, context.say,
+                                             lambda p, k: f"sensitivity: {p} done ({k}/{n})"))
     bad = [r["parameter"] for r in res.rows
            if r["flutter_status"] != "ok" or r["divergence_status"] != "ok"]
     status = "ok" if not bad else f"IFT not available for {', '.join(bad)}"

@@ -52,7 +52,7 @@ def fig5(sweep_cl, sweep_ol, ol_buffeting, cl_buffeting, controller,
     if open_loop_flutter_m_s is None and sweep_ol.flutter.status == CONVERGED:
         open_loop_flutter_m_s = sweep_ol.flutter.speed
     for ax, key, scale, ylabel in (
-            (ax1, "rms_vertical_over_width", 1.0, "max σ_z / (2b) on the main span [-]"),
+            (ax1, "rms_vertical", 1000.0, "max σ_z on the main span [mm]"),
             (ax2, "rms_torsion", np.degrees(1.0), "max σ_α on the main span [deg]")):
         _buffeting_line(ax, ol_buffeting.speeds, scale * getattr(ol_buffeting, key), "k--o",
                         "open loop")

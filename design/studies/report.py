@@ -34,6 +34,14 @@ def _fmt(x, spec=".2f") -> str:
     return format(x, spec)
 
 
+def _modes(x, n, spec=".2f") -> str:
+    """A number with the mode count of the model it comes from, ``69.50 (16 modes)``: two
+    models of one bridge (the study's flutter analysis, the design's verification model) give
+    slightly different speeds, which the report must not show as one quantity."""
+    text = _fmt(x, spec)
+    return text if text == "-" or n in (None, "") else f"{text} ({n} modes)"
+
+
 def _pct(x, ref) -> str:
     if x is None or not isinstance(x, int | float) or not np.isfinite(x) or not ref:
         return "-"
@@ -54,7 +62,8 @@ _CAPTIONS = {
     "erection": ("Fig. 3 (right)", "Flutter and divergence against deck completion; the "
                  "completed bridge (joints closed) is its own marker at 100 %. The paper "
                  "compares with Brancaleoni's findings, which we do not have as numbers."),
-    "buffeting": ("Fig. 4", "Vertical RMS over 2b and torsional RMS against wind speed. The "
+    "buffeting": ("Fig. 4", "Vertical RMS [mm] (over 2b, the paper's ordinate, on the right "
+                  "axis) and torsional RMS [deg] against wind speed. The "
                   "measured curve of the paper's ref. [6] is not available as numbers, so only "
                   "our curve is shown."),
     "design": ("Fig. 5", "Closed loop with the optimised flap compensator: root locus 0-85 m/s "
@@ -114,11 +123,31 @@ def study_document(res: StudyResult, figures: dict) -> Document:
                     _fmt(d.get("d_flutter_speed_m_s_per_unit_fd"), ".4g"),
                     _fmt(d.get("relative_d_flutter_speed"), "+.3f"),
                     _fmt(d.get("relative_d_divergence_speed"), "+.3f"),
+                    _kink_cell(d),
                     f"{d.get('flutter_status')}/{d.get('divergence_status')}")
                    for p, d in r["sensitivity"]["derivatives"].items()],
                   ["parameter", "value", "dU_F/dp (IFT)", "full FD", "(p/U_F) dU_F/dp",
-                   "(p/U_D) dU_D/dp", "status"])
+                   "(p/U_D) dU_D/dp", "kink: one-sided (p/U) dU/dp", "status"])
+        n = r["sensitivity"].get("modes_retained")
+        step = (r["sensitivity"].get("settings") or {}).get("rel_step_kink")
+        doc.paragraph(f"Derivatives of the {n}-mode model. kink: the derivative does not "
+                      "describe the speed over "
+                      + (f"±{100 * step:g} %" if step else "a few per cent")
+                      + " of the input (the critical branch changes, or a one-sided slope "
+                        "leaves the derivative by more than 0.02 + 0.25 of it); the cell gives "
+                        "the one-sided relative slopes, minus side / plus side.")
     return doc
+
+
+def _kink_cell(d: dict) -> str:
+    """The sensitivity table's kink cell: ``-`` when not flagged, else each flagged speed with
+    its one-sided relative slopes (``UF -0.173/+0.087``); empty when not assessed."""
+    if d.get("kink") is None:
+        return ""
+    cells = [f"{m} {_fmt(d.get(f'relative_d_{q}_speed_minus'), '+.3f')}/"
+             f"{_fmt(d.get(f'relative_d_{q}_speed_plus'), '+.3f')}"
+             for q, m in (("flutter", "UF"), ("divergence", "UD")) if d.get(f"{q}_kink")]
+    return "; ".join(cells) or "-"
 
 
 def study_report(res: StudyResult, figures: dict) -> str:
@@ -172,11 +201,12 @@ def _table1(doc: Document, modes: dict) -> None:
 
 def _flutter_section(doc: Document, f: dict) -> None:
     uf, ud = f["flutter_speed_m_s"], f["divergence_speed_m_s"]
+    n = f.get("modes_retained")
     doc.heading(2, "Flutter and torsional divergence (complete bridge)")
-    doc.table([("flutter speed [m/s]", "65", _fmt(uf), _pct(uf, 65.0), f["flutter_status"]),
-               ("flutter frequency [Hz]", "-", _fmt(f["flutter_frequency_hz"], ".4f"), "-",
+    doc.table([("flutter speed [m/s]", "65", _modes(uf, n), _pct(uf, 65.0), f["flutter_status"]),
+               ("flutter frequency [Hz]", "-", _modes(f["flutter_frequency_hz"], n, ".4f"), "-",
                 f["flutter_status"]),
-               ("torsional divergence [m/s]", "74", _fmt(ud), _pct(ud, 74.0),
+               ("torsional divergence [m/s]", "74", _modes(ud, n), _pct(ud, 74.0),
                 f["divergence_status"])],
               ["quantity", "paper", "ours", "difference", "status"])
     crit = (f.get("critical_branch") or {}).get("label") or f.get("critical_branch_label")
@@ -184,8 +214,8 @@ def _flutter_section(doc: Document, f: dict) -> None:
                   + ", ".join(f"{k} {v:.2f}" for k, v in f["critical_participation"].items())
                   + f"; {f['modes_retained']} modes, RFA {f['rfa']}, b = {f['half_chord_m']} m.")
     doc.paragraph(f"Governing speed {_fmt(f.get('critical_speed_m_s'))} m/s "
-                  f"({f.get('critical_mechanism', '-')}). Divergence depends only on GJ, the "
-                  "cable torsional stiffness 2H(b_c/2)^2 and the aerodynamic moment "
+                  f"({f.get('critical_mechanism', '-')}, {n} modes). Divergence depends only "
+                  "on GJ, the cable torsional stiffness 2H(b_c/2)^2 and the aerodynamic moment "
                   f"(rho U^2 b^2), so it scales close to 1/b with the half-chord b = "
                   f"{f['half_chord_m']} m, which the paper does not state; flutter also depends "
                   "on the updated TS1/VS1 frequencies (`python runs/humber_inputs/run.py` shows "
@@ -202,6 +232,10 @@ def _flutter_section(doc: Document, f: dict) -> None:
                   f"branch {f.get('second_critical_branch_label') or '-'} "
                   f"({f.get('second_flutter_status', '-')}, "
                   f"{_fmt(f.get('second_flutter_speed_m_s'))} m/s).")
+    doc.paragraph(f"Every speed of this section is of the {n}-mode model. Other models of "
+                  "the bridge (the flap design's, for one) state their own mode count beside "
+                  "each speed: more modes move the speeds slightly (the truncation error "
+                  "above), so two such numbers are not the same quantity.")
 
 
 def _pc(x, spec=".2f") -> str:
@@ -227,9 +261,10 @@ def _design_verdict(d: dict) -> str:
                      f" % stable to {_fmt(rob.get('design_speed_m_s'), 'g')} m/s")
     lim = d.get("closed_loop_limits") or {}
     if lim.get("critical_speed_m_s") is not None:
+        modes = f", {lim['modes']} modes" if lim.get("modes") else ""
         parts.append(f"nominal closed-loop critical speed "
                      f"{_fmt(lim.get('critical_speed_m_s'), '.2f')} m/s "
-                     f"({lim.get('critical_mechanism', '-')})")
+                     f"({lim.get('critical_mechanism', '-')}{modes})")
     return "; ".join(parts) + "."
 
 
@@ -260,19 +295,21 @@ def _design_section(doc: Document, d: dict) -> None:
              f"{_fmt(d.get('zeta_min'), '.3f')})", _fmt(ver.get("min_damping_ratio"), ".4f"))]
     lim = d.get("closed_loop_limits") or {}
     if "governing_speed_m_s" in lim:
+        n = lim.get("modes")  # the verification model's (closed_loop_limits)
+        with_n = f", {n} modes" if n else ""
         rows += [(f"closed-loop flutter [m/s] ({lim.get('flutter_status')})",
                   f"{_fmt(lim.get('flutter_speed_m_s'), '.2f')} at "
-                  f"{_fmt(lim.get('flutter_frequency_hz'), '.3f')} Hz"),
+                  f"{_fmt(lim.get('flutter_frequency_hz'), '.3f')} Hz" + with_n),
                  (f"closed-loop divergence [m/s] ({lim.get('divergence_status')}; static "
                   "check)", f"{_fmt(lim.get('divergence_speed_m_s'), '.2f')} "
-                            f"({_fmt(lim.get('divergence_static_speed_m_s'), '.2f')})"),
+                            f"({_fmt(lim.get('divergence_static_speed_m_s'), '.2f')}{with_n})"),
                  ("governing closed-loop limit [m/s]",
                   f"{_fmt(lim.get('governing_speed_m_s'), '.2f')} "
-                  f"({lim.get('governing_mechanism')})"),
+                  f"({lim.get('governing_mechanism')}{with_n})"),
                  ("open-loop flutter of the design model [m/s]",
-                  _fmt(lim.get("open_loop_flutter_speed_m_s"), ".2f")),
+                  _modes(lim.get("open_loop_flutter_speed_m_s"), n)),
                  ("open-loop divergence of the design model [m/s]",
-                  _fmt(lim.get("open_loop_divergence_speed_m_s"), ".2f"))]
+                  _modes(lim.get("open_loop_divergence_speed_m_s"), n))]
     act = d.get("active_constraints") or {}
     if act:
         rows.append(("active at the optimum",
@@ -313,13 +350,19 @@ def _design_section(doc: Document, d: dict) -> None:
         doc.paragraph("Buffeting, open vs closed loop (max RMS on the main span):")
         tor_o = buf.get("open_loop_rms_torsion_rad") or [None] * len(buf["speeds_m_s"])
         tor_c = buf.get("closed_loop_rms_torsion_rad") or [None] * len(buf["speeds_m_s"])
-        doc.table([(f"{u:g}", _fmt(o, ".4f"), _fmt(cl, ".4f"), _pct(cl, o),
-                    _fmt(to, ".3e"), _fmt(tc, ".3e"), _pct(tc, to))
+        def mm(x):  # [m] -> [mm]
+            return None if x is None else 1000.0 * x
+
+        def deg(x):  # [rad] -> [deg]
+            return None if x is None else float(np.degrees(x))
+
+        doc.table([(f"{u:g}", _fmt(mm(o), ".1f"), _fmt(mm(cl), ".1f"), _pct(cl, o),
+                    _fmt(deg(to), ".3g"), _fmt(deg(tc), ".3g"), _pct(tc, to))
                    for u, o, cl, to, tc in zip(buf["speeds_m_s"], buf["open_loop_rms_vertical_m"],
                                                buf["closed_loop_rms_vertical_m"], tor_o, tor_c,
                                                strict=False)],
-                  ["U [m/s]", "vertical, open loop [m]", "vertical, closed loop [m]",
-                   "vertical change", "torsion, open loop [rad]", "torsion, closed loop [rad]",
+                  ["U [m/s]", "vertical, open loop [mm]", "vertical, closed loop [mm]",
+                   "vertical change", "torsion, open loop [deg]", "torsion, closed loop [deg]",
                    "torsion change"])
     doc.paragraph("The paper hand-tunes one compensator and shows its root locus; here Ipopt "
                   "maximises the robust margin subject to a minimum damping ratio of every "

@@ -295,8 +295,8 @@ class BuffetingResult(ResultData):
         return float(self.strip_x[int(np.nanargmax(vals))])
 
     def plot(self, axes=None, label=None, log: bool = False):
-        """Vertical ``max sigma_z / (2b)`` and torsional ``max sigma_alpha`` [deg] on the main
-        span against ``U`` (seed Fig. 4 style, two panels;
+        """Vertical ``max sigma_z`` [mm] (``/ 2b`` on a right-hand axis) and torsional
+        ``max sigma_alpha`` [deg] on the main span against ``U`` (seed Fig. 4 style, two panels;
         :func:`bridgeflap.model.response.plots.buffeting_panels`).
 
         Unstable speeds are NaN and leave a gap; nothing is clipped.

@@ -15,9 +15,15 @@ from bridgeflap.model.axes import new_axes
 __all__ = ["buffeting_panels"]
 
 
+#: [mm] per [m] and [deg] per [rad]: the figures' units (the results stay in m and rad)
+MM_PER_M = 1000.0
+DEG_PER_RAD = float(np.degrees(1.0))
+
+
 def buffeting_panels(curves, axes=None, log: bool = False, title: str = ""):
-    """Vertical (left, ``max sigma_z / 2b``) and torsional (right, ``max sigma_alpha``
-    [deg]) RMS on the main span against the wind speed.
+    """Vertical (left, ``max sigma_z`` [mm], with ``sigma_z / 2b`` [-] of the seed's Fig. 4 on
+    a right-hand axis when every curve has the same deck width) and torsional (right,
+    ``max sigma_alpha`` [deg]) RMS on the main span against the wind speed.
 
     ``curves`` maps a label to a :class:`~bridgeflap.model.response.buffeting.BuffetingResult` (or
     one result); unstable speeds are NaN and leave a gap, nothing is clipped.
@@ -30,16 +36,24 @@ def buffeting_panels(curves, axes=None, log: bool = False, title: str = ""):
         lab = label or (f"{res.inputs.get('spectrum', '')}, {res.inputs.get('admittance', '')}"
                         f", c = {res.inputs.get('coherence_decay', float('nan')):g}")
         plot = ax0.semilogy if log else ax0.plot
-        plot(res.speeds, res.rms_vertical_over_width, styles[k % 4], ms=4, label=lab)
+        plot(res.speeds, MM_PER_M * np.asarray(res.rms_vertical, dtype=float), styles[k % 4],
+             ms=4, label=lab)
         plot = ax1.semilogy if log else ax1.plot
-        plot(res.speeds, np.degrees(res.rms_torsion), styles[k % 4], ms=4, label=lab)
+        plot(res.speeds, DEG_PER_RAD * np.asarray(res.rms_torsion, dtype=float), styles[k % 4],
+             ms=4, label=lab)
         bad = np.array([s == "unstable" for s in res.status])
         for ax in (ax0, ax1):
             for i, u in enumerate(res.speeds[bad]):
                 ax.axvline(u, color="r", alpha=0.15,
                            label=f"unstable ({lab})" if i == 0 else None)
-    ax0.set_ylabel("max σ_z / (2b) on the main span [-]")
+    ax0.set_ylabel("max σ_z on the main span [mm]")
     ax1.set_ylabel("max σ_α on the main span [deg]")
+    widths = {float(res.deck_width_m) for res in curves.values()}
+    if len(widths) == 1 and next(iter(widths)) > 0:  # the seed's ordinate, for comparison
+        scale = MM_PER_M * next(iter(widths))
+        sec = ax0.secondary_yaxis("right", functions=(lambda z: z / scale,
+                                                      lambda r: r * scale))
+        sec.set_ylabel("σ_z / (2b) [-]", fontsize=8)
     ax0.set_title("vertical", fontsize=9)
     ax1.set_title("torsion", fontsize=9)
     for ax in (ax0, ax1):

@@ -1,4 +1,5 @@
-"""Figures of a stability sweep: root locus, V-g / V-f, and both in one figure.
+"""Figures of a stability sweep: root locus, V-g / V-f, and both in one figure; the critical
+speeds of the erection stages (seed Fig. 3 right).
 
 :class:`bridgeflap.model.stability.sweeps.StabilitySweep` keeps thin ``plot`` methods that call
 these functions (matplotlib imported lazily, nothing here calls ``plt.show()``). Units are fixed per
@@ -18,9 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from bridgeflap.model.axes import data_limits, new_axes
+from bridgeflap.model.axes import axes_or_new, data_limits, new_axes, number_or_nan, ring_points
 
-__all__ = ["ZETA_RAYS", "root_locus", "stability_panels", "vg_vf"]
+__all__ = ["ZETA_RAYS", "branch_styles", "erection_speeds", "root_locus", "stability_panels",
+           "vg_vf"]
 
 #: constant damping ratios [-] drawn as rays on the root locus
 ZETA_RAYS = (0.0, 0.05, 0.1, 0.2)
@@ -75,8 +77,30 @@ def root_locus(sweep, ax=None, title: str = "root locus", reference=None,
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="lower left")
     if sc is not None and colorbar:
-        ax.figure.colorbar(sc, ax=ax, label="wind speed U [m/s]", pad=0.12)
+        _speed_colorbar(ax, sc, sec)
     return ax
+
+
+def _speed_colorbar(ax, mappable, sec):
+    """The wind-speed colour bar of a root locus, right of the frequency axis ``sec`` and clear
+    of its label.
+
+    A constrained layout places the bar after the axis' decorations by itself (a small pad). In
+    any other layout the pad is a fraction of the axes width, so it is measured: the width of the
+    frequency axis with its ticks and label, plus a margin, and a third more in case a tight
+    layout shrinks the axes afterwards (the label keeps its size, the fraction does not).
+    """
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    fig = ax.figure
+    if isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine):
+        pad = 0.03
+    else:
+        renderer = fig.canvas.get_renderer()
+        box, extent = sec.get_tightbbox(renderer), ax.get_window_extent(renderer)
+        margin = 0.1 * fig.dpi  # [px] 0.1 in
+        pad = max(0.05, 1.3 * (box.x1 - extent.x1 + margin) / max(extent.width, 1.0))
+    return fig.colorbar(mappable, ax=ax, label="wind speed U [m/s]", pad=pad)
 
 
 def vg_vf(sweep, axes=None, reference=None):
@@ -86,10 +110,12 @@ def vg_vf(sweep, axes=None, reference=None):
 
     ax1, ax2 = axes if axes is not None else new_axes(1, 2, figsize=(11, 4.5))
     z, f = 100 * sweep.damping_ratios(), sweep.frequencies_hz()
-    for k, lab in enumerate(sweep.branch_labels):
-        style = "-" if lab.startswith("T") else "--"
-        ax1.plot(sweep.speeds, z[k], style, lw=1.2, color=f"C{k % 10}", label=lab)
-        ax2.plot(sweep.speeds, f[k], style, lw=1.2, color=f"C{k % 10}", label=lab)
+    for k, (lab, kw) in enumerate(zip(sweep.branch_labels, branch_styles(sweep.branch_labels),
+                                      strict=True)):
+        every = max(1, len(sweep.speeds) // 8)  # markers on the line, staggered per branch
+        kw = {**kw, "markevery": ((k * every) // 5 % every, every), "ms": 4}
+        ax1.plot(sweep.speeds, z[k], lw=1.2, label=lab, **kw)
+        ax2.plot(sweep.speeds, f[k], lw=1.2, label=lab, **kw)
     if reference is not None:
         zr, fr = 100 * reference.damping_ratios(), reference.frequencies_hz()
         for k in range(zr.shape[0]):
@@ -113,8 +139,32 @@ def vg_vf(sweep, axes=None, reference=None):
     ax2.set_ylabel("frequency [Hz]")
     ax1.set_title("V-g: damping ratio (solid: torsional, dashed: vertical)", fontsize=9)
     ax2.set_title("V-f: frequency", fontsize=9)
-    ax2.legend(fontsize=7, ncol=1, loc="center left", bbox_to_anchor=(1.02, 0.5))
+    n_entries = len(ax2.get_legend_handles_labels()[1])  # columns of at most ~16 entries
+    ax2.legend(fontsize=7, ncol=1 + (n_entries - 1) // 16, loc="center left",
+               bbox_to_anchor=(1.02, 0.5))
     return ax1, ax2
+
+
+#: markers of the second, third, ... round of the ten colours (the first round has none)
+_ROUND_MARKERS = ("o", "s", "^", "v", "D", "x", "+", "*")
+
+
+def branch_styles(labels) -> list[dict]:
+    """Line keywords (``color``, ``ls``, ``marker``) of each branch of a V-g / V-f plot, unique
+    per branch: the line style says the family (solid: torsional ``T...``, dashed: vertical and
+    the rest), the colour runs through the ten default colours within the family, and each
+    further round of ten in a family takes a marker. Two branches never share colour, style and
+    marker (for up to 90 branches of a family; beyond, the markers repeat)."""
+    count = {"T": 0, "V": 0}
+    out = []
+    for lab in labels:
+        fam = "T" if str(lab).startswith("T") else "V"
+        i = count[fam]
+        count[fam] += 1
+        rnd = i // 10
+        marker = None if rnd == 0 else _ROUND_MARKERS[(rnd - 1) % len(_ROUND_MARKERS)]
+        out.append({"color": f"C{i % 10}", "ls": "-" if fam == "T" else "--", "marker": marker})
+    return out
 
 
 def stability_panels(sweep, axes=None, title: str = "", reference=None):
@@ -141,3 +191,39 @@ def _limit_text(sweep, crossing, name: str) -> str:
     if crossing.status == NO_CROSSING:
         return f"no {name} in {sweep.speeds[0]:g}-{sweep.speeds[-1]:g} m/s"
     return f"{name}: {crossing.status}"
+
+
+def erection_speeds(result, ax=None):
+    """Flutter and divergence speed against deck completion (seed Fig. 3 right) of a
+    :class:`bridgeflap.model.analysis.ErectionResult`; the completed bridge is its own marker at
+    100 %, not joined to the erection curve; hybrid stages (the critical branch is a deck mode
+    hybridised with a bare side-span cable: a side-span label, ``T-barton1``, not ``TS1``)
+    ringed in red on the governing curve with the branch label."""
+    ax = axes_or_new(ax, figsize=(6, 4))
+    stages = result.stages
+    f = np.array([s["erected_fraction"] for s in stages]) * 100
+    uf = np.array([number_or_nan(s["flutter_speed_m_s"]) for s in stages])
+    ud = np.array([number_or_nan(s["divergence_speed_m_s"]) for s in stages])
+    ax.plot(f, uf, "o-", color="C0", label="flutter (erecting)")
+    ax.plot(f, ud, "s--", color="C1", label="torsional divergence (erecting)")
+    hyb = [(fx, s) for fx, s in zip(f, stages, strict=True)
+           if str(s.get("critical_branch_label") or "")[1:2] == "-"]
+    ring_points(ax, [fx for fx, _ in hyb],
+                [number_or_nan(s["divergence_speed_m_s"]
+                               if str(s.get("critical_mechanism", "")).startswith("divergence")
+                               else s["flutter_speed_m_s"]) for _, s in hyb],
+                [s["critical_branch_label"] for _, s in hyb],
+                "hybrid stage: critical branch on a side-span cable mode")
+    done = result.completed
+    if done:
+        ax.plot([100], [number_or_nan(done["flutter_speed_m_s"])], "*", color="C0", ms=14,
+                label="flutter, completed bridge")
+        ax.plot([100], [number_or_nan(done["divergence_speed_m_s"])], "P", color="C1",
+                ms=11, label="divergence, completed bridge")
+    ax.set_xlabel("main-span deck erected [%]")
+    ax.set_ylabel("critical wind speed [m/s]")
+    ax.set_title(f"{result.bridge}: stability during erection (side spans {result.side_spans})\n"
+                 "half GJ, zero EI until the joints close; 100 % = closed deck")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return ax

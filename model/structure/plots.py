@@ -1,4 +1,5 @@
-"""Figures of the structure: deck mode shapes by family, towers and span names marked.
+"""Figures of the structure: deck mode shapes by family, towers and span names marked; the
+torsion-to-bending frequency ratio against deck completion (seed Fig. 2).
 
 The modal models keep thin ``plot`` methods that call these functions
 (:meth:`bridgeflap.model.structure.modes.ModalModel.plot`,
@@ -13,10 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from bridgeflap.model.axes import new_axes
+from bridgeflap.model.axes import axes_or_new, new_axes, ring_points
 from bridgeflap.model.structure.spans import span_extents_m
 
-__all__ = ["imported_mode_shapes", "mark_spans", "mode_shapes_by_family"]
+__all__ = ["frequency_ratio", "imported_mode_shapes", "mark_spans", "mode_shapes_by_family"]
 
 _FAMILIES = ("vertical", "torsional", "lateral")
 _FAMILY_UNIT = {"vertical": "heave", "torsional": "pitch", "lateral": "sway"}
@@ -103,3 +104,31 @@ def imported_mode_shapes(modal, per_family: int = 3, axes=None, labels=None):
     axes[-1].set_xlabel("x along the deck (file coordinates) [km]")
     axes[0].set_title(f"{modal.spec.name}: imported mode shapes by family", fontsize=10)
     return axes
+
+
+def frequency_ratio(result, ax=None):
+    """``f(TS1)/f(VS1)`` with full and half GJ against deck completion (seed Fig. 2) of a
+    :class:`bridgeflap.model.analysis.FrequencyRatioResult`; the completed bridge is its own
+    marker at 100 %; hybrid stages (``torsional_hybrid`` / ``vertical_hybrid``: the picked deck
+    mode is split between modes, so the ratio rests on one of the hybrids; the modes are the
+    half-GJ ones) ringed in red with the picked mode's label."""
+    ax = axes_or_new(ax, figsize=(6, 4))
+    stages = result.stages
+    f = [100 * s["erected_fraction"] for s in stages]
+    ax.plot(f, [s["ratio_full_gj"] for s in stages], "o-", label="full GJ")
+    ax.plot(f, [s["ratio_half_gj"] for s in stages], "s--", label="half GJ")
+    hyb = [(fx, s) for fx, s in zip(f, stages, strict=True)
+           if s.get("torsional_hybrid") or s.get("vertical_hybrid")]
+    ring_points(ax, [fx for fx, _ in hyb], [s["ratio_half_gj"] for _, s in hyb],
+                ["/".join(s[f"{fam}_mode"] for fam in ("torsional", "vertical")
+                          if s.get(f"{fam}_hybrid")) for _, s in hyb],
+                "hybrid stage (half GJ): deck mode split between modes")
+    if result.completed:
+        ax.plot([100], [result.completed["ratio"]], "k*", ms=14, label="completed bridge")
+    ax.set_xlabel("main-span deck erected [%]")
+    ax.set_ylabel("f(TS1) / f(VS1) [-]")
+    ax.set_title(f"{result.bridge}: torsion-to-bending frequency ratio\n"
+                 f"(EI = 0 while erecting; side spans {result.side_spans})")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return ax

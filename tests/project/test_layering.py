@@ -4,9 +4,10 @@ layers below it, so the architecture reads bottom-up and no cycle can form betwe
 model/ (physics), bottom to top:
 
 * ``model`` foundation -- the top-level modules ``errors``, ``lazy``, ``results``,
-  ``vocabulary``, ``grid``, ``workers``, ``spectrum``, ``spectral``, ``axes``: typed errors, the
-  lazy public face, result records, the API vocabulary, speed grids, worker processes,
-  eigenvalue tools, the LTI random-response engine, the axis helpers of the figures;
+  ``vocabulary``, ``grid``, ``workers``, ``progress``, ``spectrum``, ``spectral``, ``axes``:
+  typed errors, the lazy public face, result records, the API vocabulary, speed grids, worker
+  processes, the elapsed/time-left text of progress lines, eigenvalue tools, the LTI
+  random-response engine, the axis helpers of the figures;
 * ``model.aero`` -- Theodorsen, RFA, strip loads and their structural basis, flutter
   derivatives, quasi-steady loads, wind and turbulence (no bridge in sight);
 * ``model.structure`` -- the bridge definition and its loader, Irvine cables, FE, modes,

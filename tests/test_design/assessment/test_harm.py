@@ -10,6 +10,7 @@ unverified crossing is never a pass.
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -80,9 +81,15 @@ def test_summary_counts_unresolved_apart():
 
 def test_do_no_harm_serial_equals_pooled(humber):
     """Two fresh variants in one process and in two: the same rows (same inputs, same code)."""
-    a = do_no_harm(_c(K), humber, count=2, n_modes=6, speeds=U)
+    lines = []
+    a = do_no_harm(_c(K), humber, count=2, n_modes=6, speeds=U, progress=lines.append)
     b = do_no_harm(_c(K), humber, count=2, n_modes=6, speeds=U, workers=2)
     assert a.rows == b.rows
+    # the progress lines count the variants and say the time taken (the time left before the
+    # end: model/progress.py)
+    counts = [ln for ln in lines if ln.startswith("do no harm: ") and "/2 variants" in ln]
+    assert counts[0].startswith("do no harm: 1/2 variants (") and "left)" in counts[0]
+    assert re.fullmatch(r"do no harm: 2/2 variants \(\d+ s\)", counts[-1])
     # the variants differ from each other and from the nominal bridge
     assert a.rows[0]["deck.gj_nm2"] != a.rows[1]["deck.gj_nm2"]
 

@@ -104,6 +104,21 @@ def small_design():
     return s, driver.run_start(s, driver.NOMINAL_START, 0)
 
 
+def test_a_start_says_its_ipopt_iterations_with_the_time_left(small_design):
+    # the progress function observes only: the same record as without it
+    s, rec = small_design
+    lines = []
+    said = driver.run_start(s, driver.NOMINAL_START, 0, say=lines.append)
+    assert said.theta == rec.theta and said.iterations == rec.iterations
+    cap = s.iteration_cap()
+    its = [ln for ln in lines if ln.startswith("start 0: ")]
+    assert its and all(f"Ipopt iterations of at most {cap}" in ln for ln in its)
+    # a line at every tenth of the cap (counted over all the start's Ipopt solves)
+    every = max(1, cap // 10)
+    assert [int(ln.split()[2]) for ln in its] == [every * (k + 1) for k in range(len(its))]
+    assert its[0].endswith("left)")
+
+
 def test_rounded_row_reproduces_the_designs_own_record(small_design):
     # (b) the rounded layout re-solved by compare_layouts from the K run_start started its
     # rounded step from (the relaxed solve's chosen round) is the design's own record: the

@@ -145,12 +145,17 @@ def test_cli_contract_and_bad_parameter(tmp_path, capsys):
     rc = main(["sensitivity", "--parameters", "deck.half_chord_m", "--modes", "6",
                "--speeds", "0:120:2", "--json", "--plot", str(tmp_path / "t.png")])
     assert rc == 0
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out, parse_constant=pytest.fail)  # strict JSON
     d = out["derivatives"]["deck.half_chord_m"]
     assert set(d) >= {"value_si", "d_flutter_speed_m_s_per_unit", "d_flutter_speed_m_s_per_unit_fd"}
     assert d["d_flutter_speed_m_s_per_unit"] == pytest.approx(d["d_flutter_speed_m_s_per_unit_fd"],
                                                               rel=1e-3)
     assert out["flutter_speed_m_s"] > 0
+    # the kink check: one-sided slopes over 5 % and the flag, in strict JSON
+    assert isinstance(d["kink"], bool) and isinstance(out["kinked_parameters"], list)
+    assert {"d_flutter_speed_m_s_per_unit_minus", "d_flutter_speed_m_s_per_unit_plus",
+            "flutter_kink", "flutter_kink_reason"} <= set(d)
+    assert out["settings"]["rel_step_kink"] == 0.05
     assert (tmp_path / "t.png").stat().st_size > 0
     # the result object: unit-named derivative keys, strict JSON, a table with units
     from bridgeflap.design.sensitivity.local import local_sensitivity

@@ -77,6 +77,42 @@ def test_root_locus_one_unit_system_and_open_loop_overlay(sweep):
     assert "open loop" in labels and "closed loop" in labels
 
 
+def test_every_v_g_branch_has_its_own_colour_style_and_marker():
+    from bridgeflap.model.stability.plots import branch_styles
+
+    # Humber's 30-mode labels: 17+ vertical branches used to repeat colour and style (VS1/VS5)
+    labels = ([f"VS{i}" for i in range(1, 10)] + [f"VA{i}" for i in range(1, 7)]
+              + [f"V-barton{i}" for i in range(1, 5)] + [f"TS{i}" for i in range(1, 5)]
+              + ["TA1", "TA2", "T-barton1", "T-hessle1"] + [f"X{i}" for i in range(25)])
+    styles = branch_styles(labels)
+    keys = [(s["color"], s["ls"], s["marker"]) for s in styles]
+    assert len(set(keys)) == len(labels)
+    # the family stays in the line style
+    assert all((s["ls"] == "-") == lab.startswith("T") for s, lab in zip(styles, labels,
+                                                                         strict=True))
+
+
+def test_v_g_lines_are_unique_on_a_real_sweep(coarse_humber):
+    res = flutter(coarse_humber, SPEEDS, 30).sweep
+    assert len(res.branch_labels) > 20
+    ax1 = res.plot().axes[1]  # root locus, V-g, V-f
+    lines = [ln for ln in ax1.get_lines() if ln.get_label() in res.branch_labels]
+    keys = {(ln.get_color(), ln.get_linestyle(), ln.get_marker()) for ln in lines}
+    assert len(lines) == len(res.branch_labels) == len(keys)
+
+
+@pytest.mark.parametrize("layout", [None, "tight", "constrained"])
+def test_root_locus_colour_bar_clears_the_frequency_axis(sweep, layout):
+    fig, ax = plt.subplots(figsize=(6, 4.5), layout=layout)
+    sweep.plot_root_locus(ax=ax)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    cbar = fig.axes[-1]
+    sec = [c for c in ax.child_axes if "Hz" in c.get_ylabel()][0]
+    # the frequency axis' ticks and label end left of the colour bar's box
+    assert sec.get_tightbbox(renderer).x1 < cbar.get_window_extent(renderer).x0
+
+
 def test_mode_shapes_one_panel_per_family_with_towers(coarse_humber):
     modal = modal_model(coarse_humber)
     axes = modal.plot().axes
@@ -104,6 +140,28 @@ def test_erection_completed_bridge_is_its_own_marker():
     assert len(done) == 2 and all(len(ln.get_xdata()) == 1 for ln in done)
     erecting = [ln for ln in ax.get_lines() if "erecting" in ln.get_label()]
     assert all(70.0 not in ln.get_ydata() for ln in erecting)  # not joined to the curve
+
+
+def test_erection_and_frequency_ratio_ring_the_hybrid_stages():
+    from bridgeflap.model.analysis import ErectionResult, FrequencyRatioResult
+
+    st = [{"erected_fraction": f, "flutter_speed_m_s": 40.0 + 10 * f,
+           "divergence_speed_m_s": 50.0, "critical_mechanism": "flutter",
+           "critical_branch_label": lab}
+          for f, lab in ((0.2, "T-barton1"), (0.5, "TS1"), (0.95, "V-hessle2"))]
+    ax = ErectionResult("b", tuple(st), {}, "bare").plot().axes[0]
+    ring = [ln for ln in ax.get_lines() if ln.get_label().startswith("hybrid stage")]
+    assert len(ring) == 1 and list(ring[0].get_xdata()) == [20.0, 95.0]
+    assert list(ring[0].get_ydata()) == [42.0, 49.5]  # on the flutter curve: it governs
+    assert sorted(t.get_text() for t in ax.texts) == ["T-barton1", "V-hessle2"]
+    rows = [{"erected_fraction": f, "ratio_full_gj": 1.2, "ratio_half_gj": 1.1 + f,
+             "torsional_mode": tm, "vertical_mode": "VS1", "torsional_hybrid": h,
+             "vertical_hybrid": False}
+            for f, tm, h in ((0.3, "T-barton1", True), (0.6, "TS1", False))]
+    ax = FrequencyRatioResult("b", tuple(rows), {"ratio": 2.0}, "bare").plot().axes[0]
+    ring = [ln for ln in ax.get_lines() if ln.get_label().startswith("hybrid stage")]
+    assert len(ring) == 1 and list(ring[0].get_xdata()) == [30.0]
+    assert [t.get_text() for t in ax.texts] == ["T-barton1"]
 
 
 K = Compensator(b2=0.5, b1=-1.2, b0=-2.4, a2=0.08, a1=0.4)
@@ -154,7 +212,7 @@ def test_margins_plot_the_robust_margin_per_speed():
 def test_fig5_marks_the_given_open_loop_flutter_and_both_buffeting_panels(sweep):
     def buf(scale):
         return SimpleNamespace(speeds=np.array([10.0, 20.0, 30.0]),
-                               rms_vertical_over_width=scale * np.array([1e-4, 1e-3, 3e-3]),
+                               rms_vertical=scale * np.array([3e-3, 3e-2, 9e-2]),
                                rms_torsion=scale * np.array([1e-5, 1e-4, 3e-4]))
 
     fig = fig5(sweep, sweep, buf(1.0), buf(0.5), _controller(), open_loop_flutter_m_s=65.45)
@@ -162,8 +220,24 @@ def test_fig5_marks_the_given_open_loop_flutter_and_both_buffeting_panels(sweep)
     for ax in (ax1, ax2):
         labels = [t.get_text() for t in ax.get_legend().get_texts()]
         assert {"open loop", "closed loop", "open-loop flutter 65.45 m/s"} <= set(labels)
-    assert "[deg]" in ax2.get_ylabel()
+    assert "[deg]" in ax2.get_ylabel() and "[mm]" in ax1.get_ylabel()
     _inside(ax2, y=np.degrees([1e-5, 3e-4]))
+    _inside(ax1, y=[3.0, 90.0])  # [mm]
+
+
+def test_buffeting_panels_in_mm_and_deg_with_the_seed_ordinate_on_the_right():
+    from bridgeflap.model.response.plots import buffeting_panels
+
+    res = SimpleNamespace(speeds=np.array([10.0, 20.0, 30.0]),
+                          rms_vertical=np.array([2e-3, 1e-2, 4e-2]),
+                          rms_torsion=np.array([1e-5, 1e-4, 3e-4]), deck_width_m=28.5,
+                          status=("ok", "ok", "ok"), inputs={})
+    ax0, ax1 = buffeting_panels({"a": res})
+    assert ax0.get_ylabel().endswith("[mm]") and ax1.get_ylabel().endswith("[deg]")
+    np.testing.assert_allclose(ax0.get_lines()[0].get_ydata(), [2.0, 10.0, 40.0])
+    np.testing.assert_allclose(ax1.get_lines()[0].get_ydata(), np.degrees([1e-5, 1e-4, 3e-4]))
+    sec = [c for c in ax0.child_axes if "2b" in c.get_ylabel()]
+    assert len(sec) == 1  # sigma_z / 2b, the seed's Fig. 4 ordinate, for comparison
 
 
 def test_morris_plane_holds_every_input():

@@ -103,9 +103,13 @@ def test_report_numbers_are_the_result_files(study):
         assert _close(row[2], r["measured_hz"], 3) and _close(row[4], r["bridgeflap_hz"], 3)
         assert _close(row[6], r["difference_percent"], 1)
     fl, f = _table(tables, "quantity"), res["flutter"]
-    assert _close(fl["flutter speed [m/s]"]["ours"], f["flutter_speed_m_s"], 2)
-    assert _close(fl["flutter frequency [Hz]"]["ours"], f["flutter_frequency_hz"], 4)
-    assert _close(fl["torsional divergence [m/s]"]["ours"], f["divergence_speed_m_s"], 2)
+    # each number says the mode count of its model ("69.50 (16 modes)")
+    n = f["modes_retained"]
+    ours = {k: v["ours"].removesuffix(f" ({n} modes)") for k, v in fl.items()}
+    assert all(v["ours"].endswith(f" ({n} modes)") for v in fl.values())
+    assert _close(ours["flutter speed [m/s]"], f["flutter_speed_m_s"], 2)
+    assert _close(ours["flutter frequency [Hz]"], f["flutter_frequency_hz"], 4)
+    assert _close(ours["torsional divergence [m/s]"], f["divergence_speed_m_s"], 2)
     assert fl["flutter speed [m/s]"]["status"] == f["flutter_status"]
     sens = _table(tables, "parameter")
     d = res["sensitivity"]["derivatives"]
@@ -115,6 +119,11 @@ def test_report_numbers_are_the_result_files(study):
         assert float(row["dU_F/dp (IFT)"]) == pytest.approx(d[p]["d_flutter_speed_m_s_per_unit"],
                                                                    rel=5e-4)
         assert _close(row["(p/U_F) dU_F/dp"], d[p]["relative_d_flutter_speed"], 3)
+        # the kink check's cell: '-' or the flagged speeds' one-sided slopes
+        kink = row["kink: one-sided (p/U) dU/dp"]
+        assert (kink == "-") is (d[p]["kink"] is False)
+        if d[p]["flutter_kink"]:
+            assert kink.startswith(f"UF {d[p]['relative_d_flutter_speed_minus']:+.3f}/")
 
 
 def test_design_section_numbers_are_the_design_summary():
@@ -126,7 +135,7 @@ def test_design_section_numbers_are_the_design_summary():
          "verification": {"modes": 16, "min_damping_ratio": 0.00531},
          "robust_T_inf_by_speed": {"10": 0.2226, "85": 9.988},
          "closed_loop_limits": {"governing_speed_m_s": 88.146, "flutter_speed_m_s": 88.146,
-                                "open_loop_flutter_speed_m_s": 70.8877},
+                                "open_loop_flutter_speed_m_s": 70.8877, "modes": 30},
          "starts": [{"start": 0, "status": "Solve_Succeeded", "iterations": 12}],
          "buffeting": {"speeds_m_s": [10.0], "open_loop_rms_vertical_m": [0.02],
                        "closed_loop_rms_vertical_m": [0.01],
@@ -140,15 +149,18 @@ def test_design_section_numbers_are_the_design_summary():
     q = {k: v["value"] for k, v in _table(tables, "quantity").items()}
     assert q["optimisation wall time [s]"] == "70.9"
     assert q["analysis time incl. the Fig. 5 sweeps [s]"] == "84.5"  # what the log says
-    assert q["open-loop flutter of the design model [m/s]"] == "70.89"
+    # the design model's speeds with its mode count: not the study's flutter speed (16 modes)
+    assert q["open-loop flutter of the design model [m/s]"] == "70.89 (30 modes)"
+    assert q["governing closed-loop limit [m/s]"].endswith(", 30 modes)")
     # the headline margin is the speed grid's, with its speed and the robust speeds' value
     assert (q["robust margin 1 / max norm(T, inf) over the speed grid"]
             == "0.1003 at 84.25 m/s (0.1012 at the robust speeds)")
     margin = _table(tables, "U [m/s]")
     assert margin["85"]["margin [-]"] == f"{1 / 9.988:.3f}"
     buf = [t for t in tables if t[0][0] == "U [m/s]"][-1]
-    assert buf[1] == ["10", "0.0200", "0.0100", "-50.0 %", "1.000e-03", "2.000e-03",
-                      "+100.0 %"]
+    # vertical in mm, torsion in deg (the summary keeps m and rad)
+    assert buf[0][1:3] == ["vertical, open loop [mm]", "vertical, closed loop [mm]"]
+    assert buf[1] == ["10", "20.0", "10.0", "-50.0 %", "0.0573", "0.115", "+100.0 %"]
     assert _table(tables, "start")["0"]["Ipopt status"] == "Solve_Succeeded"
 
 
