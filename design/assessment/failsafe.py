@@ -18,7 +18,8 @@ drive angle ``beta_f = K alpha_f``; :mod:`bridgeflap.model.aeroelastic.flaps`). 
 * and the **controller switched off**: every weight 0, which must be the open loop.
 
 Each case gets the sweep of :func:`bridgeflap.model.stability.sweeps.sweep` (flutter and divergence
-with the verified-crossing statuses), the verified static divergence
+with the verified-crossing statuses; ``critical_only``: the crossings without the branch labels
+and the second branch, which no row reads), the verified static divergence
 (:mod:`bridgeflap.model.stability.static_divergence`), and the critical speed by the rule of
 :mod:`bridgeflap.design.assessment.harm` (:func:`bridgeflap.design.assessment.harm._crit`: a
 crossing that is neither converged nor absent must lie above the converged critical speed, else the
@@ -61,7 +62,9 @@ def _case(model, compensator, weights, speeds, method, grid_max):
 
     system = (model.open_loop if weights is None
               else model.system(compensator, np.asarray(weights, float)))
-    s = sweep(system, speeds, method=method).summary()
+    # the crossings alone (critical_only: no branch labels, no second branch): a row reads
+    # the flutter and divergence speeds and statuses, which are the full sweep's
+    s = sweep(system, speeds, method=method, critical_only=True).summary()
     from bridgeflap.model.analysis import critical_speed
 
     s.update(critical_speed(s))

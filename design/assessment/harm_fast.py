@@ -2,7 +2,8 @@
 
 Per variant, one modal model of the retained modes (``modes.solve(..., n_modes)``: the lowest
 ``n_modes`` of each family hold the lowest ``n_modes`` of both together, so the basis, labels and
-Rayleigh damping are those of all modes), then:
+Rayleigh damping are those of all modes; the lateral family, which the aeroelastic state leaves
+out, is neither assembled nor solved), then:
 
 1. **screening** on ``screen_modes`` (the lowest of the same modes): both loops by the fast
    sweep with ``critical_only`` (:func:`bridgeflap.model.stability.sweeps.sweep`);
@@ -14,6 +15,10 @@ Rayleigh damping are those of all modes), then:
    (the first root of ``det(K - U^2 Q)`` on ``n_modes``, exact, verified as a stable-to-unstable
    crossing of ``A(U)``); any other loop, or one whose static check fails, by the fast sweep on
    ``n_modes``.
+
+Every sweep reads the first crossing alone: its coarse march ends :data:`STOP_AFTER_REL` past
+the first unstable speed (``sweep(..., stop_after_rel=)``), not at the grid's end; the first
+crossing is the whole-grid sweep's (tests/test_model/stability/test_stop_after.py).
 
 Every loop's numbers carry their mode count (``open_loop_modes``, ``closed_loop_modes``) and the
 screened speeds (``screen_*``) for the a-posteriori check of
@@ -30,6 +35,19 @@ __all__ = ["LOOPS", "fast_row", "static_crossing"]
 
 #: the two loops of a row, in the order of the row's keys
 LOOPS = ("open_loop", "closed_loop")
+#: a row reads each loop's first crossing alone, and whether another lies within
+#: SCREEN_MARGIN_REL above it (the static path's condition): each sweep's march ends twice
+#: that past the first unstable speed (``sweep(..., stop_after_rel=)``), not at the grid's end
+STOP_AFTER_REL = 0.03
+
+
+def _modal(spec, n: int):
+    """The vertical and torsional modes of ``spec``, the lowest ``n`` of each: all the
+    aeroelastic state uses (the lateral family is not solved)."""
+    from bridgeflap.model.structure.fe import assemble
+    from bridgeflap.model.structure.modes import solve
+
+    return solve(assemble(spec, lateral=False), int(n))
 
 
 def static_crossing(system, u_hint: float, margin: float, speed_tol: float = 1e-3):
@@ -92,7 +110,8 @@ def _summaries(spec, model, compensator, speeds, n_modes, loops):
     out = {}
     for loop in loops:
         system = systems[loop]()
-        sw = sweep(system, speeds, method="fast", critical_only=True)
+        sw = sweep(system, speeds, method="fast", critical_only=True,
+                   stop_after_rel=STOP_AFTER_REL)
         out[loop] = FlutterResult(spec, sw, int(n_modes), "modal", "rfa4",
                                   system.n_states).summary()
     return out
@@ -134,11 +153,9 @@ def fast_row(spec, controller, speeds, n_modes, speed_max_m_s, screen_modes=None
         near_decision,
     )
     from bridgeflap.model.aeroelastic.flaps import closed_loop_model
-    from bridgeflap.model.structure.fe import assemble
-    from bridgeflap.model.structure.modes import solve
 
     n = int(n_modes)
-    modal = solve(assemble(spec), n)
+    modal = _modal(spec, n)
     c = controller
 
     def model_at(m):

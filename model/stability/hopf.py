@@ -149,8 +149,11 @@ class BalancedSystem:
 class _March:
     """Coarse adaptive sweep: speeds, all eigenvalues, tracked branches, indicators."""
 
-    def __init__(self, system, speeds, start, omega_tol):
+    def __init__(self, system, speeds, start, omega_tol, stop_after_rel=None):
         self.system, self.omega_tol = system, omega_tol
+        # the first speed above 0 where an indicator is unstable (stop_after_rel: the march
+        # ends this fraction past it)
+        unstable_at = None
         u_lo, u_hi = float(speeds[0]), float(speeds[-1])
         span = u_hi - u_lo
         h_max, h_min = span / COARSE_INTERVALS, span / MIN_STEP_DIVISOR
@@ -175,6 +178,11 @@ class _March:
             dv.append(_max_real_real(lam, omega_tol) if U > 0 else -np.inf)
             if U >= u_hi or self.budget.forced:
                 break  # a forced step: the fast path will not trust its branches
+            if (stop_after_rel is not None and unstable_at is None and U > 0
+                    and max(fv[-1], dv[-1]) > 1e-6 * omega_tol):
+                unstable_at = U
+            if unstable_at is not None and U >= unstable_at * (1.0 + stop_after_rel):
+                break  # every crossing up to this speed is bracketed: the first one is known
             h = min(h_max, max(h_min, OVERSHOOT * self._distance(pts, tracked, slopes, fv, dv)))
             u_prev, U = U, (u_hi if U + h >= u_hi - 1e-9 * h_max else U + h)
         self.speeds = np.array(pts)
@@ -491,7 +499,8 @@ def _crossing(find, system, speeds, march, tol, omega_tol, kind, critical_only=F
                               accept=critical_only), None
 
 
-def fast_sweep(system: CountedSystem, speeds, speed_tol, dense, critical_only=False):
+def fast_sweep(system: CountedSystem, speeds, speed_tol, dense, critical_only=False,
+               stop_after_rel=None):
     """:func:`bridgeflap.model.stability.sweeps.sweep` with ``method="fast"`` (module docstring).
 
     ``system`` counts its eigen-solutions; ``dense(reason)`` runs the dense sweep on the same
@@ -501,10 +510,15 @@ def fast_sweep(system: CountedSystem, speeds, speed_tol, dense, critical_only=Fa
     Newton misses is kept from its grid bracket when converged there (:func:`_grid_crossing`)
     instead of running the whole dense sweep. The speeds, frequencies and statuses are those of
     the full fast path; what it saves are the labels' and the second branch's solutions.
+    ``stop_after_rel`` (with ``critical_only``): the coarse march ends ``stop_after_rel``
+    (relative) past the first speed where the spectrum is unstable, so the first crossing and
+    any other within that span above it are found and verified as before; a crossing further
+    up is reported absent from the shortened range (``speeds`` ends there).
     """
     omega_tol = oscillation_tolerance(system)
     labels, start = _structural_start(system)
-    march = _March(system, speeds, start, omega_tol)
+    march = _March(system, speeds, start, omega_tol,
+                   stop_after_rel if critical_only else None)
     if march.budget.forced:
         return dense(f"tracking unsure: a forced step at {march.speeds[-1]:.6g} m/s")
     bal = BalancedSystem(system, float(speeds[-1]))

@@ -57,7 +57,7 @@ from bridgeflap.model.aeroelastic.statespace import (  # noqa: F401
     divergence_mechanism,
     divergence_speed_static,
 )
-from bridgeflap.model.arguments import checked
+from bridgeflap.model.arguments import checked, number, optional
 from bridgeflap.model.errors import BridgeflapInputError
 from bridgeflap.model.stability.crossings import (
     _critical_vector,
@@ -116,9 +116,10 @@ from bridgeflap.model.structure.bridge_arg import check_system
 SWEEP_METHODS = ("dense", "fast")
 
 
-@checked(system=check_system)
+@checked(system=check_system, stop_after_rel=optional(number(0.0, 10.0, strict=True)))
 def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
-          method: str = "dense", critical_only: bool = False) -> StabilitySweep:
+          method: str = "dense", critical_only: bool = False,
+          stop_after_rel: float | None = None) -> StabilitySweep:
     """Eigenvalue sweep with branch tracking and refined, verified flutter/divergence speeds.
 
     Parameters
@@ -138,6 +139,11 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
     critical_only : bool
         Crossings alone (do no harm): no second branch, no label check
         (bridgeflap.model.stability.hopf.fast_sweep).
+    stop_after_rel : float, optional
+        With ``method="fast"`` and ``critical_only``: end the coarse march this fraction past
+        the first unstable speed (the first crossing is all a do-no-harm row reads; a crossing
+        more than that fraction above it is reported absent from the shortened range). The
+        dense fallback sweeps the whole grid.
     """
     if method not in SWEEP_METHODS:
         raise BridgeflapInputError("sweep", f"must be one of {SWEEP_METHODS}, got {method!r}")
@@ -150,7 +156,7 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
             return replace(_dense_sweep(counted, speeds, speed_tol, critical_only),
                            fallback_reason=reason)
 
-        return fast_sweep(counted, speeds, speed_tol, dense, critical_only)
+        return fast_sweep(counted, speeds, speed_tol, dense, critical_only, stop_after_rel)
     return _dense_sweep(counted, speeds, speed_tol, critical_only)
 
 

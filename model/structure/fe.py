@@ -194,7 +194,7 @@ def _end_nodes(span_nodes):
 
 
 def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
-             erection_gj_factor: float = 0.5) -> StructuralModel:
+             erection_gj_factor: float = 0.5, lateral: bool = True) -> StructuralModel:
     """Assemble the three families for ``spec`` (complete or partially erected).
 
     Parameters
@@ -206,6 +206,10 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
     erection_gj_factor : float
         Fraction of GJ the deck keeps while erecting (seed §2: one half; 1 gives the paper's
         "full GJ" comparison curve of Fig. 2).
+    lateral : bool
+        Also assemble the lateral family (default). False: the vertical and torsional
+        families alone, all the aeroelastic state uses (a fresh-variant check builds
+        thousands of them).
         An imported modal bridge (:mod:`bridgeflap.model.structure.modal_import`) gives its strips
         instead (:func:`bridgeflap.model.structure.modal_model.imported_structure`).
     """
@@ -285,6 +289,26 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
     Mt_deck = Mt_deck[np.ix_(keep_t, keep_t)]
     Mt, Kt, (strip_t, node_t) = _reduce(Mt, Kt, [strip_t, np.eye(n_nodes)], keep_t)
 
+    strip_x = np.array([elements[k].x0 + 0.5 * elements[k].length for k in strips])
+    fam = {
+        "vertical": FamilyMatrices("vertical", Mv, Kv, strip_v, node_v, M_deck=Mv_deck,
+                                   uniform_deck_share=mass_v[0] / mass_v[1]),
+        "torsional": FamilyMatrices("torsional", Mt, Kt, strip_t, node_t, M_deck=Mt_deck,
+                                    uniform_deck_share=mass_t[0] / mass_t[1]),
+    }
+    if lateral:
+        fam["lateral"] = _lateral(spec, statics, elements, enodes, n_nodes, mc_el, H, ei_l,
+                                  ends)
+    return StructuralModel(
+        spec=spec, statics=statics, elements=tuple(elements), node_span=node_span,
+        node_x=node_x, strip_x=strip_x,
+        strip_span=np.array([elements[k].span for k in strips], dtype=int),
+        strip_length=np.array([elements[k].length for k in strips]), families=fam)
+
+
+def _lateral(spec, statics, elements, enodes, n_nodes, mc_el, H, ei_l, ends):
+    """The lateral family of :func:`assemble`."""
+    deck = spec.deck
     # ---------------- lateral: deck (u_d, u_d') and cables (u_c, u_c') per node
     nl = 4 * n_nodes
     Ml, Kl = np.zeros((nl, nl)), np.zeros((nl, nl))
@@ -308,20 +332,7 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
     keep_l = [i for i in range(nl) if touched[i] and not (i % 2 == 0 and i // 4 in ends)]
     Ml, Kl, (node_l,) = _reduce(Ml, Kl, [node_l], keep_l)
     deck_mask_l = np.array([(i % 4) < 2 for i in keep_l])
-
-    strip_x = np.array([elements[k].x0 + 0.5 * elements[k].length for k in strips])
-    fam = {
-        "vertical": FamilyMatrices("vertical", Mv, Kv, strip_v, node_v, M_deck=Mv_deck,
-                                   uniform_deck_share=mass_v[0] / mass_v[1]),
-        "torsional": FamilyMatrices("torsional", Mt, Kt, strip_t, node_t, M_deck=Mt_deck,
-                                    uniform_deck_share=mass_t[0] / mass_t[1]),
-        "lateral": FamilyMatrices("lateral", Ml, Kl, None, node_l, deck_mask_l),
-    }
-    return StructuralModel(
-        spec=spec, statics=statics, elements=tuple(elements), node_span=node_span,
-        node_x=node_x, strip_x=strip_x,
-        strip_span=np.array([elements[k].span for k in strips], dtype=int),
-        strip_length=np.array([elements[k].length for k in strips]), families=fam)
+    return FamilyMatrices("lateral", Ml, Kl, None, node_l, deck_mask_l)
 
 
 _GL3_X, _GL3_W = np.polynomial.legendre.leggauss(3)

@@ -577,3 +577,28 @@ def test_erected_fraction_out_of_range(humber, fraction):
     with pytest.raises(BridgeflapInputError) as exc:
         humber.erected(fraction)
     assert exc.value.field == "erected_fraction"
+
+
+def test_assemble_without_lateral_same_vertical_and_torsional():
+    """``assemble(lateral=False)`` (the fresh-variant check's model) leaves the vertical and
+    torsional families and their modes as they are: the same matrices to the bit, the same
+    frequencies, labels and Rayleigh damping from ``solve``."""
+    from bridgeflap.model.structure.fe import assemble
+    from bridgeflap.model.structure.loader import load_bridge
+    from bridgeflap.model.structure.modes import solve
+
+    spec = load_bridge("humber")
+    full, short = assemble(spec), assemble(spec, lateral=False)
+    assert set(short.families) == {"vertical", "torsional"}
+    for name in short.families:
+        for attr in ("M", "K", "strip_map", "node_map"):
+            np.testing.assert_array_equal(getattr(short.families[name], attr),
+                                          getattr(full.families[name], attr))
+    m_full, m_short = solve(full, 12), solve(short, 12)
+    vt = [m for m in m_full.modes if m.family != "lateral"]
+    assert list(m_short.modes) == vt
+    assert m_short.rayleigh == m_full.rayleigh
+    b_full, b_short = m_full.structural_basis(16), m_short.structural_basis(16)
+    for attr in ("M", "C", "K", "phi_h", "phi_a"):
+        np.testing.assert_array_equal(getattr(b_short, attr), getattr(b_full, attr))
+    assert b_short.labels == b_full.labels
