@@ -296,12 +296,18 @@ class StudyResult(ResultData):
 # ---------------------------------------------------------------------------- runner
 
 
-def _run_one(kind: str, spec, opts: Mapping, config: StudyConfig, say) -> Outcome:
+def _run_one(kind: str, spec, opts: Mapping, config: StudyConfig, say,
+             workers: int = 1) -> Outcome:
     """Run one analysis; any exception becomes a ``failed: ...`` outcome, except an input error
     naming one of the study's own options of ``kind``: that is bad input that escaped the
     checks of :func:`validate_study`, and aborts the study (exit 2, the earlier output folder
-    untouched) instead of replacing a good folder by a partial one."""
-    context = RunContext(bridge=config.bridge, quick=config.quick, progress=say)
+    untouched) instead of replacing a good folder by a partial one. ``workers``: the
+    study's, which an analysis with a parallel part of its own uses (the design's acceptance
+    checks: its 1000 fresh variants)."""
+    # the design's acceptance checks are the one long parallel part; the other analyses take
+    # seconds, less than a nested pool's start-up
+    context = RunContext(bridge=config.bridge, quick=config.quick, progress=say,
+                         workers=workers if kind == "design" else 1)
     t0 = time.perf_counter()
     try:
         with stdout_to_stderr():
@@ -419,7 +425,7 @@ _LONGEST_FIRST = ("design", "sensitivity", "erection", "frequency_ratio", "flutt
 
 
 def _run_and_write(kind: str, spec, opts: Mapping, config: StudyConfig, folder: Path,
-                   say, in_process: bool) -> tuple:
+                   say, in_process: bool, workers: int = 1) -> tuple:
     """Run one analysis and write its files: ``(status, summary, figure names, result)``.
 
     What a study's worker process runs (:func:`_run_analyses`); the result object comes back
@@ -427,7 +433,7 @@ def _run_and_write(kind: str, spec, opts: Mapping, config: StudyConfig, folder: 
     """
     say = say or (lambda msg: None)
     say(f"study {config.name}: {kind} ...")
-    outcome = _run_one(kind, spec, opts, config, say)
+    outcome = _run_one(kind, spec, opts, config, say, workers)
     summary, names = _write_outcome(kind, outcome, folder)
     say(f"study {config.name}: {kind} {outcome.status} ({outcome.summary['elapsed_s']:.1f} s)")
     result = outcome.result
@@ -455,7 +461,7 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
     """
     jobs = list(config.analyses)
     if workers <= 1 or len(jobs) <= 1:
-        return {kind: _run_and_write(kind, spec, opts, config, folder, say, True)
+        return {kind: _run_and_write(kind, spec, opts, config, folder, say, True, workers)
                 for kind, opts in jobs}
     import pickle
 
@@ -471,8 +477,10 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
     with process_pool(min(workers, len(jobs))) as pool:  # the guard, before the line below
         say(f"study {config.name}: {len(jobs)} analyses on {min(workers, len(jobs))} worker "
             f"processes")
+        # the study's worker count goes to each analysis too: the design's checks start
+        # their own pool once the shorter analyses are done (pool workers are not daemonic)
         futures = {kind: pool.submit(_run_and_write, kind, spec, opts, config, folder,
-                                     remote_say, False) for kind, opts in jobs}
+                                     remote_say, False, workers) for kind, opts in jobs}
         try:
             return {kind: fut.result() for kind, fut in futures.items()}
         except KeyboardInterrupt:
