@@ -25,14 +25,15 @@ import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from bridgeflap.design.assessment.harm import MAX_VARIANTS
 from bridgeflap.model.errors import BridgeflapTypeError
 from bridgeflap.model.results import ResultData
 from bridgeflap.model.vocabulary import renamed
 
 __all__ = ["ACCEPTANCE_STATUS", "AcceptanceResult", "accept", "design"]
 
-#: most fresh variants of one validation (a million rows would take days on a workstation)
-MAX_SAMPLES = 100_000
+#: most fresh variants of one validation (the do-no-harm check's own bound)
+MAX_SAMPLES = MAX_VARIANTS
 #: the design's status for an acceptance verdict (``passed`` and ``not_run`` keep it)
 ACCEPTANCE_STATUS = {"harm": "harm", "failed": "failed_checks", "unresolved": "unresolved"}
 

@@ -45,10 +45,13 @@ from bridgeflap.model.errors import BridgeflapInputError
 from bridgeflap.model.progress import Eta
 from bridgeflap.model.results import ResultData
 
-__all__ = ["DEFAULT_SCREEN_MODES", "HARM_METHODS", "HARM_TOL_REL", "SAMPLINGS",
+__all__ = ["DEFAULT_SCREEN_MODES", "HARM_METHODS", "HARM_TOL_REL", "MAX_VARIANTS", "SAMPLINGS",
            "SCREEN_MARGIN_REL", "HarmResult", "clopper_pearson_upper", "do_no_harm", "harm_row",
            "near_decision"]
 
+#: most fresh variants of one check (``count``; ``bridgeflap optimise --check-samples``): a
+#: million rows would take days on a workstation
+MAX_VARIANTS = 100_000
 #: ``method`` of :func:`do_no_harm` and :func:`harm_row`: ``"fast"`` (default) or the
 #: ``"reference"`` (the module docstring)
 HARM_METHODS = ("fast", "reference")
@@ -223,7 +226,7 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
                ranges: dict | None = None, fixed=DEFAULT_FIXED, workers: int = 1,
                progress=None, method: str = "fast",
                screen_modes: int | None = DEFAULT_SCREEN_MODES,
-               sampling: str = "sobol") -> HarmResult:
+               sampling: str = "sobol", scheduler: str | None = None) -> HarmResult:
     """Open- against closed-loop critical speed of ``controller`` on ``count`` fresh variants.
 
     Parameters
@@ -245,7 +248,15 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
     ranges : dict, optional
         Input path -> (low, high) [SI]; default the estimated-input ranges less ``fixed``.
     workers : int
-        Processes (one variant per task).
+        Processes (one variant per task); with ``scheduler="local"`` the local Dask
+        cluster's workers.
+    scheduler : str, optional
+        None (default): a local process pool of ``workers`` (serial for 1). ``"local"``: a
+        local Dask cluster of ``workers``; an address (``tcp://host:8786``): that Dask
+        scheduler's workers, so a cluster spreads a large check (the DOE runner's client,
+        :func:`bridgeflap.design.batch.cluster.cluster_client`: one line naming
+        ``scheduler`` when it cannot be reached). The rows are the same in every case: each
+        variant is one task, independent of where it runs.
     method : {"fast", "reference"}
         :data:`HARM_METHODS` (the module docstring).
     sampling : {"sobol", "random"}
@@ -262,8 +273,13 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
     from bridgeflap.model.structure.loader import load_bridge
     from bridgeflap.model.structure.spec import BridgeSpec
 
-    if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= 4096:
-        raise BridgeflapInputError("count", f"must be an integer in [1, 4096], got {count!r}")
+    if (isinstance(count, bool) or not isinstance(count, int)
+            or not 1 <= count <= MAX_VARIANTS):
+        raise BridgeflapInputError("count", f"must be an integer in [1, {MAX_VARIANTS}], "
+                                            f"got {count!r}")
+    if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
+        raise BridgeflapInputError("scheduler", "must be 'local' or a Dask scheduler address, "
+                                                f"got {scheduler!r}")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise BridgeflapInputError("workers", f"must be an integer >= 1, got {workers!r}")
     if not (np.isfinite(speed_max_m_s) and speed_max_m_s > 0):
@@ -285,9 +301,11 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
          else np.asarray(speeds, dtype=float))
     samples = _sample(spec, dict(ranges), count, seed, sampling)
     say = progress or (lambda msg: None)
-    say(f"do no harm: {count} variants x 2 sweeps ({n_modes} modes"
-        f"{f', screened on {screen}' if screen else ''}, 0..{u[-1]:g} m/s, {method})")
-    with _Runner(workers, controller, u, n_modes, speed_max_m_s, method, screen, say) as run:
+    with _Runner(workers, controller, u, n_modes, speed_max_m_s, method, screen, say,
+                 scheduler) as run:  # a scheduler that cannot be reached: before any line
+        say(f"do no harm: {count} variants x 2 sweeps ({n_modes} modes"
+            f"{f', screened on {screen}' if screen else ''}, 0..{u[-1]:g} m/s, {method})"
+            f"{f' on the Dask scheduler {scheduler}' if scheduler else ''}")
         rows = run(samples, range(len(samples)))
         check = {}
         if screen:
@@ -301,12 +319,20 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
 class _Runner:
     """Rows of chosen samples, serially or in one process pool kept for every pass."""
 
-    def __init__(self, workers, controller, speeds, n_modes, speed_max, method, screen, say):
+    def __init__(self, workers, controller, speeds, n_modes, speed_max, method, screen, say,
+                 scheduler=None):
         self.args = (controller, speeds, n_modes, speed_max, method, screen)
         self.workers, self.say, self.ex = workers, say, None
+        self.scheduler, self.client, self._cluster = scheduler, None, None
 
     def __enter__(self):
-        if self.workers > 1:
+        if self.scheduler is not None:  # a Dask cluster: local, or the scheduler's
+            from bridgeflap.design.batch.cluster import cluster_client
+
+            address = None if self.scheduler.strip().lower() == "local" else self.scheduler
+            self._cluster = cluster_client(self.workers, address)
+            self.client = self._cluster.__enter__()
+        elif self.workers > 1:
             from bridgeflap.model.workers import process_pool
 
             self.ex = process_pool(self.workers)
@@ -315,6 +341,8 @@ class _Runner:
     def __exit__(self, *exc):
         if self.ex is not None:
             self.ex.shutdown(cancel_futures=True)
+        if self._cluster is not None:
+            self._cluster.__exit__(*exc)
 
     def __call__(self, samples, indices, confirm=None) -> list:
         """Rows of ``samples[indices]``; ``confirm``: per index, ``(loops, earlier row)`` to
@@ -331,7 +359,14 @@ class _Runner:
                 self.say(f"do no harm: {len(rows)}/{len(indices)} variants "
                          f"{eta.text(len(rows))}")
 
-        if self.ex is None:
+        if self.client is not None:
+            from dask.distributed import as_completed as dask_completed
+
+            futures = {self.client.submit(_rows_of, [samples[i]], *self.args, confirm.get(i),
+                                          pure=False): i for i in indices}
+            for f in dask_completed(list(futures)):
+                done(futures[f], f.result()[0])
+        elif self.ex is None:
             for i in indices:
                 done(i, _rows_of([samples[i]], *self.args, confirm.get(i))[0])
         else:

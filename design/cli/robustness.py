@@ -1,7 +1,8 @@
 """``bridgeflap robustness``: do no harm -- a controller on fresh bridge variants.
 
 ``bridgeflap robustness --controller controller.toml [--samples 200] [--seed 11] [--modes 30]
-[--speed-max 85] [--workers 2] [--method fast|reference] [--screen-modes 16] [--out table.csv]
+[--speed-max 85] [--workers 2] [--scheduler ADDRESS|local] [--method fast|reference]
+[--screen-modes 16] [--out table.csv]
 [--json]`` samples ``--samples`` variants over
 the estimated-input ranges (:mod:`bridgeflap.design.assessment.harm`), runs each open and closed
 loop on the same grid and prints the fraction stable to the design speed, the fraction *harmed*
@@ -63,7 +64,8 @@ def cmd_robustness(args):
     res = do_no_harm(controller, args.bridge, count=args.samples, seed=args.seed,
                      n_modes=args.modes, speed_max_m_s=args.speed_max, workers=args.workers,
                      progress=log,  # progress on stderr, also with --json
-                     method=args.method, screen_modes=args.screen_modes or None)
+                     method=args.method, screen_modes=args.screen_modes or None,
+                     scheduler=args.scheduler)
     s = res.summary()
     if args.out:
         from bridgeflap.design.io.files import atomic_write_text
@@ -150,6 +152,9 @@ def arguments(sp) -> None:
                     help="design speed [m/s]: 'stable to the design speed' is above it")
     sp.add_argument("--workers", type=int, default=default_workers(),
                     help="worker processes (default: min(2, CPUs))")
+    sp.add_argument("--scheduler", default=None, metavar="ADDRESS|local",
+                    help="run the variants on a Dask cluster: a scheduler address, or 'local' "
+                         "for a local one of --workers (default: a local process pool)")
     sp.add_argument("--method", choices=HARM_METHODS, default="fast",
                     help="fast: critical crossings only, screened on --screen-modes; "
                          "reference: the full sweeps on --modes")

@@ -251,7 +251,7 @@ def _design_verdict(d: dict) -> str:
     usable = st == "converged" and acc.get("status") in ("passed", "not_run", None)
     head = (f"**Controller: {st}, usable.**" if usable else
             f"**Controller: {st}, NOT usable (no controller file written).**")
-    parts = [head, f"Acceptance: {acc.get('status', 'not_run')}"]
+    parts = [f"Acceptance: {acc.get('status', 'not_run')}"]
     if "variants" in rob:
         parts.append(f"do no harm on {rob['variants']} fresh variants: "
                      f"{rob.get('harmed_count', '?')} harmed (95 % upper bound on the harm "
@@ -265,7 +265,7 @@ def _design_verdict(d: dict) -> str:
         parts.append(f"nominal closed-loop critical speed "
                      f"{_fmt(lim.get('critical_speed_m_s'), '.2f')} m/s "
                      f"({lim.get('critical_mechanism', '-')}{modes})")
-    return "; ".join(parts) + "."
+    return f"{head} " + "; ".join(parts) + "."
 
 
 def _design_section(doc: Document, d: dict) -> None:

@@ -122,3 +122,51 @@ def test_an_unverified_crossing_above_the_critical_one_does_not_hide_it():
     clean = {"flutter_status": "no_crossing_in_range",
              "divergence_status": "no_crossing_in_range", "critical_speed_m_s": None}
     assert _crit(clean) == (float("inf"), "none", True)
+
+
+@pytest.mark.parametrize("kwargs,field", [
+    ({"count": 100_001}, "count"), ({"count": 0}, "count"),
+    ({"scheduler": ""}, "scheduler"), ({"scheduler": 8786}, "scheduler")])
+def test_do_no_harm_bad_arguments_one_line(humber, kwargs, field):
+    """Refused before any work: the field named, one line."""
+    from bridgeflap.model.errors import BridgeflapInputError
+
+    lines = []
+    with pytest.raises(BridgeflapInputError) as err:
+        do_no_harm(_c(K), humber, **{"count": 2, **kwargs}, progress=lines.append)
+    assert err.value.field == field and "\n" not in str(err.value)
+    assert lines == []
+
+
+def test_the_validation_bound_is_the_checks_bound():
+    """``bridgeflap optimise --check-samples`` and ``accept(samples=)`` accept what the
+    do-no-harm check itself accepts, so a run never fails on its count after the design."""
+    from bridgeflap.design.assessment.accept import MAX_SAMPLES
+    from bridgeflap.design.assessment.harm import MAX_VARIANTS
+
+    assert MAX_SAMPLES == MAX_VARIANTS
+
+
+@pytest.mark.slow
+def test_do_no_harm_on_a_local_dask_cluster_equals_the_pool(humber):
+    """Each variant is one task wherever it runs: a local Dask cluster gives the rows of the
+    process pool (the same inputs, the same code; a cluster start costs ~5 s)."""
+    a = do_no_harm(_c(K), humber, count=3, n_modes=6, speeds=U, workers=2)
+    lines = []
+    b = do_no_harm(_c(K), humber, count=3, n_modes=6, speeds=U, workers=2, scheduler="local",
+                   progress=lines.append)
+    assert a.rows == b.rows
+    assert "on the Dask scheduler local" in lines[0]
+
+
+@pytest.mark.slow
+def test_cli_robustness_unreachable_scheduler(tmp_path, capsys):
+    """An address nothing answers on: exit 2, one line naming --scheduler, nothing before it
+    (the connection is made before the first progress line)."""
+    path = save_controller(_c(K), tmp_path / "controller.toml")
+    rc = main(["robustness", "--controller", str(path), "--samples", "2", "--modes", "6",
+               "--scheduler", "tcp://127.0.0.1:9", "--json"])
+    cap = capsys.readouterr()
+    assert rc == 2 and cap.out == ""
+    err = [ln for ln in cap.err.splitlines() if ln.strip()]
+    assert len(err) == 1 and "scheduler" in err[0]
