@@ -1,6 +1,6 @@
 """Where the Humber headline numbers move with each correction of the built-in inputs.
 
-For each combination of the deck mass/inertia reading (the first landing's steel-only 7,660 kg/m
+For each combination of the deck mass/inertia reading (the first version's steel-only 7,660 kg/m
 with m r^2 = 3.75e5 kg m^2/m, or the lumped section of humber.toml) and the half-chord reading
 (the box 11 m, the overall width 14.25 m, the flap-deck-flap 14 m), the unsourced stiffnesses
 (EI vertical, GJ) are re-updated to Table 1 (model updating, as for the built-in file) and
