@@ -51,7 +51,7 @@ __all__ = ["CHECKS", "EIGENVALUE_RTOL", "AcceptanceOptions", "acceptance", "desi
 #: the checks, in the order they run (cheapest first)
 CHECKS = ("independent_check", "robustness", "failures", "actuators")
 #: the eigenvalues of the two closed loops agree to this, relative to max(1, |lambda|) [-]:
-#: the issue's 1e-6. Both are eigenvalues of the same matrix up to a change of state
+#: the required 1e-6. Both are eigenvalues of the same matrix up to a change of state
 #: coordinates (the plant's beta'' elimination), so rounding bounds the difference by
 #: ~1e-13 for simple eigenvalues; the repeated RFA lag poles are defective clusters whose
 #: members are known only to ~sqrt(eps) = 1.5e-8 (each cluster's mean to rounding), so the

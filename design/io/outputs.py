@@ -358,7 +358,7 @@ class _RunLock:
     a check that the path still names the locked file: a run that opened the file just before
     its holder removed it holds a lock on a deleted file and is refused like a held lock. The
     file is removed while still locked, so no lock file is left behind a finished or refused
-    run (issue 29 item 5). Without ``fcntl`` (not POSIX), :mod:`filelock` is used and its
+    run. Without ``fcntl`` (not POSIX), :mod:`filelock` is used and its
     file stays.
     """
 

@@ -83,7 +83,7 @@ def log_misfit(modal, family: str, critical_weight: float | None = None) -> floa
     ``sqrt((w d_c^2 + sum_others d_i^2) / (w + n_others))`` where ``d_c`` is the family's
     flutter-critical mode (:data:`CRITICAL_MODES`) and ``w`` ``critical_weight`` (default
     :data:`CRITICAL_WEIGHT`; ``w = inf`` gives the limit ``|d_c|``, ``w = 1`` the unweighted
-    RMS of the first landing). A family without a critical mode (lateral) is unweighted.
+    RMS of the first version). A family without a critical mode (lateral) is unweighted.
     """
     w = CRITICAL_WEIGHT if critical_weight is None else float(critical_weight)
     rows = [r for r in compare_table1(modal) if r["family"] == family]

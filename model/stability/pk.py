@@ -246,7 +246,7 @@ def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
     is iterated to consistency, ``k = |Im p| b / U``. Flutter is the first speed where an
     oscillatory branch's real part changes sign, refined by Brent's method on that branch (continued
     from the grid speed below) to ``speed_tol`` [m/s], then verified: sign change of the branch
-    across ``u -+ max(10 tol, 1e-3 u)``, continuation to the next grid speed landing on the
+    across ``u -+ max(10 tol, 1e-3 u)``, continuation to the next grid speed arriving at the
     branch's own value there (no jump), the k iteration converged and the residuals
     (:func:`pk_residual`, :func:`exact_residual` for the open loop) below
     :data:`PK_RESIDUAL_TOL`. Otherwise ``unverified_crossing`` with the grid bracket.

@@ -1,6 +1,6 @@
 """Where the Humber headline numbers move with each correction of the built-in inputs.
 
-For each combination of the deck mass/inertia reading (the first landing's steel-only 7,660 kg/m
+For each combination of the deck mass/inertia reading (the first version's steel-only 7,660 kg/m
 with m r^2 = 3.75e5 kg m^2/m, or the lumped section of humber.toml) and the half-chord reading
 (the box 11 m, the overall width 14.25 m, the flap-deck-flap 14 m), the unsourced stiffnesses
 (EI vertical, GJ) are re-updated to Table 1 (model updating, as for the built-in file) and
@@ -20,7 +20,7 @@ from bridgeflap.model.analysis import flutter
 from bridgeflap.model.cases.validation import update_stiffnesses
 from bridgeflap.model.structure.loader import load_bridge
 
-FIRST_LANDING_MASS = {"deck.mass_kg_per_m": 7660.0, "deck.mass_inertia_kgm2_per_m": 3.75e5}
+FIRST_VERSION_MASS = {"deck.mass_kg_per_m": 7660.0, "deck.mass_inertia_kgm2_per_m": 3.75e5}
 
 
 def main():
@@ -31,7 +31,7 @@ def main():
     lumped = {"deck.mass_kg_per_m": base.deck.mass_kg_per_m,
               "deck.mass_inertia_kgm2_per_m": base.deck.mass_inertia_kgm2_per_m}
     rows = []
-    for mass_name, mass in (("steel only, m r^2", FIRST_LANDING_MASS),
+    for mass_name, mass in (("steel only, m r^2", FIRST_VERSION_MASS),
                             ("lumped section", lumped)):
         for b in (11.0, 14.0, 14.25):
             spec, rep = update_stiffnesses(base.replace(**mass, **{"deck.half_chord_m": b}),

@@ -1,4 +1,4 @@
-"""Golden numbers: every CLI number recorded before the issue-10 redesign is reproduced.
+"""Golden numbers: every CLI number recorded before the redesign is reproduced.
 
 Tolerance 1e-9 relative (plus a 1e-12 absolute floor for round-off-sized residuals): the
 redesign moves code, not physics, so only floating-point reassociation may change a number; a

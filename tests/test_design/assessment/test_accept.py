@@ -28,7 +28,7 @@ POSITIONS = tuple(56.4 * i for i in range(-12, 13) if abs(i) >= 4)
 
 
 def test_clopper_pearson_upper_bound():
-    # analytic for 0 events: 1 - 0.05^(1/n); 0 of 1000 is the 0.30 %
+    # analytic for 0 events: 1 - 0.05^(1/n); 0 of 1000 gives the 0.30 % bound
     assert clopper_pearson_upper(0, 1000) == pytest.approx(1 - 0.05 ** 1e-3, rel=1e-12)
     assert clopper_pearson_upper(0, 1000) == pytest.approx(0.0030, abs=1e-4)
     # its defining property (cross-method: the binomial CDF): P(X <= k | p_upper) = 0.05

@@ -1,5 +1,4 @@
-"""The acceptance checks of ``bridgeflap optimise`` (bridgeflap.design.assessment.acceptance, issue
-28).
+"""The acceptance checks of ``bridgeflap optimise`` (bridgeflap.design.assessment.acceptance).
 
 (a) the independent closed loop (the controller closed around the exported flap plant by the
 feedthrough formula) has the design loop's eigenvalues to 1e-6, and a loop of another K(s) is
@@ -53,7 +52,7 @@ def test_independent_loop_has_the_design_eigenvalues(small):
     s, model = small
     r = independent_check(_controller(), s, model.system(K), speeds=(0.0, 40.0, 80.0))
     assert r["status"] == "agrees"
-    # EIGENVALUE_RTOL is the issue's 1e-6; the two loops are one matrix in two coordinate
+    # EIGENVALUE_RTOL is the required 1e-6; the two loops are one matrix in two coordinate
     # systems, measured 1e-12 on the 30-mode default design: well inside
     assert r["largest_difference_rel"] <= EIGENVALUE_RTOL
     assert all(row["states"] == row["independent_states"] for row in r["speeds"])

@@ -1,4 +1,4 @@
-"""Erection with flaps (issue 27 item 4): each stage's closed loop with the controller's flap
+"""Erection with flaps: each stage's closed loop with the controller's flap
 strips that lie on its erected deck (design/assessment/erection_control.py, `bridgeflap erection
 --controller`)."""
 

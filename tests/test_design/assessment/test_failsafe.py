@@ -1,7 +1,7 @@
-"""Fail-safe flaps and the verified static closed-loop divergence (issue 28 items 2 and 4).
+"""Fail-safe flaps and the verified static closed-loop divergence.
 
 Can fail: a failed pair must be able to lower the critical speed (the 5 m flap design on four
-pairs of Humber with the stiffnesses before issue 27's model updating: 74.35 -> 73.13 m/s with
+pairs of Humber with the stiffnesses before the model updating: 74.35 -> 73.13 m/s with
 an inner pair failed, 8 modes); the controller off must
 be the open loop (to 1e-6 relative, with its own weights-0 state space); the stuck pair's static
 deflection must be linear in the angle (1e-9). The static divergence of a closed loop must match
@@ -40,7 +40,7 @@ FOUR = (-338.4, -112.8, 112.8, 338.4)
 K_DEFAULT = Compensator(-1.0852, 0.2781, -3.8118, 0.3097, 0.0242)
 TEN = tuple(s * x for x in (112.8, 169.2, 225.6, 282.0, 338.4) for s in (-1, 1))
 U = np.arange(0.0, 127.5 + 1e-9, 0.5)
-#: the stiffnesses of the built-in file before issue 27's model updating (the unweighted Table 1
+#: the stiffnesses of the built-in file before the model updating (the unweighted Table 1
 #: fit): the cases below were built on that bridge, where divergence comes first and the
 #: designs above govern by it; the checks are of the method, not of the current headline
 OLD_STIFFNESS = {"deck.gj_nm2": 4.743e11, "deck.ei_vertical_nm2": 1.980e12}

@@ -22,7 +22,7 @@ from bridgeflap.model.aeroelastic.controller_file import save_controller
 from bridgeflap.model.structure.loader import load_bridge
 
 #: K(s) of the default card (`bridgeflap optimise`, built-in b = 14.25 m Humber, 3 m flaps,
-#: 18 placed pairs; run 2026-12-03 after issue 27's model updating): a fixed, designed
+#: 18 placed pairs; run 2026-12-03 after the model updating): a fixed, designed
 #: compensator, so the test needs no optimisation
 K = Compensator(-1.0520215923792988, 0.724204088492299, -4.9906722869878095,
                 0.24572479364985136, 0.19628837741003988)

@@ -1,4 +1,4 @@
-"""The fast do-no-harm check (issue 28 item 5) against its reference path.
+"""The fast do-no-harm check against its reference path.
 
 (c) cross-method agreement: ``method="fast"`` (critical crossings only, the static shortcut,
 the screening) gives the reference's critical speeds and verdicts; the screening's bookkeeping

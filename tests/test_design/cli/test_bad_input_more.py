@@ -107,21 +107,21 @@ def _snapshot(folder: Path) -> dict:
 B = "--bridge"
 #: (id, argv, field named on stderr); ``{d}`` is the working folder
 CASES = [
-    # item 1: a wrong-typed units entry, a file holding just null (TypeError before)
+    # a wrong-typed units entry, a file holding just null (TypeError before)
     ("modal-units-int", ["flutter", B, "{d}/units5.toml"], "structure.units"),
     ("modal-json-null", ["flutter", B, "{d}/null.toml"], "structure.file"),
     ("modal-json-list", ["flutter", B, "{d}/list.toml"], "structure.file"),
-    # item 2: 1e-9 m strips would be 1e12 strips (MemoryError before)
+    # 1e-9 m strips would be 1e12 strips (MemoryError before)
     ("modal-strip-1e-9", ["flutter", B, "{d}/strip_1e-9.toml"], "structure.strip_length_m"),
-    # item 3: an npz that is no zip archive (BadZipFile before)
+    # an npz that is no zip archive (BadZipFile before)
     ("modal-npz-not-zip", ["flutter", B, "{d}/notzip.toml"], "structure.file"),
     ("modal-npz-is-npy", ["flutter", B, "{d}/npy.toml"], "structure.file"),
     ("modal-npz-empty", ["flutter", B, "{d}/empty.toml"], "structure.file"),
-    # item 4: implausible frequencies (ValueError / LinAlgError before; lateral accepted)
+    # implausible frequencies (ValueError / LinAlgError before; lateral accepted)
     ("modal-f-1e300", ["flutter", B, "{d}/f_1e300.toml"], "structure.frequency"),
     ("modal-f-1e-300", ["flutter", B, "{d}/f_1e-300.toml"], "structure.frequency"),
     ("modal-lateral-1e300", ["flutter", B, "{d}/lateral_1e300.toml"], "structure.frequency"),
-    # item 5: controller coefficients beyond finite, plausible magnitudes (OverflowError)
+    # controller coefficients beyond finite, plausible magnitudes (OverflowError)
     ("controller-b0-1e300", ["flutter", "--controller", "{d}/ctrl_b0_1e300.toml"],
      "controller.b0"),
     ("controller-b0-int-huge", ["flutter", "--controller", "{d}/ctrl_b0_int.toml"],
@@ -131,9 +131,9 @@ CASES = [
     ("controller-b0-1e300-ss", ["state-space", "--speed", "10", "--controller",
                                 "{d}/ctrl_b0_1e300.toml", "--out", "{d}/prev.npz"],
      "controller.b0"),
-    # item 7: an unbounded table (ran without limit)
+    # an unbounded table (ran without limit)
     ("derivatives-points-1e8", ["derivatives", "--points", "100000000"], "points"),
-    # item 6: a 300-character path component ("File name too long"; "a bug" before)
+    # a 300-character path component ("File name too long"; "a bug" before)
     ("long-bridge", ["modes", B, "{d}/{L}.toml"], "bridge"),
     ("long-ss-out", ["state-space", "--speed", "10", "--out", "{d}/{L}.npz"], "out"),
     ("long-ss-out-folder", ["state-space", "--speed", "10", "--out", "{d}/{L}/a.npz"], "out"),

@@ -1,4 +1,4 @@
-"""Issue 32 item 3: when no design meets the limits, the best one found is reported with every
+"""When no design meets the limits, the best one found is reported with every
 check it misses (never "no design"), and it is never handed on as a usable controller."""
 
 from __future__ import annotations

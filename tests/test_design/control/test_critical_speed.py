@@ -1,4 +1,4 @@
-"""The critical-speed objective (issue 14 item 2): settings, the design-speed search, the card."""
+"""The critical-speed objective: settings, the design-speed search, the card."""
 
 from __future__ import annotations
 
@@ -52,8 +52,8 @@ def test_cli_bad_objective_exits_2_and_writes_nothing(tmp_path, capsys):
 def test_card_loads_and_inner_settings_extend_to_the_design_speed():
     s = load_settings(CARD)
     assert s.objective == "critical_speed" and s.margin_min == 0.25
-    # the humber:box card, the default when this card was made (since issue 27 the default
-    # card is on the built-in b = 14.25 m bridge; this card keeps humber:box)
+    # the humber:box card, the default when this card was made (the default card is
+    # now on the built-in b = 14.25 m bridge; this card keeps humber:box)
     base = load_settings(CARD.parent / "humber_box_flaps.toml")
     # the inner problem is that design: only the objective's own keys, the starts,
     # the buffeting weight, the robust cut tolerance (pinned to the 0.001 its recorded

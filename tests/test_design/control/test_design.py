@@ -91,7 +91,7 @@ def test_plant_factors_vanish_at_closed_loop_poles(small):
     lam = np.linalg.eigvals(A)
     lam = lam[np.argsort(-np.abs(lam.imag))][:8]          # oscillatory (structural) poles
     # not an open-loop pole: a mode the flaps cannot move (here an antisymmetric one at
-    # 1e-15 relative distance since issue 27's model updating) keeps its open-loop value and
+    # 1e-15 relative distance since the model updating) keeps its open-loop value and
     # is no zero of det(I - K G); 1e-8 relative separates the two kinds by 7 orders
     ol = np.linalg.eigvals(model.open_loop.A(50.0))
     lam = [p for p in lam if np.min(np.abs(ol - p)) > 1e-8 * abs(p)]
@@ -252,7 +252,7 @@ def test_select_start_best_verified_and_gain_never_converged():
 
 
 def test_select_start_ranks_verified_starts_by_objective():
-    # issue 32 item 4: the design's own objective decides, not the margin (start 1 has the
+    # the design's own objective decides, not the margin (start 1 has the
     # larger margin but the worse objective); an unverified start never wins on objective
     recs = [_rec(0, -1e-5, 4.0, True, 0.40, objective=2.0),
             _rec(1, -1e-5, 3.0, True, 0.45, objective=2.5),
@@ -426,7 +426,7 @@ def test_humber_design_stable_on_16_modes(tmp_path, capsys):
     assert ver.stable_everywhere and ver.stable_to_m_s == 85.0
     assert ver.max_violation_1_s <= 1e-6      # the minimum damping too (VIOLATION_TOL)
     # the margin at the robust speeds is the true sigma_max one (1e-9: the same SVDs), and
-    # the headline, the minimum over the whole speed range, can only be lower (issue 32)
+    # the headline, the minimum over the whole speed range, can only be lower
     at = prob.robust_margin(theta).margin
     assert payload["robust_margin_at_robust_speeds"] == pytest.approx(at, rel=1e-9)
     assert payload["robust_margin"] <= at * (1 + 1e-12)
@@ -455,7 +455,7 @@ def test_failed_design_summary_keeps_the_optimise_contract():
                        best=None, abscissa_speeds_m_s=s.check_speeds(),
                        abscissa_1_s=np.full(s.check_speeds().shape, np.nan),
                        min_flaps=None, wall_time_s=1.0)
-    summ = json.loads(json.dumps(res.summary(), allow_nan=False))  # strict JSON (issue 15)
+    summ = json.loads(json.dumps(res.summary(), allow_nan=False))  # strict JSON
     golden = Path(__file__).resolve().parents[2] / "golden" / "optimise_quick.json"
     # robust_margin_speed_grid only in a design that reached its checks (the golden did); the
     # acceptance block is part of every summary (not_run here: the design failed)
@@ -504,7 +504,7 @@ def test_placement_budget_constraint_holds(small):
 def test_damping_constraint_is_active_when_only_regularised(small_box):
     # objective |theta/scale|^2 only (no robust term): it pulls K towards 0, the open loop
     # (K = 0) flutters at 70 m/s on this model, so the NLP optimum must sit on a damping
-    # constraint -- the constraints act (issue 14: the decay-rate constraints never did)
+    # constraint -- the constraints act (earlier, the decay-rate constraints never did)
     from bridgeflap.design.control.driver import (
         ACTIVE_ABS_TOL_1_S,
         active_constraints,
@@ -551,12 +551,12 @@ def test_copies_of_lag_and_compensator_poles_are_excluded(small):
 
 def test_peak_tracking_margin_matches_verified_within_one_percent(small_box):
     # robust peak tracking to convergence: the optimiser's margin 1/gamma_T equals the dense
-    # sigma_max margin at the check speeds within 1 % (issue 14 item 4). gamma_T bounds the
+    # sigma_max margin at the check speeds within 1 %. gamma_T bounds the
     # Frobenius norm >= sigma_max, so 1/gamma_T <= the true margin; near a resonance T is
-    # nearly rank one and the two meet -- the 1 % is the issue's acceptance tolerance.
+    # nearly rank one and the two meet -- the 1 % is the acceptance tolerance.
     s, model = small_box
-    # the default card's re-solve budget (8 rounds of 150 iterations): with 5 x 60, since issue
-    # 27's model updating, rounds 3-5 end 0.02 % over the gain limit and the kept round's bound
+    # the default card's re-solve budget (8 rounds of 150 iterations): with 5 x 60, since the
+    # model updating, rounds 3-5 end 0.02 % over the gain limit and the kept round's bound
     # does not hold (measured); with 8 x 150 round 4 converges, 0.6045 against 0.6035
     s2 = replace(s, max_iter=60, resolve_max_iter=150, cutting_plane_rounds=8,
                  design_step_m_s=10.0)
@@ -646,7 +646,7 @@ def test_closed_loop_limits_reported_with_mechanism(small_box):
     for k in ("flutter_speed_m_s", "divergence_speed_m_s", "divergence_static_speed_m_s"):
         assert lim[k] == ref[k] or (np.isnan(lim[k]) and np.isnan(ref[k]))
         # the fast path (the limits' method) against the dense reference sweep: 1e-4
-        # relative, issue 16 goal 2's agreement (both refine to round-off / 1e-3 m/s)
+        # relative, the required agreement (both refine to round-off / 1e-3 m/s)
         assert (np.isnan(ref[k]) and np.isnan(dense[k])) or \
             abs(ref[k] - dense[k]) <= 1e-4 * abs(dense[k])
     for k in ("flutter_status", "divergence_status", "critical_mechanism"):
@@ -720,14 +720,14 @@ def test_pareto_points_are_each_verified(small_box):
 @pytest.mark.slow
 def test_closed_loop_limits_fast_path_on_the_default_design():
     # the default card's design on its 30-mode verification model (230 states): the fast
-    # sweep of the closed-loop limits against the dense reference sweep, 1e-4 relative (issue
-    # 16 goal 2's agreement), the same statuses and mechanism
+    # sweep of the closed-loop limits against the dense reference sweep, 1e-4 relative (the
+    # required agreement), the same statuses and mechanism
     from bridgeflap.design.cli.optimise import DEFAULT_DEFINITION
     from bridgeflap.model.analysis import closed_loop_flutter
     from bridgeflap.model.structure.loader import load_bridge
 
     s = load_settings(DEFAULT_DEFINITION)
-    # the default card's design since issue 27 (built-in b = 14.25 m, 18 placed pairs, README
+    # the default card's design (built-in b = 14.25 m, 18 placed pairs, README
     # "Control": closed-loop flutter 107.42 m/s, static divergence 87.33 m/s on 30 modes)
     positions = tuple(56.4 * i for i in range(-12, 13) if abs(i) >= 4)
     ctrl = Controller(Compensator(-1.0520215923792988, 0.724204088492299, -4.9906722869878095,
@@ -791,8 +791,8 @@ def test_design_cards_load_and_the_multimodel_card_is_the_default_plus_variants(
              if c.read_text(encoding="utf-8").startswith("# bridgeflap optimise")]
     assert len(cards) >= 4
     loaded = {c.name: load_settings(c) for c in cards}
-    # the humber:box card, the default when the multi-model card was made (issue 27 moved the
-    # default card to the built-in b = 14.25 m bridge; the multi-model card keeps humber:box)
+    # the humber:box card, the default when the multi-model card was made (the default card is
+    # now on the built-in b = 14.25 m bridge; the multi-model card keeps humber:box)
     default = asdict(loaded["humber_box_flaps.toml"])
     multi = asdict(loaded["humber_flaps_multimodel.toml"])
     diff = {k for k in default if default[k] != multi[k]}

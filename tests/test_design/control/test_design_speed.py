@@ -1,4 +1,4 @@
-"""Fast paths of the compensator design (issue 16 goal 3) against the reference paths."""
+"""Fast paths of the compensator design against the reference paths."""
 
 import casadi as ca
 import numpy as np
@@ -85,7 +85,7 @@ def test_fd_fallback_only_at_flagged_speeds(small):
 
 
 def test_fresh_variants_reported_stable_are_stable(small_box_fresh):
-    # issue 14 "how it is checked": every fresh variant that fresh_variant_check counts as
+    # every fresh variant that fresh_variant_check counts as
     # stable 0..speed_max is stable in an independent sweep (model.stability.sweeps.sweep on the
     # closed-loop system of that variant, same grid and modes), and every one it counts as
     # unstable is not -- so the reported fraction is the sweep's
@@ -328,7 +328,7 @@ def test_multi_model_design_in_two_processes_reports_every_variant(small_box_fre
     from bridgeflap.design.control.driver import design, fresh_variant_check, sample_variants
     from bridgeflap.model.structure.loader import load_bridge
 
-    # 3 rounds of 60 iterations: since issue 27's model updating 1 x 30 ends infeasible (max
+    # 3 rounds of 60 iterations: since the model updating 1 x 30 ends infeasible (max
     # gain 58.5) and leaves no candidate to check; 3 x 60 converges (measured, gain 15.00)
     s = replace(small_box_fresh, starts=1, parallel=True, variants=2, fresh_variants=3,
                 design_step_m_s=10.0, cutting_plane_rounds=3, max_iter=60,

@@ -24,7 +24,7 @@ from bridgeflap.design.control.records import RobustMargin, StartRecord, Verific
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.errors import BridgeflapInputError
 
-#: The default card's 25 candidates and the default design's 18 flap pairs (README, issue 32).
+#: The default card's 25 candidates and the default design's 18 flap pairs (README).
 CANDIDATES = (np.arange(25) - 12) * 56.4
 DEFAULT_LAYOUT = [s * 56.4 * k for k in range(4, 13) for s in (-1, 1)]
 

@@ -1,4 +1,4 @@
-"""The robust margin re-checked between the robust speeds (issue 32 item 2).
+"""The robust margin re-checked between the robust speeds.
 
 :func:`bridgeflap.design.control.checks.margin_on_speed_grid` evaluates ``1 / max sigma_max(T)`` on
 a 0.5 m/s grid over the whole speed range that contains the robust speeds, then refines the worst

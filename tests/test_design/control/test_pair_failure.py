@@ -1,4 +1,4 @@
-"""Design for one-pair failure (issue 28 item 2, ``design_for_pair_failure``).
+"""Design for one-pair failure (``design_for_pair_failure``).
 
 Each flap pair stuck at 0 is one more model of the multi-model design: weight 0 on its loads
 whatever weights the multi-model checks pass (else the nominal weights would silently restore

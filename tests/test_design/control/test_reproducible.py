@@ -105,7 +105,7 @@ def test_layout_candidates_stable_under_last_bit_noise(z, eps):
 
 def test_compensator_damping_ratio():
     # analytic: a2 s^2 + a1 s + 1 has damping a1 / (2 sqrt(a2)); the designed harmful K of
-    # the issue tracker's kernel study, 0.2298 s^2 + 0.02337 s + 1: 2.4 %
+    # an earlier kernel study, 0.2298 s^2 + 0.02337 s + 1: 2.4 %
     th = (-0.6415, 0.0578, -2.182, 0.2298, 0.02337)
     assert compensator_damping_ratio(th) == pytest.approx(0.02337 / (2 * 0.2298 ** 0.5),
                                                           rel=1e-15)
@@ -148,7 +148,7 @@ def test_a_last_bit_perturbation_of_the_model_gives_the_same_design(monkeypatch)
     # every model matrix moved by 1e-12 relative (the test hook of
     # design.control.problem_model): the same layout, K within 1e-4 relative and the
     # closed-loop critical speed within 0.01 m/s (the tolerances a user can rely on between
-    # machines: the issue's kernel study saw K move > 10 % where a choice was taken on
+    # machines: an earlier kernel study saw K move > 10 % where a choice was taken on
     # unconverged iterates)
     from bridgeflap.design.control.driver import design
     from bridgeflap.design.control.problem_model import PERTURB_ENV

@@ -31,7 +31,7 @@ FH = np.sqrt(8977.39216323088 / M11A) / (2 * np.pi)
 FA = np.sqrt(7536093.564553846 / I11A) / (2 * np.pi)
 
 # Both paths solve the same equations, so the only differences are round-off and the Brent
-# tolerance on the speed: 1e-6 relative (the bound) is far above both (1e-12 measured).
+# tolerance on the speed: 1e-6 relative (the required bound) is far above both (1e-12 measured).
 REL = 1e-6
 BRENT = 1e-9  # m/s (or U/(b omega_theta) on the non-dimensional section)
 

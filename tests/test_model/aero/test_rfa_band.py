@@ -5,7 +5,7 @@ squares weighted 10 on the bridge-flutter band 0.05 <= k <= 0.5
 (:data:`bridgeflap.model.aero.rfa.FLUTTER_BAND_K`). Checks: (a) its error on the band and on 0 < k
 <= 3 against stated bounds, on an independent grid; (b) the invariants C(0) = 1 and C(inf) = 1/2,
 stable sorted poles; (c) the flutter speed of each 2-D case of
-:mod:`bridgeflap.model.cases.rfa_cases` within 0.05 % of the exact-Theodorsen p-k (the issue's
+:mod:`bridgeflap.model.cases.rfa_cases` within 0.05 % of the exact-Theodorsen p-k (the required
 bound), and closer than ``rfa4``; and the default ``rfa4`` has the coefficients it had before.
 Measured numbers: ``python runs/rfa_fit/run.py``.
 """
@@ -107,7 +107,7 @@ def test_2d_flutter_within_0p05_percent_of_exact(gaps, case):
     assert g["exact_flutter_status"] == "converged"
     band, old = g["rfa"]["rfa4-band"], g["rfa"]["rfa4"]
     assert band["flutter_status"] == old["flutter_status"] == "converged"
-    # The issue's bound, 0.05 %; measured at most 0.031 % (IABSE 1.1a). Crossings are refined
+    # The required bound, 0.05 %; measured at most 0.031 % (IABSE 1.1a). Crossings are refined
     # to 1e-7 m/s (1e-9 U/(b omega_theta)): below 1e-6 % of the gap.
     assert abs(band["gap_percent"]) < 0.05
     # the diagnosis: the unweighted fit is 0.06-0.13 % off, and the band fit is closer
@@ -173,6 +173,6 @@ def test_humber_band_fit_shift():
                              speed_tol=1e-5).sweep.flutter.speed for r in ("rfa4", "rfa4-band")}
     gap = {r: 100 * (v / ue.speed - 1) for r, v in u.items()}
     # measured +0.1766 % and +0.0466 % (crossings to 1e-5 m/s, 1.4e-5 %); the rfa4 band
-    # +-0.005 % pins today's default, the band fit is held to the issue's 0.05 %
+    # +-0.005 % pins today's default, the band fit is held to the required 0.05 %
     assert 0.17 < gap["rfa4"] < 0.18
     assert 0.0 < gap["rfa4-band"] < 0.05

@@ -6,9 +6,9 @@ Tolerances:
 * 1.1a, its own convention (flat plate without the apparent-inertia moment): 0.2 %. The
   exact p-k on the closed-form derivatives is 77.480 m/s (+0.04 %); the 4-lag Roger fit's
   error per derivative is at most 2.1e-3 (reported) and moves the speed by 4e-5; the reference
-  is quoted to 4 figures (77.45, +-0.006 %). 0.2 % is the issue's bound and leaves 0.15 %.
+  is quoted to 4 figures (77.45, +-0.006 %). 0.2 % is the required bound and leaves 0.15 %.
 * 1.1a with the apparent-inertia moment kept: the exact answer is 0.3 % below the reference
-  (77.24 m/s): checked as -0.27 % +- 0.05 %, the size the issue states.
+  (77.24 m/s): checked as -0.27 % +- 0.05 %.
 * 1.1c: 1 %. The tables are 7 measured points per derivative, linearly interpolated; the
   2-lag Roger fit's error on the flutter-governing derivatives (H1-H4, A1-A4) is 3-12 % of
   their load terms (their kinks are not rational), which moves the RFA speed 0.36 % from the

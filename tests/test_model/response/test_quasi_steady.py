@@ -124,7 +124,7 @@ def test_bad_static_coefficients_name_the_field(table, field):
 
 
 def test_great_belt_fe_with_bb3_derivatives():
-    """The FE bridge with derivative loads (item 3): the derivative state space on its vertical
+    """The FE bridge with derivative loads: the derivative state space on its vertical
     and torsional FE modes (no lateral DOF). RFA vs the exact p-k on the same basis: 1 %, as
     for iabse-2a:bb3 (the RFA's load error near the flutter K, test_iabse_2a_bb3.py)."""
     spec = load_bridge("great-belt:bb3")

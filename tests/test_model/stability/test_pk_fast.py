@@ -5,7 +5,7 @@ fixed-point k iteration on the frozen system's own matrices. Tolerances:
 
 * kernel matrices: 1e-13 relative to the largest entry (the same sums in another order, and
   C(k) from J/Y instead of hankel2, 2e-15 relative: a few hundred round-offs of headroom);
-* flutter speed: 1e-4 m/s (the issue's criterion). Both paths refine by Brent from the same
+* flutter speed: 1e-4 m/s (the required accuracy). Both paths refine by Brent from the same
   grid bracket; their branch values differ by the k-iteration tolerance (1e-10 relative), so
   Brent's iterates agree to ~1e-8 m/s (measured: at most 3e-10 m/s on these cases);
 * frequency 1e-6 Hz and the marched branches 1e-8 relative, for the same reason.
