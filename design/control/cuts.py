@@ -33,10 +33,22 @@ from bridgeflap.model.aeroelastic.control import Compensator
 #: 315 -> 582 into another basin); with 60 it is not. Tried and dropped: re-solves started
 #: from the previous multipliers (warm_start_init_point): 313 iterations and another design.
 WARM_FIRST = True
-#: Re-solves stopped by the divergence watchdog (``design.control.ipopt_hooks.DIVERGE_LEVEL``) after
-# which
-#: the loop ends (the first one is followed by a round from the best round's point).
-MAX_DIVERGED = 2
+#: Recovery of a diverged solve. A re-solve stopped by the divergence watchdog
+#: (``design.control.ipopt_hooks.DIVERGE_LEVEL``) has left the basin of the design: its iterate
+#: is no warm start. The loop restarts from the *anchor* -- the last point that met the damping
+#: and the gain limit (a feasible round, or phase 1's feasible point) -- inside a trust region
+#: on theta of relative half-width ``TRUST_RADIUS * TRUST_SHRINK**k`` for the k-th recovery
+#: (``max(|theta_i|, THETA_SCALE_i)`` the unit), at most ``MAX_RECOVERIES`` times. A solution
+#: on the trust region's bound is not yet a solution of the design problem: the next solve is
+#: re-centred there (a "trust step", at most ``MAX_TRUST_STEPS``), and a design ends only on a
+#: solution off the bound. Measured before (one start, no recovery): on an AVX-512 CPU the
+#: default card's round 0 left its basin (gain 34.9, flutter 43.9 m/s), round 1 restarted from
+#: that iterate and left it again, and the design ended ``infeasible``; the same problem with
+#: numpy's AVX-512 kernels switched off converged.
+MAX_RECOVERIES = 3
+TRUST_RADIUS = 0.5
+TRUST_SHRINK = 0.5
+MAX_TRUST_STEPS = 6
 
 
 def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
@@ -50,7 +62,6 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
     gamma = None
     res = ver = rob = None
     kept = []
-    diverged = 0
     use_rob = s.weight_robust > 0 and (bool(s.robust_design_speeds_m_s)
                                        or bool(s.robust_speeds_m_s))
     nominal0 = prob.constraint_values(theta, sorted(speeds), w)
@@ -95,12 +106,19 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
         feasible0 = True
         ph1_kept = None
     off = len(history)          # the phase-1 record, if any, precedes the rounds
-    for rnd in range(s.cutting_plane_rounds + 1):
+    # the anchor of a recovery: the last point that met the damping (nominal, and the
+    # variants' sets in force) and the gain limit -- phase 1's point, then each feasible round
+    anchor = (np.array(theta), np.array(w), gamma) if feasible0 else None
+    trust, step, recoveries, trust_steps, cut_rounds = None, "cuts", 0, 0, 0
+    rnd = -1
+    while True:
+        rnd += 1
         # round 0 from a feasible point is warm-started like the re-solves (WARM_FIRST)
         n_var = variants.constraint_count(prob, sorted(speeds))
         res = prob.solve(theta, np.array(sorted(speeds)), weights0=w, gamma0=gamma,
                          warm=rnd > 0 or (WARM_FIRST and feasible0),
-                         max_iter=s.resolve_max_iter if rnd > 0 else s.max_iter)
+                         max_iter=s.resolve_max_iter if rnd > 0 else s.max_iter,
+                         trust=trust)
         theta, w = res.theta, res.weights
         gamma = res.gamma_T if use_rob else None
         # the rounds on the refined subset of the check grid (the same decisions and worst
@@ -147,7 +165,9 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
                 if u not in speeds})
         peak = rob.peak if rob else float("nan")
         history.append(CutRound(
-            round=rnd, ipopt_status=res.ipopt_status, iterations=res.iterations,
+            round=rnd, ipopt_status=res.ipopt_status + (
+                " (on the trust region's bound)" if res.on_trust_bound else ""),
+            iterations=res.iterations,
             theta=tuple(float(v) for v in theta), time_s=res.time_s, n_speeds=len(speeds),
             max_violation_1_s=ver.max_violation_1_s, max_gain=ver.max_gain,
             gamma_T_frobenius=res.gamma_T, dense_t_peak=peak,
@@ -156,34 +176,56 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
             n_gain_points=len(prob.omega_grid()), new_speeds=len(new_speeds),
             new_gain_cuts=len(new_gain), new_robust_cuts=len(new_rob),
             eig_time_per_speed_s=res.eig_time_per_speed_s, history=res.history,
-            n_variant_constraints=n_var, new_variant_constraints=new_variant))
+            n_variant_constraints=n_var, new_variant_constraints=new_variant,
+            step=step, trust_radius=float(trust[1]) if trust is not None else float("nan")))
+        # a solution on the trust region's bound is no candidate: the problem has no such bound
         kept.append((res, ver, rob, dict(speeds=sorted(speeds), robust_cuts=list(
-            prob.robust_cuts), gain_cuts=list(prob.gain_cuts)), eig_ok and gain_ok, peak,
-                     rob is not None and rob_ok))
+            prob.robust_cuts), gain_cuts=list(prob.gain_cuts)),
+            eig_ok and gain_ok and not res.on_trust_bound, peak,
+            rob is not None and rob_ok))
+        if eig_ok and gain_ok and not res.diverged:
+            anchor = (np.array(theta), np.array(w), gamma)
         # every check holds: done -- unless Ipopt ran out of iterations (a bound that holds
         # at a capped iterate, e.g. gamma_T 40.7 against a dense peak of 4.5, is not the
-        # optimum): then the next round continues it warm-started
-        if (eig_ok and gain_ok and rob_ok and res.success) or not _a2_ok(theta):
+        # optimum) or the solution lies on the trust region's bound: then the next round
+        # continues it warm-started
+        if (eig_ok and gain_ok and rob_ok and res.success and not res.on_trust_bound) \
+                or not _a2_ok(theta):
             break
+        new_cuts = bool(new_speeds or new_gain or new_rob or new_variant)
         if res.diverged:
-            # the watchdog stopped a re-solve stalled far outside the feasible set: its
-            # iterate is no warm start. The next round starts from the best round so far
-            # (with every cut added since); a second divergence ends the loop.
-            diverged += 1
-            if diverged >= MAX_DIVERGED:
+            # the watchdog stopped a re-solve stalled far outside the feasible set: recover
+            # from the anchor inside a trust region (MAX_RECOVERIES); with no anchor (no
+            # feasible point yet) from the best round so far, once
+            recoveries += 1
+            if recoveries > MAX_RECOVERIES or (anchor is None and recoveries > 1):
                 break
-            bres = _best(kept, ph1_kept, s.robust_cut_tol)[0][0]
-            theta, w = bres.theta, bres.weights
-            gamma = bres.gamma_T if use_rob else None
-        # No early stop for a re-solve that ran out of iterations with a worse dense peak
-        # (a speed lever, tried): on the default design it never fired (548 Ipopt
-        # iterations with and without it), and a capped round can be followed by converging
-        # ones (the earlier code's start 1: rounds 3-5 after a capped round 2, margin 0.357).
-        # no new cut: stop, unless the solve ran out of iterations short of the checks --
-        # then the next round continues it (re-solve to convergence)
-        if rnd == s.cutting_plane_rounds or not (new_speeds or new_gain or new_rob
-                                                 or new_variant or not res.success):
-            break
+            if anchor is None:
+                bres = _best(kept, ph1_kept, s.robust_cut_tol)[0][0]
+                anchor = (np.array(bres.theta), np.array(bres.weights),
+                          bres.gamma_T if use_rob else None)
+            theta, w, gamma = (np.array(anchor[0]), np.array(anchor[1]), anchor[2])
+            trust = (np.array(theta), TRUST_RADIUS * TRUST_SHRINK ** (recoveries - 1))
+            step = "recovery"
+        elif res.on_trust_bound:
+            trust_steps += 1
+            if trust_steps > MAX_TRUST_STEPS:
+                break
+            trust = (np.array(theta), trust[1])     # re-centred, the same radius
+            step = "trust step"
+        else:
+            # No early stop for a re-solve that ran out of iterations with a worse dense
+            # peak (a speed lever, tried): on the default design it never fired (548 Ipopt
+            # iterations with and without it), and a capped round can be followed by
+            # converging ones (the earlier code's start 1: rounds 3-5 after a capped round 2,
+            # margin 0.357). No new cut: stop, unless the solve ran out of iterations short
+            # of the checks -- then the next round continues it (re-solve to convergence)
+            if cut_rounds == s.cutting_plane_rounds or not (new_cuts or not res.success):
+                break
+            cut_rounds += 1
+            if trust is not None:   # after a recovery the region follows the iterate
+                trust = (np.array(theta), trust[1])
+            step = "cuts"
         speeds.extend(new_speeds)
         prob.gain_cuts.extend(new_gain)
         prob.robust_cuts.extend(new_rob)

@@ -8,9 +8,24 @@ damping constraints backed off by ``FEASIBILITY_BACKOFF_1_S``): phase 1 only has
 strictly feasible point, and its objective (the regularisation alone) gives the free
 ``gamma_T`` no direction, so the iterations after the first feasible one only polish a
 point phase 2 moves away from (default card, start 0: feasible at iteration 16 of 77).
+
+Interrupts. Python runs a signal handler only between bytecodes; inside Ipopt that is inside one
+of CasADi's Python callbacks, where an exception raised by the handler (``KeyboardInterrupt``) is
+caught by CasADi and the solve goes on (measured: 6 of 9 Ctrl-C/SIGTERM during ``bridgeflap
+optimise`` were lost, and the run wrote another controller). :func:`signals_deferred` therefore
+holds SIGINT and SIGTERM during a solve: the handler only records the signal, the iteration
+callback asks Ipopt to stop at its next iteration, and when the solve returns the signal is
+delivered to the handler that was installed before (a ``KeyboardInterrupt``, the CLI's exit
+130/143, or the default action). A solve stopped that way is never taken as a design: the
+exception leaves before its iterate is read.
 """
 
 from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import threading
 
 import casadi as ca
 import numpy as np
@@ -25,6 +40,59 @@ import numpy as np
 #: was above 5 for 17 iterations while falling from 390 to 11. 0 iterations: off.
 DIVERGE_LEVEL = 5.0
 DIVERGE_ITERATIONS = 20
+
+#: The signals held during a solve (:func:`signals_deferred`); each block appends its list.
+_HELD: list[list[int]] = []
+_DEFERRED = (signal.SIGINT, signal.SIGTERM)
+
+
+def stop_requested() -> bool:
+    """Whether a signal arrived during the innermost :func:`signals_deferred` block."""
+    return bool(_HELD and _HELD[-1])
+
+
+@contextlib.contextmanager
+def signals_deferred():
+    """Hold SIGINT and SIGTERM during the block (a compiled solve) and deliver the first one
+    received to the previous handler when the block ends (see the module docstring).
+
+    Outside the main thread (where no handler can be set) the block runs unchanged."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    got: list[int] = []
+
+    def hold(signum, frame):
+        got.append(int(signum))
+
+    previous = {s: signal.getsignal(s) for s in _DEFERRED}
+    for s in _DEFERRED:
+        signal.signal(s, hold)
+    _HELD.append(got)
+    try:
+        yield
+    finally:
+        _HELD.pop()
+        for s, h in previous.items():
+            signal.signal(s, h)
+        if got:
+            if _HELD:            # an enclosing block delivers it
+                _HELD[-1].append(got[0])
+            else:
+                _deliver(got[0], previous[got[0]])
+
+
+def _deliver(signum: int, handler) -> None:
+    """Signal ``signum`` as ``handler`` (the one before the solve) would have taken it."""
+    if callable(handler):
+        handler(signum, None)
+    elif handler == signal.SIG_IGN:
+        return
+    elif signum == signal.SIGINT:
+        raise KeyboardInterrupt
+    else:                                 # the default action (SIGTERM: end the process)
+        os.kill(os.getpid(), signum)
+    raise KeyboardInterrupt               # a handler that returned: the solve is not a design
 
 
 class IterationCallback(ca.Callback):
@@ -90,6 +158,8 @@ class IterationCallback(ca.Callback):
         return ca.Sparsity(0, 0)
 
     def eval(self, arg):
+        if stop_requested():      # Ctrl-C or SIGTERM during the solve: stop Ipopt now
+            return [1]
         if self._fun is not None:
             self._fun(self.count, float(arg[1]), np.asarray(arg[0]).ravel())
         self.count += 1

@@ -75,6 +75,7 @@ from bridgeflap.design.control.ipopt_hooks import (
     DIVERGE_ITERATIONS,
     DIVERGE_LEVEL,
     IterationCallback,
+    signals_deferred,
 )
 from bridgeflap.design.control.loop_algebra import k_complex
 
@@ -387,14 +388,16 @@ class DesignProblem:
 
     # ---- one solve
     def solve(self, theta0, speeds, max_iter=None, weights0=None, gamma0=None,
-              warm=False, feasibility=False) -> Solve:
+              warm=False, feasibility=False, trust=None) -> Solve:
         """Solve the NLP from ``theta0`` (and ``weights0``) on the design ``speeds`` [m/s].
 
         ``gamma0`` (warm start) is raised to the epigraph value at ``theta0`` when lower, so
         the start satisfies the robust constraints whatever cuts were added; ``warm``
         starts Ipopt's barrier at ``WARM_MU_INIT`` (a re-solve after cuts). ``feasibility``:
         phase 1 -- no robust epigraph, damping constraints tightened by
-        ``FEASIBILITY_BACKOFF_1_S`` (see there). Returns a
+        ``FEASIBILITY_BACKOFF_1_S`` (see there). ``trust = (centre, radius)``: theta is held
+        within ``centre +- radius max(|centre|, THETA_SCALE)`` (a trust region, intersected with
+        the bounds; :mod:`bridgeflap.design.control.cuts`). Returns a
         :class:`bridgeflap.design.control.records.Solve`.
         """
         s = self.settings
@@ -460,6 +463,14 @@ class DesignProblem:
         lbx = [-s.b_bound, -s.b_bound, -s.b_bound, s.a2_bounds[0], s.a1_bounds[0], 0.0]
         ubx = [s.b_bound, s.b_bound, s.b_bound, s.a2_bounds[1], s.a1_bounds[1], 1e4]
         theta0 = np.asarray(theta0, float)
+        tr_lo = tr_hi = None
+        if trust is not None:       # the trust region, inside the problem's own bounds
+            c = np.asarray(trust[0], float)
+            half = float(trust[1]) * np.maximum(np.abs(c), THETA_SCALE)
+            tr_lo = np.maximum(np.asarray(lbx[:5], float), c - half)
+            tr_hi = np.minimum(np.asarray(ubx[:5], float), c + half)
+            lbx[:5], ubx[:5] = list(tr_lo), list(tr_hi)
+            theta0 = np.clip(theta0, tr_lo, tr_hi)
         w0 = self.weights if weights0 is None else np.asarray(weights0, float)
         gT0 = 1.0
         if n_rob:
@@ -492,24 +503,31 @@ class DesignProblem:
         if warm and not feasibility and DIVERGE_ITERATIONS > 0:
             watch = (np.concatenate(lbg), np.concatenate(ubg), DIVERGE_LEVEL,
                      DIVERGE_ITERATIONS)
-        it_cb = None
-        if self.on_iteration is not None or feasibility or watch is not None:
-            # phase 1 stops at its first feasible iterate, a warm re-solve when it diverges
-            # (design.control.ipopt_hooks)
-            it_cb = IterationCallback("design_iterations", x.size1(), nlp["g"].size1(),
-                                      self.on_iteration,
-                                      np.concatenate(ubg) if feasibility else None, watch)
-            self.callbacks["iterations"] = it_cb
-            opts["iteration_callback"] = it_cb
+        # always: it stops Ipopt on Ctrl-C/SIGTERM; phase 1 stops at its first feasible
+        # iterate, a warm re-solve when it diverges (design.control.ipopt_hooks)
+        it_cb = IterationCallback("design_iterations", x.size1(), nlp["g"].size1(),
+                                  self.on_iteration,
+                                  np.concatenate(ubg) if feasibility else None, watch)
+        self.callbacks["iterations"] = it_cb
+        opts["iteration_callback"] = it_cb
         solver = ca.nlpsol("design", "ipopt", nlp, opts)
         ev0, et0 = cb.evaluations, cb.eval_time_s
         t0 = time.perf_counter()
-        sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=np.concatenate(lbg), ubg=np.concatenate(ubg))
+        with signals_deferred():    # an interrupted solve raises here, never returns a design
+            sol = solver(x0=x0, lbx=lbx, ubx=ubx, lbg=np.concatenate(lbg),
+                         ubg=np.concatenate(ubg))
         elapsed = time.perf_counter() - t0
         st = solver.stats()
         xs = np.asarray(sol["x"].full()).ravel()
         gs = np.asarray(sol["g"].full()).ravel()
         evals = cb.evaluations - ev0
+        on_trust_bound = False
+        if trust is not None:       # a trust-region bound active (not one of the problem's)
+            own_lo = np.array([-s.b_bound] * 3 + [s.a2_bounds[0], s.a1_bounds[0]])
+            own_hi = np.array([s.b_bound] * 3 + [s.a2_bounds[1], s.a1_bounds[1]])
+            tol = 1e-6 * (tr_hi - tr_lo)
+            on_trust_bound = bool(np.any((xs[:5] <= tr_lo + tol) & (tr_lo > own_lo))
+                                  or np.any((xs[:5] >= tr_hi - tol) & (tr_hi < own_hi)))
         its = st.get("iterations", {})
         history = {k: [float(v) for v in its[k]] for k in ("obj", "inf_pr", "inf_du", "mu")
                    if k in its}
@@ -525,6 +543,7 @@ class DesignProblem:
                          f"{DIVERGE_ITERATIONS} iterations)"
                          if it_cb is not None and it_cb.stopped_diverged else ""),
                      diverged=bool(it_cb is not None and it_cb.stopped_diverged),
+                     on_trust_bound=on_trust_bound,
                      success=bool(st["success"]),
                      iterations=int(st["iter_count"]), time_s=elapsed,
                      objective=float(sol["f"]),

@@ -17,22 +17,35 @@ from bridgeflap.model.aeroelastic.control import Compensator
 
 #: Test hook: when set, every design model is built on the bridge with its stiffnesses and
 #: torsional inertia scaled by ``1 +- value`` (e.g. ``1e-12``: last-bit differences in every
-#: model matrix), so that a test can show that a design's discrete choices (layout, start) do
-#: not depend on the last bits (``tests/test_design/control/test_reproducible.py``).
+#: model matrix), so that a test can show that a design's outcome does not depend on the last
+#: bits (``tests/test_design/control/test_reproducible.py``, ``python -m bench.reproducible``).
 PERTURB_ENV = "BRIDGEFLAP_PERTURB_REL"
+#: With :data:`PERTURB_ENV`: an integer draw; each perturbed input is then scaled by ``1 + value
+#: u`` with ``u`` uniform in [-1, 1] from this seed (other signs and sizes per draw), instead
+#: of the fixed signs.
+PERTURB_SEED_ENV = "BRIDGEFLAP_PERTURB_SEED"
+_PERTURBED = ("deck.gj_nm2", "deck.ei_vertical_nm2", "deck.mass_inertia_kgm2_per_m",
+              "deck.mass_kg_per_m")
 
 
 def perturbed(spec):
-    """``spec`` as :data:`PERTURB_ENV` asks (unchanged when it is unset or 0)."""
+    """``spec`` as :data:`PERTURB_ENV` (and :data:`PERTURB_SEED_ENV`) ask (unchanged when it
+    is unset or 0)."""
     import os
 
     rel = float(os.environ.get(PERTURB_ENV, "0") or 0.0)
     if rel == 0.0:
         return spec
     d = spec.deck
-    return spec.replace(**{"deck.gj_nm2": d.gj_nm2 * (1.0 + rel),
-                           "deck.ei_vertical_nm2": d.ei_vertical_nm2 * (1.0 - rel),
-                           "deck.mass_inertia_kgm2_per_m": d.mass_inertia_kgm2_per_m * (1.0 + rel)})
+    seed = os.environ.get(PERTURB_SEED_ENV, "")
+    if not seed:
+        return spec.replace(**{
+            "deck.gj_nm2": d.gj_nm2 * (1.0 + rel),
+            "deck.ei_vertical_nm2": d.ei_vertical_nm2 * (1.0 - rel),
+            "deck.mass_inertia_kgm2_per_m": d.mass_inertia_kgm2_per_m * (1.0 + rel)})
+    u = np.random.default_rng(int(seed)).uniform(-1.0, 1.0, len(_PERTURBED))
+    return spec.replace(**{k: getattr(d, k.split(".")[1]) * (1.0 + rel * float(v))
+                           for k, v in zip(_PERTURBED, u, strict=True)})
 
 
 #: Nominal first start (b2, b1, b0, a2, a1): static gain -1 (flap against pitch), mild rate.

@@ -133,6 +133,9 @@ class Solve:
     history: dict | None = None
     #: the divergence watchdog stopped this warm re-solve (design.control.nlp.DIVERGE_LEVEL)
     diverged: bool = False
+    #: the solution lies on a bound of the solve's trust region (design.control.cuts), which
+    #: the problem itself does not have: not yet a solution of the design problem
+    on_trust_bound: bool = False
 
 
 @dataclass(frozen=True)
@@ -168,6 +171,13 @@ class CutRound:
     #: pairs it adds (design.control.variants; 0 without variants)
     n_variant_constraints: int = 0
     new_variant_constraints: int = 0
+    #: what started this solve: ``"cuts"`` (the first solve, or a re-solve after cuts),
+    #: ``"recovery"`` (after a diverged solve: from the last point that met damping and gain,
+    #: inside a trust region) or ``"trust step"`` (the previous solution lay on its trust
+    #: region's bound: re-centred there) (design.control.cuts)
+    step: str = "cuts"
+    #: relative half-width of the solve's trust region on theta (NaN: none)
+    trust_radius: float = float("nan")
 
     @strict_json
     def to_dict(self) -> dict:
@@ -181,7 +191,8 @@ class CutRound:
                             "robust": self.new_robust_cuts,
                             "variant_constraints": self.new_variant_constraints},
                "n_variant_constraints": self.n_variant_constraints,
-               "eig_time_per_speed_s": self.eig_time_per_speed_s, "chosen": self.chosen}
+               "eig_time_per_speed_s": self.eig_time_per_speed_s, "chosen": self.chosen,
+               "step": self.step, "trust_radius": self.trust_radius}
         if self.placement is not None:
             out["placement"] = self.placement
         return out

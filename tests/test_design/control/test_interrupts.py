@@ -1,0 +1,101 @@
+"""Ctrl-C and SIGTERM during an Ipopt solve end it (bridgeflap.design.control.ipopt_hooks).
+
+Without the deferral a KeyboardInterrupt raised inside one of CasADi's Python callbacks was
+caught by CasADi and the solve went on to a design (6 of 9 signals lost in a measured run).
+No physics here: the checks are on counts and exceptions, no tolerances.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+
+import numpy as np
+import pytest
+
+from bridgeflap.design.cli.run import run
+from bridgeflap.design.control.driver import build_model
+from bridgeflap.design.control.ipopt_hooks import signals_deferred, stop_requested
+from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.settings import load_settings
+
+
+@pytest.fixture(scope="module")
+def small():
+    # Humber, 6 modes, 5 flap pairs: the design's code path on small matrices
+    s = load_settings(None, n_modes=6, flap_count=5, robust_design_speeds_m_s=(30.0, 60.0),
+                      n_robust_omega=8, max_iter=60)
+    return s, build_model(s)[1]
+
+
+def _solve_signalled(small, signum, at=3):
+    s, model = small
+    prob = DesignProblem(s, model)
+    seen = []
+
+    def tick(i, f, x):
+        seen.append(i)
+        if len(seen) == at:
+            os.kill(os.getpid(), signum)
+
+    prob.on_iteration = tick
+    prob.solve(np.array([0.0, 0.5, -1.0, 0.05, 0.5]), [0.0, 40.0, 80.0])
+    return seen
+
+
+def test_ctrl_c_during_a_solve_raises_and_stops_ipopt(small):
+    with pytest.raises(KeyboardInterrupt):
+        _solve_signalled(small, signal.SIGINT)
+    # the solve raised (no Solve returned) and the handler is back
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert not stop_requested()
+
+
+def test_ipopt_stops_at_the_next_iteration(small):
+    s, model = small
+    prob = DesignProblem(s, model)
+    seen = []
+
+    def tick(i, f, x):
+        seen.append(i)
+        if len(seen) == 3:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    prob.on_iteration = tick
+    with pytest.raises(KeyboardInterrupt):
+        prob.solve(np.array([0.0, 0.5, -1.0, 0.05, 0.5]), [0.0, 40.0, 80.0])
+    # the signal arrived inside iteration 3's callback; Ipopt is asked to stop at the next one
+    # (the callback returns before calling tick again): no further iteration is run
+    assert len(seen) == 3
+
+
+def test_sigterm_during_a_solve_ends_the_command_with_143(small, capsys):
+    def command(args):
+        _solve_signalled(small, signal.SIGTERM)
+        return 0          # never reached: the solve must not return a design
+
+    def build_parser(argv):
+        parser = argparse.ArgumentParser()
+        parser.set_defaults(command="optimise", func=command)
+        return parser
+
+    rc = run([], False, build_parser=build_parser, check_args=lambda a: None,
+             command_names=["optimise"])
+    assert rc == 128 + signal.SIGTERM
+    assert capsys.readouterr().err.strip().splitlines() == ["bridgeflap: interrupted"]
+
+
+def test_nested_blocks_deliver_once_at_the_outermost():
+    got = []
+    previous = signal.signal(signal.SIGINT, lambda n, f: got.append(n))
+    try:
+        with pytest.raises(KeyboardInterrupt):   # a handler that returns: still no design
+            with signals_deferred():
+                with signals_deferred():
+                    os.kill(os.getpid(), signal.SIGINT)
+                    assert stop_requested() and got == []
+                assert stop_requested() and got == []   # handed to the enclosing block
+        assert got == [signal.SIGINT]
+    finally:
+        signal.signal(signal.SIGINT, previous)
