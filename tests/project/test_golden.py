@@ -55,3 +55,48 @@ def test_golden(name, argv, tmp_path):
 def design_diffs(golden: dict, new: dict) -> list[str]:
     """Differences of a design case against its recording (:func:`design_outcome_diffs`)."""
     return design_outcome_diffs(golden, new)
+
+
+def _widest_simd_off() -> str:
+    """NPY_DISABLE_CPU_FEATURES that switches numpy's widest SIMD level off on this CPU:
+    AVX-512 where the CPU has it, else AVX2 (what a narrower CPU computes)."""
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__ as f
+    except ImportError:  # pragma: no cover - numpy < 2
+        from numpy.core._multiarray_umath import __cpu_features__ as f
+    names = (("X86_V4", "AVX512_ICL", "AVX512_SPR", "AVX512_SKX", "AVX512F")
+             if f.get("AVX512F") else ("X86_V3", "AVX2", "FMA3"))
+    return " ".join(n for n in names if f.get(n))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("setting", ["numpy_widest_simd_off", "model_perturbed_1e-9"])
+def test_quick_design_outcome_on_other_machines(setting, tmp_path):
+    """The quick design's outcome under what differs between machines: numpy's widest SIMD
+    level switched off (the last bits of every ufunc), and every perturbed model input moved by
+    up to 1e-9 relative (BRIDGEFLAP_PERTURB_REL/SEED). It must be the recorded outcome, at the
+    tolerances of :func:`golden.cases.design_outcome_diffs` (status, layout, margin 2 %,
+    critical speed 0.05 m/s); the acceptance checks are left out here (their own numbers are
+    the golden case's)."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "MPLBACKEND": "Agg"}
+    if setting == "numpy_widest_simd_off":
+        off = _widest_simd_off()
+        if not off:
+            pytest.skip("numpy finds no SIMD level above its baseline on this CPU")
+        env["NPY_DISABLE_CPU_FEATURES"] = off
+    else:
+        env |= {"BRIDGEFLAP_PERTURB_REL": "1e-9", "BRIDGEFLAP_PERTURB_SEED": "1"}
+    proc = subprocess.run([sys.executable, "-m", "bridgeflap.design.cli.main", "optimise",
+                           "--quick", "--checks", "none", "--json", "--out",
+                           str(tmp_path / "opt")], env=env, capture_output=True, text=True)
+    assert proc.stdout.strip(), proc.stderr[-2000:]
+    golden = json.loads((HERE / "optimise_quick.json").read_text())
+    new = {"exit_code": proc.returncode, "stdout": json.loads(proc.stdout)}
+    for side in (golden, new):           # the checks are not run here
+        side["stdout"] = {k: v for k, v in side["stdout"].items() if k != "acceptance"}
+    diffs = design_outcome_diffs(golden, new)
+    assert not diffs, f"{setting}: " + "; ".join(diffs[:8])
