@@ -88,20 +88,22 @@ class AcceptanceResult(ResultData):
         return fig
 
 
-def _options(checks, samples, workers, quick, seed, quick_field="quick"):
+def _options(checks, samples, workers, quick, seed, fields=("samples", "workers", "quick")):
+    """The checks' sizes, each argument checked before any work (``fields``: the caller's
+    names of ``samples``, ``workers`` and ``quick``)."""
     from bridgeflap.design.assessment.acceptance import AcceptanceOptions, parse_checks
     from bridgeflap.design.io.api_args import check_accept_args
-    from bridgeflap.model.arguments import check_int
+    from bridgeflap.model.arguments import MAX_WORKERS, check_int
 
     if not isinstance(checks, str | list | tuple):
         raise BridgeflapTypeError("checks", "must be all, none or a list of check names, got "
                                             f"{type(checks).__name__}")
     names = parse_checks(checks) if isinstance(checks, str) else parse_checks(
         ",".join(str(c) for c in checks) or "none")
-    for name, v in (("samples", samples), ("workers", workers)):
+    for name, v, top in ((fields[0], samples, MAX_SAMPLES), (fields[1], workers, MAX_WORKERS)):
         if v is not None:
-            check_int(v, name, 1, MAX_SAMPLES if name == "samples" else 1024)
-    check_accept_args(seed, quick, quick_field)
+            check_int(v, name, 1, top)
+    check_accept_args(seed, quick, fields[2])
     w = 1 if workers is None else workers
     if quick:
         return AcceptanceOptions.for_quick(names, w, samples)
@@ -269,8 +271,8 @@ def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=N
     from bridgeflap.design.io.api_args import check_design_args
 
     check_design_args(settings, progress, bridge, warm_start, progress_bar, records)
-    opts = _options(checks, check_samples, check_workers, quick_checks, None,
-                    "quick_checks")  # before work
+    opts = _options(checks, check_samples, check_workers, quick_checks, None,  # before work
+                    ("check_samples", "check_workers", "quick_checks"))
     res = run_design(settings, progress=progress, bridge=bridge, warm_start=warm_start,
                      progress_bar=progress_bar, records=records)
     if res.controller is None:
