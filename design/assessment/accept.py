@@ -22,7 +22,6 @@ it is. The acceptance block is ``DesignResult.extras["acceptance"]`` (in ``summa
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -31,8 +30,7 @@ from bridgeflap.model.errors import BridgeflapTypeError
 from bridgeflap.model.results import ResultData
 from bridgeflap.model.vocabulary import renamed
 
-__all__ = ["ACCEPTANCE_STATUS", "SCRATCH_PREFIX", "AcceptanceResult", "accept", "design",
-           "remove_stale_scratch"]
+__all__ = ["ACCEPTANCE_STATUS", "AcceptanceResult", "accept", "design"]
 
 #: most fresh variants of one validation (the do-no-harm check's own bound)
 MAX_SAMPLES = MAX_VARIANTS
@@ -147,6 +145,7 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
     """
     from bridgeflap.design.assessment.acceptance import acceptance
     from bridgeflap.design.control.settings import DesignSettings, load_settings
+    from bridgeflap.design.io.scratch import scratch_folder
     from bridgeflap.model.aeroelastic.controller_file import (
         as_controller,
         load_controller,
@@ -175,43 +174,13 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
     # the checks read the controller as a user reads it back from its file; the scratch
     # folder lives only for that read (a process killed during the checks leaves none), and
     # one left by a process killed in that instant is removed by the next run
-    remove_stale_scratch()
-    with tempfile.TemporaryDirectory(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-") as tmp:
-        path = Path(tmp) / "controller.toml"
+    with scratch_folder("accept") as tmp:
+        path = tmp / "controller.toml"
         save_controller(controller, path)
         read_back = load_controller(path)
     block, results = acceptance(read_back, settings, opts, closed_loop=closed_loop,
                                 progress=progress, bridge=bridge)
     return AcceptanceResult(block["status"], block, results)
-
-
-#: name prefix of the scratch folder of :func:`accept` in the system temp folder, followed by
-#: the owning process's id
-SCRATCH_PREFIX = "bridgeflap-accept-"
-
-
-def remove_stale_scratch(root: str | os.PathLike | None = None) -> list[Path]:
-    """Remove the scratch folders of :func:`accept` in ``root`` (default: the system temp
-    folder) whose owning process is no longer alive (killed while reading its controller back);
-    returns them. Folders of live processes, and any other folder, are left alone."""
-    import shutil
-
-    from bridgeflap.design.io.outputs import pid_alive
-
-    removed = []
-    base = Path(tempfile.gettempdir() if root is None else root)
-    try:
-        entries = list(base.glob(f"{SCRATCH_PREFIX}*"))
-    except OSError:
-        return removed
-    for entry in entries:
-        pid, sep, _ = entry.name[len(SCRATCH_PREFIX):].partition("-")
-        if not sep or not pid.isdigit() or not entry.is_dir() or pid_alive(int(pid)):
-            continue
-        shutil.rmtree(entry, ignore_errors=True)
-        if not entry.exists():
-            removed.append(entry)
-    return removed
 
 
 def _warn_other_bridge(controller, settings, bridge) -> None:

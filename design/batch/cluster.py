@@ -26,6 +26,7 @@ import time
 import uuid
 from collections import deque
 
+from bridgeflap.design.io.scratch import scratch_folder
 from bridgeflap.model.errors import BridgeflapInputError
 from bridgeflap.model.workers import check_main_guard
 
@@ -107,9 +108,14 @@ def cluster_client(workers: int, scheduler: str | None):
         # before each worker start; restored after the cluster closes
         saved_env = {k: os.environ.get(k) for k in
                      (*dask.config.get("distributed.nanny.pre-spawn-environ"), "PYTHONHASHSEED")}
+        # the workers' scratch space (dask-scratch-space) in a folder of this run, removed
+        # when the cluster closes; one left by a killed run is removed by the next
+        scratch = contextlib.ExitStack()
+        local_directory = scratch.enter_context(scratch_folder("dask"))
         try:
-            with dask.config.set(settings):
+            with dask.config.set({**settings, "temporary-directory": str(local_directory)}):
                 cluster = LocalCluster(
+                    local_directory=str(local_directory),
                     n_workers=workers,
                     threads_per_worker=1,
                     processes=True,
@@ -132,6 +138,7 @@ def cluster_client(workers: int, scheduler: str | None):
                     raise
         except BaseException:
             _restore_environ(saved_env)
+            scratch.close()
             raise
     else:
         client = connect_scheduler(scheduler)
@@ -148,6 +155,7 @@ def cluster_client(workers: int, scheduler: str | None):
         if cluster is not None:
             cluster.close()
             _restore_environ(saved_env)
+            scratch.close()
 
 
 def _refused(scheduler: str, reason: str) -> BridgeflapInputError:
