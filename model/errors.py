@@ -50,3 +50,9 @@ class BatchFailedError(BridgeflapError):
         self.cases, self.out_dir, self.first_error = cases, out_dir, first_error
         super().__init__(f"all {cases} cases failed (first: {first_error}); per-case records "
                          f"in {out_dir}/cases")
+
+
+class BridgeflapWarning(UserWarning):
+    """A result is given, but something the user should know about how it was reached (a
+    controller judged on another bridge than it was designed on): the line the command line
+    prints as ``bridgeflap: warning: ...``, raised with :func:`warnings.warn` by the API."""

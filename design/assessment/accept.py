@@ -21,7 +21,7 @@ it is. The acceptance block is ``DesignResult.extras["acceptance"]`` (in ``summa
 
 from __future__ import annotations
 
-import tempfile
+import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -86,18 +86,22 @@ class AcceptanceResult(ResultData):
         return fig
 
 
-def _options(checks, samples, workers, quick, seed):
+def _options(checks, samples, workers, quick, seed, fields=("samples", "workers", "quick")):
+    """The checks' sizes, each argument checked before any work (``fields``: the caller's
+    names of ``samples``, ``workers`` and ``quick``)."""
     from bridgeflap.design.assessment.acceptance import AcceptanceOptions, parse_checks
-    from bridgeflap.model.arguments import check_int
+    from bridgeflap.design.io.api_args import check_accept_args
+    from bridgeflap.model.arguments import MAX_WORKERS, check_int
 
     if not isinstance(checks, str | list | tuple):
         raise BridgeflapTypeError("checks", "must be all, none or a list of check names, got "
                                             f"{type(checks).__name__}")
     names = parse_checks(checks) if isinstance(checks, str) else parse_checks(
         ",".join(str(c) for c in checks) or "none")
-    for name, v in (("samples", samples), ("workers", workers)):
+    for name, v, top in ((fields[0], samples, MAX_SAMPLES), (fields[1], workers, MAX_WORKERS)):
         if v is not None:
-            check_int(v, name, 1, MAX_SAMPLES if name == "samples" else 1024)
+            check_int(v, name, 1, top)
+    check_accept_args(seed, quick, fields[2])
     w = 1 if workers is None else workers
     if quick:
         return AcceptanceOptions.for_quick(names, w, samples)
@@ -141,14 +145,14 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
     """
     from bridgeflap.design.assessment.acceptance import acceptance
     from bridgeflap.design.control.settings import DesignSettings, load_settings
-    from bridgeflap.model.aeroelastic.control import Controller
-    from bridgeflap.model.aeroelastic.controller_file import load_controller, save_controller
+    from bridgeflap.design.io.scratch import scratch_folder
+    from bridgeflap.model.aeroelastic.controller_file import (
+        as_controller,
+        load_controller,
+        save_controller,
+    )
 
-    if isinstance(controller, str | Path):
-        controller = load_controller(controller)
-    if not isinstance(controller, Controller):
-        raise BridgeflapTypeError("controller", "must be a Controller or the path of a "
-                                  f"controller file, got {type(controller).__name__}")
+    controller = as_controller(controller, "controller")  # a controller file's path is read
     if settings is None or isinstance(settings, str | Path):
         settings = load_settings("default" if settings is None else settings)
     if not isinstance(settings, DesignSettings):
@@ -160,19 +164,51 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
     opts = _options(checks, samples, workers, quick, seed)
     if not opts.checks:
         return AcceptanceResult("not_run", {"checks": [], "status": "not_run"})
+    _warn_other_bridge(controller, settings, bridge)  # the bridge is read: a bad one stops here
     if closed_loop is None and "independent_check" in opts.checks:
         from bridgeflap.design.control.problem_model import build_model
 
         _, model = build_model(settings, n_modes=settings.verification_modes,
                                positions=controller.flap_strip_positions_m, spec=bridge)
         closed_loop = model.system(controller.compensator)
-    with tempfile.TemporaryDirectory(prefix="bridgeflap-accept-") as tmp:
-        # the checks read the controller as a user reads it back from its file
-        path = Path(tmp) / "controller.toml"
+    # the checks read the controller as a user reads it back from its file; the scratch
+    # folder lives only for that read (a process killed during the checks leaves none), and
+    # one left by a process killed in that instant is removed by the next run
+    with scratch_folder("accept") as tmp:
+        path = tmp / "controller.toml"
         save_controller(controller, path)
-        block, results = acceptance(load_controller(path), settings, opts,
-                                    closed_loop=closed_loop, progress=progress, bridge=bridge)
+        read_back = load_controller(path)
+    block, results = acceptance(read_back, settings, opts, closed_loop=closed_loop,
+                                progress=progress, bridge=bridge)
     return AcceptanceResult(block["status"], block, results)
+
+
+def _warn_other_bridge(controller, settings, bridge) -> None:
+    """Warn (:class:`~bridgeflap.model.errors.BridgeflapWarning`) when ``controller`` records
+    another bridge than the one it is judged on, as the command line does
+    (:func:`bridgeflap.model.aeroelastic.controller_file.check_controller_plant`); flaps that do
+    not fit on the bridge are refused naming the field."""
+    import warnings
+
+    from bridgeflap.model.aeroelastic.controller_file import check_controller_plant
+    from bridgeflap.model.errors import BridgeflapWarning
+    from bridgeflap.model.structure.bridge_arg import as_bridge
+    from bridgeflap.model.structure.spec import BridgeSpec
+
+    target = settings.bridge if bridge is None else bridge
+    spec = as_bridge(target, "bridge")
+    if not isinstance(spec, BridgeSpec):
+        raise BridgeflapTypeError("bridge", "must be a built-in bridge name, a bridge .toml "
+                                            "path or a BridgeSpec, got an aeroelastic system")
+    if isinstance(target, BridgeSpec):  # no file to hash: the recorded name is compared
+        rec = controller.plant
+        note = (None if rec is None or rec.bridge_name == spec.name else
+                f"designed on bridge {rec.bridge} ({rec.bridge_name!r}), checked on "
+                f"{spec.name!r}: bridge_name differs")
+    else:
+        note = check_controller_plant(controller, os.fspath(target), spec)
+    if note and controller.plant is not None:  # an old file without a record: as before
+        warnings.warn(f"controller: {note}", BridgeflapWarning, stacklevel=3)
 
 
 @renamed
@@ -204,7 +240,8 @@ def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=N
     from bridgeflap.design.io.api_args import check_design_args
 
     check_design_args(settings, progress, bridge, warm_start, progress_bar, records)
-    opts = _options(checks, check_samples, check_workers, quick_checks, None)  # before work
+    opts = _options(checks, check_samples, check_workers, quick_checks, None,  # before work
+                    ("check_samples", "check_workers", "quick_checks"))
     res = run_design(settings, progress=progress, bridge=bridge, warm_start=warm_start,
                      progress_bar=progress_bar, records=records)
     if res.controller is None:

@@ -1,7 +1,8 @@
 """Do no harm: a controller judged on bridges it was not designed on.
 
-For each of ``count`` fresh variants sampled (Sobol', :func:`bridgeflap.design.batch.designs.sobol`)
-over the uncertainty set of the estimated inputs
+For each of ``count`` fresh variants drawn (independent uniform draws by default, the basis of
+the Clopper-Pearson certificate; Sobol' points, :func:`bridgeflap.design.batch.designs.sobol`, on
+request, with no such bound) over the uncertainty set of the estimated inputs
 (:data:`bridgeflap.design.control.uncertainty.DEFAULT_UNCERTAIN_RANGES` less the inputs held fixed),
 the variant's **open-loop** critical speed (flutter or divergence, whichever comes first) is set
 against its **closed-loop** one with the controller's flaps, both from the same sweep on the same
@@ -41,17 +42,17 @@ from bridgeflap.design.assessment.harm_verdict import (
     _row,
     near_decision,
 )
+from bridgeflap.design.io.api_args import MAX_VARIANTS
 from bridgeflap.model.errors import BridgeflapInputError
 from bridgeflap.model.progress import Eta
 from bridgeflap.model.results import ResultData
 
 __all__ = ["DEFAULT_SCREEN_MODES", "HARM_METHODS", "HARM_TOL_REL", "MAX_VARIANTS", "SAMPLINGS",
-           "SCREEN_MARGIN_REL", "HarmResult", "clopper_pearson_upper", "do_no_harm", "harm_row",
-           "near_decision"]
+           "SCREEN_MARGIN_REL", "HarmResult", "clopper_pearson_upper", "do_no_harm",
+           "harm_bound_text", "harm_row", "near_decision"]
 
-#: most fresh variants of one check (``count``; ``bridgeflap optimise --check-samples``): a
-#: million rows would take days on a workstation
-MAX_VARIANTS = 100_000
+#: most fresh variants of one check (``count``): :data:`bridgeflap.design.io.api_args.MAX_VARIANTS`,
+#: the bound of every count of fresh variants, CLI and API alike
 #: ``method`` of :func:`do_no_harm` and :func:`harm_row`: ``"fast"`` (default) or the
 #: ``"reference"`` (the module docstring)
 HARM_METHODS = ("fast", "reference")
@@ -67,10 +68,22 @@ DEFAULT_SCREEN_MODES = 16
 DEFAULT_FIXED = ("deck.half_chord_m", "aero.coherence_decay")
 
 
-#: ``sampling`` of :func:`do_no_harm`: ``"sobol"`` (scrambled Sobol', even coverage of the box:
-#: the design's scenarios and the screening) or ``"random"`` (independent uniform draws, the
-#: basis of the Clopper-Pearson certificate of :func:`clopper_pearson_upper`)
-SAMPLINGS = ("sobol", "random")
+#: ``sampling`` of :func:`do_no_harm`: ``"random"`` (the default: independent uniform draws, the
+#: basis of the Clopper-Pearson certificate of :func:`clopper_pearson_upper`) or ``"sobol"``
+#: (scrambled Sobol', even coverage of the box, as the design's scenarios and the screening; no
+#: certificate)
+SAMPLINGS = ("random", "sobol")
+
+
+def harm_bound_text(sampling: str) -> str:
+    """What ``harm_probability_upper_95`` of a check drawn by ``sampling`` is (or why there is
+    none)."""
+    if sampling == "random":
+        return ("one-sided 95 % Clopper-Pearson upper bound on the probability that a bridge "
+                "drawn from the ranges is harmed (independent draws: sampling 'random')")
+    return ("none: the variants are Sobol' points (sampling 'sobol'), not independent draws, "
+            "so the count of harmed variants gives no Clopper-Pearson certificate; draw them "
+            "with sampling 'random' for one")
 
 
 def clopper_pearson_upper(harmed: int, n: int, confidence: float = 0.95) -> float | None:
@@ -137,7 +150,7 @@ class HarmResult(ResultData):
     #: the a-posteriori check of the screening (:func:`do_no_harm`)
     screen_check: dict = field(default_factory=dict)
     #: how the variants were drawn (:data:`SAMPLINGS`)
-    sampling: str = "sobol"
+    sampling: str = "random"
 
     def summary(self) -> dict:
         """Fractions, the worst ratio and its variant (strict-JSON ready)."""
@@ -163,11 +176,10 @@ class HarmResult(ResultData):
             # unverified crossing
             "status": ("harm" if harmed else "unresolved" if unresolved else "no_harm"),
             "harmed_count": len(harmed),
-            "harm_probability_upper_95": clopper_pearson_upper(len(harmed), len(self.rows)),
-            "harm_probability_bound": "one-sided 95 % Clopper-Pearson upper bound on the "
-                                      "probability that a bridge drawn from the ranges is "
-                                      "harmed (independent draws: sampling "
-                                      f"{self.sampling!r})",
+            # a certificate holds for independent draws only: none for Sobol' points
+            "harm_probability_upper_95": (clopper_pearson_upper(len(harmed), len(self.rows))
+                                          if self.sampling == "random" else None),
+            "harm_probability_bound": harm_bound_text(self.sampling),
             "sampling": self.sampling,
             "ranges": {k: list(v) for k, v in self.ranges.items()},
             "method": self.method, "screen_modes": self.screen_modes,
@@ -226,7 +238,7 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
                ranges: dict | None = None, fixed=DEFAULT_FIXED, workers: int = 1,
                progress=None, method: str = "fast",
                screen_modes: int | None = DEFAULT_SCREEN_MODES,
-               sampling: str = "sobol", scheduler: str | None = None) -> HarmResult:
+               sampling: str = "random", scheduler: str | None = None) -> HarmResult:
     """Open- against closed-loop critical speed of ``controller`` on ``count`` fresh variants.
 
     Parameters
@@ -236,7 +248,7 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
     bridge : str or BridgeSpec
         The nominal bridge (built-in name, TOML path, or a spec).
     count, seed : int
-        Sobol' sample size and scramble seed (another seed: other variants).
+        Fresh variants and the seed of their draws (another seed: other variants).
     n_modes : int
         Retained modes of every variant's model (of every row's numbers with
         ``method="reference"`` or ``screen_modes=None``).
@@ -259,8 +271,11 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
         variant is one task, independent of where it runs.
     method : {"fast", "reference"}
         :data:`HARM_METHODS` (the module docstring).
-    sampling : {"sobol", "random"}
-        :data:`SAMPLINGS`: ``"random"`` for a certificate (independent draws).
+    sampling : {"random", "sobol"}
+        :data:`SAMPLINGS`: ``"random"`` (default) draws the variants independently, so the
+        summary's ``harm_probability_upper_95`` is a Clopper-Pearson certificate; ``"sobol"``
+        covers the ranges evenly but gives no such bound (``None``, said in
+        ``harm_probability_bound``).
     screen_modes : int or None
         ``method="fast"``: screen every variant on this many modes first (ignored unless
         below ``n_modes``). A row near a decision (:func:`near_decision`) and every row near
@@ -270,35 +285,18 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
         every row is recomputed on ``n_modes`` (``screen_check``).
     """
     from bridgeflap.design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
-    from bridgeflap.model.structure.loader import load_bridge
-    from bridgeflap.model.structure.spec import BridgeSpec
+    from bridgeflap.design.io.api_args import check_harm_args
 
-    if (isinstance(count, bool) or not isinstance(count, int)
-            or not 1 <= count <= MAX_VARIANTS):
-        raise BridgeflapInputError("count", f"must be an integer in [1, {MAX_VARIANTS}], "
-                                            f"got {count!r}")
-    if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
-        raise BridgeflapInputError("scheduler", "must be 'local' or a Dask scheduler address, "
-                                                f"got {scheduler!r}")
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise BridgeflapInputError("workers", f"must be an integer >= 1, got {workers!r}")
-    if not (np.isfinite(speed_max_m_s) and speed_max_m_s > 0):
-        raise BridgeflapInputError("speed_max_m_s", f"must be positive, got {speed_max_m_s}")
-    _check_method(method)
-    if sampling not in SAMPLINGS:
-        raise BridgeflapInputError("sampling", f"must be one of {SAMPLINGS}, got {sampling!r}")
-    if screen_modes is not None and (isinstance(screen_modes, bool)
-                                     or not isinstance(screen_modes, int) or screen_modes < 1):
-        raise BridgeflapInputError("screen_modes",
-                                   f"must be a positive integer or None, got {screen_modes!r}")
+    # every argument before any work: one line naming it (the CLI's bounds)
+    controller, spec, grid = check_harm_args(
+        controller, bridge, count, seed, n_modes, speed_max_m_s, speeds, ranges, fixed,
+        workers, progress, method, screen_modes, sampling, scheduler, HARM_METHODS, SAMPLINGS)
     screen = (screen_modes if method == "fast" and screen_modes is not None
               and screen_modes < n_modes else None)
-    spec = bridge if isinstance(bridge, BridgeSpec) else load_bridge(bridge)
     name = bridge if isinstance(bridge, str) else spec.name
     if ranges is None:
         ranges = {k: v for k, v in DEFAULT_UNCERTAIN_RANGES.items() if k not in set(fixed)}
-    u = (np.arange(0.0, 1.5 * speed_max_m_s + 1e-9, 0.5) if speeds is None
-         else np.asarray(speeds, dtype=float))
+    u = np.arange(0.0, 1.5 * speed_max_m_s + 1e-9, 0.5) if grid is None else grid
     samples = _sample(spec, dict(ranges), count, seed, sampling)
     say = progress or (lambda msg: None)
     with _Runner(workers, controller, u, n_modes, speed_max_m_s, method, screen, say,

@@ -26,16 +26,22 @@ import time
 import uuid
 from collections import deque
 
+from bridgeflap.design.io.scratch import scratch_folder
 from bridgeflap.model.errors import BridgeflapInputError
 from bridgeflap.model.workers import check_main_guard
 
 __all__ = ["CONNECT_TIMEOUT_S", "LOCAL_WORKER_CONFIG", "LOCAL_WORKER_PRELOAD",
-           "WORKERS_TIMEOUT_S", "cluster_client",
+           "WORKERS_TIMEOUT_S", "cluster_client", "connect_scheduler", "probe_scheduler",
            "dask_setup", "run_dask"]
 
 _POLL_S = 0.1
 #: connect timeout to a remote Dask scheduler [s]: a dead address fails within this
 CONNECT_TIMEOUT_S = 5.0
+#: the largest handshake a Dask scheduler sends (a few hundred bytes; :func:`probe_scheduler`)
+_HANDSHAKE_MAX_BYTES = 1 << 20
+#: time the client's own connection may take past the connect timeout before it is given up
+#: [s] (distributed's connect and handshake each get the timeout; a hang gets no more)
+_CLIENT_GRACE_S = 2.0
 #: how long a reachable remote scheduler may take to show its first worker [s]
 WORKERS_TIMEOUT_S = 30.0
 #: dask settings of a local cluster's workers, measured on the 64-case flutter DOE of
@@ -102,9 +108,14 @@ def cluster_client(workers: int, scheduler: str | None):
         # before each worker start; restored after the cluster closes
         saved_env = {k: os.environ.get(k) for k in
                      (*dask.config.get("distributed.nanny.pre-spawn-environ"), "PYTHONHASHSEED")}
+        # the workers' scratch space (dask-scratch-space) in a folder of this run, removed
+        # when the cluster closes; one left by a killed run is removed by the next
+        scratch = contextlib.ExitStack()
+        local_directory = scratch.enter_context(scratch_folder("dask"))
         try:
-            with dask.config.set(settings):
+            with dask.config.set({**settings, "temporary-directory": str(local_directory)}):
                 cluster = LocalCluster(
+                    local_directory=str(local_directory),
                     n_workers=workers,
                     threads_per_worker=1,
                     processes=True,
@@ -127,22 +138,10 @@ def cluster_client(workers: int, scheduler: str | None):
                     raise
         except BaseException:
             _restore_environ(saved_env)
+            scratch.close()
             raise
     else:
-        loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
-        levels = [lg.level for lg in loggers]
-        for lg in loggers:
-            lg.setLevel(logging.CRITICAL)
-        try:
-            client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S:g}s")
-        except (OSError, ValueError, TypeError, TimeoutError, asyncio.TimeoutError) as exc:
-            reason = " ".join(str(exc).split())[:200] or type(exc).__name__
-            raise BridgeflapInputError(
-                "scheduler", f"cannot connect to {scheduler} within {CONNECT_TIMEOUT_S:g} s "
-                             f"({reason})") from None
-        finally:
-            for lg, level in zip(loggers, levels, strict=True):
-                lg.setLevel(level)
+        client = connect_scheduler(scheduler)
         try:
             client.wait_for_workers(1, timeout=WORKERS_TIMEOUT_S)
         except (OSError, TimeoutError, asyncio.TimeoutError):
@@ -156,6 +155,138 @@ def cluster_client(workers: int, scheduler: str | None):
         if cluster is not None:
             cluster.close()
             _restore_environ(saved_env)
+            scratch.close()
+
+
+def _refused(scheduler: str, reason: str) -> BridgeflapInputError:
+    return BridgeflapInputError("scheduler", f"{scheduler}: {reason}")
+
+
+def _host_port(scheduler: str) -> tuple[str, int] | None:
+    """``(host, port)`` of a plain-TCP address (``tcp://host:port`` or ``host:port``); None
+    for another protocol (``tls://``, ``ws://``, ``inproc://``), which is not probed."""
+    text = scheduler.strip()
+    if "://" in text:
+        protocol, _, text = text.partition("://")
+        if protocol.lower() != "tcp":
+            return None
+    text = text.split("/", 1)[0]
+    host, sep, port = text.rpartition(":") if text.count(":") == 1 or "]:" in text else (
+        text, "", "8786")  # Dask's default port when none is given
+    host = host.strip("[]")
+    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise BridgeflapInputError("scheduler", f"{scheduler!r} is not a Dask scheduler address "
+                                                "such as tcp://host:8786 (or 'local')")
+    return host, int(port)
+
+
+def _recv_exactly(sock, n: int, deadline: float) -> bytes:
+    data = bytearray()
+    while len(data) < n:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise TimeoutError
+        sock.settimeout(left)
+        chunk = sock.recv(n - len(data))  # socket.timeout is TimeoutError
+        if not chunk:
+            raise ConnectionError("closed the connection")
+        data += chunk
+    return bytes(data)
+
+
+def probe_scheduler(scheduler: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
+    """Raise one line naming ``scheduler`` unless a Dask scheduler answers at its address
+    within ``timeout_s``.
+
+    A Dask scheduler speaks first: on a new TCP connection it sends its handshake, one framed
+    message (an 8-byte length, then the frame count and each frame's length, 8 bytes each, then
+    the frames). The probe reads that message under a hard deadline and checks its framing, so
+    a server that accepts and never answers (a hang in distributed), or one that speaks
+    another protocol (an HTTP server's reply read as a length of exabytes: a MemoryError in
+    distributed) is refused here, before distributed reads anything. Addresses of other
+    protocols than TCP are left to distributed (:func:`connect_scheduler`'s deadline).
+    """
+    import socket
+    import struct
+
+    where = _host_port(scheduler)
+    if where is None:
+        return
+    deadline = time.monotonic() + timeout_s
+    try:
+        with socket.create_connection(where, timeout=timeout_s) as sock:
+            (total,) = struct.unpack("<Q", _recv_exactly(sock, 8, deadline))
+            if not 16 <= total <= _HANDSHAKE_MAX_BYTES:
+                raise _refused(scheduler, "answers, but not as a Dask scheduler (another "
+                                          "service listens there)")
+            body = _recv_exactly(sock, total, deadline)
+    except TimeoutError:
+        raise _refused(scheduler, f"no Dask scheduler answered within {timeout_s:g} s") from None
+    except OSError as exc:  # refused, unreachable, reset, a name that does not resolve
+        reason = " ".join(str(exc.strerror or exc).split())[:200] or type(exc).__name__
+        raise _refused(scheduler, f"cannot connect within {timeout_s:g} s ({reason})") from None
+    (frames,) = struct.unpack_from("<Q", body)
+    sizes = (struct.unpack_from(f"<{frames}Q", body, 8)
+             if 1 <= frames <= 64 and 8 + 8 * frames <= total else None)
+    if sizes is None or 8 + 8 * frames + sum(sizes) != total:
+        raise _refused(scheduler, "answers, but not as a Dask scheduler (another service "
+                                  "listens there)")
+
+
+def connect_scheduler(scheduler: str, timeout_s: float = CONNECT_TIMEOUT_S):
+    """A :class:`dask.distributed.Client` of the Dask scheduler at ``scheduler``, or one line
+    naming ``scheduler`` within about ``timeout_s`` (:func:`probe_scheduler` first, then the
+    client's own connection under a hard deadline: whatever distributed raises, MemoryError
+    included, or a connection that never completes, is that one line).
+
+    distributed's own connection log lines are silenced meanwhile.
+    """
+    import threading
+
+    from dask.distributed import Client
+
+    deadline = time.monotonic() + timeout_s
+    probe_scheduler(scheduler, timeout_s)
+    left = max(1.0, deadline - time.monotonic())  # a scheduler answers the probe at once
+    loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL)
+    box: dict = {}
+    lock = threading.Lock()
+
+    def connect():
+        try:
+            client = Client(scheduler, timeout=f"{left:.3f}s")
+        except BaseException as exc:  # noqa: BLE001 - every failure becomes one line below
+            box["error"] = exc
+            return
+        with lock:
+            late = box.get("late", False)
+            if not late:
+                box["client"] = client
+        if late:  # the deadline passed meanwhile: nobody will use this client
+            client.close()
+
+    thread = threading.Thread(target=connect, name="bridgeflap-scheduler-connect", daemon=True)
+    try:
+        thread.start()
+        thread.join(left + _CLIENT_GRACE_S)
+        with lock:
+            box["late"] = "client" not in box and "error" not in box
+        if box["late"]:
+            raise _refused(scheduler, f"no Dask scheduler answered within {timeout_s:g} s")
+    finally:
+        for lg, level in zip(loggers, levels, strict=True):
+            lg.setLevel(level)
+    exc = box.get("error")
+    if exc is not None:
+        if isinstance(exc, KeyboardInterrupt):
+            raise exc
+        reason = " ".join(str(exc).split())[:200] or type(exc).__name__
+        raise _refused(scheduler, f"cannot connect within {timeout_s:g} s "
+                                  f"({type(exc).__name__}: {reason})") from None
+    return box["client"]
 
 
 def _restore_environ(saved: dict) -> None:

@@ -105,7 +105,6 @@ def _design_stage(args, spec):
     default), then every stage's closed loop with its strips
     (bridgeflap.design.assessment.erection_control)."""
     from bridgeflap.design.assessment.erection_control import design_for_stage, erection_closed_loop
-    from bridgeflap.design.cli.main import _run
     from bridgeflap.model.arguments import check_number
     from bridgeflap.model.errors import BridgeflapInputError
 
@@ -131,13 +130,24 @@ def _design_stage(args, spec):
     if args.save_controller:
         _check_save_target(args.save_controller)
     if args.design_stage == "worst":
-        ol = _run("erection", spec, fractions=args.fractions, speeds=args.speeds,
-                  modes=args.modes, side_spans=args.side_spans or "", workers=args.workers)
+        from bridgeflap.design.studies.analyses import ANALYSES, RunContext
+
+        # the open-loop stages' progress lines wait for the verdict on --design-stage: a
+        # refusal (no stage has a critical speed) prints its one line only
+        held: list[str] = []
+        entry = ANALYSES["erection"]
+        ol = entry.run(spec, {**entry.defaults, "fractions": args.fractions,
+                              "speeds": args.speeds, "modes": args.modes,
+                              "side_spans": args.side_spans or ""},
+                       RunContext(figures=False, progress=held.append,
+                                  workers=args.workers)).result
         rows = ol.to_dataframe()
         crit = rows[["flutter_speed_m_s", "divergence_speed_m_s"]].min(axis=1)
         if crit.notna().sum() == 0:
             raise BridgeflapInputError("--design-stage", "no stage has a critical speed on "
                                        "the --speeds grid: give a fraction")
+        for line in held:
+            log(line)
         i = int(crit.idxmin())
         fraction, worst_open = float(rows["erected_fraction"][i]), float(crit[i])
     log(f"designing for the stage erected {fraction:g} (critical-speed objective)")

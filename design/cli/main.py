@@ -44,6 +44,7 @@ from bridgeflap.design.cli.common import (
     spec_from_args,
 )
 from bridgeflap.design.cli.help import finish
+from bridgeflap.design.io.api_args import MAX_DESIGN_SPEED_M_S, MAX_SEED, MAX_VARIANTS
 from bridgeflap.design.io.files import atomic_write
 from bridgeflap.design.io.options import (
     MAX_GRID_VALUE,
@@ -55,7 +56,7 @@ from bridgeflap.design.io.options import (
 from bridgeflap.design.io.text import number_text, speed_text
 from bridgeflap.design.studies.analyses import ANALYSES, DEFAULT_MODES, RunContext
 from bridgeflap.model.aero.rfa import RFA_NAMES
-from bridgeflap.model.arguments import argv_list, checked, optional
+from bridgeflap.model.arguments import MAX_WORKERS, argv_list, checked, optional
 from bridgeflap.model.errors import BridgeflapInputError
 from bridgeflap.model.results import table_text
 from bridgeflap.model.structure.spec import SIDE_SPAN_SEQUENCES, check_fraction
@@ -471,13 +472,22 @@ _NUMERIC_ARGS = (
     ("modes", 1, MAX_MODES, True),
     ("count", 1, 100000, True),
     ("records", 2, 10000, True),        # Monte-Carlo records (2 for a standard error)
-    ("seed", 0, 2 ** 32 - 1, True),     # numpy's SeedSequence takes non-negative integers
-    ("workers", 1, 1024, True),
+    ("seed", 0, MAX_SEED, True),        # the API's bound (design.io.api_args)
+    ("workers", 1, MAX_WORKERS, True),
     ("samples", 2, 4096, True),         # Morris trajectories / Sobol base sample
     ("speed", 0.0, MAX_GRID_VALUE, False),
     ("coherence_decay", 0.0, 1000.0, False),
     ("turbulence_intensity", 0.0, 1.0, False),
 )
+
+#: bounds of one command that differ from :data:`_NUMERIC_ARGS`' (the same option name for
+#: another quantity): ``robustness --samples`` counts fresh variants, bounded as
+#: ``do_no_harm(count=)`` and ``optimise --check-samples`` are; its ``--speed-max`` is a design
+#: speed, bounded as ``do_no_harm(speed_max_m_s=)``
+_COMMAND_ARGS = {
+    "robustness": (("samples", 1, MAX_VARIANTS, True),
+                   ("speed_max", 0.0, MAX_DESIGN_SPEED_M_S, False)),
+}
 
 #: plausible ranges of the rigid section's inputs (``bridgeflap section``): far outside any
 #: deck, and small enough that ``m omega^2`` and the default speed grid stay finite
@@ -489,13 +499,17 @@ _SECTION_RANGES = (
 
 def _check_args(args) -> None:
     """Refuse out-of-range numeric options (one line naming the option and its limit)."""
-    for name, lo, hi, integer in _NUMERIC_ARGS:
+    own = _COMMAND_ARGS.get(getattr(args, "command", None), ())
+    table = {name: row for name, *row in (*_NUMERIC_ARGS, *own)}  # a command's own bound wins
+    for name, (lo, hi, integer) in table.items():
         value = getattr(args, name, None)
         if value is None:
             continue
         option = "--" + name.replace("_", "-")
         if integer:
             check_int(value, option.lstrip("-"), lo, hi)
+        elif name == "speed_max":
+            check_number(value, option.lstrip("-"), lo, hi, strict=True)
         elif name == "turbulence_intensity":
             check_number(value, option.lstrip("-"), lo, hi, strict=True)
         else:

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bridgeflap.design.assessment.harm import DEFAULT_SCREEN_MODES, HARM_METHODS
+from bridgeflap.design.assessment.harm import DEFAULT_SCREEN_MODES, HARM_METHODS, SAMPLINGS
 from bridgeflap.design.cli.common import (
     add_common,
     controller_from_args,
@@ -33,26 +33,40 @@ from bridgeflap.design.cli.common import (
     emit,
     log,
 )
+from bridgeflap.design.io.api_args import MAX_VARIANTS
 from bridgeflap.model.errors import BridgeflapInputError
 
-__all__ = ["arguments", "cmd_robustness"]
+__all__ = ["DEFAULT_SAMPLES", "arguments", "cmd_robustness"]
+
+#: fresh variants of ``bridgeflap robustness`` when ``--samples`` is not given
+DEFAULT_SAMPLES = 200
 
 
 def cmd_robustness(args):
     """Run the do-no-harm check of ``--controller`` and report it."""
     from bridgeflap.design.assessment.harm import do_no_harm
     from bridgeflap.design.cli.common import check_writable_parent
-    from bridgeflap.model.arguments import check_number
+    from bridgeflap.design.io.api_args import check_design_speed, check_scheduler
     from bridgeflap.model.structure.loader import load_bridge
 
     if not args.controller:
         raise BridgeflapInputError("controller", "a controller .toml is required")
-    # the sweep runs to 1.5 x speed-max: 1000 m/s keeps it far inside the grids' 1e4 bound
-    check_number(args.speed_max, "speed-max", 0.0, 1000.0, strict=True)
+    # the bounds of do_no_harm's own arguments (design.io.api_args), also checked after parsing
+    check_design_speed(args.speed_max, "speed-max")
+    check_scheduler(args.scheduler, "scheduler")
     if args.screen_modes < 0:
         raise BridgeflapInputError("screen-modes", f"must be >= 0, got {args.screen_modes}")
     if args.stuck_angle_deg is not None and not args.failures:
         raise BridgeflapInputError("stuck-angle-deg", "only with --failures")
+    if args.failures:
+        # the failure table is one bridge's few sweeps, run here: a cluster is not used
+        for option, given in (("scheduler", args.scheduler is not None),
+                              ("sampling", args.sampling is not None),
+                              ("samples", args.samples is not None)):
+            if given:
+                raise BridgeflapInputError(option, "not with --failures (the single-pair "
+                                                   "failure table runs on this machine's "
+                                                   "--workers, on the controller's own bridge)")
     if args.out:
         if not str(args.out).lower().endswith(".csv"):
             raise BridgeflapInputError("out", f"expected a .csv file, got {args.out}")
@@ -61,11 +75,12 @@ def cmd_robustness(args):
         return _failures(args)
     spec = load_bridge(args.bridge)
     controller = controller_from_args(args, spec)
-    res = do_no_harm(controller, args.bridge, count=args.samples, seed=args.seed,
+    res = do_no_harm(controller, args.bridge, count=DEFAULT_SAMPLES if args.samples is None
+                     else args.samples, seed=args.seed,
                      n_modes=args.modes, speed_max_m_s=args.speed_max, workers=args.workers,
                      progress=log,  # progress on stderr, also with --json
                      method=args.method, screen_modes=args.screen_modes or None,
-                     scheduler=args.scheduler)
+                     scheduler=args.scheduler, sampling=args.sampling or "random")
     s = res.summary()
     if args.out:
         from bridgeflap.design.io.files import atomic_write_text
@@ -78,6 +93,10 @@ def cmd_robustness(args):
             f"{s['design_speed_m_s']:g} m/s, {100 * s['fraction_harmed']:.1f} % harmed, "
             f"worst closed/open {'n/a' if worst is None else f'{worst:.4f}'}, "
             f"{s['unresolved_variants']} unresolved: {s['status']}")
+    bound = s["harm_probability_upper_95"]
+    text += ("\n" + (f"harm probability <= {100 * bound:.3g} % (one-sided 95 % Clopper-Pearson "
+                     f"bound, {s['variants']} independent draws)" if bound is not None
+                     else f"harm probability bound: {s['harm_probability_bound']}"))
     if s.get("screen_modes"):
         c = s["screen_check"]
         text += (f"\n{s['method']}: screened on {s['screen_modes']} modes, "
@@ -144,9 +163,15 @@ def arguments(sp) -> None:
     add_common(sp, erection=False)
     sp.add_argument("--controller", default=None,
                     help="controller .toml to judge (its own flap chord and layout)")
-    sp.add_argument("--samples", type=int, default=200,
-                    help="fresh variants (Sobol' sample of the estimated-input ranges)")
-    sp.add_argument("--seed", type=int, default=11, help="Sobol' scramble seed")
+    sp.add_argument("--samples", type=int, default=None,
+                    help=f"fresh variants drawn over the estimated-input ranges (default "
+                         f"{DEFAULT_SAMPLES}, at most {MAX_VARIANTS})")
+    sp.add_argument("--seed", type=int, default=11,
+                    help="seed of the draws (random) or of the Sobol' scramble")
+    sp.add_argument("--sampling", choices=SAMPLINGS, default=None,
+                    help="random (default): independent draws, with the Clopper-Pearson upper "
+                         "bound on the harm probability; sobol: even coverage of the ranges, "
+                         "no such bound (its points are not independent)")
     sp.add_argument("--modes", type=int, default=30, help="retained modes of every variant")
     sp.add_argument("--speed-max", type=float, default=85.0,
                     help="design speed [m/s]: 'stable to the design speed' is above it")

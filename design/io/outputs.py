@@ -60,6 +60,7 @@ __all__ = [
     "claim_output",
     "is_marked_output",
     "lock_path",
+    "pid_alive",
     "read_marker",
     "recover_output",
     "remove_stale_file_temporaries",
@@ -191,6 +192,12 @@ def _pid_alive(pid: Any) -> bool:
         return stat.rsplit(")", 1)[1].split()[0] != "Z"
     except (OSError, IndexError):
         return True
+
+
+def pid_alive(pid: Any) -> bool:
+    """Whether process ``pid`` runs on this host (a zombie counts as gone; on Windows, and for
+    this process, always true: never probed)."""
+    return _pid_alive(pid)
 
 
 def _dead_writer(folder: Path, name_pid: int | None) -> bool:

@@ -30,6 +30,28 @@ from bridgeflap.model.results import ResultData
 __all__ = ["RunRecord", "open_run"]
 
 
+def _read_json(path: Path, field: str, kind: type | None = dict) -> Any:
+    """The JSON value of ``path`` (a ``kind`` when given), or one line naming ``field`` and the
+    file: truncated, not UTF-8, not JSON, the wrong kind of value, unreadable."""
+    try:
+        value = json.loads(path.read_text("utf-8"))
+    except UnicodeDecodeError:
+        raise BridgeflapInputError(field, f"{path} is not a text file (not UTF-8): "
+                                          "corrupt or not written by bridgeflap") from None
+    except json.JSONDecodeError as exc:
+        raise BridgeflapInputError(field, f"{path} is not valid JSON (line {exc.lineno}, "
+                                          f"column {exc.colno}: {exc.msg}): corrupt or "
+                                          "truncated") from None
+    except OSError as exc:
+        raise BridgeflapInputError(field, f"cannot read {path}: "
+                                          f"{exc.strerror or exc}") from None
+    if kind is not None and not isinstance(value, kind):
+        expected = "an object ({...})" if kind is dict else kind.__name__
+        raise BridgeflapInputError(field, f"{path} holds {type(value).__name__}, expected "
+                                          f"{expected}: not written by bridgeflap")
+    return value
+
+
 @dataclass(frozen=True, repr=False)
 class RunRecord(ResultData):
     """A finished (or interrupted) run folder, read back.
@@ -72,20 +94,20 @@ class RunRecord(ResultData):
         """A study's analysis results: analysis -> its ``results/<analysis>.json``."""
         out = {}
         for path in sorted((self.folder / "results").glob("*.json")):
-            out[path.stem] = json.loads(path.read_text("utf-8"))
+            out[path.stem] = _read_json(path, f"results/{path.name}", None)
         return out
 
     def statuses(self) -> dict:
         """A study's ``statuses.json`` (analysis -> status), else the DOE case statuses."""
         path = self.folder / "statuses.json"
         if path.is_file():
-            return json.loads(path.read_text("utf-8"))
+            return _read_json(path, "statuses.json")
         return {row["case_id"]: row["status"] for row in self.case_records()}
 
     def case_records(self) -> list[dict]:
         """A DOE's or batch's case records (``cases/<case_id>.json``), in case order."""
         paths = sorted((self.folder / "cases").glob("*.json"))
-        return [json.loads(p.read_text("utf-8")) for p in paths]
+        return [_read_json(p, f"cases/{p.name}") for p in paths]
 
     def controller(self):
         """The designed controller (``controller.toml`` of an optimise folder, or
@@ -106,8 +128,14 @@ class RunRecord(ResultData):
         if not path.is_file():
             raise BridgeflapInputError("analysis", f"no labelled arrays of {analysis!r} in "
                                                    f"{self.folder} (results/*.nc)")
-        with xr.open_dataset(path, engine="scipy") as ds:
-            return ds.load()
+        try:
+            with xr.open_dataset(path, engine="scipy") as ds:
+                return ds.load()
+        except Exception as exc:  # noqa: BLE001 - any reader failure is a corrupt file here
+            reason = " ".join(str(exc).split())[:200] or type(exc).__name__
+            raise BridgeflapInputError(f"results/{path.name}", f"{path} cannot be read as "
+                                       f"labelled arrays ({type(exc).__name__}: {reason}): "
+                                       "corrupt or not written by bridgeflap") from None
 
     # ------------------------------------------------------------------- the common face
     def _rows(self) -> list[dict]:
@@ -215,11 +243,10 @@ def open_run(folder: str | os.PathLike) -> RunRecord:
     data: dict = {}
     for name in ("summary.json", "batch.json"):
         if (path / name).is_file():
-            data = json.loads((path / name).read_text("utf-8"))
+            data = _read_json(path / name, "folder")
             break
     if not data and (path / "cases").is_dir():  # interrupted before batch.json was written
-        records = [json.loads(p.read_text("utf-8")) for p in sorted((path / "cases").glob(
-            "*.json"))]
+        records = [_read_json(p, "folder") for p in sorted((path / "cases").glob("*.json"))]
         ok = sum(r.get("status") == "ok" for r in records)
         data = {"cases": len(records), "succeeded": ok, "failed": len(records) - ok,
                 "complete": False}

@@ -19,6 +19,7 @@ import types
 import pytest
 
 from bridgeflap import design, model
+from bridgeflap.design.assessment.harm import do_no_harm
 from bridgeflap.model.aeroelastic.control import Compensator, Controller
 from bridgeflap.model.errors import BridgeflapError, BridgeflapInputError, BridgeflapTypeError
 
@@ -196,6 +197,29 @@ SURVEY = [
     (lambda: model.modal_model(), "modal_model", BridgeflapTypeError),
     (lambda: model.pk_sweep(_SYSTEM, _S, True), "speed_tol", BridgeflapTypeError),
     (lambda: model.closed_loop_functions("model.toml"), "model", BridgeflapTypeError),
+    # the do-no-harm check: every argument at the door, with the CLI's bounds
+    (lambda: do_no_harm(_CONTROLLER, speed_max_m_s="abc"), "speed_max_m_s",
+     BridgeflapTypeError),
+    (lambda: do_no_harm(_CONTROLLER, speed_max_m_s=1e6), "speed_max_m_s",
+     BridgeflapInputError),
+    (lambda: do_no_harm(_CONTROLLER, n_modes=0), "n_modes", BridgeflapInputError),
+    (lambda: do_no_harm(_CONTROLLER, seed=-1), "seed", BridgeflapInputError),
+    (lambda: do_no_harm(_CONTROLLER, workers=True), "workers", BridgeflapTypeError),
+    (lambda: do_no_harm(_CONTROLLER, screen_modes=0), "screen_modes", BridgeflapInputError),
+    (lambda: do_no_harm(_CONTROLLER, sampling="lhs"), "sampling", BridgeflapInputError),
+    (lambda: do_no_harm(_CONTROLLER, speeds="0:10:-1"), "speeds", BridgeflapInputError),
+    (lambda: do_no_harm(_CONTROLLER, bridge=42), "bridge", BridgeflapTypeError),
+    (lambda: do_no_harm("ctrl.toml"), "controller", BridgeflapInputError),  # no such file
+    (lambda: do_no_harm(3.5), "controller", BridgeflapTypeError),
+    # the acceptance checks: the CLI's seed bound, booleans that are bools
+    (lambda: design.accept(_CONTROLLER, seed=-1), "seed", BridgeflapInputError),
+    (lambda: design.accept(_CONTROLLER, seed=2 ** 32), "seed", BridgeflapInputError),
+    (lambda: design.accept(_CONTROLLER, quick="no"), "quick", BridgeflapTypeError),
+    (lambda: design.accept("ctrl.toml"), "controller", BridgeflapInputError),  # no such file
+    (lambda: design.design(design.load_settings(), checks="robustness", quick_checks="no"),
+     "quick_checks", BridgeflapTypeError),
+    (lambda: design.design(design.load_settings(), check_samples=100_001), "check_samples",
+     BridgeflapInputError),
 ]
 
 

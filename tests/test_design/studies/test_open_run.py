@@ -57,3 +57,40 @@ def test_summary_is_plain_python_and_plot_is_a_figure():
     assert res.critical_speed_m_s == s["critical_speed_m_s"] and res.critical_speed_m_s > 0
     assert hasattr(res.plot(), "savefig")
     assert isinstance(model.modal_model("humber").table(), str)
+
+
+def _marked(folder, kind="study"):
+    from bridgeflap.design.io.outputs import write_marker
+
+    folder.mkdir()
+    write_marker(folder, kind)
+    return folder
+
+
+@pytest.mark.parametrize("content", [b'{"status": "ok", "cas', b"[1, 2, 3]",
+                                     b"\x89PNG\r\n\x1a\n\xff\xfe"],
+                         ids=["truncated", "list", "binary"])
+def test_open_run_refuses_a_corrupt_summary_in_one_line(tmp_path, content):
+    run = _marked(tmp_path / "run")
+    (run / "summary.json").write_bytes(content)
+    before = sorted(p.name for p in run.iterdir())
+    with pytest.raises(BridgeflapInputError) as info:
+        design.open_run(run)
+    text = str(info.value)
+    assert info.value.field == "folder" and "summary.json" in text and "\n" not in text
+    assert sorted(p.name for p in run.iterdir()) == before  # nothing touched
+
+
+def test_corrupt_result_files_are_one_line_naming_the_file(tmp_path):
+    run = _marked(tmp_path / "run")
+    (run / "results").mkdir()
+    (run / "results" / "flutter.json").write_bytes(b'{"critical_speed_m_s": 6')
+    (run / "results" / "flutter.nc").write_bytes(b"CDF\x01 not really netCDF")
+    (run / "statuses.json").write_bytes(b'"flutter"')
+    rec = design.open_run(run)
+    for call, field in ((rec.results, "results/flutter.json"),
+                        (lambda: rec.dataset("flutter"), "results/flutter.nc"),
+                        (rec.statuses, "statuses.json")):
+        with pytest.raises(BridgeflapInputError) as info:
+            call()
+        assert info.value.field == field and "\n" not in str(info.value), str(info.value)
