@@ -173,8 +173,9 @@ class CutRound:
     new_variant_constraints: int = 0
     #: what started this solve: ``"cuts"`` (the first solve, or a re-solve after cuts),
     #: ``"recovery"`` (after a diverged solve: from the last point that met damping and gain,
-    #: inside a trust region) or ``"trust step"`` (the previous solution lay on its trust
-    #: region's bound: re-centred there) (design.control.cuts)
+    #: inside a trust region), ``"trust step"`` (the previous solution lay on its trust
+    #: region's bound: re-centred there) or ``"continuation"`` (the previous solve stopped at
+    #: its iteration cap: continued with the same cuts) (design.control.cuts)
     step: str = "cuts"
     #: relative half-width of the solve's trust region on theta (NaN: none)
     trust_radius: float = float("nan")
