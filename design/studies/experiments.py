@@ -313,33 +313,26 @@ class DoeResult(ResultData):
         return cases_dataset(self.rows)
 
     def plot(self, ax=None, output: str | None = None):
-        """Scatter of an output over the first two parameters (failed cases as crosses)."""
-        import matplotlib.pyplot as plt
+        """Scatter of an output over the first two parameters (failed cases as crosses).
 
-        if ax is None:
-            _, ax = plt.subplots(figsize=(6, 4.5))
-        names = list(self.config.parameters)
-        ok = [r for r in self.rows if r["status"] == "ok"]
-        if output is None:
-            keys = [k for k in (ok[0]["result"] if ok else {})
-                    if isinstance(ok[0]["result"][k], int | float)]
-            output = keys[0] if keys else None
-        x = np.array([r["params"][names[0]] for r in self.rows], dtype=float)
-        y = (np.array([r["params"][names[1]] for r in self.rows], dtype=float)
-             if len(names) > 1 else np.zeros_like(x))
-        val = np.array([np.nan if r["result"] is None or r["result"].get(output) is None
-                        else r["result"][output] for r in self.rows], dtype=float)
-        good = np.isfinite(val)
-        sc = ax.scatter(x[good], y[good], c=val[good], cmap="viridis", s=40)
-        if good.any():
-            plt.colorbar(sc, ax=ax, label=output)
-        ax.plot(x[~good], y[~good], "rx", ms=9, label="failed / no crossing")
-        ax.set_xlabel(names[0])
-        ax.set_ylabel(names[1] if len(names) > 1 else "-")
-        ax.set_title(f"{self.config.name}: {self.succeeded}/{self.cases} cases ok", fontsize=9)
-        if (~good).any():
-            ax.legend(fontsize=8)
-        return ax
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axis to draw on (default: a new figure).
+        output : str, optional
+            Result key to colour by, e.g. ``"flutter_speed_m_s"`` (default: the first numeric
+            result of the first successful case).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure (:func:`bridgeflap.design.batch.plots.cases_over_inputs`).
+        """
+        from bridgeflap.design.batch.plots import cases_over_inputs
+
+        return cases_over_inputs(
+            self.rows, list(self.config.parameters), ax, output,
+            title=f"{self.config.name}: {self.succeeded}/{self.cases} cases ok")
 
 
 def doe_fingerprint(config: DoeConfig) -> str:
