@@ -222,7 +222,7 @@ class ErectionResult(_StagesResult):
     _HEADLINE_KEYS = ("critical_speed_m_s", "flutter_speed_m_s", "divergence_speed_m_s")
 
     def plot(self, ax=None):
-        """Flutter and divergence speed against deck completion (seed Fig. 3 right):
+        """Flutter and divergence speed against deck completion (the paper's Fig. 3 right):
         :func:`bridgeflap.model.stability.plots.erection_speeds`."""
         from bridgeflap.model.stability.plots import erection_speeds
 
@@ -313,7 +313,7 @@ class FrequencyRatioResult(_StagesResult):
     _HEADLINE_KEYS = ("ratio_full_gj", "ratio_half_gj", "ratio")
 
     def plot(self, ax=None):
-        """Seed Fig. 2 style plot: :func:`bridgeflap.model.structure.plots.frequency_ratio`."""
+        """The paper's Fig. 2 style plot: :func:`bridgeflap.model.structure.plots.frequency_ratio`."""
         from bridgeflap.model.structure.plots import frequency_ratio
 
         return frequency_ratio(self, ax)
@@ -417,7 +417,7 @@ def _ratio_row(modal: ModalModel) -> dict:
 @takes_bridge
 def frequency_ratio(bridge: BridgeArg, fractions, side_spans: str | None = None
                     ) -> FrequencyRatioResult:
-    """``f(TS1)/f(VS1)`` with half and full deck GJ against erected fraction [-] (seed Fig. 2).
+    """``f(TS1)/f(VS1)`` with half and full deck GJ against erected fraction [-] (the paper's Fig. 2).
 
     Modes by :func:`first_symmetric_deck_mode`; the completed bridge reported separately.
     """

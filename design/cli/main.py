@@ -390,7 +390,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("buffeting", "RMS deck response to vertical turbulence",
             *(_later("bridgeflap.design.cli.buffeting", f) for f in ("arguments",
                                                                      "cmd_buffeting"))),
-    Command("optimise", "design the flap compensator (seed section 6)",
+    Command("optimise", "design the flap compensator (the paper, section 6)",
             *(_later("bridgeflap.design.cli.optimise", f) for f in ("arguments", "cmd_optimise"))),
     Command("study", "run a study (default: the paper's reproduction)",
             _later("bridgeflap.design.cli.study", "study_arguments"),

@@ -1,4 +1,4 @@
-"""``bridgeflap optimise``: design the flap compensator K(s) (seed §6), see
+"""``bridgeflap optimise``: design the flap compensator K(s) (the paper, §6), see
 bridgeflap.design.control.driver."""
 
 from __future__ import annotations

@@ -69,7 +69,7 @@ def _num(field_name, v, positive=False, nonneg=False):
 
 @dataclass(frozen=True)
 class DesignSettings:
-    """Definition of the design problem (defaults: Humber, seed §6; overridable by TOML).
+    """Definition of the design problem (defaults: Humber, the paper, §6; overridable by TOML).
 
     Units: lengths [m], speeds [m/s], rates [1/s], frequencies [rad/s], gains [rad/rad].
 

@@ -1,7 +1,7 @@
 """Studies: definition files, the runner and its self-describing output folder.
 
 A **study** is a TOML file (``runs/<name>/study.toml``; the built-in default is
-``design/studies/humber.toml``, the seed paper's full reproduction) naming the bridge, the
+``design/studies/humber.toml``, the paper's full reproduction) naming the bridge, the
 analyses and their options::
 
     name = "humber"
@@ -111,7 +111,7 @@ _QUICK_TOP = {"element_length_m"}
 
 
 def default_study_path() -> Path:
-    """The built-in default study (the seed paper's reproduction on the Humber case)."""
+    """The built-in default study (the paper's reproduction on the Humber case)."""
     return Path(str(resources.files("bridgeflap.design.studies").joinpath("humber.toml")))
 
 
@@ -287,7 +287,7 @@ class StudyResult(ResultData):
                 "out_dir": s["out_dir"]}
 
     def plot(self, axes=None):
-        """The flutter root locus and damping/frequency plots (seed Fig. 3 left)."""
+        """The flutter root locus and damping/frequency plots (the paper's Fig. 3 left)."""
         if self.objects.get("flutter") is None:
             raise BridgeflapError("the study has no flutter result to plot")
         return self.objects["flutter"].plot(axes)

@@ -1,7 +1,7 @@
 """Leading- and trailing-edge deck flaps driven by a compensator: closed-loop state space.
 
 Conventions (h down, alpha nose-up, moment about mid-chord, lift in the equations positive
-down, ``b`` half-chord) are those of :mod:`bridgeflap.model`. Seed paper §6, Eq. (18);
+down, ``b`` half-chord) are those of :mod:`bridgeflap.model`. The paper, §6, Eq. (18);
 docs/methods.md#flap-loads; docs/humber_data.md#flap-loads-and-t-functions.
 
 Flap loads: the TR-496 strip loads of :mod:`bridgeflap.model.aero.strips`
@@ -13,10 +13,10 @@ the one of
 
 Flap geometry: each flap has chord ``flap_chord_m`` measured from its edge *inside* the deck
 chord ``2 b`` (hinge ``c = (b - chord)/b`` for the TE flap and ``e = -c`` for the LE flap;
-3 m in seed §6). ``Controller.flap_width_m`` is the flap's *spanwise* length; the flap loads
+3 m in the paper, §6). ``Controller.flap_width_m`` is the flap's *spanwise* length; the flap loads
 act at the strip centre with the mode shapes interpolated there (strip theory).
 
-Drive ("the same (actually anti-symmetric)", seed §6)
+Drive ("the same (actually anti-symmetric)", the paper, §6)
 ------------------------------------------------------
 The controller angle of a TE flap is TE-down positive and that of a LE flap LE-down positive
 (each flap's tip down, mirror images of each other). ``beta_TE = +K alpha`` and

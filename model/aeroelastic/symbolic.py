@@ -41,7 +41,7 @@ per-flap weights ``w``, the functions the compensator optimiser differentiates.
 
 Spectral RMS (:func:`casadi_spectral_variance`, :func:`buffeting_rms_function`): the one-sided
 output variance ``sigma_j^2 = int_0^omega_max G_yy,jj d omega`` with ``G_yy = H G_ww H^H`` and
-``H = C (i omega I - A)^{-1} B`` (seed Eqs. (10)-(12), (17)) on a *fixed* grid (trapezoid
+``H = C (i omega I - A)^{-1} B`` (the paper's Eqs. (10)-(12), (17)) on a *fixed* grid (trapezoid
 weights), the convention of :mod:`bridgeflap.model.spectral`. The complex solve is written in real
 arithmetic: ``[[-A, -omega I], [omega I, -A]] [Xr; Xi] = [B; 0]``.
 """

@@ -173,9 +173,9 @@ class BridgeSpec:
     """A complete bridge definition, or one of its erection stages.
 
     ``erected_fraction`` is the fraction of the main span whose deck is in place, erected
-    symmetrically from mid-span outwards (seed §4). ``joints_closed`` is False for every
+    symmetrically from mid-span outwards (the paper, §4). ``joints_closed`` is False for every
     erection stage, including the closed deck at ``erected_fraction = 1`` before its joints are
-    made permanent: the deck then has half its GJ and zero EI (temporary joints, seed §2 after
+    made permanent: the deck then has half its GJ and zero EI (temporary joints, the paper, §2 after
     Brancaleoni 1992). The completed bridge (:meth:`completed`) has ``erected_fraction = 1`` and
     ``joints_closed = True``. ``side_span_decks`` says where the side-span decks are while
     erecting: ``"bare"`` (not yet hung), ``"in_place"`` (hung throughout) or ``"with_main"``
