@@ -70,6 +70,9 @@ nb_execution_raise_on_error = True  # a failing cell fails the build
 nb_execution_show_tb = True
 nb_merge_streams = True
 nb_execution_in_temp = True  # tutorials write their run folders into a temporary folder
+# a cell's Markdown output (e.g. the table of dotted input paths on the bridge-file page) is
+# parsed as MyST, which has tables; CommonMark, the default, would show the raw pipes
+nb_render_markdown_format = "myst"
 
 # --- API reference ------------------------------------------------------------------------------
 autosummary_generate = True
