@@ -127,7 +127,40 @@ def bridge_system(bridge: BridgeArg, n_modes: int = DEFAULT_MODES, order: str = 
 
 @dataclass(frozen=True)
 class FlutterResult(ResultData):
-    """Stability sweep of one bridge state."""
+    """The stability sweep of one bridge state: flutter, divergence and the tracked branches.
+
+    Returned by :func:`bridgeflap.model.flutter`. Its headline numbers are attributes
+    (``res.flutter_speed_m_s``); a misspelt one raises :class:`AttributeError`.
+
+    Parameters
+    ----------
+    spec : BridgeSpec
+        The bridge (or erection stage) swept.
+    sweep : StabilitySweep
+        The eigenvalue sweep with its tracked branches and refined crossings.
+    n_modes : int
+        Retained vertical + torsional modes.
+    order : str
+        State ordering (``"modal"`` or ``"full"``).
+    rfa : str
+        Rational approximation of C(k) (``"rfa4"`` or ``"jones"``).
+    n_states : int
+        Size of the state vector.
+    modes : tuple, optional
+        The retained modes' labels.
+
+    Attributes
+    ----------
+    flutter_speed_m_s, divergence_speed_m_s, critical_speed_m_s : float
+        The crossing speeds [m/s]; NaN when not found or not verified (the statuses say which).
+    flutter_frequency_hz : float
+        Frequency of the flutter branch at flutter [Hz].
+    flutter_status, divergence_status : str
+        ``"converged"``, ``"no_crossing_in_range"``, ``"unstable_at_start"``, ...
+        (docs/conventions.md#statuses).
+    critical_mechanism : str
+        ``"flutter"`` or ``"divergence"``, whichever comes first.
+    """
 
     _HEADLINE_KEYS = ("bridge", "erected_fraction", "critical_speed_m_s", "critical_mechanism",
                       "flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",

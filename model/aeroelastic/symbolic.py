@@ -143,6 +143,12 @@ def build_symbolic(bridge: BridgeArg, n_modes: int, rfa: RationalApprox | str = 
         Rational approximation of C(k).
     modal : ModalModel, optional
         Nominal modes (solved from ``spec`` when omitted).
+
+    Returns
+    -------
+    SymbolicModel
+        The named CasADi function ``A(U, p)`` and its parameter names: ``p`` holds relative
+        changes of the bridge inputs (0 is the nominal bridge).
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     modal = solve(assemble(spec)) if modal is None else modal
@@ -201,6 +207,13 @@ def closed_loop_functions(model) -> dict:
     ----------
     model : bridgeflap.model.aeroelastic.flaps.ClosedLoopModel
         Open-loop system (modal order) and flap set.
+
+    Returns
+    -------
+    dict
+        ``"A_parts"``: a CasADi function ``(theta, w) -> (A0, A1, A2)`` of the compensator
+        coefficients ``theta`` and flap weights ``w``; ``"A_cl"``: ``(U, theta, w) -> A`` at a wind
+        speed ``U`` [m/s].
     """
     theta = ca.SX.sym("theta", 5)
     w = ca.SX.sym("w", model.n_flaps)

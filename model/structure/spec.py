@@ -180,6 +180,52 @@ class BridgeSpec:
     ``joints_closed = True``. ``side_span_decks`` says where the side-span decks are while
     erecting: ``"bare"`` (not yet hung), ``"in_place"`` (hung throughout) or ``"with_main"``
     (erected over the same fraction as the main span, from the towers outwards).
+
+    Parameters
+    ----------
+    name : str
+        The bridge's name.
+    spans : tuple of Span
+        The spans in order along the bridge (lengths [m], chord rises [m], which carry the deck).
+    main_span_index : int
+        Index of the main span in ``spans``.
+    cable : Cable
+        Main cables: area [m^2], modulus [Pa], mass [kg/m], spacing [m], main-span sag [m].
+    deck : Deck
+        Deck: mass [kg/m], torsional mass moment of inertia [kg m^2/m], bending and torsional
+        stiffness [N m^2], half-chord ``b`` [m], hanger length at mid-span [m].
+    damping : Damping, optional
+        Rayleigh damping ratio [-] (default 1 %).
+    aero : Aero, optional
+        Air density [kg/m^3], deck height [m], turbulence and buffeting inputs.
+    mesh : Mesh, optional
+        Finite-element length [m].
+    erected_fraction : float, default 1.0
+        Fraction [-] of the main-span deck in place.
+    joints_closed : bool, default True
+        False for every erection stage (temporary joints).
+    side_span_decks : {"in_place", "bare", "with_main"}, default "in_place"
+        The side-span decks while erecting.
+    sources : dict, optional
+        Dotted path -> source note of each value (not compared by ``==``).
+    deck_section : DeckSection, optional
+        The lumped deck items whose sums give the deck mass and inertia.
+    derivatives, static_coefficients : optional
+        Measured flutter derivatives and static coefficients (tables), when the bridge file
+        gives them.
+
+    See Also
+    --------
+    load_bridge : read one from a name or a file.
+    BridgeSpec.replace : change inputs by their dotted paths.
+
+    Examples
+    --------
+    >>> from bridgeflap import model
+    >>> spec = model.load_bridge("humber")
+    >>> stage = spec.erected(0.5)
+    >>> stage.is_erecting, stage.erected_fraction
+    (True, 0.5)
     """
 
     name: str
