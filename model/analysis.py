@@ -484,7 +484,8 @@ class FrequencyRatioResult(_StagesResult):
     _HEADLINE_KEYS = ("ratio_full_gj", "ratio_half_gj", "ratio")
 
     def plot(self, ax=None):
-        """The paper's Fig. 2 style plot: :func:`bridgeflap.model.structure.plots.frequency_ratio`."""
+        """The paper's Fig. 2 style plot
+        (:func:`bridgeflap.model.structure.plots.frequency_ratio`)."""
         from bridgeflap.model.structure.plots import frequency_ratio
 
         return frequency_ratio(self, ax)

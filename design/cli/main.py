@@ -535,6 +535,23 @@ def main(argv=None) -> int:
     2 bad input (one line ``bridgeflap: error: <field>: <reason>``, nothing written; also
     what the OS refuses, and a bare ``bridgeflap``: a short usage); 130 interrupted (Ctrl-C:
     one line, temporaries removed).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default: ``sys.argv[1:]``), e.g. ``["flutter", "--json"]``.
+
+    Returns
+    -------
+    int
+        The exit status above.
+
+    Examples
+    --------
+    >>> from bridgeflap import design
+    >>> design.main(["--version"])  # doctest: +SKIP
+    bridgeflap ...
+    0
     """
     from bridgeflap.design.cli.run import one_line_warning, run
 

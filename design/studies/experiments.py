@@ -170,6 +170,20 @@ def load_doe(path: str | os.PathLike, quick: bool = False, bridge: Any = None) -
         design = { levels = 2 }
         options = { speeds = "0:120:2" }
 
+    Parameters
+    ----------
+    path : str or path-like
+        The DOE TOML file.
+    quick : bool, default False
+        Apply the file's ``[quick]`` overrides.
+    bridge : str, path-like or BridgeSpec, optional
+        Replaces the file's ``bridge``.
+
+    Returns
+    -------
+    DoeConfig
+        The validated DOE, for :func:`run_doe`.
+
     Raises
     ------
     BridgeflapInputError
@@ -184,7 +198,40 @@ def load_doe(path: str | os.PathLike, quick: bool = False, bridge: Any = None) -
 @checked(data=check_mapping, base=optional(check_path), quick=flag, source=check_text)
 def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
                   source: str = "<dict>") -> DoeConfig:
-    """Build a :class:`DoeConfig` from parsed TOML (see :func:`load_doe`)."""
+    """Build a :class:`DoeConfig` from parsed TOML (see :func:`load_doe`).
+
+    Parameters
+    ----------
+    data : mapping
+        The DOE file's tables (``name``, ``bridge``, ``analysis``, ``[options]``, ``[design]``,
+        ``[parameters]``; docs/reference/formats/doe.md).
+    base : pathlib.Path, optional
+        Folder that relative paths in ``data`` are relative to (default: the current one).
+    quick : bool, default False
+        Apply the ``[quick]`` overrides.
+    source : str, default "<dict>"
+        Where the data came from, for messages.
+
+    Returns
+    -------
+    DoeConfig
+        The validated DOE: ``parameters``, ``cases()``, ``options``.
+
+    Raises
+    ------
+    BridgeflapInputError
+        Unknown key, analysis, design kind or parameter; empty range or level list.
+
+    Examples
+    --------
+    >>> from bridgeflap import design
+    >>> config = design.doe_from_dict({
+    ...     "name": "gj", "bridge": "humber", "analysis": "flutter",
+    ...     "design": {"kind": "full_factorial", "levels": 2},
+    ...     "parameters": {"deck.gj_nm2": [4.7e11, 7.1e11]}})
+    >>> list(config.parameters)
+    ['deck.gj_nm2']
+    """
     check_keys(data, _DOE_KEYS, "DOE")
     base = Path.cwd() if base is None else base
     name = plain_name(data.get("name"))
@@ -380,6 +427,53 @@ def run_doe(config: DoeConfig | str | os.PathLike,
     ``case_hash`` (:func:`doe_fingerprint` and the parameters) matches; a folder holding
     another DOE has its cases recomputed (said on stderr). The folder rules (foreign folder
     refused, one run at a time) are those of :func:`bridgeflap.design.batch.runner.run_batch`.
+
+    Parameters
+    ----------
+    config : DoeConfig, str or path-like
+        A loaded DOE or the path of a DOE file.
+    out_dir : str or path-like, optional
+        The output folder (default ``runs/<name>/output``).
+    workers : int, default 1
+        Local worker processes (a local Dask cluster; in a script, under
+        ``if __name__ == "__main__":``).
+    scheduler : str, optional
+        ``"serial"`` (in this process), ``"local"``, or a Dask scheduler address
+        ``"tcp://host:8786"`` (reached within 5 s before anything is written).
+    resume : bool, default False
+        Reuse the finished cases of ``out_dir`` whose ``case_hash`` matches.
+    quick : bool, default False
+        Apply the file's ``[quick]`` overrides (a path only).
+    progress : bool, default True
+        A progress bar on stderr.
+    bridge : str, path-like or BridgeSpec, optional
+        Replaces the file's bridge (a path only).
+
+    Returns
+    -------
+    DoeResult
+        ``cases``, ``succeeded``, ``failed``, ``reused``; ``table()``, ``to_dataframe()`` (one
+        flat row per case), ``to_xarray()``, ``plot(output=...)`` (an output over the first two
+        inputs).
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad config, folder (another kind of output, not writable) or scheduler.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from bridgeflap import design
+    >>> config = design.doe_from_dict({
+    ...     "name": "gj", "bridge": "humber", "analysis": "flutter",
+    ...     "options": {"speeds": "0:90:5", "modes": 4, "truncation_check": False},
+    ...     "design": {"kind": "full_factorial", "levels": 2},
+    ...     "parameters": {"deck.gj_nm2": [4.7e11, 7.1e11]}})
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "gj"
+    >>> doe = design.run_doe(config, out_dir=out, scheduler="serial", progress=False)
+    >>> doe.cases, doe.failed
+    (2, 0)
     """
     from bridgeflap.design.batch.runner import run_batch
     from bridgeflap.design.io.manifest import build_manifest

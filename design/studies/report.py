@@ -5,8 +5,9 @@
 :class:`bridgeflap.design.studies.study.StudyResult`: every number in it is read from the result
 summaries that the study writes to ``results/<analysis>.json``, formatted once, and rendered both as
 Markdown (:func:`study_report`, tables by pandas/tabulate) and as a self-contained HTML file with
-the figures inline (:func:`study_report_html`). :func:`fig5` draws the paper's Fig. 5: the closed-loop
-root locus over the open loop and the vertical and torsional buffeting with and without flaps.
+the figures inline (:func:`study_report_html`). :func:`fig5` draws the paper's Fig. 5: the
+closed-loop root locus over the open loop and the vertical and torsional buffeting with and
+without flaps.
 """
 
 from __future__ import annotations

@@ -167,6 +167,21 @@ def load_study(path: str | os.PathLike | None = None, quick: bool = False,
     ``bridge`` (a name, a bridge TOML path or a
     :class:`~bridgeflap.model.structure.spec.BridgeSpec`) replaces the file's own ``bridge``.
 
+    Parameters
+    ----------
+    path : str, path-like or None, default None
+        A study TOML file (docs/reference/formats/study.md); ``None``: the built-in default
+        study (the paper's reproduction on the Humber Bridge).
+    quick : bool, default False
+        Apply the study's quick settings.
+    bridge : str, path-like or BridgeSpec, optional
+        Replaces the file's ``bridge``.
+
+    Returns
+    -------
+    StudyConfig
+        The validated study, for :func:`run_study`.
+
     Raises
     ------
     BridgeflapInputError
@@ -182,7 +197,29 @@ def load_study(path: str | os.PathLike | None = None, quick: bool = False,
 @checked(data=check_mapping, base=optional(check_path), quick=flag, source=check_text)
 def study_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
                     source: str = "<dict>") -> StudyConfig:
-    """Build a :class:`StudyConfig` from parsed TOML (see the module docstring)."""
+    """Build a :class:`StudyConfig` from parsed TOML (see the module docstring).
+
+    Parameters
+    ----------
+    data : mapping
+        The study file's tables (docs/reference/formats/study.md).
+    base : pathlib.Path, optional
+        Folder that relative paths in ``data`` are relative to.
+    quick : bool, default False
+        Apply the quick settings.
+    source : str, default "<dict>"
+        Where the data came from, for messages.
+
+    Returns
+    -------
+    StudyConfig
+        The validated study.
+
+    Raises
+    ------
+    BridgeflapInputError
+        Unknown analysis or option, bad bridge.
+    """
     check_keys(data, _TOP_KEYS, "study", f"analyses: {', '.join(ANALYSES)}")
     base = Path.cwd() if base is None else base
     name = plain_name(data.get("name"))
@@ -377,6 +414,17 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
     workers : int, optional
         Analyses run at once, each in its own worker process (:func:`_run_analyses`); 1 runs
         them one after another in this process. The numbers do not depend on it.
+
+    Returns
+    -------
+    StudyResult
+        Each analysis's result and status, the output folder; ``summary()`` (what
+        ``bridgeflap study --json`` prints), ``table()``, ``plot()``.
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad study, folder (another kind of output, not writable) or ``workers``.
     """
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise BridgeflapInputError("workers", f"must be an integer >= 1, got {workers!r}")

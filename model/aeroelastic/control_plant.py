@@ -221,7 +221,8 @@ def plant_data(bridge, speed: float, inputs: str = "gust", n_modes: int = DEFAUL
     -------
     Plant
         ``A``, ``B``, ``C``, ``D`` (numpy) with the names of the states, inputs and outputs;
-        ``to_control()`` gives the python-control object, ``poles()`` the open-loop poles [1/s].
+        ``to_control()`` gives the python-control object, ``spectral_abscissa_1_s`` the largest
+    real part of its poles [1/s].
 
     Raises
     ------

@@ -42,7 +42,8 @@ CRITICAL_WEIGHT = float("inf")
 
 
 def compare_table1(modal, share_min: float = 0.5) -> list[dict]:
-    """Rows (family, Table 1 label, measured, the paper's model, ours, our label, difference %, weight).
+    """Rows (family, Table 1 label, measured, the paper's model, ours, our label, difference %,
+    weight).
 
     The flutter-critical rows (:data:`CRITICAL_MODES`) are paired with VS1 / TS1 by label and
     carry :data:`CRITICAL_WEIGHT`; every other row is paired in frequency order with the

@@ -296,7 +296,8 @@ class BuffetingResult(ResultData):
 
     def plot(self, axes=None, label=None, log: bool = False):
         """Vertical ``max sigma_z`` [mm] (``/ 2b`` on a right-hand axis) and torsional
-        ``max sigma_alpha`` [deg] on the main span against ``U`` (the paper's Fig. 4 style, two panels;
+        ``max sigma_alpha`` [deg] on the main span against ``U`` (the paper's Fig. 4 style, two
+        panels;
         :func:`bridgeflap.model.response.plots.buffeting_panels`).
 
         Unstable speeds are NaN and leave a gap; nothing is clipped.
@@ -424,6 +425,13 @@ def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
     Returns
     -------
     BuffetingResult
+
+    Examples
+    --------
+    >>> from bridgeflap import model
+    >>> res = model.buffeting("humber", [10.0, 20.0], n_modes=6)
+    >>> res.status, bool(res.rms_vertical[1] > res.rms_vertical[0])
+    (('ok', 'ok'), True)
     """
     import time
 

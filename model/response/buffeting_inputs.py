@@ -17,8 +17,8 @@ from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["LOADS", "quasi_steady_inputs", "resolve_system"]
 
-#: gust-load models: the paper's Eq. (8) (w only, C_L' and C_M' slopes) or model.aero.quasi_steady (u and
-# w)
+#: gust-load models: the paper's Eq. (8) (w only, C_L' and C_M' slopes) or
+#: model.aero.quasi_steady (u and w)
 LOADS = ("thin-aerofoil", "quasi-steady")
 
 

@@ -11,8 +11,8 @@ Two routes are implemented:
   the profile is ``y = M0(x)/H`` (simply supported moment diagram of the load), and ``H`` solves
   the length compatibility ``sum(stretched length - elastic stretch) = S0`` by Brent's method.
   ``S0``, the unstrained cable length, is fixed by the complete bridge at its stated main-span sag
-  (the sag is "a data usually available", the paper, §2); partial erection then loads only part of the
-  main span and ``H`` follows from the same ``S0``.
+  (the sag is "a data usually available", the paper, §2); partial erection then loads only part of
+  the main span and ``H`` follows from the same ``S0``.
 
 All loads are per cable [N/m] of horizontal length; ``H`` is per cable [N]. The cable's own
 weight is ``m_c g ds/dx`` per horizontal metre (``m_c`` per metre of cable,

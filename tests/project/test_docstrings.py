@@ -74,7 +74,11 @@ WITH_EXAMPLES = ("bridgeflap.model.load_bridge", "bridgeflap.model.flutter",
                  "bridgeflap.model.buffeting", "bridgeflap.model.save_bridge",
                  "bridgeflap.design.load_settings", "bridgeflap.design.quick_settings",
                  "bridgeflap.design.parse_range", "bridgeflap.design.local_sensitivity",
-                 "bridgeflap.design.make_design", "bridgeflap.design.open_run")
+                 "bridgeflap.design.make_design", "bridgeflap.design.open_run",
+                 "bridgeflap.model.bridge_system", "bridgeflap.model.frequency_ratio",
+                 "bridgeflap.model.closed_loop_flutter", "bridgeflap.model.BridgeSpec",
+                 "bridgeflap.design.DesignSettings", "bridgeflap.design.doe_from_dict",
+                 "bridgeflap.design.run_doe")
 
 
 @pytest.mark.parametrize("qualname", WITH_EXAMPLES)
