@@ -78,6 +78,7 @@ nb_render_markdown_format = "myst"
 autosummary_generate = True
 autosummary_imported_members = True
 autodoc_typehints = "none"  # numpydoc's Parameters sections carry the types
+# class pages list their methods, one page each: _templates/autosummary/class.rst
 autodoc_default_options = {"members": False}
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False

@@ -216,12 +216,12 @@ class Compensator:
         Returns
         -------
         float
-            The maximum of |K| over the grid, the analytic stationary points of |K(jw)|^2,
+            The maximum of ``|K|`` over the grid, the analytic stationary points of ``|K(jw)|^2``,
             w = 0 (``|b0|``) and the limit w -> inf (:meth:`high_frequency_gain`).
 
         Notes
         -----
-        With x = w^2, |K|^2 = N(x)/D(x) with N, D quadratics; its stationary points solve
+        With ``x = w^2``, ``|K|^2 = N(x)/D(x)`` with N, D quadratics; its stationary points solve
         N'D - N D' = 0, a quadratic in x (the cubic terms cancel). The sup over w >= 0 is
         attained at one of those roots, at x = 0 or as x -> inf, so the analytic candidates
         alone give the exact value; the grid is a cheap safeguard against root round-off.
