@@ -24,7 +24,11 @@ ROOT = DOCS.parent
 # The import names of the package, in one place: the API pages are generated from these.
 PACKAGES = ("bridgeflap.model", "bridgeflap.design")
 
-os.environ.setdefault("MPLBACKEND", "Agg")
+# The executed pages' kernels draw with the inline backend, so that every ``x.plot();`` cell
+# shows its figure (an inherited ``MPLBACKEND=Agg``, as CI exports, would draw nowhere: no
+# image on the page). The build itself draws nothing; _ext/figure_check.py fails the build
+# when a cell that calls plot() shows no figure.
+os.environ["MPLBACKEND"] = "module://matplotlib_inline.backend_inline"
 for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(var, "1")
 
@@ -40,7 +44,10 @@ project = "bridgeflap"
 author = "The bridgeflap developers"
 copyright = "2026, The bridgeflap developers"
 
+sys.path.insert(0, str(DOCS / "_ext"))
+
 extensions = [
+    "figure_check",  # _ext/figure_check.py: a cell that calls plot() must show a figure
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
@@ -51,7 +58,7 @@ extensions = [
 
 source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
 root_doc = "index"
-exclude_patterns = ["_build", "README.md", "**/.ipynb_checkpoints", "jupyter_execute"]
+exclude_patterns = ["_build", "_ext", "README.md", "**/.ipynb_checkpoints", "jupyter_execute"]
 templates_path = ["_templates"]
 
 # --- MyST and the executed tutorials -----------------------------------------------------------
@@ -63,11 +70,15 @@ nb_execution_raise_on_error = True  # a failing cell fails the build
 nb_execution_show_tb = True
 nb_merge_streams = True
 nb_execution_in_temp = True  # tutorials write their run folders into a temporary folder
+# a cell's Markdown output (e.g. the table of dotted input paths on the bridge-file page) is
+# parsed as MyST, which has tables; CommonMark, the default, would show the raw pipes
+nb_render_markdown_format = "myst"
 
 # --- API reference ------------------------------------------------------------------------------
 autosummary_generate = True
 autosummary_imported_members = True
 autodoc_typehints = "none"  # numpydoc's Parameters sections carry the types
+# class pages list their methods, one page each: _templates/autosummary/class.rst
 autodoc_default_options = {"members": False}
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False

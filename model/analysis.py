@@ -37,11 +37,38 @@ from bridgeflap.model.vocabulary import DEFAULT_MODES
 @takes_bridge
 def modal_model(bridge: BridgeArg, modes_per_family: int | None = None,
                 erection_gj_factor: float = 0.5) -> ModalModel:
-    """Cable statics, FE assembly and modes of ``bridge``.
+    """Cable statics, finite-element assembly and structural modes of a bridge.
 
-    ``modes_per_family``: the lowest modes kept of each family (vertical, torsional, lateral;
-    all when omitted), not the vertical + torsional ``n_modes`` of an aeroelastic model
-    (docs/api_vocabulary.md).
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name (``"humber"``, ``"humber:box"``), a bridge TOML file or a
+        :class:`~bridgeflap.model.BridgeSpec` (an erection stage included).
+    modes_per_family : int, optional
+        The lowest modes kept of each family (vertical, torsional, lateral); default: all. This
+        is not the vertical + torsional ``n_modes`` of an aeroelastic model
+        (docs/api_vocabulary.md).
+    erection_gj_factor : float, default 0.5
+        Factor [-] on the deck's GJ while the joints are temporary (erection stages only).
+
+    Returns
+    -------
+    ModalModel
+        The modes: ``table()``, ``to_dataframe()``, ``find(label)``, ``shape(label)``,
+        ``plot()``; frequencies in Hz, labels such as ``"VS1"`` and ``"TS1"``
+        (docs/conventions.md#along-the-bridge).
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge (unknown name, missing file, non-physical value), named by its field.
+
+    Examples
+    --------
+    >>> from bridgeflap import model
+    >>> modes = model.modal_model("humber", modes_per_family=2)
+    >>> "TS1" in modes.table()
+    True
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     return solve(assemble(spec, erection_gj_factor=erection_gj_factor), modes_per_family)
@@ -51,7 +78,41 @@ def modal_model(bridge: BridgeArg, modes_per_family: int | None = None,
 def bridge_system(bridge: BridgeArg, n_modes: int = DEFAULT_MODES, order: str = "modal",
                   rfa: str = "rfa4", modal: ModalModel | None = None,
                   ) -> tuple[ModalModel, statespace.AeroelasticSystem]:
-    """Modal model and aeroelastic state space of ``bridge``."""
+    """Modal model and aeroelastic state space of a bridge.
+
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name, a bridge TOML file or a :class:`~bridgeflap.model.BridgeSpec`.
+    n_modes : int, default 30
+        Retained vertical + torsional modes (:data:`DEFAULT_MODES`).
+    order : {"modal", "full"}, default "modal"
+        State ordering of the aerodynamic lag states (docs/methods.md#state-space).
+    rfa : {"rfa4", "jones"}, default "rfa4"
+        Rational approximation of Theodorsen's C(k) (docs/methods.md#rational-approximation).
+    modal : ModalModel, optional
+        Modes already solved for ``bridge`` (default: solved here).
+
+    Returns
+    -------
+    modal : ModalModel
+        The structural modes.
+    system : AeroelasticSystem
+        ``A(U) = A0 + U A1 + U^2 A2`` with its :class:`StateIndex`; ``system.A(U)`` at a speed
+        [m/s].
+
+    Raises
+    ------
+    BridgeflapInputError
+        Bad bridge, ``n_modes``, ``order`` or ``rfa``.
+
+    Examples
+    --------
+    >>> from bridgeflap import model
+    >>> modal, system = model.bridge_system("humber", n_modes=4)
+    >>> system.A(40.0).shape[0] == system.A(0.0).shape[1]
+    True
+    """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     if int(n_modes) < 1:
         raise BridgeflapInputError("modes", f"must be at least 1, got {n_modes}")
@@ -66,7 +127,40 @@ def bridge_system(bridge: BridgeArg, n_modes: int = DEFAULT_MODES, order: str = 
 
 @dataclass(frozen=True)
 class FlutterResult(ResultData):
-    """Stability sweep of one bridge state."""
+    """The stability sweep of one bridge state: flutter, divergence and the tracked branches.
+
+    Returned by :func:`bridgeflap.model.flutter`. Its headline numbers are attributes
+    (``res.flutter_speed_m_s``); a misspelt one raises :class:`AttributeError`.
+
+    Parameters
+    ----------
+    spec : BridgeSpec
+        The bridge (or erection stage) swept.
+    sweep : StabilitySweep
+        The eigenvalue sweep with its tracked branches and refined crossings.
+    n_modes : int
+        Retained vertical + torsional modes.
+    order : str
+        State ordering (``"modal"`` or ``"full"``).
+    rfa : str
+        Rational approximation of C(k) (``"rfa4"`` or ``"jones"``).
+    n_states : int
+        Size of the state vector.
+    modes : tuple, optional
+        The retained modes' labels.
+
+    Attributes
+    ----------
+    flutter_speed_m_s, divergence_speed_m_s, critical_speed_m_s : float
+        The crossing speeds [m/s]; NaN when not found or not verified (the statuses say which).
+    flutter_frequency_hz : float
+        Frequency of the flutter branch at flutter [Hz].
+    flutter_status, divergence_status : str
+        ``"converged"``, ``"no_crossing_in_range"``, ``"unstable_at_start"``, ...
+        (docs/conventions.md#statuses).
+    critical_mechanism : str
+        ``"flutter"`` or ``"divergence"``, whichever comes first.
+    """
 
     _HEADLINE_KEYS = ("bridge", "erected_fraction", "critical_speed_m_s", "critical_mechanism",
                       "flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
@@ -161,11 +255,58 @@ def critical_speed(summary) -> dict:
 def flutter(bridge: BridgeArg, speeds, n_modes: int = DEFAULT_MODES,
             order: str = "modal", rfa: str = "rfa4", speed_tol: float = 1e-3,
             sweep_method: str = "dense") -> FlutterResult:
-    """Flutter and torsional divergence of ``bridge`` over a grid of wind speeds [m/s].
+    """Flutter and torsional divergence of a bridge over a grid of wind speeds.
 
-    ``speed_tol`` [m/s] is the width to which each crossing is refined and ``sweep_method``
-    (``"dense"``, the reference, or ``"fast"``, the CLI's default) the method of
-    :func:`bridgeflap.model.stability.sweeps.sweep`.
+    The eigenvalues of the aeroelastic state space ``A(U)`` are tracked over ``speeds``; the
+    first speed where a branch's real part crosses zero is refined and verified
+    (docs/methods.md#stability). Flutter is an oscillatory crossing, divergence a real one.
+
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name (``"humber"``), a bridge TOML file or a
+        :class:`~bridgeflap.model.BridgeSpec` (an erection stage included).
+    speeds : array_like or str
+        Wind speeds [m/s], increasing and non-negative, or a range string ``"0:85:0.5"``
+        (start:stop:step, stop included).
+    n_modes : int, default 30
+        Retained vertical + torsional modes.
+    order : {"modal", "full"}, default "modal"
+        State ordering, as :func:`bridge_system`.
+    rfa : {"rfa4", "jones"}, default "rfa4"
+        Rational approximation of C(k).
+    speed_tol : float, default 1e-3
+        Width [m/s] to which each crossing is refined.
+    sweep_method : {"dense", "fast"}, default "dense"
+        ``"dense"``, the reference, solves every eigenvalue at every grid speed; ``"fast"``, the
+        CLI's default, tracks a coarse sweep and refines by Newton (the same fields and
+        statuses; :func:`bridgeflap.model.sweep`).
+
+    Returns
+    -------
+    FlutterResult
+        ``flutter_speed_m_s``, ``divergence_speed_m_s``, ``critical_speed_m_s`` and
+        ``critical_mechanism`` (NaN with a status saying why when a crossing is not found or
+        not verified), ``summary()``, ``table()``, ``to_xarray()``, ``plot()`` (root locus,
+        V-g, V-f).
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, speed grid, ``n_modes``, ``order`` or ``rfa``, named by its field.
+
+    See Also
+    --------
+    closed_loop_flutter : the same with a flap controller.
+    erection : the same at each erection stage.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from bridgeflap import model
+    >>> res = model.flutter("humber", np.arange(0.0, 90.0, 2.0), n_modes=6)
+    >>> res.critical_mechanism, f"{res.flutter_speed_m_s:.0f} m/s"
+    ('flutter', '69 m/s')
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     u = check_speeds(speeds)
@@ -222,7 +363,7 @@ class ErectionResult(_StagesResult):
     _HEADLINE_KEYS = ("critical_speed_m_s", "flutter_speed_m_s", "divergence_speed_m_s")
 
     def plot(self, ax=None):
-        """Flutter and divergence speed against deck completion (seed Fig. 3 right):
+        """Flutter and divergence speed against deck completion (the paper's Fig. 3 right):
         :func:`bridgeflap.model.stability.plots.erection_speeds`."""
         from bridgeflap.model.stability.plots import erection_speeds
 
@@ -253,18 +394,48 @@ def _stage(spec: BridgeSpec, speeds, n_modes: int) -> dict:
 @takes_bridge
 def erection(bridge: BridgeArg, fractions, speeds, n_modes: int = DEFAULT_MODES,
              progress=None, side_spans: str | None = None, workers: int = 1) -> ErectionResult:
-    """Flutter/divergence at each erected fraction [-] over a grid of wind speeds [m/s].
+    """Flutter and divergence at each erection stage over a grid of wind speeds.
 
-    Each stage is :meth:`~bridgeflap.model.structure.spec.BridgeSpec.erected`: the main-span deck
-    from mid-span outwards, half GJ and zero EI (temporary joints), the side spans as ``side_spans``
-    (default: the bridge file's sequence); a fraction of 1 is the closed deck before its joints are
-    made. The completed bridge (:meth:`~bridgeflap.model.structure.spec.BridgeSpec.completed`) is
-    reported separately.
+    Each stage is :meth:`~bridgeflap.model.BridgeSpec.erected`: the main-span deck from mid-span
+    outwards, half GJ and zero EI (temporary joints), the side spans as ``side_spans``; a
+    fraction of 1 is the closed deck before its joints are made. The completed bridge
+    (:meth:`~bridgeflap.model.BridgeSpec.completed`) is reported separately.
 
-    ``workers > 1`` runs the stages in that many worker processes (the same function on each
-    stage, so the same numbers; processes, not threads: the sweeps hold the GIL between LAPACK
-    calls); inside a daemonic process (a Dask worker), which may not start children, the stages
-    run one after another.
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name, a bridge TOML file or a :class:`~bridgeflap.model.BridgeSpec`.
+    fractions : sequence of float
+        Erected fractions [-] of the main-span deck, each in (0, 1].
+    speeds : array_like or str
+        Wind speeds [m/s] of every stage's sweep (as :func:`flutter`).
+    n_modes : int, default 30
+        Retained vertical + torsional modes.
+    progress : callable, optional
+        ``str -> None``, one line per stage.
+    side_spans : {"bare", "in_place", "with_main"}, optional
+        The side-span decks while erecting (default: the bridge file's ``[erection]``).
+    workers : int, default 1
+        Worker processes for the stages (the same numbers for any count; inside a daemonic
+        process, such as a Dask worker, the stages run one after another).
+
+    Returns
+    -------
+    ErectionResult
+        One row per stage (``to_dataframe()``, ``table()``), the completed bridge, the lowest
+        critical speed, ``plot()`` (speeds against erected fraction).
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, fraction, speed grid, ``side_spans`` or ``workers``.
+
+    Examples
+    --------
+    >>> from bridgeflap import model
+    >>> res = model.erection("humber", [0.5, 1.0], "0:90:2", n_modes=6)
+    >>> len(res.to_dataframe())  # two stages and the completed bridge
+    3
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     fr = _fractions(fractions)
@@ -313,7 +484,8 @@ class FrequencyRatioResult(_StagesResult):
     _HEADLINE_KEYS = ("ratio_full_gj", "ratio_half_gj", "ratio")
 
     def plot(self, ax=None):
-        """Seed Fig. 2 style plot: :func:`bridgeflap.model.structure.plots.frequency_ratio`."""
+        """The paper's Fig. 2 style plot
+        (:func:`bridgeflap.model.structure.plots.frequency_ratio`)."""
         from bridgeflap.model.structure.plots import frequency_ratio
 
         return frequency_ratio(self, ax)
@@ -417,9 +589,37 @@ def _ratio_row(modal: ModalModel) -> dict:
 @takes_bridge
 def frequency_ratio(bridge: BridgeArg, fractions, side_spans: str | None = None
                     ) -> FrequencyRatioResult:
-    """``f(TS1)/f(VS1)`` with half and full deck GJ against erected fraction [-] (seed Fig. 2).
+    """Torsion-to-bending frequency ratio ``f(TS1)/f(VS1)`` against the erected fraction.
 
-    Modes by :func:`first_symmetric_deck_mode`; the completed bridge reported separately.
+    The paper's Fig. 2: the ratio with half (temporary joints) and with full deck GJ; modes by
+    :func:`~bridgeflap.model.structure.modes.first_symmetric_deck_mode`; the completed bridge is
+    reported separately.
+
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name, a bridge TOML file or a :class:`~bridgeflap.model.BridgeSpec`.
+    fractions : sequence of float
+        Erected fractions [-], each in (0, 1].
+    side_spans : {"bare", "in_place", "with_main"}, optional
+        The side-span decks while erecting (default: the bridge file's).
+
+    Returns
+    -------
+    FrequencyRatioResult
+        The ratios per fraction (``to_dataframe()``, ``table()``, ``plot()``).
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, fraction or ``side_spans``.
+
+    Examples
+    --------
+    >>> from bridgeflap import model
+    >>> res = model.frequency_ratio("humber", [0.5, 1.0])
+    >>> len(res.to_dataframe())  # two fractions and the completed bridge
+    3
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     fr = _fractions(fractions)
@@ -509,17 +709,50 @@ def closed_loop_flutter(bridge: BridgeArg, controller: Controller, speeds,
                         verify_static: bool = True,
                         critical_only: bool = False,
                         modal: ModalModel | None = None) -> ClosedLoopFlutterResult:
-    """Closed-loop flutter/divergence sweep (and the open-loop one for reference).
+    """Closed-loop flutter and divergence sweep with a flap controller, and the open loop beside it.
 
-    ``flap_chord_m`` [m] default: the controller's own (:attr:`Controller.chord_m`).
-    ``verify_static``: the verified static divergence of the closed loop on the grid's range
-    (:func:`bridgeflap.model.stability.static_divergence.static_divergence`, ~0.3 s on 30 modes).
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name, a bridge TOML file or a :class:`~bridgeflap.model.BridgeSpec`.
+    controller : Controller
+        The compensator and its flap layout (:func:`load_controller` reads one from a file).
+    speeds : array_like or str
+        Wind speeds [m/s] (any form of :func:`bridgeflap.model.grid.speed_grid`).
+    n_modes : int, default 30
+        Retained vertical + torsional modes.
+    flap_chord_m : float, optional
+        Chordwise flap size [m] (default: the controller's own, :attr:`Controller.chord_m`).
+    sweep_method : {"dense", "fast"}, default "dense"
+        As :func:`flutter`, for both sweeps.
+    verify_static : bool, default True
+        Also verify the closed loop's static divergence on the grid's range (about 0.3 s on 30
+        modes; :func:`bridgeflap.model.stability.static_divergence.static_divergence`).
+    critical_only : bool, default False
+        The critical crossings alone (no second branch), as :func:`bridgeflap.model.sweep`.
+    modal : ModalModel, optional
+        Modes already solved for ``bridge`` (default: all modes of its FE model).
 
-    ``speeds`` [m/s]: any form of :func:`bridgeflap.model.grid.speed_grid`; ``sweep_method`` that of
-    :func:`bridgeflap.model.stability.sweeps.sweep` (``"dense"``, the reference, or ``"fast"``) for
-    both, and ``critical_only`` that sweep's option (the critical crossings alone, no second
-    branch); ``modal`` a modal model of ``bridge`` already solved (default: all modes of its FE
-    model).
+    Returns
+    -------
+    ClosedLoopFlutterResult
+        ``base`` (the closed loop) and ``open_loop`` (the bridge without flaps), each a
+        :class:`FlutterResult`; ``summary()`` with ``flutter_status``, ``divergence_status`` and
+        ``critical_speed_m_s``; ``plot()`` (closed over open root locus).
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, controller, speed grid or option.
+
+    Examples
+    --------
+    >>> from bridgeflap import model
+    >>> k = model.Controller(model.Compensator(b2=0.0, b1=0.0, b0=-1.0, a2=0.01, a1=0.1),
+    ...                      flap_strip_positions_m=(0.0,), flap_width_m=100.0)
+    >>> res = model.closed_loop_flutter("humber", k, "0:90:5", n_modes=4)
+    >>> res.summary()["flap_count"]
+    1
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     u = check_speeds(speeds)
@@ -544,9 +777,30 @@ def closed_loop_flutter(bridge: BridgeArg, controller: Controller, speeds,
 @takes_bridge(controller=optional(as_controller))
 def pk_flutter(bridge: BridgeArg, speeds, n_modes: int = DEFAULT_MODES,
                controller: Controller | None = None) -> dict:
-    """Summary of the exact-Theodorsen p-k check on the same generalised coordinates as
-    :func:`flutter` (closed loop with the controller's exact ``K(p)`` when given):
-    :func:`bridgeflap.model.stability.sweeps.pk_sweep`."""
+    """The exact-Theodorsen p-k check of the flutter speed, on the coordinates of :func:`flutter`.
+
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name, a bridge TOML file or a :class:`~bridgeflap.model.BridgeSpec`.
+    speeds : array_like or str
+        Wind speeds [m/s].
+    n_modes : int, default 30
+        Retained vertical + torsional modes.
+    controller : Controller, optional
+        Close the loop with the controller's exact ``K(p)`` (default: open loop).
+
+    Returns
+    -------
+    dict
+        The summary of :func:`bridgeflap.model.pk_sweep`: ``flutter_speed_m_s``,
+        ``flutter_status`` and the reduced frequency at flutter (plain Python numbers).
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, speed grid or controller.
+    """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     from bridgeflap.model.stability.sweeps import pk_sweep
 

@@ -8,7 +8,16 @@ both into one line on stderr and exit status 2.
 
 
 class BridgeflapError(Exception):
-    """Base class of all bridgeflap errors."""
+    """Base class of all bridgeflap errors.
+
+    Catch it to handle every error the package raises on purpose; bad input is its subclass
+    :class:`BridgeflapInputError` (also a :class:`ValueError`), which names the field.
+
+    Parameters
+    ----------
+    *args : object
+        The message, as for :class:`Exception`.
+    """
 
 
 class BridgeflapInputError(BridgeflapError, ValueError):

@@ -53,6 +53,14 @@ def parse_range(text: str, field: str, minimum: float | None = None,
     BridgeflapInputError
         Not a number grid, an empty grid or one of more than :data:`MAX_GRID_POINTS`
         points, non-finite values or values outside ``[minimum, maximum]``.
+
+    Examples
+    --------
+    >>> from bridgeflap import design
+    >>> design.parse_range("0:10:2.5", "speeds")
+    array([ 0. ,  2.5,  5. ,  7.5, 10. ])
+    >>> design.parse_range("1,2,5", "speeds")
+    array([1., 2., 5.])
     """
     if not isinstance(text, str):
         raise BridgeflapInputError(field, f"must be grid text such as '0:85:0.5' or '1,2,5', "

@@ -148,7 +148,7 @@ def _figure_plot(method):
         return figure_of(method(self, *args, **kwargs))
 
     plot._figure = True
-    if plot.__doc__:
+    if plot.__doc__ and "Returns\n" not in plot.__doc__:  # a numpydoc one says it already
         plot.__doc__ = plot.__doc__.rstrip() + "\n\n(Returns the matplotlib Figure.)"
     return plot
 

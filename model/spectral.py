@@ -1,6 +1,6 @@
 """Random (spectral) response of a stable LTI system to correlated stationary inputs.
 
-Bridge-independent engine used by the buffeting analysis (docs/methods.md#buffeting; seed paper §3,
+Bridge-independent engine used by the buffeting analysis (docs/methods.md#buffeting; the paper §3,
 Eqs. (9)-(17)). The system is::
 
     x' = A x + B w,    y = C x
@@ -15,13 +15,13 @@ PSD convention (used by every function in this module)
 All spectra are **one-sided in circular frequency**: ``G(omega)`` is defined for
 ``omega >= 0`` [rad/s] and the variance is ``sigma^2 = int_0^inf G(omega) d omega``.
 For an input in [m/s] the unit of ``G`` is [m^2/s^2 per rad/s]; an output PSD has the output
-unit squared per rad/s. The seed paper uses the two-sided ``S(omega)`` on ``(-inf, inf)``
+unit squared per rad/s. The paper uses the two-sided ``S(omega)`` on ``(-inf, inf)``
 (its Eqs. (15) and (17)); the two are related by ``G(omega) = 2 S(omega)``.
 
 The cross-spectral density (CSD) matrix of the inputs is ``G_ww(omega)`` (m, m), Hermitian
 positive semi-definite; for the buffeting case it is ``s(omega) * chi2(omega) * R(omega)``
-with ``R`` the coherence matrix of Eq. (16) of the seed paper, see :func:`exponential_coherence`
-and :func:`separable_csd`. The output CSD is (seed Eqs. (10)-(12))::
+with ``R`` the coherence matrix of Eq. (16) of the paper, see :func:`exponential_coherence`
+and :func:`separable_csd`. The output CSD is (the paper's Eqs. (10)-(12))::
 
     G_yy(omega) = H(i omega) G_ww(omega) H(i omega)^H,   H(s) = C (s I - A)^{-1} B.
 
@@ -154,7 +154,7 @@ class SpectralResult:
 # input spectra helpers
 # ----------------------------------------------------------------------------------------------
 def exponential_coherence(positions, decay_coefficient, wind_speed):
-    """Coherence matrix of Eq. (16) of the seed paper as a function of frequency.
+    """Coherence matrix of Eq. (16) of the paper as a function of frequency.
 
     Parameters
     ----------
@@ -363,7 +363,7 @@ def _output_psd(evaluator, omegas, S, full, chunk):
 
 
 def response_psd(A, B, C, omegas, input_csd, *, full=False, method="auto", chunk=64):
-    """One-sided output PSDs ``G_yy = H G_ww H^H`` on a frequency grid (seed Eqs. (10)-(12)).
+    """One-sided output PSDs ``G_yy = H G_ww H^H`` on a frequency grid (the paper's Eqs. (10)-(12)).
 
     Parameters
     ----------
@@ -495,7 +495,7 @@ def spectral_rms(
     convergence_tol=1e-2,
     method="auto",
 ):
-    """Output RMS by quadrature of the one-sided output PSD (seed Eq. (17), one-sided form).
+    """Output RMS by quadrature of the one-sided output PSD (the paper's Eq. (17), one-sided form).
 
     ``sigma_j^2 = int_0^omega_max G_yy,jj(omega) d omega`` by the trapezoid rule on
     :func:`adaptive_frequency_grid` (or on ``omegas``); the tail above ``omega_max`` is not

@@ -142,6 +142,17 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
     bridge : BridgeSpec, name or path, optional
         The bridge the controller was designed for (default ``settings.bridge``): the fresh
         variants are drawn about it.
+
+    Returns
+    -------
+    AcceptanceResult
+        ``status`` (``"passed"``, ``"harm"``, ``"failed"``, ``"unresolved"``, ``"not_run"``),
+        each check's block and table, ``summary()``, ``table()``, ``plot()``.
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad controller, card, check name, ``samples`` or ``workers``.
     """
     from bridgeflap.design.assessment.acceptance import acceptance
     from bridgeflap.design.control.settings import DesignSettings, load_settings

@@ -270,12 +270,27 @@ def _verdict(block: dict) -> str:
     return "unresolved"
 
 
+#: What the acceptance verdict means, printed under it (``acceptance_text``).
+VERDICT_MEANING = {
+    "passed": "passed = the independent closed loop agrees and the controller lowers no fresh "
+              "variant's critical speed below its open-loop one; the stable fraction, the "
+              "failed-pair and the actuator lines below are reported, not part of the verdict",
+    "harm": "harm = the controller lowers some fresh variant's critical speed below its "
+            "open-loop one: not usable",
+    "failed": "failed = the independent closed loop disagrees with the design's: not usable",
+    "unresolved": "unresolved = a fresh variant's crossing could not be verified: not usable",
+}
+
+
 def acceptance_text(acc: dict) -> str:
     """One line per check of the acceptance block."""
     def f(v, spec):
         return "n/a" if v is None else format(v, spec)
 
     out = [f"acceptance: {acc['status']}"]
+    meaning = VERDICT_MEANING.get(acc.get("status"))
+    if meaning:
+        out.append(f"  ({meaning})")
     ind = acc.get("independent_check")
     if ind and "largest_difference_rel" in ind:
         out.append(f"  independent closed loop ({ind['modes']} modes, {len(ind['speeds'])} "

@@ -111,7 +111,7 @@ def actuator_study(spec, controller, speeds, limits: ActuatorLimits | None = Non
     Parameters
     ----------
     spec : BridgeSpec
-        A thin-aerofoil bridge (the closed loop's gust loads are seed Eq. (8)).
+        A thin-aerofoil bridge (the closed loop's gust loads are the paper's Eq. (8)).
     controller : bridgeflap.model.aeroelastic.control.Controller
     speeds : array_like
         Mean wind speeds [m/s], > 0.

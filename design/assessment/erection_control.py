@@ -1,4 +1,4 @@
-"""Erection with flaps (beyond the seed): the closed-loop critical speed of
+"""Erection with flaps (beyond the paper): the closed-loop critical speed of
 each erection stage with the flaps that sit on the erected deck.
 
 A stage (:meth:`bridgeflap.model.structure.spec.BridgeSpec.erected`) carries the main-span deck from
@@ -26,7 +26,7 @@ __all__ = ["STAGE_DESIGN", "ErectionControlResult", "design_for_stage", "erectio
 #: Card overrides of a design for one erection stage (:func:`design_for_stage`): the largest
 #: closed-loop critical speed subject to the card's robust margin (``objective =
 #: "critical_speed"``, :mod:`design.control.critical_speed`), the search from 40 m/s in 5 m/s steps
-#: (a stage's open-loop critical speed lies at 32-52 m/s, seed Fig. 3 right and
+#: (a stage's open-loop critical speed lies at 32-52 m/s, the paper's Fig. 3 right and
 #: ``bridgeflap erection``) to 1 m/s, on a fixed layout of touching strips on the erected
 #: deck (a handful of candidates: no placement), one start.
 STAGE_DESIGN = {"objective": "critical_speed", "speed_max_m_s": 40.0,

@@ -229,6 +229,14 @@ def make_design(kind: str, **options: Any) -> list[dict]:
     -------
     list of dict
         The cases.
+
+    Examples
+    --------
+    >>> from bridgeflap import design
+    >>> cases = design.make_design("full_factorial", levels={"deck.gj_nm2": [4.7e11, 7.1e11],
+    ...                                                      "cable.main_sag_m": [110.0, 125.0]})
+    >>> len(cases), cases[0]["case_id"]
+    (4, 'case-0000')
     """
     if kind not in DESIGN_KINDS:
         known = ", ".join(sorted(DESIGN_KINDS))

@@ -1,4 +1,4 @@
-"""``bridgeflap buffeting``: RMS deck response to vertical turbulence (seed §5, Fig. 4).
+"""``bridgeflap buffeting``: RMS deck response to vertical turbulence (the paper, §5, Fig. 4).
 
 Prints one JSON object with ``--json`` (keys: ``speeds_m_s``, ``rms_vertical_m``,
 ``rms_torsion_rad``, ``rms_vertical_over_width``, ``status`` and the grid convergence and
@@ -83,7 +83,7 @@ def arguments(sp) -> None:
                     help="aerodynamic admittance of every gust component (default: liepmann "
                          "for thin-aerofoil loads, unit for quasi-steady loads)")
     sp.add_argument("--loads", choices=LOADS, default=None,
-                    help="gust loads: thin-aerofoil (w only, seed Eq. 8; the default) or "
+                    help="gust loads: thin-aerofoil (w only, the paper's Eq. 8; the default) or "
                          "quasi-steady from the bridge's [static_coefficients] (u and w; the "
                          "default and only choice on a flutter-derivative bridge)")
     sp.add_argument("--coherence-decay", type=float, default=None,

@@ -1,4 +1,4 @@
-"""``bridgeflap erection``: flutter/divergence against the erected fraction (seed Fig. 3
+"""``bridgeflap erection``: flutter/divergence against the erected fraction (the paper's Fig. 3
 right), and with ``--controller`` the closed loop of each stage with the flaps on its deck
 (:mod:`bridgeflap.design.assessment.erection_control`)."""
 

@@ -391,7 +391,7 @@ COMMANDS: tuple[Command, ...] = (
     Command("buffeting", "RMS deck response to vertical turbulence",
             *(_later("bridgeflap.design.cli.buffeting", f) for f in ("arguments",
                                                                      "cmd_buffeting"))),
-    Command("optimise", "design the flap compensator (seed section 6)",
+    Command("optimise", "design the flap compensator (the paper, section 6)",
             *(_later("bridgeflap.design.cli.optimise", f) for f in ("arguments", "cmd_optimise"))),
     Command("study", "run a study (default: the paper's reproduction)",
             _later("bridgeflap.design.cli.study", "study_arguments"),
@@ -549,6 +549,23 @@ def main(argv=None) -> int:
     2 bad input (one line ``bridgeflap: error: <field>: <reason>``, nothing written; also
     what the OS refuses, and a bare ``bridgeflap``: a short usage); 130 interrupted (Ctrl-C:
     one line, temporaries removed).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default: ``sys.argv[1:]``), e.g. ``["flutter", "--json"]``.
+
+    Returns
+    -------
+    int
+        The exit status above.
+
+    Examples
+    --------
+    >>> from bridgeflap import design
+    >>> design.main(["--version"])  # doctest: +SKIP
+    bridgeflap ...
+    0
     """
     from bridgeflap.design.cli.run import one_line_warning, run
 

@@ -69,7 +69,7 @@ def _num(field_name, v, positive=False, nonneg=False):
 
 @dataclass(frozen=True)
 class DesignSettings:
-    """Definition of the design problem (defaults: Humber, seed §6; overridable by TOML).
+    """Definition of the design problem (defaults: Humber, the paper, §6; overridable by TOML).
 
     Units: lengths [m], speeds [m/s], rates [1/s], frequencies [rad/s], gains [rad/rad].
 
@@ -102,6 +102,50 @@ class DesignSettings:
     flap actuators, :mod:`bridgeflap.model.aeroelastic.actuator_limits`). The design does not use
     them; ``bridgeflap actuators --card`` simulates the designed loop with them in turbulent wind.
     Left out of the design's JSON settings while at their defaults.
+
+    Attributes
+    ----------
+    bridge : str
+        The bridge designed for: a name, a bridge file or ``file.toml:variant`` (default
+        ``"humber"``).
+    n_modes, verification_modes : int
+        Retained vertical + torsional modes of the design model and of the dense verification
+        (default 16, 16).
+    flap_count : int
+        Candidate flap pairs side by side over the main span (default 25).
+    flap_positions_m : tuple of float
+        The fitted flap strips' centres from mid-span [m]; empty: all ``flap_count`` candidates.
+    flap_width_m, flap_chord_m : float
+        Spanwise width of a strip [m] (default 56.4) and chordwise flap size [m] (default 3).
+    speed_max_m_s, design_step_m_s, check_step_m_s : float
+        Highest design speed [m/s] (default 85), the design grid's step (5) and the
+        verification grid's step (0.25).
+    zeta_min : float
+        Minimum damping ratio [-] of every branch the flaps move (default 0.005).
+    gain_limit : float
+        Bound on ``sup |K(jw)|`` [rad/rad] (default 15).
+    weight_robust, weight_buffeting, weight_regularisation : float
+        Objective weights [-] (defaults 1, 0, 1e-3).
+    starts, seed : int
+        Optimiser starts (default 2) and their random seed (1).
+    variants : int
+        Scenario bridges of the stated uncertainty designed for at once (default 0: the nominal
+        bridge only).
+    compensator_damping_min : float
+        Minimum damping ratio [-] of the compensator's own poles (default 0).
+    objective : {"margin", "critical_speed"}
+        What the design maximises (default ``"margin"``).
+    flap_angle_limit_deg, flap_rate_limit_deg_s : float
+        Actuator limits [deg], [deg/s] for the actuator check (defaults 20, 40).
+
+    The packaged card, ``design/studies/humber_flaps.toml``, documents every key
+    (docs/reference/formats/card.md).
+
+    Examples
+    --------
+    >>> from bridgeflap import design
+    >>> design.DesignSettings(n_modes=8).n_modes
+    8
     """
 
     bridge: str = "humber"
@@ -365,16 +409,39 @@ _TOML_KEYS = {f for f in DesignSettings.__dataclass_fields__ if f != "extras"}
 
 
 def load_settings(path: str | os.PathLike | None = "default", **overrides) -> DesignSettings:
-    """A design card (TOML) overridden by keyword arguments.
+    """A design card (TOML) read into :class:`DesignSettings`, keywords overriding its keys.
 
-    ``path``: a card file; ``"default"`` (the default) is :data:`DEFAULT_CARD`, the card
-    ``bridgeflap optimise`` runs without a card argument; ``None`` starts from the embedded
-    :class:`DesignSettings` defaults alone (docs/api_vocabulary.md).
+    Parameters
+    ----------
+    path : str, path-like or None, default "default"
+        ``"default"`` (or no argument): the packaged card :data:`DEFAULT_CARD`
+        (``design/studies/humber_flaps.toml``), the one ``bridgeflap optimise`` runs without a
+        card; a path: your card (docs/reference/formats/card.md); ``None``: no card, the bare
+        :class:`DesignSettings` defaults (no flap positions, no scenario bridges, no buffeting
+        term).
+    **overrides
+        Card keys and their values (units in the key names, e.g. ``speed_max_m_s=80.0``); they
+        replace the card's.
+
+    Returns
+    -------
+    DesignSettings
+        The validated settings.
 
     Raises
     ------
     BridgeflapInputError
-        Unknown key, bad value, missing or unreadable file.
+        Unknown key (with the closest known ones), bad value, missing or unreadable file.
+
+    Examples
+    --------
+    >>> from bridgeflap import design
+    >>> card = design.load_settings()                   # the packaged card
+    >>> len(card.flap_positions_m), card.weight_buffeting
+    (20, 3.0)
+    >>> bare = design.load_settings(None, n_modes=8)    # no card: the bare defaults
+    >>> bare.flap_positions_m, bare.n_modes
+    ((), 8)
     """
     check_load_settings_args(path, overrides)
     data = {}
@@ -441,20 +508,41 @@ def packaged_card(name) -> Path:
 
 
 def quick_settings(settings: DesignSettings) -> DesignSettings:
-    """Reduced settings for CI/--quick: one start, coarser design grid, two cut rounds,
-    fewer flap counts, and of a scenario design the corners only (no Sobol' draws).
+    """Reduced settings of a card, as ``bridgeflap optimise --quick`` and CI use them.
+
+    One start, a design grid of at least 10 m/s, two cut rounds, fewer flap counts, and of a
+    scenario design the corners only (no Sobol' draws). On the packaged card the design takes
+    about 2 minutes on 2 cores (docs/background/benchmarks.md).
 
     Two rounds, not one: on humber:box the first re-solve after the cuts can stop at its
-    iteration cap 4.6e-6 1/s short of the damping at a design speed (measured after the
-    analytic robust constraint changed Ipopt's path; status then infeasible); the second
-    re-solve continues it.
+    iteration cap 4.6e-6 1/s short of the damping at a design speed (status then infeasible); the
+    second re-solve continues it. The design model keeps its modes (a design on 8 modes flutters
+    at 79.75 m/s on the 16-mode model); the dense verification on ``verification_modes`` is
+    unchanged and the status says whether it holds. The critical-speed search
+    (``objective = "critical_speed"``) bisects to 2.5 m/s (at most half its step) instead of
+    ``critical_speed_tol_m_s``.
 
-    The design model keeps its modes (a design on 8 modes flutters at 79.75 m/s on the
-    16-mode model); the dense verification on ``verification_modes`` is unchanged and the
-    status says whether it holds.
+    Parameters
+    ----------
+    settings : DesignSettings
+        The full settings (e.g. :func:`load_settings`).
 
-    The critical-speed search (``objective = "critical_speed"``) bisects to 2.5 m/s (at most
-    half its step) instead of ``critical_speed_tol_m_s``.
+    Returns
+    -------
+    DesignSettings
+        A reduced copy; ``settings`` is unchanged.
+
+    Raises
+    ------
+    BridgeflapInputError
+        ``settings`` is not valid.
+
+    Examples
+    --------
+    >>> from bridgeflap import design
+    >>> quick = design.quick_settings(design.load_settings())
+    >>> quick.starts, quick.design_step_m_s, quick.cutting_plane_rounds
+    (1, 10.0, 2)
     """
     check_settings(settings)
     tol = max(settings.critical_speed_tol_m_s, min(2.5, 0.5 * settings.critical_speed_step_m_s))

@@ -28,8 +28,10 @@ __all__ = ["build_info", "build_manifest", "git_info", "ipopt_version", "package
            "provenance"]
 
 UNKNOWN = "unknown"
+#: The version recorded for a package that is not installed (the optional python-control).
+NOT_INSTALLED = "not installed"
 #: Every scientific dependency whose version can change a number, a table or a figure (the
-#: optional python-control included: "unknown" when it is not installed).
+#: optional python-control included: "not installed" when it is not installed).
 _PACKAGES = ("bridgeflap", "numpy", "scipy", "casadi", "matplotlib", "pandas", "xarray",
              "SALib", "control", "dask", "distributed", "tqdm", "threadpoolctl", "tabulate")
 _GIT_TIMEOUT_S = 5.0
@@ -45,7 +47,8 @@ def package_versions() -> dict[str, str]:
     -------
     dict of str to str
         Distribution name -> version; ``"ipopt"`` is the Ipopt bundled with CasADi. A package
-        that is not installed or whose version cannot be read is ``"unknown"``.
+        that is not installed is ``"not installed"``; one whose version cannot be read is
+        ``"unknown"``.
     """
     versions = {name: package_versions_one(name) for name in _PACKAGES}
     versions["ipopt"] = ipopt_version()
@@ -173,7 +176,7 @@ def provenance(source_dir: str | Path | None = None, build_path: str | Path | No
     git = git_info(source_dir)
     build = build_info(build_path)
     version = package_versions_one("bridgeflap")
-    if version == UNKNOWN:
+    if version in (UNKNOWN, NOT_INSTALLED):
         version = (build or {}).get("version") or _source_version()
     if git["commit"] != UNKNOWN:
         out = {**git, "source": "checkout"}
@@ -185,11 +188,24 @@ def provenance(source_dir: str | Path | None = None, build_path: str | Path | No
 
 
 def package_versions_one(name: str) -> str:
-    """Installed version of distribution ``name`` or ``"unknown"``."""
+    """Installed version of distribution ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Distribution name, e.g. ``"control"``.
+
+    Returns
+    -------
+    str
+        Its version; ``"not installed"`` when no such distribution is installed, ``"unknown"``
+        when it is installed but records no version.
+    """
     try:
-        return importlib.metadata.version(name)
+        version = importlib.metadata.version(name)
     except importlib.metadata.PackageNotFoundError:
-        return UNKNOWN
+        return NOT_INSTALLED
+    return version or UNKNOWN
 
 
 def _cwd() -> str:

@@ -235,6 +235,26 @@ def local_sensitivity(bridge: BridgeArg, parameters: Sequence[str] = DEFAULT_PAR
         of the full pipeline against the IFT derivative; a row is flagged (``kink``) when the
         critical branch changes within the step or a slope disagrees beyond the tolerance of
         :func:`bridgeflap.design.sensitivity.ift.kink_check`.
+
+    Returns
+    -------
+    SensitivityResult
+        One row per parameter: the IFT derivative ``dU/dp`` [m/s per unit of ``p``], the relative
+        ``(p/U) dU/dp`` [-] of ``U_F`` and ``U_D``, the finite-difference checks and the kink
+        flag; ``table()``, ``to_dataframe()``, ``plot()`` (tornado).
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, parameter path, speed grid or step.
+
+    Examples
+    --------
+    >>> from bridgeflap import design
+    >>> res = design.local_sensitivity("humber", ["deck.gj_nm2"], speeds="0:90:2", n_modes=6,
+    ...                                check=False)
+    >>> "deck.gj_nm2" in res.table()
+    True
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     parameters = check_parameters(parameters)

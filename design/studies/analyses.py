@@ -41,7 +41,7 @@ from bridgeflap.model.structure.spec import BridgeSpec
 __all__ = ["ANALYSES", "DEFAULT_MODES", "DEFAULT_SPEEDS", "Analysis", "Outcome", "RunContext",
            "check_options", "figure_of"]
 
-#: default wind-speed grid [m/s] of flutter and erection (seed Fig. 3: 0-85 m/s)
+#: default wind-speed grid [m/s] of flutter and erection (the paper's Fig. 3: 0-85 m/s)
 DEFAULT_SPEEDS = "0:85:0.5"
 
 
@@ -507,7 +507,7 @@ ANALYSES: Mapping[str, Analysis] = _table(
 
 def fig5(spec, controller, n_modes: int = DEFAULT_MODES, quick: bool = False,
          open_loop_flutter_m_s: float | None = None):
-    """Seed Fig. 5: closed-loop root locus 0-85 m/s over the open loop (left), vertical and
+    """The paper's Fig. 5: closed-loop root locus 0-85 m/s over the open loop (left), vertical and
     torsional buffeting with and without the flaps (the open loop is NaN beyond its flutter
     speed, never clipped). ``open_loop_flutter_m_s`` is the marked open-loop flutter speed
     (the design result's own; default: this figure's open-loop sweep)."""
@@ -521,4 +521,4 @@ def fig5(spec, controller, n_modes: int = DEFAULT_MODES, quick: bool = False,
     ol = buffeting(spec, bspeeds, n_modes=n_modes, allow_unstable=True)
     clb = buffeting(spec, bspeeds, n_modes=n_modes, controller=controller, allow_unstable=True)
     return draw(cl.base.sweep, cl.open_loop.sweep, ol, clb, controller, open_loop_flutter_m_s,
-                model_text=f"seed Fig. 5 analogue: {spec.name}, {n_modes} modes")
+                model_text=f"the paper's Fig. 5 analogue: {spec.name}, {n_modes} modes")

@@ -170,6 +170,20 @@ def load_doe(path: str | os.PathLike, quick: bool = False, bridge: Any = None) -
         design = { levels = 2 }
         options = { speeds = "0:120:2" }
 
+    Parameters
+    ----------
+    path : str or path-like
+        The DOE TOML file.
+    quick : bool, default False
+        Apply the file's ``[quick]`` overrides.
+    bridge : str, path-like or BridgeSpec, optional
+        Replaces the file's ``bridge``.
+
+    Returns
+    -------
+    DoeConfig
+        The validated DOE, for :func:`run_doe`.
+
     Raises
     ------
     BridgeflapInputError
@@ -184,7 +198,40 @@ def load_doe(path: str | os.PathLike, quick: bool = False, bridge: Any = None) -
 @checked(data=check_mapping, base=optional(check_path), quick=flag, source=check_text)
 def doe_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
                   source: str = "<dict>") -> DoeConfig:
-    """Build a :class:`DoeConfig` from parsed TOML (see :func:`load_doe`)."""
+    """Build a :class:`DoeConfig` from parsed TOML (see :func:`load_doe`).
+
+    Parameters
+    ----------
+    data : mapping
+        The DOE file's tables (``name``, ``bridge``, ``analysis``, ``[options]``, ``[design]``,
+        ``[parameters]``; docs/reference/formats/doe.md).
+    base : pathlib.Path, optional
+        Folder that relative paths in ``data`` are relative to (default: the current one).
+    quick : bool, default False
+        Apply the ``[quick]`` overrides.
+    source : str, default "<dict>"
+        Where the data came from, for messages.
+
+    Returns
+    -------
+    DoeConfig
+        The validated DOE: ``parameters``, ``cases()``, ``options``.
+
+    Raises
+    ------
+    BridgeflapInputError
+        Unknown key, analysis, design kind or parameter; empty range or level list.
+
+    Examples
+    --------
+    >>> from bridgeflap import design
+    >>> config = design.doe_from_dict({
+    ...     "name": "gj", "bridge": "humber", "analysis": "flutter",
+    ...     "design": {"kind": "full_factorial", "levels": 2},
+    ...     "parameters": {"deck.gj_nm2": [4.7e11, 7.1e11]}})
+    >>> list(config.parameters)
+    ['deck.gj_nm2']
+    """
     check_keys(data, _DOE_KEYS, "DOE")
     base = Path.cwd() if base is None else base
     name = plain_name(data.get("name"))
@@ -313,33 +360,26 @@ class DoeResult(ResultData):
         return cases_dataset(self.rows)
 
     def plot(self, ax=None, output: str | None = None):
-        """Scatter of an output over the first two parameters (failed cases as crosses)."""
-        import matplotlib.pyplot as plt
+        """Scatter of an output over the first two parameters (failed cases as crosses).
 
-        if ax is None:
-            _, ax = plt.subplots(figsize=(6, 4.5))
-        names = list(self.config.parameters)
-        ok = [r for r in self.rows if r["status"] == "ok"]
-        if output is None:
-            keys = [k for k in (ok[0]["result"] if ok else {})
-                    if isinstance(ok[0]["result"][k], int | float)]
-            output = keys[0] if keys else None
-        x = np.array([r["params"][names[0]] for r in self.rows], dtype=float)
-        y = (np.array([r["params"][names[1]] for r in self.rows], dtype=float)
-             if len(names) > 1 else np.zeros_like(x))
-        val = np.array([np.nan if r["result"] is None or r["result"].get(output) is None
-                        else r["result"][output] for r in self.rows], dtype=float)
-        good = np.isfinite(val)
-        sc = ax.scatter(x[good], y[good], c=val[good], cmap="viridis", s=40)
-        if good.any():
-            plt.colorbar(sc, ax=ax, label=output)
-        ax.plot(x[~good], y[~good], "rx", ms=9, label="failed / no crossing")
-        ax.set_xlabel(names[0])
-        ax.set_ylabel(names[1] if len(names) > 1 else "-")
-        ax.set_title(f"{self.config.name}: {self.succeeded}/{self.cases} cases ok", fontsize=9)
-        if (~good).any():
-            ax.legend(fontsize=8)
-        return ax
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axis to draw on (default: a new figure).
+        output : str, optional
+            Result key to colour by, e.g. ``"flutter_speed_m_s"`` (default: the first numeric
+            result of the first successful case).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure (:func:`bridgeflap.design.batch.plots.cases_over_inputs`).
+        """
+        from bridgeflap.design.batch.plots import cases_over_inputs
+
+        return cases_over_inputs(
+            self.rows, list(self.config.parameters), ax, output,
+            title=f"{self.config.name}: {self.succeeded}/{self.cases} cases ok")
 
 
 def doe_fingerprint(config: DoeConfig) -> str:
@@ -387,6 +427,53 @@ def run_doe(config: DoeConfig | str | os.PathLike,
     ``case_hash`` (:func:`doe_fingerprint` and the parameters) matches; a folder holding
     another DOE has its cases recomputed (said on stderr). The folder rules (foreign folder
     refused, one run at a time) are those of :func:`bridgeflap.design.batch.runner.run_batch`.
+
+    Parameters
+    ----------
+    config : DoeConfig, str or path-like
+        A loaded DOE or the path of a DOE file.
+    out_dir : str or path-like, optional
+        The output folder (default ``runs/<name>/output``).
+    workers : int, default 1
+        Local worker processes (a local Dask cluster; in a script, under
+        ``if __name__ == "__main__":``).
+    scheduler : str, optional
+        ``"serial"`` (in this process), ``"local"``, or a Dask scheduler address
+        ``"tcp://host:8786"`` (reached within 5 s before anything is written).
+    resume : bool, default False
+        Reuse the finished cases of ``out_dir`` whose ``case_hash`` matches.
+    quick : bool, default False
+        Apply the file's ``[quick]`` overrides (a path only).
+    progress : bool, default True
+        A progress bar on stderr.
+    bridge : str, path-like or BridgeSpec, optional
+        Replaces the file's bridge (a path only).
+
+    Returns
+    -------
+    DoeResult
+        ``cases``, ``succeeded``, ``failed``, ``reused``; ``table()``, ``to_dataframe()`` (one
+        flat row per case), ``to_xarray()``, ``plot(output=...)`` (an output over the first two
+        inputs).
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad config, folder (another kind of output, not writable) or scheduler.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from bridgeflap import design
+    >>> config = design.doe_from_dict({
+    ...     "name": "gj", "bridge": "humber", "analysis": "flutter",
+    ...     "options": {"speeds": "0:90:5", "modes": 4, "truncation_check": False},
+    ...     "design": {"kind": "full_factorial", "levels": 2},
+    ...     "parameters": {"deck.gj_nm2": [4.7e11, 7.1e11]}})
+    >>> out = pathlib.Path(tempfile.mkdtemp()) / "gj"
+    >>> doe = design.run_doe(config, out_dir=out, scheduler="serial", progress=False)
+    >>> doe.cases, doe.failed
+    (2, 0)
     """
     from bridgeflap.design.batch.runner import run_batch
     from bridgeflap.design.io.manifest import build_manifest

@@ -1,4 +1,4 @@
-"""The seed Fig. 5 of the report: closed-loop root locus over the open loop and buffeting with
+"""The paper's Fig. 5 of the report: closed-loop root locus over the open loop and buffeting with
 and without the flaps.
 
 :func:`bridgeflap.design.studies.analyses.fig5` (the report's figure) calls it (matplotlib imported
@@ -29,7 +29,7 @@ def _buffeting_line(ax, u, y, style, label):
 def fig5(sweep_cl, sweep_ol, ol_buffeting, cl_buffeting, controller,
          open_loop_flutter_m_s: float | None = None, model_text: str = "",
          status: str | None = None):
-    """Seed Fig. 5: closed-loop root locus over the open loop (left), vertical (middle) and
+    """The paper's Fig. 5: closed-loop root locus over the open loop (left), vertical (middle) and
     torsional (right) buffeting with and without the flaps; the open-loop flutter speed
     marked is ``open_loop_flutter_m_s`` (the design result's), else ``sweep_ol``'s."""
     from bridgeflap.model.stability.plots import root_locus

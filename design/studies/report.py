@@ -1,12 +1,13 @@
-"""The study report: ``report.md`` and ``report.html`` comparing a study with the seed paper.
+"""The study report: ``report.md`` and ``report.html`` comparing a study with the paper.
 
 :func:`study_document` builds one :class:`bridgeflap.design.studies.document.Document` (Table 1, the
 65/74 m/s speeds, Figs. 2-5, the flap compensator and the sensitivities) from a
 :class:`bridgeflap.design.studies.study.StudyResult`: every number in it is read from the result
 summaries that the study writes to ``results/<analysis>.json``, formatted once, and rendered both as
 Markdown (:func:`study_report`, tables by pandas/tabulate) and as a self-contained HTML file with
-the figures inline (:func:`study_report_html`). :func:`fig5` draws seed Fig. 5: the closed-loop
-root locus over the open loop and the vertical and torsional buffeting with and without flaps.
+the figures inline (:func:`study_report_html`). :func:`fig5` draws the paper's Fig. 5: the
+closed-loop root locus over the open loop and the vertical and torsional buffeting with and
+without flaps.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ if TYPE_CHECKING:
 
 __all__ = ["PAPER", "fig5", "study_document", "study_report", "study_report_html"]
 
-#: the seed paper's complete-bridge speeds [m/s]
+#: the paper's complete-bridge speeds [m/s]
 PAPER = {"flutter_speed_m_s": 65.0, "divergence_speed_m_s": 74.0}
 
 
@@ -269,9 +270,9 @@ def _design_verdict(d: dict) -> str:
 
 
 def _design_section(doc: Document, d: dict) -> None:
-    """The flap-compensator design (seed §6, Fig. 5)."""
+    """The flap-compensator design (the paper, §6, Fig. 5)."""
     c = d["coefficients"]
-    doc.heading(2, "Flap compensator (seed §6, Fig. 5)")
+    doc.heading(2, "Flap compensator (the paper, §6, Fig. 5)")
     doc.paragraph(f"Controller file: `{d.get('controller_file', '-')}` (use it with "
                   "`bridgeflap flutter|buffeting|state-space --controller`).")
     doc.paragraph(f"Designed on bridge `{d.get('settings', {}).get('bridge', '-')}` (the "

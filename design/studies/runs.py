@@ -170,18 +170,65 @@ class RunRecord(ResultData):
                          .rename({d: f"{path.stem}.{d}" for d in ds.dims}))
         return xr.merge(parts, combine_attrs="drop") if parts else super().to_xarray()
 
+    def _doe_definition(self) -> dict:
+        """The DOE definition the folder records (``doe.json``), or ``{}``."""
+        path = self.folder / "doe.json"
+        if not path.is_file():
+            return {}
+        try:
+            return json.loads(path.read_text("utf-8"))
+        except (OSError, ValueError):
+            return {}
+
+    def _input_names(self, rows) -> list[str]:
+        """The numeric inputs to plot over: a DOE's parameters in their definition's order,
+        else (a batch) the case inputs that are numbers in every case; ``[]`` when none."""
+        names = list(self._doe_definition().get("parameters") or ())
+        if not names and rows:
+            names = [k for k in rows[0].get("params", {})
+                     if all(isinstance(r.get("params", {}).get(k), int | float)
+                            and not isinstance(r["params"][k], bool) for r in rows)]
+        return names
+
     def plot(self, ax=None, output: str | None = None):
-        """DOE and batch folders: an output over the first two parameters (as
-        :meth:`bridgeflap.design.studies.experiments.DoeResult.plot`); other folders: their first
-        figure (``figures/*.png``, or ``*.png``) shown as an image."""
+        """The folder's figure.
+
+        A DOE folder: an output over its first two inputs, as
+        :meth:`bridgeflap.design.studies.experiments.DoeResult.plot` draws it; a batch folder:
+        over its first two numeric inputs (over the case number when it has none); other folders:
+        their first figure (``figures/*.png``, or ``*.png``) shown as an image.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axis to draw on (default: a new figure).
+        output : str, optional
+            DOE and batch folders: the result key to show (default: the first numeric one).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure.
+
+        Raises
+        ------
+        TypeError
+            A folder with no cases and no figure.
+        """
         import matplotlib.pyplot as plt
 
         if (self.folder / "cases").is_dir():
             from types import SimpleNamespace
 
-            from bridgeflap.design.batch.plots import batch_cases
+            from bridgeflap.design.batch.plots import batch_cases, cases_over_inputs
 
             rows = self.case_records()
+            names = self._input_names(rows)
+            if names:  # a DOE: over its inputs, as DoeResult.plot draws it
+                name = self._doe_definition().get("name") or self.folder.name
+                ok = sum(r.get("status") == "ok" for r in rows)
+                return cases_over_inputs(rows, names, ax, output,
+                                         title=f"{name}: {ok}/{len(rows)} cases ok")
             failed = sum(r.get("status") != "ok" for r in rows)
             return batch_cases(SimpleNamespace(rows=rows, cases=len(rows), failed=failed),
                                ax, output)

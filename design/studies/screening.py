@@ -205,6 +205,18 @@ def global_sensitivity(bridge="humber",
         Keyword options of :func:`bridgeflap.design.studies.cases.flutter_case` (``speeds``,
         ``modes``, ...).
 
+    Returns
+    -------
+    GlobalSensitivityResult
+        Per input and output (``U_F``, ``U_D``): Morris ``mu*`` and ``sigma`` or Sobol' first
+        and total indices, each with its 5/50/95 % bootstrap band; ``table()``,
+        ``to_dataframe()``, ``plot()``, and the batch folder.
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, range, method, ``n`` (Sobol': a power of two), folder or scheduler.
+
     Notes
     -----
     A case whose crossing is not found (status other than converged) gives NaN; the indices of

@@ -1,7 +1,7 @@
 """Studies: definition files, the runner and its self-describing output folder.
 
 A **study** is a TOML file (``runs/<name>/study.toml``; the built-in default is
-``design/studies/humber.toml``, the seed paper's full reproduction) naming the bridge, the
+``design/studies/humber.toml``, the paper's full reproduction) naming the bridge, the
 analyses and their options::
 
     name = "humber"
@@ -111,7 +111,7 @@ _QUICK_TOP = {"element_length_m"}
 
 
 def default_study_path() -> Path:
-    """The built-in default study (the seed paper's reproduction on the Humber case)."""
+    """The built-in default study (the paper's reproduction on the Humber case)."""
     return Path(str(resources.files("bridgeflap.design.studies").joinpath("humber.toml")))
 
 
@@ -167,6 +167,21 @@ def load_study(path: str | os.PathLike | None = None, quick: bool = False,
     ``bridge`` (a name, a bridge TOML path or a
     :class:`~bridgeflap.model.structure.spec.BridgeSpec`) replaces the file's own ``bridge``.
 
+    Parameters
+    ----------
+    path : str, path-like or None, default None
+        A study TOML file (docs/reference/formats/study.md); ``None``: the built-in default
+        study (the paper's reproduction on the Humber Bridge).
+    quick : bool, default False
+        Apply the study's quick settings.
+    bridge : str, path-like or BridgeSpec, optional
+        Replaces the file's ``bridge``.
+
+    Returns
+    -------
+    StudyConfig
+        The validated study, for :func:`run_study`.
+
     Raises
     ------
     BridgeflapInputError
@@ -182,7 +197,29 @@ def load_study(path: str | os.PathLike | None = None, quick: bool = False,
 @checked(data=check_mapping, base=optional(check_path), quick=flag, source=check_text)
 def study_from_dict(data: Mapping, base: Path | None = None, quick: bool = False,
                     source: str = "<dict>") -> StudyConfig:
-    """Build a :class:`StudyConfig` from parsed TOML (see the module docstring)."""
+    """Build a :class:`StudyConfig` from parsed TOML (see the module docstring).
+
+    Parameters
+    ----------
+    data : mapping
+        The study file's tables (docs/reference/formats/study.md).
+    base : pathlib.Path, optional
+        Folder that relative paths in ``data`` are relative to.
+    quick : bool, default False
+        Apply the quick settings.
+    source : str, default "<dict>"
+        Where the data came from, for messages.
+
+    Returns
+    -------
+    StudyConfig
+        The validated study.
+
+    Raises
+    ------
+    BridgeflapInputError
+        Unknown analysis or option, bad bridge.
+    """
     check_keys(data, _TOP_KEYS, "study", f"analyses: {', '.join(ANALYSES)}")
     base = Path.cwd() if base is None else base
     name = plain_name(data.get("name"))
@@ -287,7 +324,7 @@ class StudyResult(ResultData):
                 "out_dir": s["out_dir"]}
 
     def plot(self, axes=None):
-        """The flutter root locus and damping/frequency plots (seed Fig. 3 left)."""
+        """The flutter root locus and damping/frequency plots (the paper's Fig. 3 left)."""
         if self.objects.get("flutter") is None:
             raise BridgeflapError("the study has no flutter result to plot")
         return self.objects["flutter"].plot(axes)
@@ -377,6 +414,17 @@ def run_study(config: StudyConfig | str | os.PathLike | None = None,
     workers : int, optional
         Analyses run at once, each in its own worker process (:func:`_run_analyses`); 1 runs
         them one after another in this process. The numbers do not depend on it.
+
+    Returns
+    -------
+    StudyResult
+        Each analysis's result and status, the output folder; ``summary()`` (what
+        ``bridgeflap study --json`` prints), ``table()``, ``plot()``.
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad study, folder (another kind of output, not writable) or ``workers``.
     """
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise BridgeflapInputError("workers", f"must be an integer >= 1, got {workers!r}")

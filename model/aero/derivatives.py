@@ -51,7 +51,7 @@ form (closed form from ``C(k) = F + iG`` at ``k = K/2``):
 ``H1 = -2 pi F/K``, ``H2 = pi/(2K) (1 + F + 4G/K)``, ``H3 = 2 pi/K (F/K - G/4)``,
 ``H4 = pi/2 (1 + 4G/K)``, ``A1 = -pi F/(2K)``, ``A2 = -pi/(8K) (1 - F - 4G/K)``,
 ``A3 = pi/(2K) (F/K - G/4) + kappa pi/64``, ``A4 = pi G/(2K)`` (``kappa = 1`` keeps the
-apparent-inertia moment of seed Eq. (3), ``kappa = 0`` is Scanlan's and wawi's form). These
+apparent-inertia moment of the paper's Eq. (3), ``kappa = 0`` is Scanlan's and wawi's form). These
 are identical to wawi's ``flatplate_ads`` for ``kappa = 0``.
 
 **Rational function approximation** (:func:`fit_roger`, Roger 1977): with the non-dimensional

@@ -2,7 +2,7 @@
 
 Spectra are one-sided in circular frequency (:mod:`bridgeflap.model.spectral`); conventions of
 :mod:`bridgeflap.model`. ``G_ww(omega) = s_w(omega) chi^2(k) R(omega)`` with ``R_ij = exp(-c n |y_i
-- y_j| / U)``, ``n = omega / 2 pi`` (seed Eqs. (13)-(16); Davenport 1962); the spectra and
+- y_j| / U)``, ``n = omega / 2 pi`` (the paper's Eqs. (13)-(16); Davenport 1962); the spectra and
   admittances
 are those of :mod:`bridgeflap.model.aero.wind`.
 """
@@ -152,7 +152,7 @@ def coherence_projection(positions, V, omegas, wind_speed, decay) -> np.ndarray:
     -------
     ndarray, shape (n_omega, r, r)
         Real symmetric ``V^T R V`` with ``R_ij = exp(-c omega |y_i - y_j| / (2 pi U))``
-        (seed Eq. (16)).
+        (the paper's Eq. (16)).
 
     Notes
     -----

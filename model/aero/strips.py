@@ -1,4 +1,4 @@
-"""Strip loads of the deck and of the flaps (seed Eqs. 2-3, Theodorsen TR-496), written once.
+"""Strip loads of the deck and of the flaps (the paper's Eqs. 2-3, Theodorsen TR-496), written once.
 
 Per unit span, with the elastic axis at mid-chord (``a = 0``; conventions in
 :mod:`bridgeflap.model`), every load of this package has the form of :class:`SectionLoads`: for a
@@ -7,7 +7,7 @@ unit input ``x`` (deck heave ``h``, deck pitch ``alpha``, or a flap drive angle 
     [L_down, M_mid] = e2 x'' + U e1 x' + U^2 e0 x + [-2 pi rho b, pi rho b^2] U C(k) Q
     Q = U g0 x + b g1 x'                                   (3/4-chord downwash)
 
-The deck (seed Eqs. 2-3, ``Q = U alpha + h' + b alpha'/2``)::
+The deck (the paper's Eqs. 2-3, ``Q = U alpha + h' + b alpha'/2``)::
 
     L = -pi rho b^2 (U alpha' + h'') - 2 pi rho U b C(k) Q
     M = -pi rho b^2 (b U alpha'/2 + kappa b^2 alpha''/8) + pi rho U b^2 C(k) Q
@@ -31,7 +31,7 @@ of length ``dl_i`` with heave ``phi_h[i] q`` and pitch ``phi_a[i] q`` give the g
 force ``-M_nc q'' - U D_nc q' + U P [C(k) (G1 q' + U G0 q)] + U P_g w`` with
 ``P[:, i] = dl_i (-2 pi rho b phi_h[i] + pi rho b^2 phi_a[i])^T``, ``G1 = phi_h + b/2 phi_a``,
 ``G0 = phi_a`` and the buffeting map ``P_g[:, i] = dl_i (-rho b C_L' phi_h[i] + 2 rho b^2 C_M'
-phi_a[i])^T`` for the vertical gust ``w`` (up positive) from seed Eqs. (7)-(8) with
+phi_a[i])^T`` for the vertical gust ``w`` (up positive) from the paper's Eqs. (7)-(8) with
 ``C_L = C_M = C_D = 0``.
 
 The coefficients are plain arithmetic, so ``b`` and ``rho`` may be CasADi symbols
@@ -116,7 +116,7 @@ def circulatory_lift(half_chord, air_density) -> tuple:
 
 
 def deck_section_loads(half_chord, air_density, kappa=1.0) -> tuple[SectionLoads, SectionLoads]:
-    """Deck loads of unit heave ``h`` and unit pitch ``alpha`` (seed Eqs. 2-3).
+    """Deck loads of unit heave ``h`` and unit pitch ``alpha`` (the paper's Eqs. 2-3).
 
     Returns
     -------
@@ -253,9 +253,9 @@ def strip_aero(basis: StructuralBasis, half_chord, air_density, added_inertia: b
     air_density : float or casadi.SX
         ``rho`` [kg/m^3].
     added_inertia : bool
-        Keep the apparent-inertia moment ``pi rho b^4 alpha''/8`` (seed Eq. 3).
+        Keep the apparent-inertia moment ``pi rho b^4 alpha''/8`` (the paper's Eq. 3).
     lift_slope_buffeting, moment_slope_buffeting : float
-        ``C_L'`` and ``C_M'`` [1/rad] of the buffeting loads (seed Eqs. 7-8).
+        ``C_L'`` and ``C_M'`` [1/rad] of the buffeting loads (the paper's Eqs. 7-8).
     """
     _check_positive("half_chord_m", half_chord)
     _check_positive("air_density_kg_m3", air_density)

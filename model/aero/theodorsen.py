@@ -15,7 +15,7 @@ References
 .. [4] R. L. Bisplinghoff, H. Ashley, R. L. Halfman, *Aeroelasticity*, Addison-Wesley,
    1955, sections 5-6 and 5-7.
 .. [5] Massaro, Limebeer et al., "Flutter and buffeting of long span suspension bridges in
-   fully erected and partially erected conditions" (the seed paper), Eqs. (2)-(4).
+   fully erected and partially erected conditions" (the paper), Eqs. (2)-(4).
 """
 
 from __future__ import annotations
@@ -80,7 +80,7 @@ def theodorsen(k: ArrayLike) -> np.complex128 | NDArray[np.complex128]:
 
     .. math:: C(k) = \frac{H_1^{(2)}(k)}{H_1^{(2)}(k) + i H_0^{(2)}(k)},
 
-    identical to seed Eq. (4),
+    identical to the paper's Eq. (4),
     ``(J1 - i Y1) / ((J1 + Y0) - i (Y1 - J0))``. It is evaluated as
     ``1 / (1 + i H0/H1)`` which is well conditioned for all ``k > 0``.
     Limits: ``C(0) = 1`` (quasi-steady), ``C(k) -> 1/2`` as ``k -> inf``.
@@ -177,7 +177,7 @@ def sears_admittance_sq(k: ArrayLike) -> np.float64 | NDArray[np.float64]:
 
     References
     ----------
-    Sears (1941); seed paper Eq. (14) (``chi_Lw = chi_Mw = S``).
+    Sears (1941); the paper Eq. (14) (``chi_Lw = chi_Mw = S``).
     """
     return np.abs(sears(k)) ** 2
 

@@ -4,7 +4,7 @@ Spectral representation (Shinozuka & Deodatis 1991; the multivariate, ergodic fo
 1996), with the spectra of :mod:`bridgeflap.model.response.buffeting`
 (:class:`bridgeflap.model.aero.gust.GustField`: one-sided in circular frequency, ``sigma^2 =
 int_0^inf G d omega``) and its Davenport coherence ``R_ij(omega) = exp(-c omega |y_i - y_j| / (2 pi
-U))`` (seed Eq. (16))::
+U))`` (the paper's Eq. (16))::
 
     w_j(t) = Re sum_k sqrt(2 G(omega_k) d_omega) (L_k e^{i phi_k})_j e^{i omega_k t}
 

@@ -2,7 +2,7 @@
 
 Conventions of :mod:`bridgeflap.model` apply (SI units; ``k = omega b / U``). Spectra here are of
 the vertical gust velocity ``w`` and are **one-sided in cyclic frequency** ``n`` [Hz] unless the
-name says otherwise: ``sigma_w^2 = int_0^inf S_w(n) dn``. The seed paper's Eq. (15) is the same
+name says otherwise: ``sigma_w^2 = int_0^inf S_w(n) dn``. The paper's Eq. (15) is the same
 Busch-Panofsky spectrum written **two-sided in circular frequency**,
 ``sigma_w^2 = int_{-inf}^{inf} S_w(omega) d omega``; see :func:`busch_panofsky_omega`.
 
@@ -17,7 +17,7 @@ References
 .. [4] A. G. Davenport, "The response of slender line-like structures to a gusty wind",
    Proc. ICE 23, 389-408, 1962 (exponential coherence).
 .. [5] E. Simiu, R. H. Scanlan, *Wind Effects on Structures*, 3rd ed., Wiley, 1996, ch. 2.
-.. [6] Massaro, Limebeer et al. (the seed paper), Eqs. (14)-(16).
+.. [6] Massaro, Limebeer et al. (the paper), Eqs. (14)-(16).
 """
 
 from __future__ import annotations
@@ -98,7 +98,7 @@ def busch_panofsky_variance_ratio() -> float:
     -------
     float
         ``int_0^inf 3.36 / (1 + 10 f^(5/3)) df = 3.36 * 10^(-3/5) (3 pi / 5) / sin(3 pi / 5)``
-        = 1.67278 [-]; the seed paper states "approximately 1.67" (text after Eq. (15)).
+        = 1.67278 [-]; the paper states "approximately 1.67" (text after Eq. (15)).
 
     Notes
     -----
@@ -180,7 +180,7 @@ def busch_panofsky(n_hz: ArrayLike, U: float, z: float, u_star: float) -> NDArra
 
     References
     ----------
-    Busch & Panofsky (1968); Simiu & Scanlan (1996), ch. 2; seed Eq. (15).
+    Busch & Panofsky (1968); Simiu & Scanlan (1996), ch. 2; the paper's Eq. (15).
     """
     return _inertial_form(n_hz, U, z, u_star, _BP_A, _BP_B)
 
@@ -188,7 +188,7 @@ def busch_panofsky(n_hz: ArrayLike, U: float, z: float, u_star: float) -> NDArra
 def busch_panofsky_omega(
     omega: ArrayLike, U: float, z: float, u_star: float
 ) -> NDArray[np.float64]:
-    r"""Two-sided circular-frequency Busch-Panofsky spectrum, seed Eq. (15).
+    r"""Two-sided circular-frequency Busch-Panofsky spectrum, the paper's Eq. (15).
 
     Parameters
     ----------
@@ -206,7 +206,7 @@ def busch_panofsky_omega(
 
     Notes
     -----
-    Seed Eq. (15):
+    The paper's Eq. (15):
 
     .. math:: S_w(\omega) = \frac{2\pi}{\omega} u_*^2
               \frac{3.36 f}{1 + 10 f^{5/3}} \frac{1}{4\pi},
@@ -311,7 +311,7 @@ def default_length_scale_w(z: float) -> float:
     Notes
     -----
     This is an **estimate** [DERIVED], chosen to make the von Karman option consistent with
-    the seed's Busch-Panofsky spectrum; it is not a measured Humber value. For comparison, the
+    the paper's Busch-Panofsky spectrum; it is not a measured Humber value. For comparison, the
     Eurocode/N400-type rule ``L_w = L_u / 12`` gives about 11 m (0.36 z) at ``z = 30`` m over
     water. Pass ``length_scale`` explicitly when site data are available.
     """
@@ -400,7 +400,7 @@ def coherence(
     U : float
         Mean wind speed [m/s], > 0.
     decay : float
-        Decay constant ``c`` [-], ``>= 0``. Not given in the seed; 6-10 is a common range for
+        Decay constant ``c`` [-], ``>= 0``. Not given in the paper; 6-10 is a common range for
         ``w`` (docs/humber_data.md#turbulence-spectrum-and-coherence, treat as
         a sensitivity parameter).
 
@@ -411,12 +411,12 @@ def coherence(
 
     Notes
     -----
-    Seed Eq. (16): ``S_{w1 w2} = S_w exp(-c L12 omega / (2 pi U))`` with ``omega = 2 pi n``.
+    The paper's Eq. (16): ``S_{w1 w2} = S_w exp(-c L12 omega / (2 pi U))`` with ``omega = 2 pi n``.
     This real exponential is the (root-)coherence that multiplies the auto-spectrum.
 
     References
     ----------
-    Davenport (1962); seed Eq. (16).
+    Davenport (1962); the paper's Eq. (16).
     """
     U = _positive("wind_speed", U)
     decay = float(decay)
@@ -450,7 +450,7 @@ def admittance_sq(kind: str, k: ArrayLike) -> NDArray[np.float64]:
 
     References
     ----------
-    Sears (1941); Liepmann (1952); seed Eq. (14) (``chi_Lw = chi_Mw``).
+    Sears (1941); Liepmann (1952); the paper's Eq. (14) (``chi_Lw = chi_Mw``).
     """
     key = kind.strip().lower() if isinstance(kind, str) else kind
     funcs = {

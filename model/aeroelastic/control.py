@@ -1,11 +1,11 @@
 """Flap compensator K(s) and the controller definition (flap layout, gain limit).
 
-The compensator of the seed paper (§6) drives a flap angle ``beta`` [rad] from the local deck
+The compensator of the paper (§6) drives a flap angle ``beta`` [rad] from the local deck
 pitch ``alpha`` [rad] (sign conventions: see :mod:`bridgeflap.model`)::
 
     K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1)
 
-The leading- and trailing-edge flaps use the same K with opposite sign (seed §6, "actually
+The leading- and trailing-edge flaps use the same K with opposite sign (the paper, §6, "actually
 anti-symmetric"; docs/methods.md#compensator-design); that sign is applied where the flap loads are
 assembled, not here: this module describes K and where the flaps are. "Gain limited to 15" is read
 as ``sup_w |K(jw)| <= 15`` (docs/methods.md#compensator-design), see :meth:`Compensator.max_gain`.
@@ -42,7 +42,7 @@ __all__ = [
     "PlantRecord",
 ]
 
-#: Chordwise flap size of seed §6 [m] ("the width of the flap is assumed to be 3 m"); the
+#: Chordwise flap size of the paper, §6 [m] ("the width of the flap is assumed to be 3 m"); the
 #: chord of a controller that does not record its own (:attr:`Controller.chord_m`).
 DEFAULT_FLAP_CHORD_M = 3.0
 
@@ -102,7 +102,7 @@ class DerivativeFeedthrough:
 class Compensator:
     """Second-order (or first-order) lead-lag compensator from deck pitch to flap angle.
 
-    ``K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1)``, seed paper §6.
+    ``K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1)``, the paper §6.
 
     Parameters
     ----------
@@ -216,12 +216,12 @@ class Compensator:
         Returns
         -------
         float
-            The maximum of |K| over the grid, the analytic stationary points of |K(jw)|^2,
+            The maximum of ``|K|`` over the grid, the analytic stationary points of ``|K(jw)|^2``,
             w = 0 (``|b0|``) and the limit w -> inf (:meth:`high_frequency_gain`).
 
         Notes
         -----
-        With x = w^2, |K|^2 = N(x)/D(x) with N, D quadratics; its stationary points solve
+        With ``x = w^2``, ``|K|^2 = N(x)/D(x)`` with N, D quadratics; its stationary points solve
         N'D - N D' = 0, a quadratic in x (the cubic terms cancel). The sup over w >= 0 is
         attained at one of those roots, at x = 0 or as x -> inf, so the analytic candidates
         alone give the exact value; the grid is a cheap safeguard against root round-off.
@@ -341,7 +341,7 @@ class PlantRecord:
 
 @dataclass(frozen=True)
 class Controller:
-    """Compensator plus flap layout: the controller definition of seed paper §6.
+    """Compensator plus flap layout: the controller definition of the paper §6.
 
     Parameters
     ----------
@@ -350,16 +350,16 @@ class Controller:
     flap_strip_positions_m : tuple of float
         Centres of the flap strips along the main span, measured from its mid-point [m]
         (positive towards the south tower, see :mod:`bridgeflap.model` for the x direction). Each
-        flap is driven by the pitch at its own strip (seed §6).
+        flap is driven by the pitch at its own strip (the paper, §6).
     flap_width_m : float
         Spanwise length of each flap pair (LE + TE flap at one strip) [m]; the chordwise
-        flap size (3 m in seed §6) is ``flap_chord_m``.
+        flap size (3 m in the paper, §6) is ``flap_chord_m``.
     leading_edge : bool
-        Whether the leading-edge flaps are fitted (driven by -K, seed §6).
+        Whether the leading-edge flaps are fitted (driven by -K, the paper, §6).
     trailing_edge : bool
         Whether the trailing-edge flaps are fitted (driven by +K).
     gain_limit : float
-        Upper bound on ``sup_w |K(jw)|`` [rad/rad] (15 in seed §6).
+        Upper bound on ``sup_w |K(jw)|`` [rad/rad] (15 in the paper, §6).
     flap_chord_m : float or None
         Chordwise size of each flap, measured from its edge inside the deck chord [m];
         ``None`` (a controller file without a geometry record) means

@@ -63,6 +63,31 @@ def closed_loop(bridge, speed: float, controller, n_modes: int = DEFAULT_MODES,
     its poles are the eigenvalues the flutter sweep of ``bridgeflap flutter --controller`` tracks.
     ``bridge``: a name, a bridge TOML path or a
     :class:`~bridgeflap.model.structure.spec.BridgeSpec`.
+
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name, a bridge TOML file or a spec.
+    speed : float
+        Wind speed [m/s], ``>= 0``.
+    controller : Controller
+        The compensator and its flap layout.
+    n_modes : int, default 30
+        Retained vertical + torsional modes.
+    flap_chord_m : float, optional
+        Chordwise flap size [m] (default: the controller's own).
+
+    Returns
+    -------
+    control.StateSpace
+        The closed loop with named signals (needs the ``control`` extra).
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, speed or controller.
+    ImportError
+        python-control is not installed (``pip install "bridgeflap[control]"``).
     """
     from bridgeflap.model.aeroelastic.control_plant import closed_loop_plant
 
@@ -84,6 +109,29 @@ def plant_family(bridge, speeds, inputs: str = "gust", n_modes: int = DEFAULT_MO
     The modal model and the aeroelastic system are built once (the speeds change only
     ``A(U)``, ``B(U)``); ``inputs`` and ``options`` (``controller``, ``flaps``,
     ``flap_chord_m``) as for :func:`bridgeflap.model.aeroelastic.control_plant.plant_data`.
+
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name, a bridge TOML file or a spec.
+    speeds : sequence of float
+        Wind speeds [m/s].
+    inputs : {"gust", "flaps", "both"}, default "gust"
+        The plant's inputs.
+    n_modes : int, default 30
+        Retained vertical + torsional modes.
+    **options
+        ``controller``, ``flaps``, ``flap_chord_m``, as :func:`bridgeflap.model.plant_data`.
+
+    Returns
+    -------
+    dict of float to control.StateSpace
+        One plant per speed (needs the ``control`` extra).
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, speed or option.
     """
     from bridgeflap.model.aeroelastic import statespace
     from bridgeflap.model.aeroelastic.control_plant import plant_data

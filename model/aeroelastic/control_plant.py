@@ -216,6 +216,18 @@ def plant_data(bridge, speed: float, inputs: str = "gust", n_modes: int = DEFAUL
         :data:`bridgeflap.model.aeroelastic.flaps.DEFAULT_FLAP_CHORD_M`).
     system : AeroelasticSystem, optional
         A prebuilt open-loop system of ``bridge`` (else built from ``n_modes`` modes).
+
+    Returns
+    -------
+    Plant
+        ``A``, ``B``, ``C``, ``D`` (numpy) with the names of the states, inputs and outputs;
+        ``to_control()`` gives the python-control object, ``spectral_abscissa_1_s`` the largest
+    real part of its poles [1/s].
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, speed, ``inputs``, ``flaps`` or controller.
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     from bridgeflap.model.aeroelastic import statespace
@@ -325,5 +337,28 @@ def plant(bridge, speed: float, inputs: str = "gust", n_modes: int = DEFAULT_MOD
     """:func:`plant_data` as a ``control.StateSpace`` (``bridge``: a name, a file or a spec).
 
     ``options``: ``controller`` (its layout), ``flaps``, ``flap_chord_m``, ``system``.
+
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name, a bridge TOML file or a spec.
+    speed : float
+        Wind speed [m/s], ``>= 0``.
+    inputs : {"gust", "flaps", "both"}, default "gust"
+        The plant's inputs.
+    n_modes : int, default 30
+        Retained vertical + torsional modes.
+    **options
+        ``controller``, ``flaps``, ``flap_chord_m``, ``system``, as :func:`plant_data`.
+
+    Returns
+    -------
+    control.StateSpace
+        The open-loop plant with named signals (needs the ``control`` extra).
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, speed, ``inputs`` or option.
     """
     return to_control(plant_data(bridge, speed, inputs, n_modes, **options))

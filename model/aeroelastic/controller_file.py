@@ -265,7 +265,7 @@ def load_controller(path) -> Controller:
 
 
 _CONTROLLER_HEADER = """\
-# bridgeflap controller definition (seed paper section 6)
+# bridgeflap controller definition (the paper, section 6)
 # K(s) = (b2 s^2 + b1 s + b0) / (a2 s^2 + a1 s + 1)
 # flap angle beta [rad] from local deck pitch alpha [rad]
 # The leading-edge flap is driven by -K, the trailing-edge flap by +K.

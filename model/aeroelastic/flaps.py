@@ -1,7 +1,7 @@
 """Leading- and trailing-edge deck flaps driven by a compensator: closed-loop state space.
 
 Conventions (h down, alpha nose-up, moment about mid-chord, lift in the equations positive
-down, ``b`` half-chord) are those of :mod:`bridgeflap.model`. Seed paper §6, Eq. (18);
+down, ``b`` half-chord) are those of :mod:`bridgeflap.model`. The paper, §6, Eq. (18);
 docs/methods.md#flap-loads; docs/humber_data.md#flap-loads-and-t-functions.
 
 Flap loads: the TR-496 strip loads of :mod:`bridgeflap.model.aero.strips`
@@ -13,10 +13,10 @@ the one of
 
 Flap geometry: each flap has chord ``flap_chord_m`` measured from its edge *inside* the deck
 chord ``2 b`` (hinge ``c = (b - chord)/b`` for the TE flap and ``e = -c`` for the LE flap;
-3 m in seed §6). ``Controller.flap_width_m`` is the flap's *spanwise* length; the flap loads
+3 m in the paper, §6). ``Controller.flap_width_m`` is the flap's *spanwise* length; the flap loads
 act at the strip centre with the mode shapes interpolated there (strip theory).
 
-Drive ("the same (actually anti-symmetric)", seed §6)
+Drive ("the same (actually anti-symmetric)", the paper, §6)
 ------------------------------------------------------
 The controller angle of a TE flap is TE-down positive and that of a LE flap LE-down positive
 (each flap's tip down, mirror images of each other). ``beta_TE = +K alpha`` and
@@ -315,7 +315,35 @@ def controller_flaps(spec, basis: StructuralBasis, controller: Controller,
 def closed_loop_model(bridge, positions_m, width_m, n_modes: int = DEFAULT_MODES,
                       flap_chord_m: float = DEFAULT_FLAP_CHORD_M, leading_edge: bool = True,
                       trailing_edge: bool = True, modal=None) -> ClosedLoopModel:
-    """Open-loop bridge system plus a flap layout (compensator chosen later)."""
+    """Open-loop bridge system plus a flap layout (compensator chosen later).
+
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name, a bridge TOML file or a spec.
+    positions_m : sequence of float
+        Flap strip centres along the main span from its mid-point [m].
+    width_m : float
+        Spanwise width of each flap strip [m].
+    n_modes : int, default 30
+        Retained vertical + torsional modes.
+    flap_chord_m : float, default 3.0
+        Chordwise flap size from each deck edge [m].
+    leading_edge, trailing_edge : bool, default True
+        Which flaps are fitted (the leading-edge ones driven by -K, the trailing-edge ones by +K).
+    modal : ModalModel, optional
+        Modes already solved for ``bridge``.
+
+    Returns
+    -------
+    ClosedLoopModel
+        The open-loop system and the flap loads; ``system(controller)`` closes it.
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge or a flap outside the main span.
+    """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     modal = solve(assemble(spec)) if modal is None else modal
     system = statespace.spec_system(spec, modal.structural_basis(int(n_modes)))
@@ -361,6 +389,29 @@ def closed_loop_state_space(bridge, controller: Controller, speed: float,
 
     Inputs: strip gust velocities [m/s] (up, before admittance). Outputs: strip heave [m],
     strip pitch [rad], then each flap's drive angle ``beta = K alpha`` [rad].
+
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name, a bridge TOML file or a spec.
+    controller : Controller
+        The compensator and its flap layout.
+    speed : float
+        Wind speed [m/s], ``>= 0``.
+    n_modes : int, default 30
+        Retained vertical + torsional modes.
+    flap_chord_m : float, optional
+        Chordwise flap size [m] (default: the controller's own).
+
+    Returns
+    -------
+    tuple
+        ``(A, B, C, D, state_names, input_names, output_names)``: numpy arrays and lists of str.
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, speed or controller.
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     sys_cl = closed_loop_system(spec, controller, n_modes, flap_chord_m)

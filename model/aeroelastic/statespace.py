@@ -130,7 +130,7 @@ def build(basis: StructuralBasis, half_chord: float, air_density: float,
     order : {"modal", "full"}
         Lag states on generalised or on strip downwash.
     added_inertia : bool
-        Keep the apparent-inertia moment (seed Eq. 3).
+        Keep the apparent-inertia moment (the paper's Eq. 3).
     """
     if order not in ORDERS:
         raise BridgeflapInputError("order", f"must be one of {ORDERS}, got {order!r}")

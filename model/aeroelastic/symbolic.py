@@ -41,7 +41,7 @@ per-flap weights ``w``, the functions the compensator optimiser differentiates.
 
 Spectral RMS (:func:`casadi_spectral_variance`, :func:`buffeting_rms_function`): the one-sided
 output variance ``sigma_j^2 = int_0^omega_max G_yy,jj d omega`` with ``G_yy = H G_ww H^H`` and
-``H = C (i omega I - A)^{-1} B`` (seed Eqs. (10)-(12), (17)) on a *fixed* grid (trapezoid
+``H = C (i omega I - A)^{-1} B`` (the paper's Eqs. (10)-(12), (17)) on a *fixed* grid (trapezoid
 weights), the convention of :mod:`bridgeflap.model.spectral`. The complex solve is written in real
 arithmetic: ``[[-A, -omega I], [omega I, -A]] [Xr; Xi] = [B; 0]``.
 """
@@ -143,6 +143,12 @@ def build_symbolic(bridge: BridgeArg, n_modes: int, rfa: RationalApprox | str = 
         Rational approximation of C(k).
     modal : ModalModel, optional
         Nominal modes (solved from ``spec`` when omitted).
+
+    Returns
+    -------
+    SymbolicModel
+        The named CasADi function ``A(U, p)`` and its parameter names: ``p`` holds relative
+        changes of the bridge inputs (0 is the nominal bridge).
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     modal = solve(assemble(spec)) if modal is None else modal
@@ -201,6 +207,13 @@ def closed_loop_functions(model) -> dict:
     ----------
     model : bridgeflap.model.aeroelastic.flaps.ClosedLoopModel
         Open-loop system (modal order) and flap set.
+
+    Returns
+    -------
+    dict
+        ``"A_parts"``: a CasADi function ``(theta, w) -> (A0, A1, A2)`` of the compensator
+        coefficients ``theta`` and flap weights ``w``; ``"A_cl"``: ``(U, theta, w) -> A`` at a wind
+        speed ``U`` [m/s].
     """
     theta = ca.SX.sym("theta", 5)
     w = ca.SX.sym("w", model.n_flaps)

@@ -51,6 +51,12 @@ def section_basis(mass_kg_per_m: float, inertia_kgm2_per_m: float, f_heave_hz: f
         Elastic-axis position in semichords aft of mid-chord [-] (Theodorsen's ``a``).
     x_theta : float
         Centre of gravity aft of the elastic axis, in semichords [-].
+
+    Returns
+    -------
+    StructuralBasis
+        Mass, stiffness and damping of the two degrees of freedom (heave [m], pitch [rad]), the
+        input of the section's aeroelastic model.
     """
     for name, v in (("mass_kg_per_m", mass_kg_per_m), ("inertia_kgm2_per_m", inertia_kgm2_per_m),
                     ("f_heave_hz", f_heave_hz), ("f_torsion_hz", f_torsion_hz),
@@ -87,6 +93,30 @@ def typical_section(mu: float, r2: float, sigma: float, a: float, x_theta: float
     (docs/humber_data.md#hodges-and-pierce-typical-section).
 
     ``mu = m / (pi rho b^2)``, ``r2 = I_ea / (m b^2)``, ``sigma = omega_h / omega_theta``.
+
+    Parameters
+    ----------
+    mu : float
+        Mass ratio ``m / (pi rho b^2)`` [-].
+    r2 : float
+        Squared radius of gyration ``I_ea / (m b^2)`` [-].
+    sigma : float
+        Frequency ratio ``omega_h / omega_theta`` [-].
+    a : float
+        Elastic axis aft of mid-chord in semichords [-].
+    x_theta : float
+        Centre of gravity aft of the elastic axis in semichords [-].
+    half_chord_m : float, default 1.0
+        ``b`` [m].
+    omega_theta : float, default 1.0
+        Torsional frequency [rad/s].
+    air_density : float, default 1.0
+        ``rho`` [kg/m^3].
+
+    Returns
+    -------
+    StructuralBasis
+        The section's structural matrices.
     """
     b = half_chord_m
     m = mu * np.pi * air_density * b * b

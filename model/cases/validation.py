@@ -1,11 +1,11 @@
-"""Measured Humber natural frequencies (seed Table 1, quoted from Brownjohn et al. 1994) and
+"""Measured Humber natural frequencies (the paper's Table 1, quoted from Brownjohn et al. 1994) and
 the comparison of a modal model with them.
 
 Table 1's labels are partly inconsistent (docs/humber_data.md#measured-frequencies: two "VA" rows at
 0.154 and 0.177 Hz, and a first "VS" below the first "VA", which deflection theory contradicts: the
 first antisymmetric vertical mode of a main span is close to sqrt(g/(8 d))/1 Hz-scale and cannot be
 raised to 0.154 Hz by any plausible EI). The flutter-critical rows (the first "VS" and the first
-"TS", :data:`CRITICAL_MODES`) are paired with the computed VS1 and TS1 by label, as the seed's own
+"TS", :data:`CRITICAL_MODES`) are paired with the computed VS1 and TS1 by label, as the paper's own
 Table 1 pairs them; the other measured and computed modes are paired **in frequency order within
 each family**, using the computed modes that live mainly in the
 main span (main-span share > 0.5; the measurements were taken on the main span) and, for the
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-# Seed Table 1: (label as printed, measured Hz, seed model Hz)
+# The paper's Table 1: (label as printed, measured Hz, the paper's model Hz)
 TABLE1 = {
     "vertical": [("VS", 0.117, 0.122), ("VA", 0.154, 0.116), ("VA", 0.177, 0.179),
                  ("VS", 0.218, 0.213), ("VA", 0.240, 0.242), ("VS", 0.310, 0.313)],
@@ -26,7 +26,7 @@ TABLE1 = {
 }
 
 
-#: The flutter-critical modes of model updating (seed section 3: "the most important modes for
+#: The flutter-critical modes of model updating (the paper, section 3: "the most important modes for
 #: flutter would be the first symmetric torsion and the first vertical symmetric"): the Table 1
 #: row (index in frequency order within its family) and the computed mode it is paired with **by
 #: label** (the remaining rows are paired in frequency order with the remaining modes).
@@ -42,7 +42,8 @@ CRITICAL_WEIGHT = float("inf")
 
 
 def compare_table1(modal, share_min: float = 0.5) -> list[dict]:
-    """Rows (family, Table 1 label, measured, seed model, ours, our label, difference %, weight).
+    """Rows (family, Table 1 label, measured, the paper's model, ours, our label, difference %,
+    weight).
 
     The flutter-critical rows (:data:`CRITICAL_MODES`) are paired with VS1 / TS1 by label and
     carry :data:`CRITICAL_WEIGHT`; every other row is paired in frequency order with the

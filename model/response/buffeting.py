@@ -1,11 +1,11 @@
-"""Buffeting: RMS deck response to span-wise correlated vertical turbulence (seed §3 and §5).
+"""Buffeting: RMS deck response to span-wise correlated vertical turbulence (the paper, §3 and §5).
 
 Conventions of :mod:`bridgeflap.model` apply (SI units; heave ``h`` down, pitch ``alpha`` nose-up
 about mid-chord; ``k = omega b / U``). Spectra are **one-sided in circular frequency** as in
-:mod:`bridgeflap.model.spectral` (``sigma^2 = int_0^inf G d omega``); the seed's Eqs. (15) and (17)
+:mod:`bridgeflap.model.spectral` (``sigma^2 = int_0^inf G d omega``); the paper's Eqs. (15) and (17)
 are the same quantities written two-sided (``G = 2 S``).
 
-Model (seed Eqs. (7)-(8), (10)-(17), thin aerofoil with ``C_L = C_M = C_D = 0``)::
+Model (the paper's Eqs. (7)-(8), (10)-(17), thin aerofoil with ``C_L = C_M = C_D = 0``)::
 
     x' = A(U) x + B_gust(U) w_tilde,    y = C_out x      (self-excited forces inside A(U))
     G_ww(omega) = s_w(omega) chi^2(k) R(omega),   R_ij = exp(-c n |y_i - y_j| / U),  n = omega/2pi
@@ -28,7 +28,7 @@ forward plus a backward first-order scan), and the transfer matrix ``C_r (i omeg
 References
 ----------
 Davenport (1962) Proc. ICE 23; Sears (1941) J. Aero. Sci. 8; Liepmann (1952) J. Aero. Sci. 19;
-Busch & Panofsky (1968) QJRMS 94; Massaro, Limebeer et al. (seed paper) Eqs. (7)-(17), Fig. 4.
+Busch & Panofsky (1968) QJRMS 94; Massaro, Limebeer et al. (the paper) Eqs. (7)-(17), Fig. 4.
 """
 
 from __future__ import annotations
@@ -192,7 +192,7 @@ class BuffetingResult(ResultData):
     rms_pitch : ndarray, shape (n_U, n_strip)
         RMS deck pitch per strip [rad].
     rms_vertical : ndarray, shape (n_U,)
-        Maximum of ``rms_heave`` over the main span [m] (seed Fig. 4 ordinate times 2b).
+        Maximum of ``rms_heave`` over the main span [m] (the paper's Fig. 4 ordinate times 2b).
     rms_torsion : ndarray, shape (n_U,)
         Maximum of ``rms_pitch`` over the main span [rad].
     deck_width_m : float
@@ -241,7 +241,7 @@ class BuffetingResult(ResultData):
 
     @property
     def rms_vertical_over_width(self) -> np.ndarray:
-        """``max sigma_z / (2 b)`` on the main span [-] (seed Fig. 4)."""
+        """``max sigma_z / (2 b)`` on the main span [-] (the paper's Fig. 4)."""
         return self.rms_vertical / self.deck_width_m
 
     def summary(self) -> dict:
@@ -296,7 +296,8 @@ class BuffetingResult(ResultData):
 
     def plot(self, axes=None, label=None, log: bool = False):
         """Vertical ``max sigma_z`` [mm] (``/ 2b`` on a right-hand axis) and torsional
-        ``max sigma_alpha`` [deg] on the main span against ``U`` (seed Fig. 4 style, two panels;
+        ``max sigma_alpha`` [deg] on the main span against ``U`` (the paper's Fig. 4 style, two
+        panels;
         :func:`bridgeflap.model.response.plots.buffeting_panels`).
 
         Unstable speeds are NaN and leave a gap; nothing is clipped.
@@ -373,7 +374,7 @@ def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
               n_base=120, peaks_per_mode=41, half_widths=30.0,
               convergence_tol=CONVERGENCE_TOL, mc_records=16, mc_seed=0,
               mc_points=None, loads=None) -> BuffetingResult:
-    """RMS deck response to vertical turbulence over a range of wind speeds (seed §5, Fig. 4).
+    """RMS deck response to vertical turbulence over a range of wind speeds (the paper, §5, Fig. 4).
 
     Parameters
     ----------
@@ -386,12 +387,12 @@ def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
         Mean wind speeds at deck height [m/s], > 0: ``"lo:hi:step"`` or ``"10,20"`` text or
         numbers (:func:`bridgeflap.model.grid.speed_grid`).
     spectrum : {"busch-panofsky", "von-karman", "kaimal"} or callable
-        Vertical turbulence spectrum (seed Eq. (15) is Busch-Panofsky).
+        Vertical turbulence spectrum (the paper's Eq. (15) is Busch-Panofsky).
     admittance : {"liepmann", "sears", "unit"} or callable, optional
         ``|chi(k)|^2`` with ``k = omega b / U``, for every gust component (default: Liepmann,
-        as the seed, for thin-aerofoil loads; ``"unit"``, i.e. quasi-steady, for quasi-steady).
+        as the paper, for thin-aerofoil loads; ``"unit"``, i.e. quasi-steady, for quasi-steady).
     coherence_decay : float, optional
-        Davenport ``c`` [-] (seed Eq. (16)); ``spec.aero.coherence_decay`` when omitted.
+        Davenport ``c`` [-] (the paper's Eq. (16)); ``spec.aero.coherence_decay`` when omitted.
     n_modes : int, optional
         Retained vertical + torsional modes (default :data:`bridgeflap.model.DEFAULT_MODES`).
     method : {"spectral", "monte-carlo"}
@@ -415,7 +416,7 @@ def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
         Monte-Carlo records, seed and number of synthesis frequencies (default: spacing a
         quarter of the smallest half-power half-bandwidth, at most 8000 points).
     loads : {"thin-aerofoil", "quasi-steady"}, optional
-        Gust loads: seed Eq. (8) from ``aero.lift_slope_buffeting`` and
+        Gust loads: the paper's Eq. (8) from ``aero.lift_slope_buffeting`` and
         ``aero.moment_slope_buffeting`` (default for thin-aerofoil bridges), or the
         quasi-steady ``u`` and ``w`` loads of the bridge's ``[static_coefficients]``
         (:mod:`bridgeflap.model.aero.quasi_steady`; default, and the only choice, for a bridge with
@@ -424,6 +425,13 @@ def buffeting(bridge, speeds, spectrum="busch-panofsky", admittance=None,
     Returns
     -------
     BuffetingResult
+
+    Examples
+    --------
+    >>> from bridgeflap import model
+    >>> res = model.buffeting("humber", [10.0, 20.0], n_modes=6)
+    >>> res.status, bool(res.rms_vertical[1] > res.rms_vertical[0])
+    (('ok', 'ok'), True)
     """
     import time
 

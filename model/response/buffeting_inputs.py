@@ -1,7 +1,7 @@
 """Buffeting inputs: the state space and the gust-load model of
 :func:`bridgeflap.model.response.buffeting.buffeting`.
 
-The thin-aerofoil gust loads of seed Eq. (8) (vertical turbulence, ``C_L'`` and ``C_M'`` of
+The thin-aerofoil gust loads of the paper's Eq. (8) (vertical turbulence, ``C_L'`` and ``C_M'`` of
 ``spec.aero``; :func:`bridgeflap.model.aero.strips.strip_aero`) or the quasi-steady loads of the
 bridge's ``[static_coefficients]`` (:mod:`bridgeflap.model.aero.quasi_steady`: ``u`` and ``w``), on
 the Theodorsen state space or, for a bridge with flutter-derivative loads, on its Roger state space
@@ -17,8 +17,8 @@ from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["LOADS", "quasi_steady_inputs", "resolve_system"]
 
-#: gust-load models: seed Eq. (8) (w only, C_L' and C_M' slopes) or model.aero.quasi_steady (u and
-# w)
+#: gust-load models: the paper's Eq. (8) (w only, C_L' and C_M' slopes) or
+#: model.aero.quasi_steady (u and w)
 LOADS = ("thin-aerofoil", "quasi-steady")
 
 

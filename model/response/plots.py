@@ -21,7 +21,7 @@ DEG_PER_RAD = float(np.degrees(1.0))
 
 
 def buffeting_panels(curves, axes=None, log: bool = False, title: str = ""):
-    """Vertical (left, ``max sigma_z`` [mm], with ``sigma_z / 2b`` [-] of the seed's Fig. 4 on
+    """Vertical (left, ``max sigma_z`` [mm], with ``sigma_z / 2b`` [-] of the paper's Fig. 4 on
     a right-hand axis when every curve has the same deck width) and torsional (right,
     ``max sigma_alpha`` [deg]) RMS on the main span against the wind speed.
 
@@ -49,7 +49,7 @@ def buffeting_panels(curves, axes=None, log: bool = False, title: str = ""):
     ax0.set_ylabel("max σ_z on the main span [mm]")
     ax1.set_ylabel("max σ_α on the main span [deg]")
     widths = {float(res.deck_width_m) for res in curves.values()}
-    if len(widths) == 1 and next(iter(widths)) > 0:  # the seed's ordinate, for comparison
+    if len(widths) == 1 and next(iter(widths)) > 0:  # the paper's ordinate, for comparison
         scale = MM_PER_M * next(iter(widths))
         sec = ax0.secondary_yaxis("right", functions=(lambda z: z / scale,
                                                       lambda r: r * scale))

@@ -227,6 +227,17 @@ def mode_convergence(bridge: BridgeArg, speeds, counts=DEFAULT_MODE_COUNTS,
     order, rfa : str
         As :func:`bridgeflap.model.analysis.bridge_system` (``"modal"``/``"full"``;
         ``"rfa4"``/``"jones"``).
+
+    Returns
+    -------
+    ConvergenceResult
+        Flutter and divergence speed per mode count, and the count from which both stay within
+        ``tolerance_pct``; ``table()``, ``plot()``.
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad bridge, speed grid or ladder (fewer than two counts left).
     """
     spec = bridge  # loaded by takes_bridge: a BridgeSpec (or a stage)
     u = check_speeds(speeds)
@@ -289,6 +300,25 @@ def truncation_error(bridge: BridgeArg, n_modes: int, speeds, reference_modes: i
     Humber) enters between ``n`` and ``n_ref`` it is too small (module docstring), which is why
     the default step spans 8 modes and why :func:`mode_convergence` checks a whole ladder.
     ``sweep_method`` is :func:`bridgeflap.model.stability.sweeps.sweep`'s ``method`` of both sweeps.
+
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name, a bridge TOML file or a spec.
+    n_modes : int
+        The retained vertical + torsional modes whose error is estimated.
+    speeds : array_like or str
+        Wind speeds [m/s] of both sweeps.
+    reference_modes : int, optional
+        The reference count (default ``n_modes + 8``, capped at what the model holds).
+    order, rfa : str
+        As :func:`bridgeflap.model.bridge_system`.
+    modal : ModalModel, optional
+        Modes already solved for ``bridge``.
+    at_n : dict, optional
+        The summary of a sweep at ``n_modes`` already run (saves that sweep).
+    sweep_method : {"dense", "fast"}, default "dense"
+        As :func:`bridgeflap.model.sweep`.
 
     Returns
     -------

@@ -300,6 +300,12 @@ def flutter_mode_shape(bridge: BridgeArg, speeds, n_modes: int,
     peak_pitch_rad : float
         Normalisation [rad]: the largest pitch amplitude of the returned shape.
 
+    Returns
+    -------
+    FlutterModeShape
+        The complex heave [m] and pitch [rad] along the deck at the flutter speed, normalised to
+        ``peak_pitch_rad``; ``plot()``, ``to_dataframe()``.
+
     Raises
     ------
     BridgeflapError

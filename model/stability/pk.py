@@ -259,6 +259,23 @@ def pk_sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
       then end there (the whole grid without a crossing);
     * ``full_grid=True``, the reference: every branch continued over the whole grid with the
       fixed-point k iteration on the frozen system's own matrices.
+
+    Parameters
+    ----------
+    system : AeroelasticSystem
+        Open- or closed-loop system (:func:`bridgeflap.model.bridge_system`).
+    speeds : array_like
+        Wind speeds [m/s], increasing and non-negative.
+    speed_tol : float, default 1e-3
+        Width [m/s] to which the flutter crossing is refined.
+    full_grid : bool, default False
+        Continue every branch over the whole grid (the reference path).
+
+    Returns
+    -------
+    PKResult
+        Branches, flutter speed [m/s] and frequency, reduced frequency and status; ``summary()``,
+        ``plot()``.
     """
     speeds_in = check_speeds(speeds)
     speeds = speeds_in[speeds_in > 0]

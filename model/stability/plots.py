@@ -1,5 +1,5 @@
 """Figures of a stability sweep: root locus, V-g / V-f, and both in one figure; the critical
-speeds of the erection stages (seed Fig. 3 right).
+speeds of the erection stages (the paper's Fig. 3 right).
 
 :class:`bridgeflap.model.stability.sweeps.StabilitySweep` keeps thin ``plot`` methods that call
 these functions (matplotlib imported lazily, nothing here calls ``plt.show()``). Units are fixed per
@@ -194,7 +194,7 @@ def _limit_text(sweep, crossing, name: str) -> str:
 
 
 def erection_speeds(result, ax=None):
-    """Flutter and divergence speed against deck completion (seed Fig. 3 right) of a
+    """Flutter and divergence speed against deck completion (the paper's Fig. 3 right) of a
     :class:`bridgeflap.model.analysis.ErectionResult`; the completed bridge is its own marker at
     100 %, not joined to the erection curve; hybrid stages (the critical branch is a deck mode
     hybridised with a bare side-span cable: a side-span label, ``T-barton1``, not ``TS1``)

@@ -144,6 +144,17 @@ def sweep(system: AeroelasticSystem, speeds, speed_tol: float = 1e-3,
         the first unstable speed (the first crossing is all a do-no-harm row reads; a crossing
         more than that fraction above it is reported absent from the shortened range). The
         dense fallback sweeps the whole grid.
+
+    Returns
+    -------
+    StabilitySweep
+        Speeds, eigenvalues and tracked branches; ``flutter`` and ``divergence`` crossings with
+        speed [m/s] and status; ``plot()``.
+
+    Raises
+    ------
+    BridgeflapInputError
+        A bad speed grid or ``method``.
     """
     if method not in SWEEP_METHODS:
         raise BridgeflapInputError("sweep", f"must be one of {SWEEP_METHODS}, got {method!r}")

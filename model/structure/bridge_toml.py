@@ -162,8 +162,9 @@ def _fe(spec) -> str:
         path = f"deck.{f.name}"
         v = getattr(spec.deck, f.name)
         src = spec.sources.get(path, "")
-        if src.startswith(_SECTION_PREFIX):  # changed in memory: the items no longer add up
-            note = f"{src}; changed in memory, the items are not written"
+        if src.startswith(_SECTION_PREFIX):  # the other one changed: the items are not written
+            note = (f"{src}, which are not written: the deck's mass or inertia was changed "
+                    "in memory")
             w.add(f"{f.name} = {_lit({'value': float(v), 'source': note})}")
             continue
         w.value(path, f.name, v)

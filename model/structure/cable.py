@@ -2,7 +2,7 @@
 
 Two routes are implemented:
 
-* :func:`three_step_single_span` -- the seed paper's three-step procedure for one level span
+* :func:`three_step_single_span` -- the paper's three-step procedure for one level span
   (inextensible start, elastic cable, added deck load), using the parabolic-cable cubics
   reconstructed in docs/humber_data.md#cable-statics-equations. Used to
   cross-check the general solver.
@@ -11,8 +11,8 @@ Two routes are implemented:
   the profile is ``y = M0(x)/H`` (simply supported moment diagram of the load), and ``H`` solves
   the length compatibility ``sum(stretched length - elastic stretch) = S0`` by Brent's method.
   ``S0``, the unstrained cable length, is fixed by the complete bridge at its stated main-span sag
-  (the sag is "a data usually available", seed §2); partial erection then loads only part of the
-  main span and ``H`` follows from the same ``S0``.
+  (the sag is "a data usually available", the paper, §2); partial erection then loads only part of
+  the main span and ``H`` follows from the same ``S0``.
 
 All loads are per cable [N/m] of horizontal length; ``H`` is per cable [N]. The cable's own
 weight is ``m_c g ds/dx`` per horizontal metre (``m_c`` per metre of cable,
@@ -323,7 +323,7 @@ def _statics(spec, loads, H, s0) -> CableStatics:
                         cable_mass_kg=float(mass))
 
 
-# ------------------------------------------------------------------ seed's three-step route
+# ------------------------------------------------------------------ the paper's three-step route
 
 
 @dataclass(frozen=True)
@@ -345,7 +345,7 @@ def _irvine_lambda_sq_parabolic(w, L, H, d, ea):
 
 def three_step_single_span(length_m: float, cable_load_n_m: float, deck_load_n_m: float,
                            ea_n: float, sag0_m: float) -> ThreeStepResult:
-    """Seed §2 three-step procedure for one level span (parabolic cable,
+    """The paper's §2 three-step procedure for one level span (parabolic cable,
     docs/humber_data.md#cable-statics-equations).
 
     Step 1: inextensible cable under its own weight at assumed sag ``sag0``:

@@ -20,7 +20,7 @@ reconstructed from standard linearised deflection theory; Abdel-Ghaffar 1976, 19
 
 Towers are rigid; every span is simply supported at its ends (the Humber deck has expansion
 joints at the towers). While the main span is being erected only its erected segments carry the
-deck (mass, inertia, aerodynamic strips) and the deck has half its GJ and zero EI (seed §2).
+deck (mass, inertia, aerodynamic strips) and the deck has half its GJ and zero EI (the paper, §2).
 """
 
 from __future__ import annotations
@@ -204,7 +204,7 @@ def assemble(spec: BridgeSpec, statics: CableStatics | None = None,
         Dead-load state; computed by :func:`bridgeflap.model.structure.cable.dead_load` when
         omitted.
     erection_gj_factor : float
-        Fraction of GJ the deck keeps while erecting (seed §2: one half; 1 gives the paper's
+        Fraction of GJ the deck keeps while erecting (the paper, §2: one half; 1 gives the paper's
         "full GJ" comparison curve of Fig. 2).
     lateral : bool
         Also assemble the lateral family (default). False: the vertical and torsional

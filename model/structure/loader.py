@@ -51,18 +51,38 @@ __all__ = ["load_bridge", "spec_from_dict"]
 
 
 def load_bridge(name_or_path: str | Path | BridgeSpec) -> BridgeSpec:
-    """Load a built-in bridge by name or a TOML bridge file by path; a :class:`BridgeSpec` is
-    returned as it is (so every function that takes a bridge takes a name, a file or a spec).
+    """A bridge by built-in name or bridge TOML file; a :class:`BridgeSpec` is returned as it is.
 
-    ``"name:variant"`` (or ``"file.toml:variant"``) applies the file's ``[variants.variant]``
-    table: dotted parameter paths with ``{ value, source }``, an alternative reading of the
-    sources kept next to the default one (e.g. ``humber:box``, the 22 m steel box as chord).
+    So every function that takes a bridge takes a name, a file or a spec. ``"name:variant"`` (or
+    ``"file.toml:variant"``) applies the file's ``[variants.variant]`` table: dotted parameter paths
+    with ``{ value, source }``, an alternative reading of the sources kept next to the default one
+    (e.g. ``humber:box``, the 22 m steel box as chord).
+
+    Parameters
+    ----------
+    name_or_path : str, path-like or BridgeSpec
+        ``"humber"``, ``"humber:box"``, ``"great-belt"``, ``"iabse-2a:bb3"``, a path to a bridge
+        TOML file (docs/reference/formats/bridge.md), or a spec.
+
+    Returns
+    -------
+    BridgeSpec
+        The validated bridge, every value with its source in ``spec.sources``.
 
     Raises
     ------
     BridgeflapInputError
         Unknown name or variant, missing file, malformed TOML, missing, unknown or
-        non-physical field.
+        non-physical field (the field is named).
+
+    Examples
+    --------
+    >>> from bridgeflap import model
+    >>> spec = model.load_bridge("humber")
+    >>> spec.main_span.length_m, spec.deck.half_chord_m
+    (1410.0, 14.25)
+    >>> model.load_bridge("humber:box").deck.half_chord_m  # the 22 m steel box as chord
+    11.0
     """
     if isinstance(name_or_path, BridgeSpec):
         return name_or_path
@@ -127,12 +147,32 @@ def _check_keys(table: dict, allowed, where: str) -> None:
 
 @checked(data=check_mapping, origin=check_text, variant=optional(check_text))
 def spec_from_dict(data: dict, origin: str = "<dict>", variant: str | None = None) -> BridgeSpec:
-    """Build a :class:`BridgeSpec` from parsed TOML, recording each value's source.
+    """A :class:`BridgeSpec` from a bridge definition already parsed from TOML.
 
     Unknown sections and keys, non-boolean switches and duplicate span names are rejected with
     the field named. A ``[[deck_section]]`` array (:mod:`bridgeflap.model.structure.section_props`)
     gives the deck mass and mass moment of inertia as sums of lumped items; ``[deck]`` then must not
-    repeat them. ``variant`` applies ``[variants.<variant>]`` (see :func:`load_bridge`).
+    repeat them.
+
+    Parameters
+    ----------
+    data : dict
+        The bridge file's tables (docs/reference/formats/bridge.md): values plain or as
+        ``{ value, source }``.
+    origin : str, default "<dict>"
+        Where the data came from, for messages.
+    variant : str, optional
+        Apply ``[variants.<variant>]`` (see :func:`load_bridge`).
+
+    Returns
+    -------
+    BridgeSpec
+        The validated bridge; each value's source in ``spec.sources``.
+
+    Raises
+    ------
+    BridgeflapInputError
+        A missing, unknown or non-physical field, named.
     """
     if isinstance(data, dict) and "structure" in data:  # imported modal model
         return modal_spec_from_dict(data, origin, variant)

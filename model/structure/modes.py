@@ -1,7 +1,7 @@
 """Structural modes: eigen-solution per family, labels, Rayleigh damping, modal truncation.
 
 Rayleigh damping ``C = a_M M + a_K K`` gives 1 % (``spec.damping.ratio``) in the first vertical
-and the first torsional mode (seed §2); every other mode's ratio follows from
+and the first torsional mode (the paper, §2); every other mode's ratio follows from
 ``zeta = a_M/(2 omega) + a_K omega/2``. The three families are uncoupled, so the mass-normalised
 modes of each family diagonalise ``M``, ``K`` and ``C`` of the whole structure. One mode's
 record, :class:`Mode`, lives in :mod:`bridgeflap.model.structure.mode` (the imported modal models

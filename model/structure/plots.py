@@ -1,5 +1,5 @@
 """Figures of the structure: deck mode shapes by family, towers and span names marked; the
-torsion-to-bending frequency ratio against deck completion (seed Fig. 2).
+torsion-to-bending frequency ratio against deck completion (the paper's Fig. 2).
 
 The modal models keep thin ``plot`` methods that call these functions
 (:meth:`bridgeflap.model.structure.modes.ModalModel.plot`,
@@ -107,7 +107,7 @@ def imported_mode_shapes(modal, per_family: int = 3, axes=None, labels=None):
 
 
 def frequency_ratio(result, ax=None):
-    """``f(TS1)/f(VS1)`` with full and half GJ against deck completion (seed Fig. 2) of a
+    """``f(TS1)/f(VS1)`` with full and half GJ against deck completion (the paper's Fig. 2) of a
     :class:`bridgeflap.model.analysis.FrequencyRatioResult`; the completed bridge is its own
     marker at 100 %; hybrid stages (``torsional_hybrid`` / ``vertical_hybrid``: the picked deck
     mode is split between modes, so the ratio rests on one of the hybrids; the modes are the

@@ -3,8 +3,8 @@
 Each item of a bridge file's ``[[deck_section]]`` array is one lumped part of the deck cross
 section with its mass per unit length and its geometry, placed symmetrically about the deck
 centre line (a part at lateral offset ``x_m > 0`` stands for two halves at ``+-x_m``). The deck
-rotates about its centre point (seed §2), taken here at mid-depth on the centre line; ``y_m`` is
-the height above that point. The radius of gyration of each kind, ``r^2`` [m^2]:
+rotates about its centre point (the paper, §2), taken here at mid-depth on the centre line;
+``y_m`` is the height above that point. The radius of gyration of each kind, ``r^2`` [m^2]:
 
 ``plate``   a horizontal strip of total width ``width_m`` centred at ``(+-x_m, y_m)``:
             ``r^2 = x^2 + w^2/12 + y^2`` (``x_m = 0`` for a strip across the centre line)

@@ -173,13 +173,59 @@ class BridgeSpec:
     """A complete bridge definition, or one of its erection stages.
 
     ``erected_fraction`` is the fraction of the main span whose deck is in place, erected
-    symmetrically from mid-span outwards (seed §4). ``joints_closed`` is False for every
+    symmetrically from mid-span outwards (the paper, §4). ``joints_closed`` is False for every
     erection stage, including the closed deck at ``erected_fraction = 1`` before its joints are
-    made permanent: the deck then has half its GJ and zero EI (temporary joints, seed §2 after
+    made permanent: the deck then has half its GJ and zero EI (temporary joints, the paper, §2 after
     Brancaleoni 1992). The completed bridge (:meth:`completed`) has ``erected_fraction = 1`` and
     ``joints_closed = True``. ``side_span_decks`` says where the side-span decks are while
     erecting: ``"bare"`` (not yet hung), ``"in_place"`` (hung throughout) or ``"with_main"``
     (erected over the same fraction as the main span, from the towers outwards).
+
+    Parameters
+    ----------
+    name : str
+        The bridge's name.
+    spans : tuple of Span
+        The spans in order along the bridge (lengths [m], chord rises [m], which carry the deck).
+    main_span_index : int
+        Index of the main span in ``spans``.
+    cable : Cable
+        Main cables: area [m^2], modulus [Pa], mass [kg/m], spacing [m], main-span sag [m].
+    deck : Deck
+        Deck: mass [kg/m], torsional mass moment of inertia [kg m^2/m], bending and torsional
+        stiffness [N m^2], half-chord ``b`` [m], hanger length at mid-span [m].
+    damping : Damping, optional
+        Rayleigh damping ratio [-] (default 1 %).
+    aero : Aero, optional
+        Air density [kg/m^3], deck height [m], turbulence and buffeting inputs.
+    mesh : Mesh, optional
+        Finite-element length [m].
+    erected_fraction : float, default 1.0
+        Fraction [-] of the main-span deck in place.
+    joints_closed : bool, default True
+        False for every erection stage (temporary joints).
+    side_span_decks : {"in_place", "bare", "with_main"}, default "in_place"
+        The side-span decks while erecting.
+    sources : dict, optional
+        Dotted path -> source note of each value (not compared by ``==``).
+    deck_section : DeckSection, optional
+        The lumped deck items whose sums give the deck mass and inertia.
+    derivatives, static_coefficients : optional
+        Measured flutter derivatives and static coefficients (tables), when the bridge file
+        gives them.
+
+    See Also
+    --------
+    load_bridge : read one from a name or a file.
+    BridgeSpec.replace : change inputs by their dotted paths.
+
+    Examples
+    --------
+    >>> from bridgeflap import model
+    >>> spec = model.load_bridge("humber")
+    >>> stage = spec.erected(0.5)
+    >>> stage.is_erecting, stage.erected_fraction
+    (True, 0.5)
     """
 
     name: str
@@ -272,7 +318,43 @@ class BridgeSpec:
         return 0.0 if self.side_span_decks == "bare" else self.erected_fraction
 
     def replace(self, **changes: Any) -> BridgeSpec:
-        """Return a copy with dotted-path changes, e.g. ``replace(**{"deck.gj_nm2": 1e11})``."""
+        """A copy with numeric inputs changed by their dotted paths.
+
+        Every changed value's source note becomes ``"user-set value (was: <old source>)"``
+        (:func:`user_set_source`), so :meth:`to_toml` and
+        :func:`~bridgeflap.model.save_bridge` write where each value came from. Derived values
+        do not follow: changing ``deck.mass_kg_per_m`` leaves
+        ``deck.mass_inertia_kgm2_per_m`` (the torsional mass moment of inertia) as it was;
+        change both when the mass you add is spread across the deck. A deck whose mass and
+        inertia were the sums of its ``[[deck_section]]`` items no longer writes those items
+        once either is changed.
+
+        Parameters
+        ----------
+        **changes : float
+            ``path=value`` pairs, a path from :data:`PARAMETER_PATHS` (units in its name, e.g.
+            ``"deck.gj_nm2"`` [N m^2]); pass them as ``**{"deck.gj_nm2": 7e11}``.
+
+        Returns
+        -------
+        BridgeSpec
+            The changed bridge (this one is unchanged), validated as on loading.
+
+        Raises
+        ------
+        BridgeflapInputError
+            ``parameter`` for an unknown path; the path's name for a value out of range.
+
+        Examples
+        --------
+        >>> from bridgeflap import model
+        >>> spec = model.load_bridge("humber")
+        >>> heavy = spec.replace(**{"deck.mass_kg_per_m": 11000.0})
+        >>> heavy.deck.mass_kg_per_m, heavy.sources["deck.mass_kg_per_m"][:30]
+        (11000.0, 'user-set value (was: sum over ')
+        >>> heavy.deck.mass_inertia_kgm2_per_m == spec.deck.mass_inertia_kgm2_per_m
+        True
+        """
         spec = self
         for path, value in changes.items():
             spec = _replace_path(spec, path, value)
@@ -331,12 +413,49 @@ def get_path(spec: BridgeSpec, path: str) -> float:
     return getattr(getattr(spec, group), name)
 
 
+#: How the source of a value changed through :meth:`BridgeSpec.replace` starts.
+USER_SET = "user-set value"
+
+
+def user_set_source(old: str | None) -> str:
+    """The source note of a value set through :meth:`BridgeSpec.replace`.
+
+    Parameters
+    ----------
+    old : str or None
+        The value's source note before the change (``None`` or ``"not stated"`` when it had
+        none).
+
+    Returns
+    -------
+    str
+        ``"user-set value (was: <old>)"``; a value set twice keeps its first note, and a value
+        that had no source is ``"user-set value"``.
+
+    Examples
+    --------
+    >>> user_set_source("[SEED] sigma_w/U = 0.07")
+    'user-set value (was: [SEED] sigma_w/U = 0.07)'
+    >>> user_set_source(user_set_source("ESTIMATE"))
+    'user-set value (was: ESTIMATE)'
+    """
+    if old is None or old == "not stated":
+        return USER_SET
+    if old.startswith(USER_SET):
+        return old
+    return f"{USER_SET} (was: {old})"
+
+
 def _replace_path(spec: BridgeSpec, path: str, value: Any) -> BridgeSpec:
     if path not in PARAMETER_PATHS:
         raise BridgeflapInputError("parameter", f"unknown parameter {path!r}")
     group, name = path.split(".")
     sub = dataclasses.replace(getattr(spec, group), **{name: float(value)})
-    return dataclasses.replace(spec, **{group: sub})
+    if getattr(sub, name) == getattr(getattr(spec, group), name):
+        return dataclasses.replace(spec, **{group: sub})  # the same value: its source stands
+    # the new value is the user's: its source says so, and what the value was sourced from
+    sources = {**spec.sources, path: user_set_source(spec.sources.get(path))}
+    return dataclasses.replace(spec, **{group: sub}, sources=sources)
 
 
 #: the fields of ``[deck]`` (in :class:`Deck` order; the loader checks the keys against them)

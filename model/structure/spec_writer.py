@@ -37,11 +37,38 @@ def to_toml(spec) -> str:
 
 @takes_bridge
 def save_bridge(bridge, path: str | os.PathLike) -> Path:
-    """Write ``bridge`` (a name, a file or a spec) as a bridge TOML file (:func:`to_toml`) at
-    ``path`` (``.toml``).
+    """Write a bridge as a complete, commented bridge TOML file.
 
-    Returns the path written. Raises :class:`~bridgeflap.model.errors.BridgeflapInputError` naming
-    ``path`` for another suffix or an unwritable place.
+    Every value is written with its source note (a value changed by
+    :meth:`BridgeSpec.replace` says ``user-set value (was: ...)``); ``load_bridge`` reads the file
+    back as an equal spec.
+
+    Parameters
+    ----------
+    bridge : str, path-like or BridgeSpec
+        A built-in name, a bridge file or a spec (not an erection stage: write
+        ``spec.completed()``).
+    path : str or path-like
+        The file to write; its name ends in ``.toml``.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    BridgeflapInputError
+        ``path`` for another suffix or an unwritable place; ``erected_fraction`` for an
+        erection stage.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from bridgeflap import model
+    >>> path = model.save_bridge("humber", pathlib.Path(tempfile.mkdtemp()) / "mine.toml")
+    >>> model.load_bridge(path) == model.load_bridge("humber")
+    True
     """
     p = Path(path)
     if p.suffix.lower() != ".toml":

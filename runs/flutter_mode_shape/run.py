@@ -4,7 +4,7 @@ Renders two figures (model/stability/modeshape.py):
 
 * ``flutter_mode_shape.png``: heave and pitch amplitude and their phase along the bridge at the
   flutter speed (16 modes, 0-85 m/s grid as ``bridgeflap flutter``), towers marked, with the
-  kinetic-energy shares of the retained modes (seed §4: "mainly TS1, VS1 and VS2");
+  kinetic-energy shares of the retained modes (the paper, §4: "mainly TS1, VS1 and VS2");
 * ``ratio_modes.png``: the first symmetric vertical and torsional deck modes that the
   frequency-ratio rule (bridgeflap.model.analysis.first_symmetric_deck_mode) picks at 20, 50, 80 and
   100 % of the main-span deck (half GJ, EI = 0, the file's side-span sequence);

@@ -1,8 +1,8 @@
 """Model updating of the unsourced Humber deck stiffnesses to the measured frequencies.
 
 Updates, one family at a time, EI_vertical (vertical modes), GJ (torsional modes) and
-EI_lateral (lateral modes) to seed Table 1 (Brownjohn et al. 1994), all other inputs as in the
-built-in file. The objective (bridgeflap.model.cases.validation.log_misfit) weights the
+EI_lateral (lateral modes) to the paper's Table 1 (Brownjohn et al. 1994), all other inputs as in
+the built-in file. The objective (bridgeflap.model.cases.validation.log_misfit) weights the
 flutter-critical modes VS1 and TS1 (bridgeflap.model.cases.validation.CRITICAL_WEIGHT, default
 infinity: fitted exactly, the other modes of the family validate); the lateral family is an
 unweighted RMS fit. Masses, sag and geometry are not touched. Prints the updated values for

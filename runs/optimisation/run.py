@@ -1,4 +1,4 @@
-"""Scripted flap-controller optimisation on the Humber case (seed Fig. 5).
+"""Scripted flap-controller optimisation on the Humber case (the paper's Fig. 5).
 
 Designs the compensator K(s) with :func:`bridgeflap.design.control.driver.design` from the packaged
 definition ``runs/humber_flaps.toml`` on a bridge specification built in this script (``--quick``:

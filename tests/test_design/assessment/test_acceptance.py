@@ -78,8 +78,9 @@ def test_a_harmful_controller_is_flagged(small):
     assert rob["fraction_harmed"] > 0 and rob["worst_closed_over_open"] < 1.0
     assert len(rob["rows"]) == 4 and len(results["robustness"].to_dataframe()) == 4
     text = acceptance_text(block).splitlines()  # the CLI's and the study report's lines
-    assert text[0] == "acceptance: harm" and len(text) == 3
-    assert "eigenvalues agree" in text[1] and text[2].rstrip().endswith(": harm")
+    assert text[0] == "acceptance: harm" and len(text) == 4
+    assert text[1].strip().startswith("(harm = ") and "not usable" in text[1]
+    assert "eigenvalues agree" in text[2] and text[3].rstrip().endswith(": harm")
 
 
 def test_verdict_rules():
@@ -92,6 +93,19 @@ def test_verdict_rules():
     assert _verdict({"robustness": {"status": "unresolved"}}) == "unresolved"
     assert _verdict({"robustness": {"status": "error"}}) == "unresolved"
     assert _verdict({}) == "not_run"
+
+
+def test_the_printed_verdict_says_what_it_means():
+    """Under ``acceptance: passed`` one line says what passed covers, and that the stable
+    fraction, failed-pair and actuator lines are not part of it."""
+    text = acceptance_text({"status": "passed"}).splitlines()
+    assert text[0] == "acceptance: passed"
+    assert text[1].strip().startswith("(passed = ")
+    assert "independent closed loop agrees" in text[1] and "not part of the verdict" in text[1]
+    for status in ("harm", "failed", "unresolved"):
+        assert acceptance_text({"status": status}).splitlines()[1].strip().startswith(
+            f"({status} = ")
+    assert len(acceptance_text({"status": "not_run"}).splitlines()) == 1
 
 
 def test_parse_checks():

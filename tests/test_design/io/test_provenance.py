@@ -89,3 +89,23 @@ def test_built_wheel_carries_the_commit(tmp_path):
     assert info["version"] == tomllib.loads((src / "pyproject.toml").read_text())["project"][
         "version"]
     assert not (src / "model" / "_build_info.json").exists()  # nothing written into the source
+
+
+def test_manifest_says_not_installed_for_a_missing_optional_package(monkeypatch):
+    """An optional package that is absent (python-control) is "not installed", not "unknown"."""
+    import importlib.metadata
+
+    import bridgeflap.design.io.manifest as manifest
+
+    real = importlib.metadata.version
+
+    def version(name):
+        if name == "control":
+            raise importlib.metadata.PackageNotFoundError(name)
+        return real(name)
+
+    monkeypatch.setattr(importlib.metadata, "version", version)
+    versions = manifest.package_versions()
+    assert versions["control"] == manifest.NOT_INSTALLED == "not installed"
+    assert versions["numpy"] not in (manifest.UNKNOWN, manifest.NOT_INSTALLED)
+    assert build_manifest({})["packages"]["control"] == "not installed"

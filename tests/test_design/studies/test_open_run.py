@@ -94,3 +94,38 @@ def test_corrupt_result_files_are_one_line_naming_the_file(tmp_path):
         with pytest.raises(BridgeflapInputError) as info:
             call()
         assert info.value.field == field and "\n" not in str(info.value), str(info.value)
+
+
+@pytest.fixture(scope="module")
+def doe_with_crossings(tmp_path_factory):
+    """The DOE tutorial's 2 x 2 design: 6 modes to 120 m/s find a divergence speed in every
+    case (4 modes, as ``doe`` above, find none: nothing to colour)."""
+    config = design.doe_from_dict({
+        "name": "gj_sag", "bridge": "humber", "analysis": "flutter",
+        "options": {"speeds": "0:120:2", "modes": 6, "truncation_check": False},
+        "design": {"kind": "full_factorial", "levels": 2},
+        "parameters": {"deck.gj_nm2": [4.7e11, 7.1e11], "cable.main_sag_m": [110.0, 125.0]}})
+    out = tmp_path_factory.mktemp("doe6") / "out"
+    return design.run_doe(config, out_dir=out, scheduler="serial", progress=False)
+
+
+def test_open_run_plots_a_doe_over_its_inputs_not_the_case_number(doe_with_crossings):
+    """A DOE folder read back plots as the DOE result does: x and y are its two inputs."""
+    import matplotlib.pyplot as plt
+
+    doe = doe_with_crossings
+    output = "divergence_speed_m_s"
+    values = doe.to_dataframe()[output].astype(float)
+    assert np.isfinite(values).all()  # else the plot below would have nothing to colour
+    ax = design.open_run(doe.out_dir).plot(output=output).axes[0]
+    assert ax.get_xlabel() == "deck.gj_nm2" and ax.get_ylabel() == "cable.main_sag_m"
+    # the four cases sit at the corners of the 2 x 2 design (exact: the inputs are written as
+    # given), not at case numbers 0..3
+    points = {tuple(p) for p in np.asarray(ax.collections[0].get_offsets())}
+    assert points == {(gj, sag) for gj in (4.7e11, 7.1e11) for sag in (110.0, 125.0)}
+    # coloured by the output: the same numbers as the table (read back from the same JSON)
+    assert np.array_equal(np.sort(np.asarray(ax.collections[0].get_array())), np.sort(values))
+    same = doe.plot(output=output).axes[0]
+    assert (same.get_xlabel(), same.get_ylabel(), same.get_title()) == (
+        ax.get_xlabel(), ax.get_ylabel(), ax.get_title())
+    plt.close("all")

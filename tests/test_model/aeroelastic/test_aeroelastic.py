@@ -434,7 +434,7 @@ def test_humber_flutter_and_divergence(humber, humber_pk):
 
 
 def test_humber_table_vs_paper(humber, humber_pk, capsys):
-    """Table: ours vs the seed paper's model values (65 m/s flutter, 74 m/s divergence).
+    """Table: ours vs the the paper's model values (65 m/s flutter, 74 m/s divergence).
 
     The seed numbers come from a model with unpublished inputs; ours uses ESTIMATE values for
     b, GJ, I (docs/humber_data.md#estimated-inputs), and U_D scales about as 1/b. So only a

@@ -13,7 +13,7 @@ from bridgeflap.model.aeroelastic.controller_file import load_controller, save_c
 from bridgeflap.model.errors import BridgeflapInputError
 
 # A lead compensator with an underdamped denominator (zeta ~ 0.67, w_n ~ 4.5 rad/s) and a
-# first-order one; coefficients of the size the seed paper's gain limit 15 allows.
+# first-order one; coefficients of the size the the paper's gain limit 15 allows.
 SECOND_ORDER = Compensator(b2=0.5, b1=2.0, b0=3.0, a2=0.05, a1=0.3)
 FIRST_ORDER = Compensator(b2=0.0, b1=-1.5, b0=2.0, a2=0.0, a1=0.4)
 

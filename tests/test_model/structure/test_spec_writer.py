@@ -42,8 +42,28 @@ def test_modified_spec_round_trips_with_its_values(tmp_path):
     assert back.deck.gj_nm2 == gj                  # floats by repr: exact
     # the deck mass no longer is the items' sum: written as a value, and its source says so
     assert back.deck_section is None
-    assert "changed in memory" in back.sources["deck.mass_kg_per_m"]
-    assert back.sources["deck.gj_nm2"] == spec.sources["deck.gj_nm2"]
+    # every changed value is marked user-set, with the source it had (written and read back)
+    for path in ("deck.gj_nm2", "deck.mass_kg_per_m"):
+        assert back.sources[path] == f"user-set value (was: {spec.sources[path]})"
+    # the inertia did not follow the mass: still the items' sum, which the file no longer holds
+    assert back.deck.mass_inertia_kgm2_per_m == spec.deck.mass_inertia_kgm2_per_m
+    assert back.sources["deck.mass_inertia_kgm2_per_m"].startswith(
+        spec.sources["deck.mass_inertia_kgm2_per_m"])
+    assert "which are not written" in back.sources["deck.mass_inertia_kgm2_per_m"]
+    # an unchanged value keeps its source
+    assert back.sources["cable.main_sag_m"] == spec.sources["cable.main_sag_m"]
+
+
+def test_a_value_set_through_replace_is_marked_user_set_once():
+    spec = load_bridge("humber")
+    old = spec.sources["aero.turbulence_intensity"]
+    once = spec.replace(**{"aero.turbulence_intensity": 0.08})
+    twice = once.replace(**{"aero.turbulence_intensity": 0.09})
+    assert once.sources["aero.turbulence_intensity"] == f"user-set value (was: {old})"
+    assert twice.sources["aero.turbulence_intensity"] == once.sources["aero.turbulence_intensity"]
+    assert spec.sources["aero.turbulence_intensity"] == old  # the original is not touched
+    same = spec.replace(**{"aero.turbulence_intensity": spec.aero.turbulence_intensity})
+    assert same.sources["aero.turbulence_intensity"] == old  # not changed: not user-set
 
 
 def test_public_face_and_refusals(tmp_path):
