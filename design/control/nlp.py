@@ -92,14 +92,9 @@ from bridgeflap.design.control.plant import (
     damping_check,
     lag_free_indices,
     lag_rates,
-    plant_factors,
 )
 from bridgeflap.design.control.records import CutsOutcome, RobustMargin, Solve, Verification
 from bridgeflap.design.control.robust import (
-    analytic_robust_data,
-    analytic_robust_function,
-    lowrank_robust_data,
-    lowrank_robust_points,
     robust_dense_omega,
     robust_margin,
 )
@@ -304,51 +299,24 @@ class DesignProblem:
         ignored) and ``T`` is a closed-form expression of the scalar ``K(j omega)`` per point
         (:func:`bridgeflap.design.control.robust.analytic_robust_data`; same values to round-off,
         ~10x cheaper Jacobian); the points are then ordered diagonalised first."""
-        key = (tuple(self.robust_cuts), bool(analytic))
-        if self._robust is None or self._robust[2] != key:
+        from bridgeflap.design.control.robust import robust_epigraph_function
+
+        return robust_epigraph_function(self, analytic)
+
+    # ---- actuator demand
+    def flap_demand(self, theta_ref=None):
+        """The actuator-demand constraints of this layout
+        (:class:`bridgeflap.design.control.actuator_demand.FlapDemand`), built once (the
+        quadrature grids and the flaps frozen at ``theta_ref``, the first solve's start)."""
+        if self.callbacks.get("flap_demand") is None:
+            from bridgeflap.design.control.actuator_demand import FlapDemand
+            from bridgeflap.model.aeroelastic.actuator_limits import ActuatorLimits
+
             s = self.settings
-            if self._robust_base is None:
-                om = self.robust_omega_grid()
-                Xs, oms, pts = [], [], []
-                Pa = None
-                for U in s.robust_design_speeds_m_s:
-                    Pa, X = plant_factors(self.model, float(U), 1j * om)
-                    Xs += list(X)
-                    oms += list(om)
-                    pts += [(float(U), float(w)) for w in om]
-                self._robust_base = (Pa, Xs, oms, pts)
-            Pa, Xs, oms, pts = self._robust_base
-            Xs, oms, pts = list(Xs), list(oms), list(pts)
-            for U, omc in key[0]:
-                Pa, X = plant_factors(self.model, float(U), [1j * omc])
-                Xs.append(X[0])
-                oms.append(omc)
-                pts.append((float(U), float(omc)))
-            th = ca.MX.sym("theta", 5)
-            w = ca.MX.sym("w", self.model.n_flaps)
-            oms = np.asarray(oms, float)
-            exact = np.ones(len(pts), bool)
-            vals, cbs = [], []
-            if analytic:
-                mu, H, ok = analytic_robust_data(Pa, np.asarray(Xs), self.weights)
-                exact = ~ok
-                i = np.flatnonzero(ok)
-                if i.size:
-                    fa = analytic_robust_function(oms[i], mu[i], H[i])
-                    vals.append(fa(th).T)
-                    cbs.append(fa)
-            j = np.flatnonzero(exact)
-            if j.size:      # the exact solve, in its low-rank form (design.control.robust)
-                US, sv, E = lowrank_robust_data(Pa, [Xs[k] for k in j])
-                cbs.append(lowrank_robust_points(US, sv, oms[j], E))
-                wj = ca.DM(self.weights) if analytic else w
-                vals.append(cbs[-1](ca.vertcat(th, wj)).T)
-            order = np.concatenate([np.flatnonzero(~exact), j]).astype(int)
-            pts = [pts[k] for k in order]
-            fun = ca.Function("T_fro2_grid", [th, w], [ca.horzcat(*vals).T], ["theta", "w"],
-                              ["T_fro2"])
-            self._robust = (fun, pts, key, cbs)    # the callbacks kept alive with it
-        return self._robust[:2]
+            lim = ActuatorLimits(s.flap_angle_limit_deg, s.flap_rate_limit_deg_s)
+            self.callbacks["flap_demand"] = FlapDemand(
+                self, np.asarray(theta_ref, float), lim)
+        return self.callbacks["flap_demand"]
 
     # ---- buffeting
     def buffeting_rms(self, theta, weights=None, speeds=None) -> tuple[np.ndarray, np.ndarray]:
@@ -453,6 +421,13 @@ class DesignProblem:
             f = f + s.weight_robust * gT
         if s.weight_buffeting > 0 and not feasibility:   # phase 1: feasibility only
             f = f + s.weight_buffeting * buffeting_objective(self, theta0, weights0, th, w, p)
+        if s.actuator_design_speeds_m_s and not feasibility and not s.optimise_placement:
+            # the 3 sigma flap angle and rate within the actuator's limits (actuator_demand)
+            dem = self.flap_demand(theta0)
+            g.append(dem.constraints(th))
+            n_dem = 4 * len(dem.speeds_m_s)
+            lbg.append(np.full(n_dem, -np.inf))
+            ubg.append(np.zeros(n_dem))
         if s.optimise_placement and s.weight_flaps > 0:
             f = f + s.weight_flaps * ca.sum1(w) / nF
         if s.optimise_placement and s.flap_budget > 0:

@@ -376,3 +376,55 @@ def robust_margin(model, theta, speeds, weights, omega_at, peaks=1,
     return RobustMargin(speeds_m_s=speeds, t_inf=t_inf, peak_omega_rad_s=np.array(at),
                         peaks=tuple(out_peaks),
                         margin=float(1.0 / t_inf.max()) if t_inf.size else float("nan"))
+
+
+def robust_epigraph_function(problem, analytic=False):
+    """``(theta, w) -> ||T||_F^2`` at every (robust design speed, frequency) and robust cut of
+    ``problem`` (a :class:`bridgeflap.design.control.nlp.DesignProblem`) and the ``(speed,
+    omega)`` points, cached on the problem
+    (:meth:`bridgeflap.design.control.nlp.DesignProblem.robust_function`)."""
+    key = (tuple(problem.robust_cuts), bool(analytic))
+    if problem._robust is None or problem._robust[2] != key:
+        s = problem.settings
+        if problem._robust_base is None:
+            om = problem.robust_omega_grid()
+            Xs, oms, pts = [], [], []
+            Pa = None
+            for U in s.robust_design_speeds_m_s:
+                Pa, X = plant_factors(problem.model, float(U), 1j * om)
+                Xs += list(X)
+                oms += list(om)
+                pts += [(float(U), float(w)) for w in om]
+            problem._robust_base = (Pa, Xs, oms, pts)
+        Pa, Xs, oms, pts = problem._robust_base
+        Xs, oms, pts = list(Xs), list(oms), list(pts)
+        for U, omc in key[0]:
+            Pa, X = plant_factors(problem.model, float(U), [1j * omc])
+            Xs.append(X[0])
+            oms.append(omc)
+            pts.append((float(U), float(omc)))
+        th = ca.MX.sym("theta", 5)
+        w = ca.MX.sym("w", problem.model.n_flaps)
+        oms = np.asarray(oms, float)
+        exact = np.ones(len(pts), bool)
+        vals, cbs = [], []
+        if analytic:
+            mu, H, ok = analytic_robust_data(Pa, np.asarray(Xs), problem.weights)
+            exact = ~ok
+            i = np.flatnonzero(ok)
+            if i.size:
+                fa = analytic_robust_function(oms[i], mu[i], H[i])
+                vals.append(fa(th).T)
+                cbs.append(fa)
+        j = np.flatnonzero(exact)
+        if j.size:      # the exact solve, in its low-rank form (design.control.robust)
+            US, sv, E = lowrank_robust_data(Pa, [Xs[k] for k in j])
+            cbs.append(lowrank_robust_points(US, sv, oms[j], E))
+            wj = ca.DM(problem.weights) if analytic else w
+            vals.append(cbs[-1](ca.vertcat(th, wj)).T)
+        order = np.concatenate([np.flatnonzero(~exact), j]).astype(int)
+        pts = [pts[k] for k in order]
+        fun = ca.Function("T_fro2_grid", [th, w], [ca.horzcat(*vals).T], ["theta", "w"],
+                          ["T_fro2"])
+        problem._robust = (fun, pts, key, cbs)    # the callbacks kept alive with it
+    return problem._robust[:2]

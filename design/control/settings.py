@@ -99,8 +99,11 @@ class DesignSettings:
 
     ``flap_angle_limit_deg`` [deg] and ``flap_rate_limit_deg_s`` [deg/s]: the flap actuator's
     angle and rate limits (defaults 20 deg and 40 deg/s, engineering estimates for hydraulic
-    flap actuators, :mod:`bridgeflap.model.aeroelastic.actuator_limits`). The design does not use
-    them; ``bridgeflap actuators --card`` simulates the designed loop with them in turbulent wind.
+    flap actuators, :mod:`bridgeflap.model.aeroelastic.actuator_limits`); ``bridgeflap actuators
+    --card`` simulates the designed loop with them in turbulent wind.
+    ``actuator_design_speeds_m_s`` [m/s]: at these speeds the NLP holds the 3 sigma flap angle
+    and rate of the linear closed loop in the bridge's design turbulence within those limits
+    (:mod:`bridgeflap.design.control.actuator_demand`; empty: not constrained).
     Left out of the design's JSON settings while at their defaults.
 
     Attributes
@@ -215,6 +218,7 @@ class DesignSettings:
     layout_adopt: bool = False
     flap_angle_limit_deg: float = ACTUATOR_DEFAULTS["flap_angle_limit_deg"]
     flap_rate_limit_deg_s: float = ACTUATOR_DEFAULTS["flap_rate_limit_deg_s"]
+    actuator_design_speeds_m_s: tuple = ()
     extras: dict = field(default_factory=dict, compare=False)
 
     def __post_init__(self):
@@ -279,7 +283,8 @@ class DesignSettings:
                                                     "(stable, proper compensator)")
         if not (self.leading_edge or self.trailing_edge):
             raise BridgeflapInputError("trailing_edge", "no flap fitted")
-        for name in ("robust_design_speeds_m_s", "robust_speeds_m_s", "buffeting_speeds_m_s"):
+        for name in ("robust_design_speeds_m_s", "robust_speeds_m_s", "buffeting_speeds_m_s",
+                     "actuator_design_speeds_m_s"):
             for v in getattr(self, name):
                 _num(name, v, positive=True)
             if self.weight_robust > 0 and name.startswith("robust") and not getattr(self, name):
@@ -477,7 +482,7 @@ def load_settings(path: str | os.PathLike | None = "default", **overrides) -> De
             "documented in runs/humber_flaps.toml)"))
     for key in ("a2_bounds", "a1_bounds", "min_flap_counts", "robust_speeds_m_s", "variant_fixed",
                 "variant_corners", "flap_positions_m",
-                "robust_design_speeds_m_s", "buffeting_speeds_m_s"):
+                "robust_design_speeds_m_s", "buffeting_speeds_m_s", "actuator_design_speeds_m_s"):
         if key in flat:
             if not isinstance(flat[key], list | tuple):
                 raise BridgeflapInputError(key, f"must be a list, got {flat[key]!r}")

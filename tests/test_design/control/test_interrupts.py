@@ -99,3 +99,32 @@ def test_nested_blocks_deliver_once_at_the_outermost():
         assert got == [signal.SIGINT]
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("signum,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_a_signal_during_optimise_ends_it_and_writes_nothing(tmp_path, signum, code):
+    """`bridgeflap optimise` signalled while Ipopt runs: the exit status of the signal, the one
+    line, no controller and the previous output untouched. The signal is sent once the first
+    Ipopt progress line is printed (so it lands inside a solve, where it was lost before)."""
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "opt"
+    out.mkdir()
+    (out / "keep.txt").write_text("an earlier result")
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "MPLBACKEND": "Agg"}
+    proc = subprocess.Popen([sys.executable, "-m", "bridgeflap.design.cli.main", "optimise",
+                             "--quick", "--checks", "none", "--out", str(tmp_path / "new")],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0 = time.monotonic()
+    for line in proc.stderr:        # progress lines: wait for the first Ipopt iterations
+        if "Ipopt iterations of at most" in line or time.monotonic() - t0 > 300:
+            break
+    proc.send_signal(signum)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == code, err[-2000:]
+    assert err.strip().splitlines()[-1] == "bridgeflap: interrupted"
+    assert not (tmp_path / "new" / "controller.toml").exists()
+    assert (out / "keep.txt").read_text() == "an earlier result"
