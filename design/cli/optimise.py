@@ -213,7 +213,8 @@ def arguments(sp) -> None:
                          "overrides the definition's")
     sp.add_argument("--checks", default="all", metavar="LIST",
                     help="acceptance checks of the designed controller: all, none, or a comma "
-                         "list of independent_check, robustness, failures, actuators")
+                         "list of independent_check, robustness, failures, actuators, "
+                         "usable_speed")
     sp.add_argument("--check-samples", dest="check_samples", type=int, default=None,
                     metavar="N", help="fresh bridge variants of the robustness check "
                                       "(default 1000; 8 with --quick)")
