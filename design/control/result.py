@@ -24,8 +24,9 @@ class DesignResult(ResultData):
     status : str
         ``converged``, ``unverified``, ``infeasible`` or ``failed``
         (:func:`bridgeflap.design.control.driver.select_start`); after the acceptance checks of
-        :func:`bridgeflap.design.assessment.accept.design` also ``harm``, ``failed_checks`` or
-        ``unresolved``. Only ``converged`` carries a ``controller``.
+        :func:`bridgeflap.design.assessment.accept.design` also ``harm``, ``failed_checks`` (the
+        independent check disagrees, or the usable speed is not above the open-loop critical
+        speed) or ``unresolved``. Only ``converged`` carries a ``controller``.
     settings : DesignSettings
     controller : bridgeflap.model.aeroelastic.control.Controller or None
         The designed compensator and layout, **only when** ``status == "converged"`` (it met
@@ -46,7 +47,12 @@ class DesignResult(ResultData):
     wall_time_s : float
     extras : dict
         ``open_loop_abscissa`` [1/s], ``closed_loop`` (state space), ``buffeting``
-        (:class:`bridgeflap.design.control.records.BuffetingComparison`).
+        (:class:`bridgeflap.design.control.records.BuffetingComparison`), ``response_by_speed``
+        (seed Fig. 5 right as rows, :mod:`bridgeflap.design.assessment.usable_speed`).
+
+    The headline is :attr:`usable_speed_m_s` (with :attr:`usable_speed_limited_by`) beside
+    :attr:`open_loop_critical_speed_m_s`; :attr:`closed_loop_critical_speed_m_s` is the linear
+    closed loop's, with ideal actuators.
     """
 
     status: str
