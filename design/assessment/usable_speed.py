@@ -279,7 +279,8 @@ def usable_speed(spec, controller, limits, *, linear_critical_m_s: float,
 
 def response_by_speed(spec, controller, demand, critical_m_s: float, limits, n_modes: int,
                       step_m_s: float = 4.0) -> list[dict]:
-    """The paper's Fig. 5 (right) as rows: open- and closed-loop max RMS heave [m] and twist [rad] on
+    """The paper's Fig. 5 (right) as rows: open- and closed-loop max RMS heave [m] and twist
+    [rad] on
     the main span (:func:`bridgeflap.model.response.buffeting.buffeting`, spectral) and the 3
     sigma flap angle [deg] and rate [deg/s] of the closed loop (largest over the flaps), from
     4 m/s every ``step_m_s`` to just below ``critical_m_s``; the actuator limits in each row
@@ -309,7 +310,8 @@ def response_by_speed(spec, controller, demand, critical_m_s: float, limits, n_m
 
 
 def plot_response(rows, block=None, title: str = ""):
-    """The paper's Fig. 5 (right) from :func:`response_by_speed` rows: open- vs closed-loop RMS heave
+    """The paper's Fig. 5 (right) from :func:`response_by_speed` rows: open- vs closed-loop RMS
+    heave
     and twist, and the 3 sigma flap angle and rate against their limits, with the open-loop
     critical, usable and linear closed-loop critical speeds marked (``block``: the usable-speed
     check's). Returns the Figure."""

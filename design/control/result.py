@@ -120,7 +120,7 @@ class DesignResult(ResultData):
             "fresh_variants": self.extras.get("fresh_variants", {}),
             "closed_loop_limits": self.extras.get("closed_loop_limits", {}),
             "acceptance": self.extras.get("acceptance", {"status": "not_run", "checks": []}),
-            # the paper's Fig. 5 (right) as numbers (design.assessment.usable_speed.response_by_speed)
+            # the paper's Fig. 5 (right) as numbers (usable_speed.response_by_speed)
             "response_by_speed": self.extras.get("response_by_speed", []),
             "spectral_abscissa_by_speed": [
                 {"speed_m_s": float(u), "abscissa_1_s": float(a)}
