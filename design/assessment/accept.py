@@ -10,7 +10,10 @@ controller as written to its file and read back. The verdict is part of the desi
                     passed (or were not asked for: ``checks="none"``, said in ``acceptance``)
 ``harm``            the controller lowers some fresh variant's critical speed below its
                     open-loop one (``DesignResult.controller`` is then None: never handed on)
-``failed_checks``   the independent closed loop disagrees with the design's own
+``failed_checks``   the independent closed loop disagrees with the design's own, or the
+                    controller's usable speed (its real actuators in the design turbulence,
+                    :mod:`bridgeflap.design.assessment.usable_speed`) is not above the open-loop
+                    critical speed (the acceptance block's ``reason`` says which)
 ``unresolved``      no variant harmed, but some crossing could not be verified
 ==================  =========================================================================
 
@@ -113,7 +116,8 @@ def _options(checks, samples, workers, quick, seed, fields=("samples", "workers"
 
 def accept(controller, settings=None, *, checks="all", samples: int | None = None,
            workers: int | None = None, quick: bool = False, seed: int | None = None,
-           closed_loop=None, progress=None, bridge=None) -> AcceptanceResult:
+           closed_loop=None, progress=None, bridge=None,
+           closed_loop_limits=None) -> AcceptanceResult:
     """The acceptance checks of ``controller`` (module
     :mod:`bridgeflap.design.assessment.acceptance`).
 
@@ -142,6 +146,10 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
     bridge : BridgeSpec, name or path, optional
         The bridge the controller was designed for (default ``settings.bridge``): the fresh
         variants are drawn about it.
+    closed_loop_limits : dict, optional
+        The design's closed- and open-loop limits on its verification model
+        (:func:`bridgeflap.design.control.checks.closed_loop_limits`), read by the usable-speed
+        check (default: computed).
 
     Returns
     -------
@@ -190,7 +198,8 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
         save_controller(controller, path)
         read_back = load_controller(path)
     block, results = acceptance(read_back, settings, opts, closed_loop=closed_loop,
-                                progress=progress, bridge=bridge)
+                                progress=progress, bridge=bridge,
+                                closed_loop_limits=closed_loop_limits)
     return AcceptanceResult(block["status"], block, results)
 
 
@@ -265,8 +274,11 @@ def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=N
     acc = accept(res.controller, settings, checks=opts.checks, samples=opts.samples,
                  workers=opts.workers, quick=quick_checks, seed=opts.seed,
                  closed_loop=design_closed_loop(res, settings),
-                 progress=progress, bridge=bridge)
+                 progress=progress, bridge=bridge,
+                 closed_loop_limits=res.extras.get("closed_loop_limits"))
     extras = {**res.extras, "acceptance": acc.block, "acceptance_results": acc.results}
+    if "usable_speed" in acc.results:   # the paper's Fig. 5 (right) as numbers
+        extras["response_by_speed"] = acc.results["usable_speed"].response
     status = ACCEPTANCE_STATUS.get(acc.status)
     if status is None:
         return replace(res, extras=extras)

@@ -22,18 +22,28 @@ independent path. :func:`acceptance` runs, for one controller and its design car
     exported open-loop plant (:func:`bridgeflap.model.aeroelastic.control_plant.plant_data`, flap
     inputs) by a plain feedback formula here, against the design's own closed loop: the eigenvalues
     at a few speeds agree to :data:`EIGENVALUE_RTOL`.
+``usable_speed``
+    :func:`bridgeflap.design.assessment.usable_speed.usable_speed`: the highest speed at which the
+    controller does what its linear design promises with the card's actuators, in the bridge's
+    design turbulence: the lowest of the linear closed-loop critical speed (ideal actuators), the
+    speeds where the 3 sigma flap angle or rate reaches its limit (spectral) and the speed up to
+    which the saturated loop holds (bisection with the Monte-Carlo simulation of the actuator
+    check, its record length and seed), with the limit that binds; and the open-loop critical
+    speed it must exceed (:func:`~bridgeflap.design.assessment.usable_speed.usable_speed_verdict`).
 
 Each check reports its own ``status``; the block's ``status`` is ``passed`` when the independent
-check agrees and the controller harms no variant, ``harm`` when it lowers some variant's
-critical speed below its open-loop one (whatever else is unresolved), ``failed`` when the
-independent check disagrees, ``unresolved`` otherwise (a crossing not verified). The fresh
+check agrees, the controller harms no variant and its usable speed is above the open-loop
+critical speed, ``harm`` when it lowers some variant's critical speed below its open-loop one
+(whatever else is unresolved), ``failed`` when the independent check disagrees or the usable
+speed is not above the open-loop critical speed (``reason`` says which), ``unresolved``
+otherwise (a crossing not verified). The fresh
 variants are independent uniform draws (``sampling = "random"``, seed 11: none is a design
 scenario), so the robustness block carries a one-sided 95 % Clopper-Pearson upper bound on the
 probability of harm (``harm_probability_upper_95``: 0.30 % for 0 harmed of 1000). The fraction
-stable to the design speed, the failure and the actuator verdicts are reported, not folded into
-the status: they are properties of the bridge and the flap authority as much as of the design
-(the GJ range of the uncertainty set alone puts 12.5 % of the variants beyond any 3 m-flap
-controller's reach, ``runs/robust_limit``).
+stable to the design speed, the failure and the fixed-speed actuator verdicts are reported, not
+folded into the status: they are properties of the bridge and the flap authority as much as of
+the design (the GJ range of the uncertainty set alone puts 12.5 % of the variants beyond any 3
+m-flap controller's reach, ``runs/robust_limit``).
 """
 
 from __future__ import annotations
@@ -49,7 +59,7 @@ __all__ = ["CHECKS", "EIGENVALUE_RTOL", "AcceptanceOptions", "acceptance", "desi
            "acceptance_text", "independent_check", "parse_checks"]
 
 #: the checks, in the order they run (cheapest first)
-CHECKS = ("independent_check", "robustness", "failures", "actuators")
+CHECKS = ("independent_check", "robustness", "failures", "actuators", "usable_speed")
 #: the eigenvalues of the two closed loops agree to this, relative to max(1, |lambda|) [-]:
 #: the required 1e-6. Both are eigenvalues of the same matrix up to a change of state
 #: coordinates (the plant's beta'' elimination), so rounding bounds the difference by
@@ -218,8 +228,32 @@ def _actuators(controller, settings, opts, say, bridge):
     return res, {**res.summary(), "limits_from": "design card"}
 
 
+def _usable_speed(controller, settings, opts, say, bridge, limits=None):
+    from bridgeflap.design.assessment.usable_speed import usable_speed
+    from bridgeflap.design.control.checks import closed_loop_limits
+    from bridgeflap.model.aeroelastic.actuator_limits import ActuatorLimits
+    from bridgeflap.model.structure.loader import load_bridge
+
+    spec = load_bridge(bridge)
+    if not limits or "governing_speed_m_s" not in limits:
+        # the linear closed- and open-loop critical speeds of the verification model
+        limits = closed_loop_limits(settings, controller, spec)
+    open_loop = min((v for v in (limits.get("open_loop_flutter_speed_m_s"),
+                                 limits.get("open_loop_divergence_speed_m_s"))
+                     if isinstance(v, float) and v == v), default=float("nan"))
+    act = ActuatorLimits(settings.flap_angle_limit_deg, settings.flap_rate_limit_deg_s)
+    res = usable_speed(spec, controller, act,
+                       linear_critical_m_s=limits.get("governing_speed_m_s"),
+                       open_loop_critical_m_s=open_loop, n_modes=opts.actuator_modes,
+                       records=opts.actuator_records, duration_s=opts.actuator_duration_s,
+                       response_step_m_s=8.0 if opts.quick else 4.0, progress=say)
+    return res, {**res.summary(), "critical_speeds_modes": limits.get("modes"),
+                 "limits_from": "design card"}
+
+
 def acceptance(controller, settings, options: AcceptanceOptions | None = None, *,
-               closed_loop=None, progress=None, bridge=None) -> tuple[dict, dict]:
+               closed_loop=None, progress=None, bridge=None,
+               closed_loop_limits=None) -> tuple[dict, dict]:
     """Run the checks of ``options`` on ``controller`` designed with ``settings``.
 
     Returns ``(block, results)``: the strict-JSON-ready block (module docstring) and the
@@ -228,12 +262,15 @@ def acceptance(controller, settings, options: AcceptanceOptions | None = None, *
     meets a :class:`~bridgeflap.model.errors.BridgeflapError` (e.g. flutter-derivative decks have no
     actuator simulation) reports ``status: "error"`` with the reason. ``bridge``: the bridge
     the controller was designed for (a spec, name or path; default ``settings.bridge``).
+    ``closed_loop_limits``: the design's own closed- and open-loop limits
+    (:func:`bridgeflap.design.control.checks.closed_loop_limits`; computed when not given).
     """
     opts = AcceptanceOptions() if options is None else options
     say = progress or (lambda _msg: None)
     bridge = settings.bridge if bridge is None else bridge
     block, results = {"checks": list(opts.checks)}, {}
-    runners = {"robustness": _robustness, "failures": _failures, "actuators": _actuators}
+    runners = {"robustness": _robustness, "failures": _failures, "actuators": _actuators,
+               "usable_speed": lambda *a: _usable_speed(*a, limits=closed_loop_limits)}
     for name in opts.checks:
         t0 = time.perf_counter()
         say(f"acceptance: {name} ({CHECKS.index(name) + 1}/{len(CHECKS)}) ...")
@@ -255,18 +292,35 @@ def acceptance(controller, settings, options: AcceptanceOptions | None = None, *
         say(f"acceptance: {name}: {block[name]['status']} "
             f"({block[name]['elapsed_s']:.0f} s)")
     block["status"] = _verdict(block)
+    reasons = _failure_reasons(block)
+    if reasons:
+        block["reason"] = "; ".join(reasons)
     return block, results
+
+
+def _failure_reasons(block: dict) -> list:
+    """What fails, one phrase per failed check (the block's ``reason``)."""
+    out = []
+    if block.get("independent_check", {}).get("status") == "disagrees":
+        out.append("the independent closed loop disagrees")
+    us = block.get("usable_speed", {})
+    if us.get("status") == "not_above_open_loop":
+        out.append(f"{us['reason']} (limited by {us.get('usable_speed_limited_by')})")
+    return out
 
 
 def _verdict(block: dict) -> str:
     ind = block.get("independent_check", {}).get("status")
     rob = block.get("robustness", {}).get("status")
+    use = block.get("usable_speed", {}).get("status")
     if ind == "disagrees":
         return "failed"
     if rob == "harm":
         return "harm"
+    if use == "not_above_open_loop":
+        return "failed"
     if ind in (None, "agrees", "skipped") and rob in (None, "no_harm"):
-        return "passed" if (ind or rob) else "not_run"
+        return "passed" if (ind or rob or use) else "not_run"
     return "unresolved"
 
 
@@ -287,7 +341,8 @@ def acceptance_text(acc: dict) -> str:
     def f(v, spec):
         return "n/a" if v is None else format(v, spec)
 
-    out = [f"acceptance: {acc['status']}"]
+    out = [f"acceptance: {acc['status']}" + (f": {acc['reason']}" if acc.get("reason")
+                                               else "")]
     meaning = VERDICT_MEANING.get(acc.get("status"))
     if meaning:
         out.append(f"  ({meaning})")
@@ -323,7 +378,22 @@ def acceptance_text(acc: dict) -> str:
                    f"holds to {f(a.get('saturated_loop_holds_to_m_s'), '.1f')} m/s of those "
                    f"checked (linear closed-loop critical speed "
                    f"{f(a.get('closed_loop_critical_speed_m_s'), '.2f')} m/s)")
-    for name in ("independent_check", "robustness", "failures", "actuators"):
+    u = acc.get("usable_speed")
+    if u and "usable_speed_m_s" in u:
+        sims = u.get("saturated_loop_simulations") or []
+        out.append(f"  usable speed: {f(u['usable_speed_m_s'], '.1f')} m/s, limited by "
+                   f"{u.get('usable_speed_limited_by')}, against the open-loop critical speed "
+                   f"{f(u.get('open_loop_critical_speed_m_s'), '.1f')} m/s (linear closed-loop "
+                   f"critical speed (ideal actuators) "
+                   f"{f(u.get('linear_closed_loop_critical_speed_m_s'), '.2f')} m/s; 3 sigma "
+                   f"flap angle at {u.get('flap_angle_limit_deg'):g} deg from "
+                   f"{f(u.get('flap_angle_3sigma_speed_m_s'), '.1f')} m/s, rate at "
+                   f"{u.get('flap_rate_limit_deg_s'):g} deg/s from "
+                   f"{f(u.get('flap_rate_3sigma_speed_m_s'), '.1f')} m/s; saturated loop holds "
+                   f"to {f(u.get('saturated_loop_holds_to_m_s'), '.1f')} m/s, "
+                   f"{len(sims)} simulations of {u.get('records')} x "
+                   f"{u.get('duration_s'):g} s): {u['status']}")
+    for name in ("independent_check", "robustness", "failures", "actuators", "usable_speed"):
         c = acc.get(name) or {}
         if c.get("status") in ("error", "skipped"):
             out.append(f"  {name}: {c['status']} ({c.get('reason')})")

@@ -99,6 +99,14 @@ def _design_and_write(args, settings, out):
             fig = figure_of(sw.plot(title=f"closed loop (design {result.status})"))
             save_figure(fig, tmp / "root_locus.png")
             plt.close(fig)
+            if payload.get("response_by_speed"):   # seed Fig. 5 (right), the usable speed
+                from bridgeflap.design.assessment.usable_speed import plot_response
+
+                fig = plot_response(payload["response_by_speed"], result.usable_speed(),
+                                    title=f"{settings.bridge}: deck response and flap demand "
+                                          f"(design {result.status})")
+                save_figure(fig, tmp / "response.png")
+                plt.close(fig)
         payload["acceptance"] = _acceptance_tables(args, result, tmp)
         payload["controller_file"] = (str(ctrl_file) if result.controller is not None
                                       else None)
@@ -112,7 +120,13 @@ def _design_and_write(args, settings, out):
     def g(value, spec):  # strict-JSON numbers: None is "not a number"
         return "nan" if value is None else format(value, spec)
 
-    lines = [f"status {payload['status']} (acceptance {payload['acceptance']['status']}); "
+    lines = [f"usable speed {g(payload['usable_speed_m_s'], '.1f')} m/s (limited by "
+             f"{payload['usable_speed_limited_by'] or 'not computed: usable_speed check not run'}"
+             f") against the open-loop critical speed "
+             f"{g(payload['open_loop_critical_speed_m_s'], '.2f')} m/s; linear closed-loop "
+             f"critical speed (ideal actuators) "
+             f"{g(payload['linear_closed_loop_critical_speed_m_s'], '.2f')} m/s",
+             f"status {payload['status']} (acceptance {payload['acceptance']['status']}); "
              f"K(s) coefficients {payload['coefficients']}",
              f"flaps {payload['flap_count']}, max gain {g(payload['max_gain'], '.3g')} "
              f"(limit {settings.gain_limit}), robust margin {g(payload['robust_margin'], '.4g')} "
@@ -152,8 +166,9 @@ def _design_and_write(args, settings, out):
             + {"harm": "the controller lowers the critical speed of a bridge variant below its"
                        " open-loop value (JSON acceptance.robustness); controller.toml not "
                        "written",
-               "failed": "the independent closed loop disagrees (JSON "
-                         "acceptance.independent_check); controller.toml not written",
+               "failed": f"{acc.get('reason') or 'the independent closed loop disagrees'} "
+                         "(JSON acceptance.independent_check, acceptance.usable_speed); "
+                         "controller.toml not written",
                "unresolved": "a fresh variant's crossing is not verified (JSON "
                              "acceptance.robustness); controller.toml not written"}[acc["status"]])
         return 1
@@ -201,7 +216,8 @@ def arguments(sp) -> None:
                          "overrides the definition's")
     sp.add_argument("--checks", default="all", metavar="LIST",
                     help="acceptance checks of the designed controller: all, none, or a comma "
-                         "list of independent_check, robustness, failures, actuators")
+                         "list of independent_check, robustness, failures, actuators, "
+                         "usable_speed")
     sp.add_argument("--check-samples", dest="check_samples", type=int, default=None,
                     metavar="N", help="fresh bridge variants of the robustness check "
                                       "(default 1000; 8 with --quick)")

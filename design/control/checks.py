@@ -122,6 +122,7 @@ def closed_loop_limits(settings: DesignSettings, controller: Controller, spec=No
     keys = ("flutter_speed_m_s", "flutter_frequency_hz", "flutter_status",
             "divergence_speed_m_s", "divergence_status", "divergence_static_speed_m_s",
             "critical_speed_m_s", "critical_mechanism", "critical_participation",
+            "flutter_participation",
             "open_loop_flutter_speed_m_s", "open_loop_divergence_speed_m_s",
             "divergence_static_verified_status", "divergence_static_verified_reason",
             "divergence_static_verified_direction",

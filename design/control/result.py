@@ -24,8 +24,9 @@ class DesignResult(ResultData):
     status : str
         ``converged``, ``unverified``, ``infeasible`` or ``failed``
         (:func:`bridgeflap.design.control.driver.select_start`); after the acceptance checks of
-        :func:`bridgeflap.design.assessment.accept.design` also ``harm``, ``failed_checks`` or
-        ``unresolved``. Only ``converged`` carries a ``controller``.
+        :func:`bridgeflap.design.assessment.accept.design` also ``harm``, ``failed_checks`` (the
+        independent check disagrees, or the usable speed is not above the open-loop critical
+        speed) or ``unresolved``. Only ``converged`` carries a ``controller``.
     settings : DesignSettings
     controller : bridgeflap.model.aeroelastic.control.Controller or None
         The designed compensator and layout, **only when** ``status == "converged"`` (it met
@@ -46,7 +47,12 @@ class DesignResult(ResultData):
     wall_time_s : float
     extras : dict
         ``open_loop_abscissa`` [1/s], ``closed_loop`` (state space), ``buffeting``
-        (:class:`bridgeflap.design.control.records.BuffetingComparison`).
+        (:class:`bridgeflap.design.control.records.BuffetingComparison`), ``response_by_speed``
+        (the paper's Fig. 5 right as rows, :mod:`bridgeflap.design.assessment.usable_speed`).
+
+    The headline is :attr:`usable_speed_m_s` (with :attr:`usable_speed_limited_by`) beside
+    :attr:`open_loop_critical_speed_m_s`; :attr:`closed_loop_critical_speed_m_s` is the linear
+    closed loop's, with ideal actuators.
     """
 
     status: str
@@ -70,7 +76,16 @@ class DesignResult(ResultData):
         grid = self.margin_grid()
         margin = (grid["margin"] if grid else b.robust_margin if b is not None else NAN)
         crit = self.settings.objective == "critical_speed"
+        use = self.usable_speed()
         out = jsonable({
+            # what a user reads first: the speed the controller is usable to with its real
+            # actuators, beside the open-loop critical speed it must exceed
+            "usable_speed_m_s": use.get("usable_speed_m_s", NAN),
+            "usable_speed_limited_by": use.get("usable_speed_limited_by"),
+            "open_loop_critical_speed_m_s": self.open_loop_critical_speed_m_s,
+            "linear_closed_loop_critical_speed_m_s": self.closed_loop_critical_speed_m_s,
+            "linear_closed_loop_critical_speed_note": "ideal actuators (any flap angle and "
+                                                      "rate)",
             "status": self.status,
             "controller_usable": self.controller is not None,
             "coefficients": coeffs,
@@ -105,6 +120,8 @@ class DesignResult(ResultData):
             "fresh_variants": self.extras.get("fresh_variants", {}),
             "closed_loop_limits": self.extras.get("closed_loop_limits", {}),
             "acceptance": self.extras.get("acceptance", {"status": "not_run", "checks": []}),
+            # the paper's Fig. 5 (right) as numbers (usable_speed.response_by_speed)
+            "response_by_speed": self.extras.get("response_by_speed", []),
             "spectral_abscissa_by_speed": [
                 {"speed_m_s": float(u), "abscissa_1_s": float(a)}
                 for u, a in zip(self.abscissa_speeds_m_s, self.abscissa_1_s, strict=True)],
@@ -171,7 +188,8 @@ class DesignResult(ResultData):
             why.append({"harm": f"acceptance harm: lowers the critical speed of "
                                 f"{rob.get('harmed_count', '?')} of {rob.get('variants', '?')} "
                                 "fresh bridge variants below their open-loop one",
-                        "failed": "acceptance failed: the independent closed loop disagrees",
+                        "failed": "acceptance failed: " + acc.get(
+                            "reason", "the independent closed loop disagrees"),
                         "unresolved": "acceptance unresolved: some fresh variant's crossing "
                                       "is not verified"}[acc["status"]])
         if not why:
@@ -239,7 +257,10 @@ class DesignResult(ResultData):
 
     def _headline(self) -> dict:
         s = self.summary()
-        return {"bridge": self.settings.bridge, "status": self.status,
+        return {"bridge": self.settings.bridge,
+                **{k: s[k] for k in ("usable_speed_m_s", "usable_speed_limited_by",
+                                     "open_loop_critical_speed_m_s")},
+                "status": self.status,
                 **{k: s[k] for k in ("controller_usable", "flap_count", "max_gain", "gain_limit",
                                      "robust_margin", "closed_loop_stable_to_m_s",
                                      "design_modes")},
@@ -300,6 +321,27 @@ class DesignResult(ResultData):
                             lim.get("open_loop_divergence_speed_m_s"))
                 if isinstance(v, int | float) and v == v]
         return float(min(vals)) if vals else NAN
+
+    def usable_speed(self) -> dict:
+        """The usable-speed check's block (``acceptance.usable_speed``; ``{}`` when it did not
+        run): :mod:`bridgeflap.design.assessment.usable_speed`."""
+        u = (self.extras.get("acceptance") or {}).get("usable_speed") or {}
+        return u if "usable_speed_m_s" in u else {}
+
+    @property
+    def usable_speed_m_s(self) -> float:
+        """The speed [m/s] up to which the controller does what its linear design promises
+        with its real actuators in the design turbulence: the lowest of the linear closed-loop
+        critical speed, the 3 sigma flap angle and rate limits and the saturated loop's holding
+        speed (NaN when the usable-speed check did not run)."""
+        v = self.usable_speed().get("usable_speed_m_s")
+        return float(v) if isinstance(v, int | float) else NAN
+
+    @property
+    def usable_speed_limited_by(self) -> str | None:
+        """Which limit binds the usable speed (``linear critical speed``, ``flap angle 3
+        sigma``, ``flap rate 3 sigma`` or ``saturated loop``; None when not computed)."""
+        return self.usable_speed().get("usable_speed_limited_by")
 
     @property
     def acceptance_status(self) -> str:

@@ -458,7 +458,10 @@ def _run_design(spec, opts, context) -> Outcome:
                  check_workers=context.workers)
     s = res.summary()
     figs = {}
-    if context.figures and res.controller is not None:
+    # the candidate of a design that is not usable is drawn too, marked so (design.studies.
+    # figures.fig5 status): its Fig. 5 is what tells why
+    ctrl = res.controller if res.controller is not None else res.candidate
+    if context.figures and ctrl is not None:
         context.say("  design: closed-loop root locus and buffeting (Fig. 5)")
         # on the bridge the controller was designed for (the study's [design] may name a
         # variant), on the study's mesh
@@ -466,10 +469,16 @@ def _run_design(spec, opts, context) -> Outcome:
 
         dspec = load_bridge(context.bridge if mem else settings.bridge).replace(
             **{"mesh.element_length_m": spec.mesh.element_length_m})
-        figs["design"] = fig5(dspec, res.controller, n_modes=settings.n_modes,
+        figs["design"] = fig5(dspec, ctrl, n_modes=settings.n_modes,
                               quick=context.quick, open_loop_flutter_m_s=(
                                   s.get("closed_loop_limits") or {}).get(
-                                      "open_loop_flutter_speed_m_s"))
+                                      "open_loop_flutter_speed_m_s"), status=res.status)
+        if s.get("response_by_speed"):
+            from bridgeflap.design.assessment.usable_speed import plot_response
+
+            figs["design_response"] = plot_response(
+                s["response_by_speed"], res.usable_speed(),
+                title=f"deck response and flap demand (design {res.status})")
         figs["design_margins"] = figure_of(res.plot_margins())
         figs["design_bode"] = figure_of(res.plot_bode())
     return Outcome(aggregate_status(s.get("status", "unknown")), s, {}, figs, res)
@@ -506,7 +515,7 @@ ANALYSES: Mapping[str, Analysis] = _table(
 
 
 def fig5(spec, controller, n_modes: int = DEFAULT_MODES, quick: bool = False,
-         open_loop_flutter_m_s: float | None = None):
+         open_loop_flutter_m_s: float | None = None, status: str | None = None):
     """The paper's Fig. 5: closed-loop root locus 0-85 m/s over the open loop (left), vertical and
     torsional buffeting with and without the flaps (the open loop is NaN beyond its flutter
     speed, never clipped). ``open_loop_flutter_m_s`` is the marked open-loop flutter speed
@@ -521,4 +530,5 @@ def fig5(spec, controller, n_modes: int = DEFAULT_MODES, quick: bool = False,
     ol = buffeting(spec, bspeeds, n_modes=n_modes, allow_unstable=True)
     clb = buffeting(spec, bspeeds, n_modes=n_modes, controller=controller, allow_unstable=True)
     return draw(cl.base.sweep, cl.open_loop.sweep, ol, clb, controller, open_loop_flutter_m_s,
-                model_text=f"the paper's Fig. 5 analogue: {spec.name}, {n_modes} modes")
+                model_text=f"the paper's Fig. 5 analogue: {spec.name}, {n_modes} modes",
+                status=status)

@@ -252,7 +252,16 @@ def _design_verdict(d: dict) -> str:
     usable = st == "converged" and acc.get("status") in ("passed", "not_run", None)
     head = (f"**Controller: {st}, usable.**" if usable else
             f"**Controller: {st}, NOT usable (no controller file written).**")
-    parts = [f"Acceptance: {acc.get('status', 'not_run')}"]
+    use = d.get("usable_speed_m_s")
+    if use is not None or d.get("open_loop_critical_speed_m_s") is not None:
+        # the speed it is usable to with its real actuators, first, beside the open loop's
+        head = (f"**Usable speed {_fmt(use, '.1f')} m/s** (limited by "
+                f"{d.get('usable_speed_limited_by') or '-'}) against the open-loop critical "
+                f"speed {_fmt(d.get('open_loop_critical_speed_m_s'), '.2f')} m/s; linear "
+                f"closed-loop critical speed (ideal actuators) "
+                f"{_fmt(d.get('linear_closed_loop_critical_speed_m_s'), '.2f')} m/s. " + head)
+    parts = [f"Acceptance: {acc.get('status', 'not_run')}"
+             + (f" ({acc['reason']})" if acc.get("reason") else "")]
     if "variants" in rob:
         parts.append(f"do no harm on {rob['variants']} fresh variants: "
                      f"{rob.get('harmed_count', '?')} harmed (95 % upper bound on the harm "
@@ -263,10 +272,38 @@ def _design_verdict(d: dict) -> str:
     lim = d.get("closed_loop_limits") or {}
     if lim.get("critical_speed_m_s") is not None:
         modes = f", {lim['modes']} modes" if lim.get("modes") else ""
-        parts.append(f"nominal closed-loop critical speed "
+        parts.append(f"nominal linear closed-loop critical speed (ideal actuators) "
                      f"{_fmt(lim.get('critical_speed_m_s'), '.2f')} m/s "
                      f"({lim.get('critical_mechanism', '-')}{modes})")
     return f"{head} " + "; ".join(parts) + "."
+
+
+def _response_table(doc: Document, d: dict) -> None:
+    """The paper's Fig. 5 (right) as numbers: open- and closed-loop RMS heave and twist and the 3
+    sigma flap demand by speed, the actuator limits marked (``response_by_speed``)."""
+    rows = d.get("response_by_speed") or []
+    if not rows:
+        return
+    use = d.get("usable_speed_m_s")
+    doc.paragraph(f"Deck response and flap demand by speed (the paper's Fig. 5 right as numbers; "
+                  f"spectral, the design turbulence, max RMS on the main span; the actuator "
+                  f"limits are {rows[0]['flap_angle_limit_deg']:g} deg and "
+                  f"{rows[0]['flap_rate_limit_deg_s']:g} deg/s; **beyond limit**: the 3 sigma "
+                  f"demand passes it; usable speed {_fmt(use, '.1f')} m/s):")
+
+    def deg(x):
+        return None if x is None else float(np.degrees(x))
+
+    doc.table([(f"{r['speed_m_s']:g}", _fmt(r["open_loop_rms_heave_m"], ".3g"),
+                _fmt(r["closed_loop_rms_heave_m"], ".3g"),
+                _fmt(deg(r["open_loop_rms_twist_rad"]), ".3g"),
+                _fmt(deg(r["closed_loop_rms_twist_rad"]), ".3g"),
+                _fmt(r["flap_angle_3sigma_deg"], ".3g"), _fmt(r["flap_rate_3sigma_deg_s"], ".3g"),
+                "within" if r["within_actuator_limits"] else "**beyond limit**")
+               for r in rows],
+              ["U [m/s]", "heave, open loop [m]", "heave, closed loop [m]",
+               "twist, open loop [deg]", "twist, closed loop [deg]", "3σ flap angle [deg]",
+               "3σ flap rate [deg/s]", "actuators"])
 
 
 def _design_section(doc: Document, d: dict) -> None:
@@ -346,6 +383,7 @@ def _design_section(doc: Document, d: dict) -> None:
                       "them; bridgeflap.design.assessment.acceptance):")
         doc.table([(line.strip().split(":", 1)[0], line.strip().split(":", 1)[1].strip())
                    for line in acceptance_text(acc).splitlines()], ["check", "result"])
+    _response_table(doc, d)
     buf = d.get("buffeting") or {}
     if buf.get("speeds_m_s"):
         doc.paragraph("Buffeting, open vs closed loop (max RMS on the main span):")

@@ -181,6 +181,11 @@ class FlutterResult(ResultData):
             crit.update(family=fam, symmetry=sym,
                         span=label[2:].rstrip("0123456789") if side else "main")
         s.update(critical_speed(s))
+        if s["critical_mechanism"] == "divergence" and self.sweep.divergence_participation:
+            # the participation of the root that crosses at the governing crossing, never the
+            # flutter branch's above it (that one kept as flutter_participation)
+            s["flutter_participation"] = s["critical_participation"]
+            s["critical_participation"] = _top(self.sweep.divergence_participation)
         s.update({"bridge": self.spec.name, "erected_fraction": self.spec.erected_fraction,
                   "joints_closed": self.spec.joints_closed,
                   "critical_branch": crit, "modes_retained": self.n_modes,
@@ -203,6 +208,11 @@ class FlutterResult(ResultData):
         """Root locus and damping/frequency against speed."""
         return self.sweep.plot(axes, title=f"{self.spec.name} (erected "
                                            f"{self.spec.erected_fraction:.2f}):")
+
+
+def _top(participation: dict, n: int = 4) -> dict:
+    """The ``n`` largest shares, largest first (as the sweep summary's)."""
+    return dict(sorted(participation.items(), key=lambda kv: -kv[1])[:n])
 
 
 def critical_speed(summary) -> dict:

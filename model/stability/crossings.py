@@ -111,8 +111,18 @@ def _name_flutter(system, flutter, labels, vector):
                    label_source="participation"), participation
 
 
+def _participation(system, vec, energy="kinetic") -> dict:
+    """Share of each structural coordinate in the state vector ``vec`` (:func:`_shares`), by
+    the basis's labels."""
+    vq = _shares(system, vec, energy)
+    return {system.basis.labels[j]: float(vq[j]) for j in range(system.basis.n)}
+
+
 def _name_divergence(system, divergence, labels, vector):
-    """Divergence crossing named by its mechanism, ``vector()`` its (real) eigenvector.
+    """Divergence crossing named by its mechanism, ``vector()`` its (real) eigenvector, and the
+    participation of that eigenvector: the strain-energy shares ``K_jj |q_j|^2`` of the root
+    that crosses at the refined crossing (a static mode has no kinetic energy; ``{}`` when the
+    crossing did not converge).
 
     The label is the coordinate whose deflection does the largest share of the static
     aerodynamic work (:func:`divergence_mechanism`), not the largest strain-energy share: on a
@@ -122,21 +132,24 @@ def _name_divergence(system, divergence, labels, vector):
     eigenvalue's branch started from) is used only when the work cannot be split.
     """
     if divergence.status != CONVERGED:
-        return divergence
+        return divergence, {}
     n = system.basis.n
+    vec = vector()
+    participation = _participation(system, vec, "strain")
     try:
-        mechanism, source = divergence_mechanism(system, vector())
+        mechanism, source = divergence_mechanism(system, vec)
     except (AttributeError, TypeError, ValueError, np.linalg.LinAlgError):
         mechanism, source = "", ""  # a system without the static pieces: left unnamed
     branch = divergence.branch % n if divergence.branch >= 0 else -1
     if source:  # the dense and the fast sweep name it alike, tracked or not
         return replace(divergence, branch=branch, label=source, label_source="static_aero_work",
-                       mechanism=mechanism)
+                       mechanism=mechanism), participation
     if branch >= 0:
-        return replace(divergence, branch=branch, label=labels[branch], label_source="tracking")
-    vq = _shares(system, vector(), "strain")
+        return replace(divergence, branch=branch, label=labels[branch],
+                       label_source="tracking"), participation
+    vq = _shares(system, vec, "strain")
     return replace(divergence, label=system.basis.labels[int(np.argmax(vq))],
-                   label_source="participation")
+                   label_source="participation"), participation
 
 
 def _critical_vector(system, u, omega_tol, kind):

@@ -533,7 +533,7 @@ def fast_sweep(system: CountedSystem, speeds, speed_tol, dense, critical_only=Fa
         flutter, participation = _name_flutter(system, flutter, labels, lambda: (
             v_f if v_f is not None else _critical_vector(system, flutter.speed, omega_tol,
                                                          "flutter")))
-        divergence = _name_divergence(system, divergence, labels, lambda: (
+        divergence, div_participation = _name_divergence(system, divergence, labels, lambda: (
             v_d if v_d is not None else _critical_vector(system, divergence.speed, omega_tol,
                                                          "divergence")))
         second = (Crossing(float("nan"), float("nan"), NOT_EVALUATED) if critical_only
@@ -544,7 +544,7 @@ def fast_sweep(system: CountedSystem, speeds, speed_tol, dense, critical_only=Fa
         speeds=march.speeds, eigenvalues=march.eigenvalues, branches=march.tracked[:len(labels)],
         branch_labels=labels, flutter=flutter, divergence=divergence,
         divergence_static_speed=divergence_speed_static(system), critical_branch=flutter.label,
-        critical_participation=participation, second_flutter=second,
-        tracking_substeps=march.budget.used, tracking_forced_steps=march.budget.forced,
-        method="fast", eigen_solutions=system.count)
+        critical_participation=participation, divergence_participation=div_participation,
+        second_flutter=second, tracking_substeps=march.budget.used,
+        tracking_forced_steps=march.budget.forced, method="fast", eigen_solutions=system.count)
 

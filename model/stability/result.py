@@ -52,6 +52,12 @@ class StabilitySweep(ResultData):
         (:func:`~bridgeflap.model.stability.tracking.static_status`).
     critical_participation : dict
         Share of each structural coordinate in the flutter eigenvector (kinetic energy).
+    divergence_participation : dict
+        Share of each structural coordinate in the eigenvector of the real root that crosses
+        at the refined divergence crossing (strain energy ``K_jj |q_j|^2``: a static mode has
+        no kinetic energy; ``{}`` when it did not converge). The summary's
+        ``critical_participation`` is the governing crossing's
+        (:meth:`bridgeflap.model.analysis.FlutterResult.summary`).
     second_flutter : Crossing
         The next tracked oscillatory branch to cross after the critical one.
     tracking_substeps, tracking_forced_steps : int
@@ -76,6 +82,7 @@ class StabilitySweep(ResultData):
     divergence_static_speed: float
     critical_branch: str
     critical_participation: dict = field(default_factory=dict)
+    divergence_participation: dict = field(default_factory=dict)
     second_flutter: Crossing = field(
         default_factory=lambda: Crossing(float("nan"), float("nan"), NOT_EVALUATED))
     tracking_substeps: int = 0

@@ -212,7 +212,7 @@ def _dense_sweep(system, speeds, speed_tol, critical_only=False) -> StabilitySwe
     flutter, participation = _name_flutter(
         system, flutter, labels,
         lambda: _critical_vector(system, flutter.speed, omega_tol, "flutter"))
-    divergence = _name_divergence(
+    divergence, div_participation = _name_divergence(
         system, divergence, labels,
         lambda: _critical_vector(system, divergence.speed, omega_tol, "divergence"))
     second = (Crossing(float("nan"), float("nan"), NOT_EVALUATED) if critical_only else
@@ -220,7 +220,8 @@ def _dense_sweep(system, speeds, speed_tol, critical_only=False) -> StabilitySwe
     return StabilitySweep(speeds=speeds, eigenvalues=all_lam, branches=branches,
                           branch_labels=labels, flutter=flutter, divergence=divergence,
                           divergence_static_speed=u_static, critical_branch=flutter.label,
-                          critical_participation=participation, second_flutter=second,
+                          critical_participation=participation,
+                          divergence_participation=div_participation, second_flutter=second,
                           tracking_substeps=budget.used, tracking_forced_steps=budget.forced,
                           method="dense", eigen_solutions=system.count)
 

@@ -168,3 +168,37 @@ def test_report_file_names_are_listed_in_the_study_docstring():
     import bridgeflap.design.studies.study
 
     assert "report.html" in Path(bridgeflap.design.studies.study.__file__).read_text()
+
+
+def test_the_usable_speed_leads_the_report_and_fig5_right_is_a_table():
+    row = {"open_loop_rms_heave_m": 1.67592, "closed_loop_rms_heave_m": 0.98866,
+           "open_loop_rms_twist_rad": 0.04379, "closed_loop_rms_twist_rad": 0.03061,
+           "flap_rate_3sigma_deg_s": 16.74, "flap_angle_limit_deg": 20.0,
+           "flap_rate_limit_deg_s": 40.0}
+    rows = [{**row, "speed_m_s": 64.0, "flap_angle_3sigma_deg": 18.05,
+             "within_actuator_limits": True},
+            {**row, "speed_m_s": 72.0, "open_loop_rms_heave_m": None,
+             "flap_angle_3sigma_deg": 32.32, "within_actuator_limits": False}]
+    d = {"status": "failed_checks", "coefficients": {"b2": -0.73, "b1": -0.34, "b0": -3.71,
+                                                     "a2": 0.27, "a1": 0.31},
+         "usable_speed_m_s": 65.53, "usable_speed_limited_by": "flap angle 3 sigma",
+         "open_loop_critical_speed_m_s": 69.5115, "linear_closed_loop_critical_speed_m_s": 87.3232,
+         "acceptance": {"status": "failed", "reason": "usable speed 65.5 m/s not above the "
+                                                     "open-loop critical speed 69.5 m/s"},
+         "response_by_speed": rows}
+    res = SimpleNamespace(config=SimpleNamespace(name="t", bridge="humber", quick=True,
+                                                 element_length_m=None),
+                          statuses=MappingProxyType({"design": "failed_checks"}),
+                          results=MappingProxyType({"design": d}), elapsed_s=90.0)
+    md = study_document(res, {}).markdown()
+    paragraphs = [p for p in md.split("\n\n") if p.strip()]
+    # the verdict paragraph comes right after the title and the bridge line
+    assert paragraphs[2].startswith("**Usable speed 65.5 m/s** (limited by flap angle 3 sigma) "
+                                    "against the open-loop critical speed 69.51 m/s; linear "
+                                    "closed-loop critical speed (ideal actuators) 87.32 m/s.")
+    assert "NOT usable" in paragraphs[2] and "not above the open-loop" in paragraphs[2]
+    t = _table(md_tables(md), "U [m/s]")
+    assert t["64"]["3σ flap angle [deg]"] == "18.1" and t["64"]["actuators"] == "within"
+    assert t["72"]["actuators"] == "**beyond limit**"
+    assert t["72"]["heave, open loop [m]"] == "-"      # beyond the open loop's critical speed
+    assert t["64"]["twist, closed loop [deg]"] == "1.75"    # 0.03061 rad
