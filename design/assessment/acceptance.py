@@ -326,12 +326,16 @@ def _verdict(block: dict) -> str:
 
 #: What the acceptance verdict means, printed under it (``acceptance_text``).
 VERDICT_MEANING = {
-    "passed": "passed = the independent closed loop agrees and the controller lowers no fresh "
-              "variant's critical speed below its open-loop one; the stable fraction, the "
-              "failed-pair and the actuator lines below are reported, not part of the verdict",
+    "passed": "passed = the independent closed loop agrees, the controller lowers no fresh "
+              "variant's critical speed below its open-loop one, and its usable speed with the "
+              "actuator limits is above the open-loop critical speed; the stable fraction, the "
+              "failed-pair and the fixed-speed actuator lines below are reported, not part of "
+              "the verdict",
     "harm": "harm = the controller lowers some fresh variant's critical speed below its "
             "open-loop one: not usable",
-    "failed": "failed = the independent closed loop disagrees with the design's: not usable",
+    "failed": "failed = the independent closed loop disagrees with the design's, or the usable "
+              "speed with the actuator limits is not above the open-loop critical speed: not "
+              "usable",
     "unresolved": "unresolved = a fresh variant's crossing could not be verified: not usable",
 }
 
@@ -343,6 +347,21 @@ def acceptance_text(acc: dict) -> str:
 
     out = [f"acceptance: {acc['status']}" + (f": {acc['reason']}" if acc.get("reason")
                                                else "")]
+    u = acc.get("usable_speed")
+    if u and "usable_speed_m_s" in u:
+        sims = u.get("saturated_loop_simulations") or []
+        out.append(f"  usable speed: {f(u['usable_speed_m_s'], '.1f')} m/s, limited by "
+                   f"{u.get('usable_speed_limited_by')}, against the open-loop critical speed "
+                   f"{f(u.get('open_loop_critical_speed_m_s'), '.1f')} m/s (linear closed-loop "
+                   f"critical speed (ideal actuators) "
+                   f"{f(u.get('linear_closed_loop_critical_speed_m_s'), '.2f')} m/s; 3 sigma "
+                   f"flap angle at {u.get('flap_angle_limit_deg'):g} deg from "
+                   f"{f(u.get('flap_angle_3sigma_speed_m_s'), '.1f')} m/s, rate at "
+                   f"{u.get('flap_rate_limit_deg_s'):g} deg/s from "
+                   f"{f(u.get('flap_rate_3sigma_speed_m_s'), '.1f')} m/s; saturated loop holds "
+                   f"to {f(u.get('saturated_loop_holds_to_m_s'), '.1f')} m/s, "
+                   f"{len(sims)} simulations of {u.get('records')} x "
+                   f"{u.get('duration_s'):g} s): {u['status']}")
     meaning = VERDICT_MEANING.get(acc.get("status"))
     if meaning:
         out.append(f"  ({meaning})")
@@ -378,21 +397,6 @@ def acceptance_text(acc: dict) -> str:
                    f"holds to {f(a.get('saturated_loop_holds_to_m_s'), '.1f')} m/s of those "
                    f"checked (linear closed-loop critical speed "
                    f"{f(a.get('closed_loop_critical_speed_m_s'), '.2f')} m/s)")
-    u = acc.get("usable_speed")
-    if u and "usable_speed_m_s" in u:
-        sims = u.get("saturated_loop_simulations") or []
-        out.append(f"  usable speed: {f(u['usable_speed_m_s'], '.1f')} m/s, limited by "
-                   f"{u.get('usable_speed_limited_by')}, against the open-loop critical speed "
-                   f"{f(u.get('open_loop_critical_speed_m_s'), '.1f')} m/s (linear closed-loop "
-                   f"critical speed (ideal actuators) "
-                   f"{f(u.get('linear_closed_loop_critical_speed_m_s'), '.2f')} m/s; 3 sigma "
-                   f"flap angle at {u.get('flap_angle_limit_deg'):g} deg from "
-                   f"{f(u.get('flap_angle_3sigma_speed_m_s'), '.1f')} m/s, rate at "
-                   f"{u.get('flap_rate_limit_deg_s'):g} deg/s from "
-                   f"{f(u.get('flap_rate_3sigma_speed_m_s'), '.1f')} m/s; saturated loop holds "
-                   f"to {f(u.get('saturated_loop_holds_to_m_s'), '.1f')} m/s, "
-                   f"{len(sims)} simulations of {u.get('records')} x "
-                   f"{u.get('duration_s'):g} s): {u['status']}")
     for name in ("independent_check", "robustness", "failures", "actuators", "usable_speed"):
         c = acc.get(name) or {}
         if c.get("status") in ("error", "skipped"):

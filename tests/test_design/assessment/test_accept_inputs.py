@@ -30,7 +30,8 @@ def stub_checks(monkeypatch):
     """The acceptance checks replaced by a recorder: ``calls`` holds each call's bridge."""
     calls = []
 
-    def acceptance(controller, settings, opts, closed_loop=None, progress=None, bridge=None):
+    def acceptance(controller, settings, opts, closed_loop=None, progress=None, bridge=None,
+                   closed_loop_limits=None):
         calls.append((controller, bridge))
         return {"checks": list(opts.checks), "status": "passed"}, {}
 

@@ -61,7 +61,8 @@ def test_the_acceptance_checks_run_outside_the_scratch_folder(monkeypatch):
 
     seen = []
 
-    def acceptance(controller, settings, opts, closed_loop=None, progress=None, bridge=None):
+    def acceptance(controller, settings, opts, closed_loop=None, progress=None, bridge=None,
+                   closed_loop_limits=None):
         seen.extend(p for p in os.listdir(tempfile.gettempdir())
                     if p.startswith(f"{scratch_prefix('accept')}{os.getpid()}-"))
         return {"checks": list(opts.checks), "status": "passed"}, {}
