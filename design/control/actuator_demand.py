@@ -27,7 +27,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from bridgeflap.design.control.buffeting_term import _eig_point_data, _quad
+from bridgeflap.design.control.buffeting_term import _compiled, _eig_point_data, _quad
 from bridgeflap.design.control.loop_algebra import k_complex
 
 #: peak factor of the flap demand: a Gaussian signal passes 3 sigma 0.27 % of the time (the
@@ -37,6 +37,24 @@ SIGMAS = 3.0
 #: integral against the verified one with the servo (a few percent apart, measured in the
 #: tests); 5 % below the limit keeps a converged design inside it
 DEMAND_BACKOFF = 0.05
+
+
+_POINTS: dict = {}
+
+
+def _point_function(n) -> ca.Function:
+    """:func:`_point_expression` compiled with its reverse derivative (as the buffeting term's
+    point function, :data:`bridgeflap.design.control.buffeting_term.JIT`), or evaluated by
+    CasADi's virtual machine when no compiler works; cached per process."""
+    if n not in _POINTS:
+        f = _point_expression(n)
+        try:
+            f = _compiled(ca.Function(f"flap_demand_point_c{int(n)}", f.sx_in(),
+                                      f.call(f.sx_in())))[0]
+        except Exception:  # noqa: BLE001 - no compiler: the same expression, VM
+            pass
+        _POINTS[n] = f
+    return _POINTS[n]
 
 
 def _point_expression(n) -> ca.Function:
@@ -88,7 +106,7 @@ class FlapDemand:
         _, Vt = row_factor(np.asarray(ol.aero.P_gust, float))
         ref = model.system(Compensator(*(float(v) for v in theta_ref)), weights=weights)
         th = ca.MX.sym("theta", 5)
-        point = _point_expression(basis.n)
+        point = _point_function(basis.n)
         rows, self.flaps = [], []
         for U in self.speeds_m_s:
             systems = [ol.A(U), ref.A(U)]
