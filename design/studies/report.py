@@ -278,6 +278,16 @@ def _design_verdict(d: dict) -> str:
     return f"{head} " + "; ".join(parts) + "."
 
 
+def acceptance_rows(text: str) -> list[tuple[str, str]]:
+    """``(check, result)`` rows of the acceptance text; a line without the ``check: result``
+    form (the verdict's meaning) is a row of its own."""
+    rows = []
+    for line in text.splitlines():
+        head, sep, rest = line.strip().partition(":")
+        rows.append((head, rest.strip()) if sep else ("", line.strip()))
+    return rows
+
+
 def _response_table(doc: Document, d: dict) -> None:
     """The paper's Fig. 5 (right) as numbers: open- and closed-loop RMS heave and twist and the 3
     sigma flap demand by speed, the actuator limits marked (``response_by_speed``)."""
@@ -374,15 +384,14 @@ def _design_section(doc: Document, d: dict) -> None:
                     st.get("verified"))
                    for st in starts],
                   ["start", "Ipopt status", "iterations", "time [s]", "objective", "max gain",
-                   "margin", "stable 0-85 m/s", "verified"])
+                   "margin", "stable to the design speed", "verified"])
     acc = d.get("acceptance") or {}
     if acc.get("checks"):
         from bridgeflap.design.assessment.acceptance import acceptance_text
 
         doc.paragraph("Acceptance checks of the controller (as `bridgeflap optimise` runs "
                       "them; bridgeflap.design.assessment.acceptance):")
-        doc.table([(line.strip().split(":", 1)[0], line.strip().split(":", 1)[1].strip())
-                   for line in acceptance_text(acc).splitlines()], ["check", "result"])
+        doc.table(acceptance_rows(acceptance_text(acc)), ["check", "result"])
     _response_table(doc, d)
     buf = d.get("buffeting") or {}
     if buf.get("speeds_m_s"):

@@ -202,3 +202,14 @@ def test_the_usable_speed_leads_the_report_and_fig5_right_is_a_table():
     assert t["72"]["actuators"] == "**beyond limit**"
     assert t["72"]["heave, open loop [m]"] == "-"      # beyond the open loop's critical speed
     assert t["64"]["twist, closed loop [deg]"] == "1.75"    # 0.03061 rad
+
+
+def test_acceptance_rows_keep_the_verdict_and_its_meaning():
+    # the verdict's meaning is a line without a "check: result" form (it broke the report
+    # once): it becomes a row of its own
+    from bridgeflap.design.assessment.acceptance import VERDICT_MEANING, acceptance_text
+    from bridgeflap.design.studies.report import acceptance_rows
+
+    rows = acceptance_rows(acceptance_text({"status": "passed", "checks": ["robustness"]}))
+    assert rows[0] == ("acceptance", "passed")
+    assert any(VERDICT_MEANING["passed"] in r for _, r in rows)
