@@ -65,8 +65,9 @@ def signals_deferred():
     def hold(signum, frame):
         got.append(int(signum))
 
-    previous = {s: signal.getsignal(s) for s in _DEFERRED}
-    for s in _DEFERRED:
+    # a signal the process ignores stays ignored (the solve goes on, as it would have)
+    previous = {s: h for s in _DEFERRED if (h := signal.getsignal(s)) != signal.SIG_IGN}
+    for s in previous:
         signal.signal(s, hold)
     _HELD.append(got)
     try:

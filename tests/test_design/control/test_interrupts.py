@@ -37,6 +37,9 @@ from bridgeflap.design.control.ipopt_hooks import stop_requested
 from bridgeflap.design.control.nlp import DesignProblem
 from bridgeflap.design.control.settings import load_settings
 
+# Python's own Ctrl-C handler, whatever disposition this process inherited (a pytest-xdist
+# worker ignores SIGINT, and so would its children)
+signal.signal(signal.SIGINT, signal.default_int_handler)
 s = load_settings(None, n_modes=6, flap_count=5, robust_design_speeds_m_s=(30.0, 60.0),
                   n_robust_omega=8, max_iter=60)
 prob = DesignProblem(s, build_model(s)[1])
@@ -112,6 +115,18 @@ def test_sigterm_during_a_solve_ends_the_command_with_143(small, capsys):
              command_names=["optimise"])
     assert rc == 128 + signal.SIGTERM
     assert capsys.readouterr().err.strip().splitlines() == ["bridgeflap: interrupted"]
+
+
+def test_an_ignored_signal_stays_ignored():
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with signals_deferred():
+            assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+            os.kill(os.getpid(), signal.SIGINT)
+            assert not stop_requested()        # nothing held: the solve goes on
+        assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def test_nested_blocks_deliver_once_at_the_outermost():
