@@ -27,8 +27,9 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from bridgeflap.design.control.buffeting_term import _compiled, _eig_point_data, _quad
+from bridgeflap.design.control.buffeting_term import _compiled, _eig_point_data
 from bridgeflap.design.control.loop_algebra import k_complex
+from bridgeflap.design.control.spectral_terms import gust_frequency_data, point_symbols
 
 #: peak factor of the flap demand: a Gaussian signal passes 3 sigma 0.27 % of the time (the
 #: rule of the acceptance's usable speed, design.assessment.usable_speed.SIGMAS)
@@ -59,20 +60,13 @@ def _point_function(n) -> ca.Function:
 
 def _point_expression(n) -> ca.Function:
     """Per frequency: ``[|K|^2 G_1, |K|^2 G_2, w^2 |K|^2 G_1, w^2 |K|^2 G_2]`` for the two
-    output rows of the closed form (``G = d^T H conj(d)``, ``d = 1 / (1 - K mu)``)."""
-    th = ca.SX.sym("theta", 5)
-    om = ca.SX.sym("omega")
-    mr, mi = ca.SX.sym("mu_r", n), ca.SX.sym("mu_i", n)
-    H = [ca.SX.sym(f"H{k}", n, n) for k in range(4)]
-    Kr, Ki = k_complex(th, om)
-    dr = 1.0 - (Kr * mr - Ki * mi)
-    di = -(Kr * mi + Ki * mr)
-    q2 = dr * dr + di * di
-    zr, zi = dr / q2, di / q2
+    output rows of the buffeting term's closed form
+    (:func:`bridgeflap.design.control.buffeting_term.point_symbols`)."""
+    inputs, (Kr, Ki), (g1, g2) = point_symbols(n)
+    om = inputs[1]
     k2 = Kr * Kr + Ki * Ki
-    g1, g2 = _quad(zr, zi, H[0], H[1]), _quad(zr, zi, H[2], H[3])
     out = ca.vertcat(k2 * g1, k2 * g2, om * om * k2 * g1, om * om * k2 * g2)
-    return ca.Function("flap_demand_point", [th, om, mr, mi, *H], [out])
+    return ca.Function("flap_demand_point", inputs, [out])
 
 
 class FlapDemand:
@@ -85,10 +79,9 @@ class FlapDemand:
     """
 
     def __init__(self, problem, theta_ref, limits):
-        from bridgeflap.model.aero.gust import coherence_projection, gust_field
+        from bridgeflap.model.aero.gust import gust_field
         from bridgeflap.model.aeroelastic.control import Compensator
-        from bridgeflap.model.response.buffeting import OMEGA_MAX_FACTOR, row_factor
-        from bridgeflap.model.spectral import adaptive_frequency_grid, trapezoid_weights
+        from bridgeflap.model.response.buffeting import row_factor
         from bridgeflap.model.structure.loader import load_bridge
 
         s = problem.settings
@@ -109,19 +102,8 @@ class FlapDemand:
         point = _point_function(basis.n)
         rows, self.flaps = [], []
         for U in self.speeds_m_s:
-            systems = [ol.A(U), ref.A(U)]
-            om_max = OMEGA_MAX_FACTOR * max(float(np.abs(np.linalg.eigvals(A).imag).max())
-                                            for A in systems)
-            om = np.unique(np.concatenate([adaptive_frequency_grid(A, om_max, 80, 25, 30.0)
-                                           for A in systems]))
-            om = om[om > 0]
-            _, X, Xg = model.gust_plant(float(U), 1j * om)
-            S = (gust.psd(om, U) * gust.admittance_sq(om, U))[:, None, None] * \
-                coherence_projection(strip_x, Vt.T, om, U, gust.coherence_decay)
-            E = Xg @ Vt.T
-            M = E @ S.astype(complex) @ np.conj(np.swapaxes(E, 1, 2))
-            M = 0.5 * (M + np.conj(np.swapaxes(M, 1, 2)))
-            M *= trapezoid_weights(om)[:, None, None]
+            om, X, M = gust_frequency_data(model, gust, Vt, strip_x, float(U),
+                                           [ol.A(U), ref.A(U)], positive=True)
             # the two flaps of largest angle demand at the start design (numeric, all flaps)
             pick = self._largest_flaps(Pa, X, M, weights, theta_ref, om,
                                       np.asarray(model.flaps.position_m, float))

@@ -25,6 +25,7 @@ import casadi as ca
 import numpy as np
 
 from bridgeflap.design.control.loop_algebra import _loop_block, k_complex
+from bridgeflap.design.control.spectral_terms import gust_frequency_data, point_symbols
 
 
 class BuffetingCost(ca.Callback):
@@ -204,15 +205,13 @@ class ModalBuffeting:
 
     def __init__(self, problem, theta_ref=None, fixed_layout=True, n_base=80, peaks_per_mode=25,
                  half_widths=30.0):
-        from bridgeflap.model.aero.gust import coherence_projection, gust_field
+        from bridgeflap.model.aero.gust import gust_field
         from bridgeflap.model.aeroelastic.control import Compensator
         from bridgeflap.model.response.buffeting import (
-            OMEGA_MAX_FACTOR,
             _main_span_mask,
             buffeting,
             row_factor,
         )
-        from bridgeflap.model.spectral import adaptive_frequency_grid, trapezoid_weights
         from bridgeflap.model.structure.loader import load_bridge
 
         s = problem.settings
@@ -245,18 +244,8 @@ class ModalBuffeting:
             if theta_ref is not None:
                 systems.append(model.system(Compensator(*(float(v) for v in theta_ref)),
                                             weights=self.weights).A(U))
-            om_max = OMEGA_MAX_FACTOR * max(float(np.abs(np.linalg.eigvals(A).imag).max())
-                                            for A in systems)
-            om = np.unique(np.concatenate([adaptive_frequency_grid(A, om_max, n_base,
-                                                                   peaks_per_mode, half_widths)
-                                           for A in systems]))
-            _, X, Xg = model.gust_plant(float(U), 1j * om)
-            S = (gust.psd(om, U) * gust.admittance_sq(om, U))[:, None, None] * \
-                coherence_projection(strip_x, Vt.T, om, U, gust.coherence_decay)
-            E = Xg @ Vt.T
-            M = E @ S.astype(complex) @ np.conj(np.swapaxes(E, 1, 2))
-            M = 0.5 * (M + np.conj(np.swapaxes(M, 1, 2)))
-            M *= trapezoid_weights(om)[:, None, None]
+            om, X, M = gust_frequency_data(model, gust, Vt, strip_x, float(U), systems,
+                                           n_base, peaks_per_mode, half_widths)
             data.append((om, X, M, C))
             self.omegas.append(om)
         self.open_loop_var = np.array([[np.einsum("i,kij,j->", c, M, c).real for c in C]
@@ -337,12 +326,6 @@ class ModalBuffeting:
         return {"rms_vertical_m": z.tolist(), "rms_torsion_rad": a.tolist(),
                 "numpy_rms_vertical_m": ref_v.tolist(), "numpy_rms_torsion_rad": ref_t.tolist(),
                 "max_relative_difference": rel, "grid_points": [int(o.size) for o in self.omegas]}
-
-
-def _quad(zr, zi, Hr, Hi):
-    """``z^H H z`` for Hermitian ``H = Hr + i Hi`` and ``z = zr + i zi`` (real arithmetic)."""
-    return (ca.dot(zr, ca.mtimes(Hr, zr)) + ca.dot(zi, ca.mtimes(Hr, zi))
-            + 2.0 * ca.dot(zi, ca.mtimes(Hi, zr)))
 
 
 def _eig_point_data(Pa, X, M, C, weights):
@@ -492,17 +475,8 @@ def _eig_point_function(n, jit=None) -> ca.Function:
 
 
 def _eig_point_expression(n) -> ca.Function:
-    th = ca.SX.sym("theta", 5)
-    om = ca.SX.sym("omega")
-    mr, mi = ca.SX.sym("mu_r", n), ca.SX.sym("mu_i", n)
-    H = [ca.SX.sym(f"H{k}", n, n) for k in range(4)]
-    Kr, Ki = k_complex(th, om)
-    dr = 1.0 - (Kr * mr - Ki * mi)
-    di = -(Kr * mi + Ki * mr)
-    q2 = dr * dr + di * di
-    zr, zi = dr / q2, di / q2                               # conj(1 / (1 - K mu))
-    out = ca.vertcat(_quad(zr, zi, H[0], H[1]), _quad(zr, zi, H[2], H[3]))
-    return ca.Function("buffeting_point", [th, om, mr, mi, *H], [out])
+    inputs, _, (g1, g2) = point_symbols(n)
+    return ca.Function("buffeting_point", inputs, [ca.vertcat(g1, g2)])
 
 
 def _lowrank_pitch_map(Pa) -> tuple[np.ndarray, np.ndarray]:
