@@ -1,6 +1,6 @@
 """The compensator design (the paper, section 6): the settings card (``settings``), the design
-problem's model (``problem_model``, ``plant``), the Ipopt NLP over K(s) and the flap layout (``nlp``,
-``nlp_tolerances``, ``ipopt_hooks``), its cutting planes (``cuts``), spectral-abscissa
+problem's model (``problem_model``, ``plant``), the Ipopt NLP over K(s) and the flap layout
+(``nlp``, ``nlp_tolerances``, ``ipopt_hooks``), its cutting planes (``cuts``), spectral-abscissa
 constraints (``eigen``), the robustness, buffeting and actuator-demand terms (``robust``,
 ``loop_algebra``, ``buffeting_term``, ``actuator_demand``, ``spectral_terms``), the scenario
 design over the uncertainty set and multi-model variants
