@@ -43,19 +43,26 @@ DEMAND_BACKOFF = 0.05
 _POINTS: dict = {}
 
 
-def _point_function(n) -> ca.Function:
-    """:func:`_point_expression` compiled with its reverse derivative (as the buffeting term's
-    point function, :data:`bridgeflap.design.control.buffeting_term.JIT`), or evaluated by
-    CasADi's virtual machine when no compiler works; cached per process."""
-    if n not in _POINTS:
+def _point_function(n, jacobian=False) -> ca.Function:
+    """:func:`_point_expression` (``jacobian``: its Jacobian in ``theta``, 4 x 5, instead)
+    compiled (as the buffeting term's point function,
+    :data:`bridgeflap.design.control.buffeting_term.JIT`), or evaluated by CasADi's virtual
+    machine when no compiler works; cached per process."""
+    key = (int(n), bool(jacobian))
+    if key not in _POINTS:
         f = _point_expression(n)
+        ins = f.sx_in()
+        out = f.call(ins)[0]
+        if jacobian:
+            out = ca.jacobian(out, ins[0])
+        name = f"flap_demand_{'jac' if jacobian else 'point'}_c{int(n)}"
+        f = ca.Function(name, ins, [out])
         try:
-            f = _compiled(ca.Function(f"flap_demand_point_c{int(n)}", f.sx_in(),
-                                      f.call(f.sx_in())))[0]
+            f = _compiled(f, reverse=False)[0]
         except Exception:  # noqa: BLE001 - no compiler: the same expression, VM
             pass
-        _POINTS[n] = f
-    return _POINTS[n]
+        _POINTS[key] = f
+    return _POINTS[key]
 
 
 def _point_expression(n) -> ca.Function:
@@ -99,8 +106,8 @@ class FlapDemand:
         _, Vt = row_factor(np.asarray(ol.aero.P_gust, float))
         ref = model.system(Compensator(*(float(v) for v in theta_ref)), weights=weights)
         th = ca.MX.sym("theta", 5)
-        point = _point_function(basis.n)
-        rows, self.flaps = [], []
+        point, point_jac = _point_function(basis.n), _point_function(basis.n, jacobian=True)
+        rows, jac_rows, self.flaps = [], [], []
         for U in self.speeds_m_s:
             om, X, M = gust_frequency_data(model, gust, Vt, strip_x, float(U),
                                            [ol.A(U), ref.A(U)], positive=True)
@@ -109,12 +116,24 @@ class FlapDemand:
                                       np.asarray(model.flaps.position_m, float))
             self.flaps.append(pick)
             mu, Hs = _eig_point_data(Pa, X, M, Pa[pick], weights)
-            fm = point.map(om.size, "serial")
-            v = fm(th, ca.DM(om[None, :]), ca.DM(mu.real.T), ca.DM(mu.imag.T),
-                   *[ca.DM(np.hstack(list(h))) for H in Hs for h in (H.real, H.imag)])
+            data = (ca.DM(om[None, :]), ca.DM(mu.real.T), ca.DM(mu.imag.T),
+                    *[ca.DM(np.hstack(list(h))) for H in Hs for h in (H.real, H.imag)])
+            v = point.map(om.size, "serial")(th, *data)
             rows.append(ca.sum2(v))                     # (4, 1): angle^2, angle^2, rate^2 x2
+            # the Jacobian as the sum of the points' own (4, 5) Jacobians: (4, 5 n) -> (4, 5)
+            jv = point_jac.map(om.size, "serial")(th, *data)
+            jac_rows.append(ca.mtimes(jv, ca.DM(np.kron(np.ones((om.size, 1)), np.eye(5)))))
         var = ca.vertcat(*rows) if rows else ca.MX(0, 1)
-        self.variance = ca.Function("flap_demand_variance", [th], [var], ["theta"], ["var"])
+        jac = ca.vertcat(*jac_rows) if jac_rows else ca.MX(0, 5)
+        # the NLP's constraint Jacobian from the points' compiled Jacobians, not from CasADi's
+        # AD through the mapped point function (measured on the default card: the AD forward
+        # sweep took 5 s to build for every nlpsol and 0.38 s per evaluation, 19x the value;
+        # this costs about twice the value)
+        out = ca.MX.sym("var", var.sparsity())
+        self.jacobian = ca.Function("jac_flap_demand_variance", [th, out], [jac],
+                                    ["theta", "out_var"], ["jac_var_theta"])
+        self.variance = ca.Function("flap_demand_variance", [th], [var], ["theta"], ["var"],
+                                    {"custom_jacobian": self.jacobian, "jac_penalty": 0})
         lim = []
         back = (1.0 - DEMAND_BACKOFF) ** 2
         for _ in self.speeds_m_s:
