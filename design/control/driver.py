@@ -109,6 +109,68 @@ def _done(job, phases, name):
     return value
 
 
+def open_loop_abscissa(settings: DesignSettings, spec, speeds) -> np.ndarray:
+    """The spectral abscissa [1/s] of the open loop (``K = 0``) on the verification model at
+    ``speeds`` [m/s] (a job of :func:`design`: it does not depend on K)."""
+    _, model_ol = build_model(settings, n_modes=settings.verification_modes, spec=spec)
+    ol_parts = DesignProblem(settings, model_ol, numeric=True).A_parts(
+        np.array([0.0, 0.0, 0.0, 1.0, 1.0]))
+    return closed_loop_abscissa(ol_parts, np.asarray(speeds, float))
+
+
+def _early_jobs(settings, given, variants, spec):
+    """``(pool, open-loop abscissa job)`` of :func:`design`: with ``settings.parallel`` a pool of
+    two workers, which computes the scenarios' open-loop limits in two halves (adopted into this
+    process's cache before the starts need them; a worker's failure leaves them to this process)
+    and then the open-loop abscissa; ``(None, None)`` otherwise or when the starts are given."""
+    if not settings.parallel or given:
+        return None, None
+    from bridgeflap.design.control.scenarios import adopt_limits, open_loop_limits
+    from bridgeflap.model.workers import process_pool
+
+    pool = process_pool(2)
+    try:
+        parts = []
+        if variants and settings.variant_rule == "no_harm":
+            h = (len(variants) + 1) // 2
+            parts = [pool.submit(open_loop_limits, settings, part)
+                     for part in (variants[:h], variants[h:]) if part]
+        ol_job = _job(pool, open_loop_abscissa, settings, spec, settings.check_speeds())
+        for f in parts:
+            try:
+                adopt_limits(f.result())
+            except Exception:  # noqa: BLE001 - computed here instead (scenario_settings)
+                pass
+    except BaseException:
+        pool.shutdown(cancel_futures=True)
+        raise
+    return pool, ol_job
+
+
+def _run_starts(settings, records, starts0, spec, progress_bar, variants, progress, finished):
+    """The start records of :func:`design`: ``records`` when given, else every start of
+    ``starts0`` run (in two processes with ``settings.parallel`` and several starts)."""
+    n = len(starts0)
+    if records is not None:
+        return list(records)
+    if settings.parallel and settings.starts > 1:
+        from bridgeflap.model.workers import process_pool
+
+        records = []
+        with process_pool(min(2, settings.starts)) as ex:
+            for r in ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n,
+                            [progress_bar] * n, [variants] * n):
+                records.append(r)
+                finished(r, len(records))
+    else:
+        records = []
+        for i, th in enumerate(starts0):
+            records.append(run_start(settings, th, i, spec, progress_bar, variants,
+                                     say=progress))
+            finished(records[-1], len(records))
+    return records
+
+
 @renamed
 def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None,
            progress_bar=None, records=None) -> DesignResult:
@@ -164,31 +226,26 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
         tp[0] = now
 
     mark("screening starts")
+    # the work that does not depend on K runs in two worker processes while this one designs:
+    # the scenarios' open-loop limits (needed first: waited for below) and the open-loop
+    # abscissa of the check; the same pool then takes the chosen design's checks
+    pool, ol_job = _early_jobs(settings, given, variants, spec)
+    if pool is not None:
+        mark("scenario open-loop limits (wait)")
     if not given:  # minutes of Ipopt before the next line: say what runs
         log(f"{n} start(s), each at most {settings.iteration_cap()} Ipopt iterations ...")
     eta = Eta(n)
 
-    def finished(r):  # one line per start, with the time left at the rate so far
-        log(f"start {r.start} finished ({len(records)}/{n}): {r.ipopt_status} "
-            f"{eta.text(len(records))}")
+    def finished(r, k):  # one line per start (the k-th), with the time left at the rate so far
+        log(f"start {r.start} finished ({k}/{n}): {r.ipopt_status} {eta.text(k)}")
 
-    if given:
-        records = list(records)
-    elif settings.parallel and settings.starts > 1:
-        from bridgeflap.model.workers import process_pool
-
-        records = []
-        with process_pool(min(2, settings.starts)) as ex:
-            for r in ex.map(run_start, [settings] * n, starts0, range(n), [spec] * n,
-                            [progress_bar] * n, [variants] * n):
-                records.append(r)
-                finished(r)
-    else:
-        records = []
-        for i, th in enumerate(starts0):
-            records.append(run_start(settings, th, i, spec, progress_bar, variants,
-                                     say=progress))
-            finished(records[-1])
+    try:
+        records = _run_starts(settings, records, starts0, spec, progress_bar, variants,
+                              progress, finished)
+    except BaseException:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
+        raise
     for r in records:
         log(f"start {r.start}: {r.ipopt_status} in {r.time_s:.1f} s, "
             f"{r.iterations} iterations, {r.cut_rounds} cut rounds, "
@@ -225,8 +282,7 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
         # variants (two halves) run in two worker processes while this one checks the chosen
         # design; the flap counts follow them in the same workers (phase times: each task's
         # own time, marked "worker")
-        pool = None
-        if settings.parallel:
+        if pool is None and settings.parallel:
             from bridgeflap.model.workers import process_pool
 
             pool = process_pool(2)
@@ -248,10 +304,9 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
             ver_best = best.verification      # run_start's check on this model: not recomputed
             absc = ver_best.abscissa_1_s
             extras["damping_ratio"] = ver_best.damping_ratio
-            _, model_ol = build_model(settings, n_modes=settings.verification_modes, spec=spec)
-            ol_parts = DesignProblem(settings, model_ol, numeric=True).A_parts(
-                np.array([0.0, 0.0, 0.0, 1.0, 1.0]))
-            extras["open_loop_abscissa"] = closed_loop_abscissa(ol_parts, absc_u)
+            extras["open_loop_abscissa"] = (
+                _done(ol_job, phases, "open-loop abscissa") if ol_job is not None
+                else open_loop_abscissa(settings, spec, absc_u))
             extras["closed_loop"] = model.system(Compensator(*(float(v) for v in theta)))
             ver_d = best.design_verification
             if ver_d is None:
@@ -303,6 +358,8 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
         finally:
             if pool is not None:
                 pool.shutdown(cancel_futures=True)
+    elif pool is not None:          # no design to check: the early pool's work is not needed
+        pool.shutdown(cancel_futures=True)
     extras["phase_times_s"] = phases
     usable = controller if status == "converged" else None
     return DesignResult(status=status, settings=settings, controller=usable,

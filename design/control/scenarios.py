@@ -86,6 +86,25 @@ def open_loop_limit(settings, spec, model) -> float:
     return _LIMITS[key]
 
 
+def open_loop_limits(settings, specs) -> dict:
+    """:func:`open_loop_limit` of every scenario in ``specs`` on its design model, as the
+    entries of this process's cache (``{key: speed}``): a worker's share, which the design's
+    process then adopts (:func:`adopt_limits`) before it builds the scenario problems."""
+    from bridgeflap.design.control.problem_model import build_model
+
+    out = {}
+    for spec in specs:
+        model = build_model(settings, spec=spec)[1]
+        open_loop_limit(settings, spec, model)
+        out.update({k: v for k, v in _LIMITS.items() if k[0] == repr(spec)})
+    return out
+
+
+def adopt_limits(entries: dict) -> None:
+    """Add the cache ``entries`` of :func:`open_loop_limits` (from a worker) to this process's."""
+    _LIMITS.update(entries)
+
+
 def scenario_settings(settings, spec, model):
     """The settings of scenario ``spec``'s problem (module docstring), or None when it carries
     no constraint."""
