@@ -74,6 +74,9 @@ def cmd_robustness(args):
     if args.failures:
         return _failures(args)
     spec = load_bridge(args.bridge)
+    from bridgeflap.design.io.api_args import check_model_modes
+
+    check_model_modes(spec, args.modes, "modes")  # before the first progress line
     controller = controller_from_args(args, spec)
     res = do_no_harm(controller, args.bridge, count=DEFAULT_SAMPLES if args.samples is None
                      else args.samples, seed=args.seed,
