@@ -283,6 +283,28 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
         :func:`_extreme_candidates`) is on ``n_modes``; the largest screening change
         seen on those rows must stay below :data:`SCREEN_CHECK_FRACTION` of the margin, else
         every row is recomputed on ``n_modes`` (``screen_check``).
+
+    Returns
+    -------
+    HarmResult
+        One row per variant (its inputs, open- and closed-loop critical speeds [m/s], the
+        ratio, harmed or not); ``summary()`` gives the verdict (``no_harm``, ``harm`` or
+        ``unresolved``), the fractions and the harm-probability bound.
+
+    Raises
+    ------
+    BridgeflapInputError
+        Before any work, naming the argument: a count, seed, mode count (also more modes than
+        the bridge's model has), design speed, worker count, method, sampling or scheduler
+        out of range, a controller file or bridge that cannot be read
+        (:class:`~bridgeflap.model.errors.BridgeflapTypeError` for the wrong type).
+
+    Examples
+    --------
+    >>> from bridgeflap import design
+    >>> res = design.do_no_harm("controller.toml", "humber", count=20)  # doctest: +SKIP
+    >>> res.summary()["status"]  # doctest: +SKIP
+    'no_harm'
     """
     from bridgeflap.design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
     from bridgeflap.design.io.api_args import check_harm_args
