@@ -245,7 +245,16 @@ class BuffetingResult(ResultData):
         return self.rms_vertical / self.deck_width_m
 
     def summary(self) -> dict:
-        """The ``bridgeflap buffeting`` JSON contract (NaN becomes null in the CLI)."""
+        """The ``bridgeflap buffeting`` JSON contract (NaN becomes null in the CLI).
+
+        Returns
+        -------
+        dict
+            Per speed (lists in the order of ``speeds_m_s`` [m/s]): the RMS responses
+            (``rms_vertical_m`` [m], ``rms_torsion_rad`` [rad], ``rms_vertical_over_width``
+            [-]), the status, the grid convergence and the spectral abscissa [1/s]; the inputs
+            used under ``inputs``.
+        """
         se = (self.standard_error_vertical if self.standard_error_vertical is not None
               else np.full(self.speeds.size, np.nan))
         return {
@@ -301,6 +310,20 @@ class BuffetingResult(ResultData):
         :func:`bridgeflap.model.response.plots.buffeting_panels`).
 
         Unstable speeds are NaN and leave a gap; nothing is clipped.
+
+        Parameters
+        ----------
+        axes : sequence of two matplotlib.axes.Axes, optional
+            Vertical and torsional axes (default: a new figure).
+        label : str, optional
+            Legend label of this curve (default: none).
+        log : bool, default False
+            Logarithmic response axes.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
         """
         from bridgeflap.model.response.plots import buffeting_panels
 
@@ -314,8 +337,19 @@ class BuffetingResult(ResultData):
         Parameters
         ----------
         ax : sequence of two matplotlib Axes, optional
+            Heave and pitch axes (default: a new figure).
         speeds : sequence of float, optional
             Speeds to show [m/s] (nearest computed); all when omitted.
+
+        Returns
+        -------
+        sequence of two matplotlib.axes.Axes
+            The heave and pitch axes drawn on.
+
+        Raises
+        ------
+        BridgeflapError
+            The result holds no PSDs (the Monte-Carlo method stores none).
         """
         import matplotlib.pyplot as plt
 
