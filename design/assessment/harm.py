@@ -153,7 +153,15 @@ class HarmResult(ResultData):
     sampling: str = "random"
 
     def summary(self) -> dict:
-        """Fractions, the worst ratio and its variant (strict-JSON ready)."""
+        """Fractions, the worst ratio and its variant (strict-JSON ready).
+
+        Returns
+        -------
+        dict
+            ``status`` (``no_harm``, ``harm`` or ``unresolved``), the variant count, the
+            fractions stable to the design speed and harmed [-], the worst closed- over open-loop
+            ratio and its variant, the harm-probability bound and the screening check.
+        """
         n = max(len(self.rows), 1)
         ratios = [(r["closed_over_open"], i) for i, r in enumerate(self.rows)
                   if r["resolved"] and r["closed_over_open"] is not None]
@@ -193,13 +201,32 @@ class HarmResult(ResultData):
 
     def plot(self, ax=None):
         """Histogram of the closed- over open-loop critical speed of the variants [-]
-        (:func:`bridgeflap.design.control.result_plots.harm_ratios`)."""
+        (:func:`bridgeflap.design.control.result_plots.harm_ratios`).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         from bridgeflap.design.control.result_plots import harm_ratios
 
         return harm_ratios(self, ax)
 
     def to_dataframe(self):
-        """One row per variant: its inputs and the verdict (unit-named columns)."""
+        """One row per variant: its inputs and the verdict (unit-named columns).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Column ``variant``, the drawn inputs, the open- and closed-loop critical speeds
+            [m/s] (empty beyond the grid) and mechanisms, ``closed_over_open`` [-],
+            ``stable_to_design_speed``, ``harmed``, ``resolved`` and each loop's mode count.
+        """
         import pandas as pd
 
         return pd.DataFrame([{"variant": i, **r} for i, r in enumerate(self.rows)])

@@ -142,7 +142,15 @@ class StudyConfig:
     source: str = ""
 
     def as_dict(self) -> dict:
-        """JSON-ready resolved configuration."""
+        """JSON-ready resolved configuration.
+
+        Returns
+        -------
+        dict
+            The name, the bridge's identity (name, file, hash), ``quick``, the mesh override
+            ``element_length_m`` [m], the description, the source file and each analysis's
+            options.
+        """
         from bridgeflap.design.io.identity import bridge_identity
 
         return {"name": self.name, **bridge_identity(self.bridge), "quick": self.quick,
@@ -151,7 +159,18 @@ class StudyConfig:
                 "analyses": {kind: dict(opts) for kind, opts in self.analyses}}
 
     def spec(self):
-        """The bridge definition with the mesh override applied."""
+        """The bridge definition with the mesh override applied.
+
+        Returns
+        -------
+        BridgeSpec
+            The study's bridge, on elements of ``element_length_m`` [m] when the study sets it.
+
+        Raises
+        ------
+        BridgeflapInputError
+            The bridge cannot be loaded, or the element length is out of range.
+        """
         from bridgeflap.model.structure.loader import load_bridge
 
         spec = load_bridge(self.bridge)
@@ -304,7 +323,15 @@ class StudyResult(ResultData):
         return "ok" if all(s in good for s in self.statuses.values()) else "partial"
 
     def summary(self) -> dict:
-        """The ``bridgeflap study --json`` contract."""
+        """The ``bridgeflap study --json`` contract.
+
+        Returns
+        -------
+        dict
+            ``status``, ``study``, ``quick``, ``out_dir``, ``report``, ``elapsed_s`` [s], each
+            analysis's status and, under ``results``, the flutter and divergence speeds [m/s]
+            beside the paper's.
+        """
         fl = self.results.get("flutter", {})
         return {"status": self.status, "study": self.config.name, "quick": self.config.quick,
                 "out_dir": str(self.out_dir), "report": str(self.report),
@@ -324,7 +351,23 @@ class StudyResult(ResultData):
                 "out_dir": s["out_dir"]}
 
     def plot(self, axes=None):
-        """The flutter root locus and damping/frequency plots (the paper's Fig. 3 left)."""
+        """The flutter root locus and damping/frequency plots (the paper's Fig. 3 left).
+
+        Parameters
+        ----------
+        axes : sequence of three matplotlib.axes.Axes, optional
+            Root-locus, V-g and V-f axes (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+
+        Raises
+        ------
+        BridgeflapError
+            The study ran no flutter analysis.
+        """
         if self.objects.get("flutter") is None:
             raise BridgeflapError("the study has no flutter result to plot")
         return self.objects["flutter"].plot(axes)
