@@ -10,7 +10,8 @@ ended as an internal error, the worker's refusal could not be unpickled), the st
 before "no flap strip fits", a stage design that ran before its --modes was refused, a --lags
 that ran for minutes, actuator records too long to hold in memory (an internal MemoryError
 after a progress line), options that only apply to another mode of the command, a global
-sensitivity whose every case failed on --modes, and --quiet, which hid the error line itself.
+sensitivity whose every case failed on --modes, --quiet, which hid the error line itself, and
+options of the fresh variants that robustness --failures ignored.
 No physics result is compared, so there are no tolerances.
 """
 
@@ -51,6 +52,10 @@ CASES = [
     (["sensitivity", "--global", "morris", "--bridge", "{coarse}", "--modes", "90", "--out",
       "g"], "modes"),
     (["--quiet", "flutter", "--modes", "0"], "modes"),
+    # options of the fresh variants that --failures ignored (it ran, and exited 1)
+    *[(["robustness", "--controller", "{c}", "--bridge", "great-belt", "--failures", option,
+        value], option.lstrip("-")) for option, value in (
+        ("--method", "reference"), ("--screen-modes", "8"), ("--seed", "3"))],
 ]
 
 HUMBER = resources.files("bridgeflap.model.bridges").joinpath("humber.toml").read_text("utf-8")
@@ -60,7 +65,8 @@ COARSE = re.sub(r"^element_length_m = \{ value = [0-9.]+", "element_length_m = {
 
 
 @pytest.mark.parametrize("argv, field", CASES,
-                         ids=[f"{a[0] if a[0] != '--quiet' else 'quiet'}-{f}" for a, f in CASES])
+                         ids=[f"{a[0] if a[0] != '--quiet' else 'quiet'}-{f}"
+                              + ("-failures" if "--failures" in a else "") for a, f in CASES])
 def test_a_refusal_prints_one_line(argv, field, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     c = save_controller(Controller(Compensator(0.0, 0.1, 0.5, 0.0, 0.1), (0.0,), 10.0,
