@@ -58,9 +58,6 @@ from types import MappingProxyType
 from typing import Any
 
 from bridgeflap.design.io.files import (
-    atomic_save_netcdf,
-    atomic_savez,
-    atomic_write,
     atomic_write_json,
     atomic_write_text,
     output_folder,
@@ -82,6 +79,7 @@ from bridgeflap.design.io.outputs import (
 )
 from bridgeflap.design.studies.analyses import ANALYSES, Outcome, RunContext
 from bridgeflap.design.studies.report import PAPER, study_report, study_report_html
+from bridgeflap.design.studies.study_files import write_outcome
 from bridgeflap.model.arguments import (
     check_callable,
     check_mapping,
@@ -410,32 +408,6 @@ def _run_one(kind: str, spec, opts: Mapping, config: StudyConfig, say,
     return Outcome(outcome.status, summary, outcome.arrays, outcome.figures, outcome.result)
 
 
-def _labelled(result) -> bool:
-    """The result has labelled arrays of its own (a sweep's ``to_xarray``), not only the
-    generic table-as-dataset every result has."""
-    from bridgeflap.model.results import ResultData
-
-    method = getattr(type(result), "to_xarray", None)
-    return callable(method) and method is not ResultData.to_xarray
-
-
-def _write_outcome(kind: str, outcome: Outcome, folder: Path) -> tuple[dict, list[str]]:
-    """Write the results, arrays, figures (and a designed controller) of one analysis."""
-    summary = dict(outcome.summary)
-    controller = getattr(outcome.result, "controller", None) if kind == "design" else None
-    if controller is not None:
-        from bridgeflap.model.aeroelastic.controller_file import save_controller
-
-        save_controller(controller, folder / "results" / "controller.toml")
-        summary["controller_file"] = "results/controller.toml"
-    atomic_write_json(folder / "results" / f"{kind}.json", summary)
-    if outcome.arrays:
-        atomic_savez(folder / "results" / f"{kind}.npz", **outcome.arrays)
-    if _labelled(outcome.result):  # sweeps as labelled arrays
-        atomic_save_netcdf(folder / "results" / f"{kind}.nc", outcome.result.to_xarray())
-    return summary, _save_figures(outcome.figures, folder / "figures")
-
-
 @checked(config=optional(instance_or_path(StudyConfig, "bridgeflap.design.load_study")),
          out_dir=optional(check_path), quick=flag, progress=optional(check_callable))
 def run_study(config: StudyConfig | str | os.PathLike | None = None,
@@ -525,7 +497,7 @@ def _run_and_write(kind: str, spec, opts: Mapping, config: StudyConfig, folder: 
     say = say or (lambda msg: None)
     say(f"study {config.name}: {kind} ...")
     outcome = _run_one(kind, spec, opts, config, say, workers)
-    summary, names = _write_outcome(kind, outcome, folder)
+    summary, names = write_outcome(kind, outcome, folder)
     say(f"study {config.name}: {kind} {outcome.status} ({outcome.summary['elapsed_s']:.1f} s)")
     result = outcome.result
     if not in_process:
@@ -619,15 +591,3 @@ def validate_study(config: StudyConfig) -> None:
 #: analyses that rebuild the structure (erection stages, per-stage modes): the cable/FE model
 FE_ONLY_ANALYSES = ("erection", "frequency_ratio")
 
-
-def _save_figures(figs: Mapping, folder: Path) -> list[str]:
-    import matplotlib.pyplot as plt
-
-    names = []
-    for name, fig in figs.items():
-        atomic_write(folder / f"{name}.png",
-                     lambda fh, fig=fig: fig.savefig(fh, format="png", dpi=110,
-                                                     bbox_inches="tight"))
-        plt.close(fig)
-        names.append(f"figures/{name}.png")
-    return names

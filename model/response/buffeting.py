@@ -57,13 +57,7 @@ from bridgeflap.model.spectrum import spectral_abscissa
 from bridgeflap.model.structure.bridge_arg import takes_bridge
 from bridgeflap.model.vocabulary import DEFAULT_MODES
 
-__all__ = [
-    "LOADS",
-    "BuffetingResult",
-    "buffeting",
-    "reduced_response",
-    "row_factor",
-]
+__all__ = ["LOADS", "BuffetingResult", "buffeting", "reduced_response", "row_factor"]
 
 METHODS = ("spectral", "monte-carlo")
 #: Relative grid-convergence estimate above which a speed is flagged ``"unconverged"``.
@@ -172,9 +166,7 @@ def _strip_rms(grid, Gqq, Cl):
     return np.sqrt(np.clip(np.einsum("pi,ij,pj->p", Cl, P, Cl), 0.0, None))
 
 
-# ----------------------------------------------------------------------------------------------
-# result
-# ----------------------------------------------------------------------------------------------
+# -------------------------------------------------------------------------------- result
 @dataclass(frozen=True)
 class BuffetingResult(ResultData):
     """Buffeting response against wind speed.
@@ -250,10 +242,8 @@ class BuffetingResult(ResultData):
         Returns
         -------
         dict
-            Per speed (lists in the order of ``speeds_m_s`` [m/s]): the RMS responses
-            (``rms_vertical_m`` [m], ``rms_torsion_rad`` [rad], ``rms_vertical_over_width``
-            [-]), the status, the grid convergence and the spectral abscissa [1/s]; the inputs
-            used under ``inputs``.
+            Lists per speed ``speeds_m_s`` [m/s]: ``rms_vertical_m`` [m], ``rms_torsion_rad``
+            [rad], ``rms_vertical_over_width`` [-], status, convergence, ...; ``inputs``.
         """
         se = (self.standard_error_vertical if self.standard_error_vertical is not None
               else np.full(self.speeds.size, np.nan))
@@ -306,10 +296,8 @@ class BuffetingResult(ResultData):
     def plot(self, axes=None, label=None, log: bool = False):
         """Vertical ``max sigma_z`` [mm] (``/ 2b`` on a right-hand axis) and torsional
         ``max sigma_alpha`` [deg] on the main span against ``U`` (the paper's Fig. 4 style, two
-        panels;
-        :func:`bridgeflap.model.response.plots.buffeting_panels`).
-
-        Unstable speeds are NaN and leave a gap; nothing is clipped.
+        panels; :func:`bridgeflap.model.response.plots.buffeting_panels`). Unstable speeds are
+        NaN and leave a gap; nothing is clipped.
 
         Parameters
         ----------
@@ -374,9 +362,7 @@ class BuffetingResult(ResultData):
         return ax
 
 
-# ----------------------------------------------------------------------------------------------
-# driver
-# ----------------------------------------------------------------------------------------------
+# -------------------------------------------------------------------------------- driver
 def _main_span_mask(spec, strip_x):
     if spec is None:
         return np.ones(strip_x.size, dtype=bool)
