@@ -28,6 +28,7 @@ _PUBLIC = {
     "design": "bridgeflap.design.assessment.accept",
     "accept": "bridgeflap.design.assessment.accept",
     "AcceptanceResult": "bridgeflap.design.assessment.accept",
+    "do_no_harm": "bridgeflap.design.assessment.harm",
     "DesignResult": "bridgeflap.design.control.result",
     "local_sensitivity": "bridgeflap.design.sensitivity.local",
     "global_sensitivity": "bridgeflap.design.studies.screening",

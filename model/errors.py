@@ -36,6 +36,11 @@ class BridgeflapInputError(BridgeflapError, ValueError):
         self.reason = reason
         super().__init__(f"{field}: {reason}")
 
+    def __reduce__(self):
+        # rebuilt from (field, reason), not from its one-message args: a worker process's
+        # refusal reaches the parent as the same error (a pool cannot unpickle it otherwise)
+        return type(self), (self.field, self.reason)
+
 
 class BridgeflapTypeError(BridgeflapInputError, TypeError):
     """An argument of the wrong type or kind (a path where a controller is expected, a number
@@ -59,6 +64,9 @@ class BatchFailedError(BridgeflapError):
         self.cases, self.out_dir, self.first_error = cases, out_dir, first_error
         super().__init__(f"all {cases} cases failed (first: {first_error}); per-case records "
                          f"in {out_dir}/cases")
+
+    def __reduce__(self):
+        return type(self), (self.cases, self.out_dir, self.first_error)
 
 
 class BridgeflapWarning(UserWarning):

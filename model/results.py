@@ -288,13 +288,31 @@ class ResultData:
 
     def to_xarray(self):
         """The result's table as an :class:`xarray.Dataset` (one ``row`` per table row);
-        labelled results override it with their own coordinates."""
+        labelled results override it with their own coordinates.
+
+        Returns
+        -------
+        xarray.Dataset
+            The table's columns as variables on the dimension ``row`` (units in the names).
+        """
         import xarray as xr
 
         return xr.Dataset.from_dataframe(self.to_dataframe().rename_axis("row"))
 
     def to_dict(self) -> dict:
-        """Strict-JSON dict (units in the key names, NaN/inf as ``None``)."""
+        """Strict-JSON dict (units in the key names, NaN/inf as ``None``).
+
+        Returns
+        -------
+        dict
+            :meth:`summary` through strict JSON when the result has one, else its displayed
+            fields.
+
+        Raises
+        ------
+        TypeError
+            The result holds no data to convert.
+        """
         summary = getattr(self, "summary", None)
         if callable(summary):
             return jsonable(summary())
@@ -307,13 +325,35 @@ class ResultData:
         raise TypeError(f"{type(self).__name__} is not tabular")
 
     def to_dataframe(self):
-        """Table of the result (:class:`pandas.DataFrame`), one unit-named column per quantity."""
+        """Table of the result (:class:`pandas.DataFrame`), one unit-named column per quantity.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per record of the result.
+
+        Raises
+        ------
+        TypeError
+            The result is not tabular.
+        """
         import pandas as pd
 
         return pd.DataFrame(self._rows())
 
     def table(self, fmt: str = "github") -> str:
-        """:meth:`to_dataframe` as text (``fmt``: any :mod:`tabulate` format)."""
+        """:meth:`to_dataframe` as text (``fmt``: any :mod:`tabulate` format).
+
+        Parameters
+        ----------
+        fmt : str, default "github"
+            A :mod:`tabulate` table format (``"github"``, ``"simple"``, ``"latex"``, ...).
+
+        Returns
+        -------
+        str
+            The table, NaN shown blank.
+        """
         return table_text(self.to_dataframe(), fmt)
 
 

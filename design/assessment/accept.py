@@ -60,14 +60,33 @@ class AcceptanceResult(ResultData):
     results: dict = field(default_factory=dict, repr=False, compare=False)
 
     def summary(self) -> dict:
-        """The strict-JSON block (``status`` first)."""
+        """The strict-JSON block (``status`` first).
+
+        Returns
+        -------
+        dict
+            ``status`` (``passed``, ``harm``, ``failed``, ``unresolved`` or ``not_run``), then
+            each check's block (its status and numbers, units in the key names).
+        """
         return {"status": self.status, **{k: v for k, v in self.block.items()
                                           if k != "status"}}
 
     _HEADLINE_KEYS = ("status", "checks")
 
     def table(self, fmt: str = "simple") -> str:
-        """One line per check."""
+        """One line per check.
+
+        Parameters
+        ----------
+        fmt : str, default "simple"
+            Taken for the results' common ``table(fmt)`` call; the text is always one line per
+            check.
+
+        Returns
+        -------
+        str
+            Each check's name, status and headline numbers.
+        """
         from bridgeflap.design.assessment.acceptance import acceptance_text
 
         return acceptance_text(self.block)
@@ -75,7 +94,18 @@ class AcceptanceResult(ResultData):
     def plot(self, ax=None):
         """The do-no-harm histogram of the fresh variants (closed over open critical speed;
         :meth:`bridgeflap.design.assessment.harm.HarmResult.plot`), or an empty figure when the
-        robustness check did not run."""
+        robustness check did not run.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         from bridgeflap.model.results import figure_of
 
         rob = self.results.get("robustness")

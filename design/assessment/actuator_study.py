@@ -102,6 +102,12 @@ def _linear_reference(loop, A, U, gust, wa):
     return r.rms[:ns2], r.rms[ns2:ns2 + loop.nF], r.rms[ns2 + loop.nF:], r.status
 
 
+#: most seconds of records at one speed (``records x duration_s``): the records are integrated
+#: side by side, so their gust samples are in memory at once (at the 25 ms step of Humber's
+#: loop, 1e5 s on 16 strips are 0.5 GB per array; 1e9 s asked for 4.7 TiB before the bound)
+MAX_RECORD_SECONDS = 1e5
+
+
 def actuator_study(spec, controller, speeds, limits: ActuatorLimits | None = None, *,
                    duration_s: float = 600.0, seed: int = 0, records: int = 4,
                    n_modes: int = 16, near_critical: float = 0.95, linear: bool = False,
@@ -145,6 +151,10 @@ def actuator_study(spec, controller, speeds, limits: ActuatorLimits | None = Non
         raise BridgeflapInputError("speeds", "need finite mean wind speeds > 0 [m/s]")
     if not (np.isfinite(duration_s) and 10.0 <= duration_s <= 1e5):
         raise BridgeflapInputError("duration-s", f"must be in [10, 1e5] s, got {duration_s!r}")
+    if int(records) * float(duration_s) > MAX_RECORD_SECONDS:
+        raise BridgeflapInputError("records", f"{records} records of {duration_s:g} s are more "
+                                   f"than {MAX_RECORD_SECONDS:g} s of turbulence at one speed "
+                                   "(the records are integrated together, held in memory)")
     if not (np.isfinite(near_critical) and 0.0 <= near_critical < 1.0):
         raise BridgeflapInputError("near-critical", "must be in [0, 1) (a fraction of the "
                                    f"closed-loop critical speed), got {near_critical!r}")

@@ -124,13 +124,21 @@ class ErectionControlResult(ResultData):
 
 
 def erection_closed_loop(spec: BridgeSpec, controller: Controller, fractions, speeds,
-                         n_modes: int, side_spans: str | None = None) -> ErectionControlResult:
+                         n_modes: int, side_spans: str | None = None,
+                         progress=None) -> ErectionControlResult:
     """Open- and closed-loop flutter/divergence at each erected fraction [-] and for the
-    completed bridge, with the controller's flaps that sit on the erected deck."""
+    completed bridge, with the controller's flaps that sit on the erected deck.
+
+    ``progress``: a callable given one line once every input is checked (the stages and
+    the strips), before the stages run (default: none)."""
     from bridgeflap.model.analysis import _fractions, check_speeds
 
     fr = _fractions(fractions)
     speeds = check_speeds(speeds)
+    check_stage_modes(spec, fr, n_modes, side_spans)  # every stage before the first runs
+    if progress is not None:
+        progress(f"erection with flaps: {len(fr)} stages + the completed bridge, "
+                 f"{len(controller.flap_strip_positions_m)} flap strips in the file")
     rows = []
     for f in fr:
         row = _stage(spec.erected(float(f), side_spans=side_spans), controller, speeds,
@@ -142,6 +150,59 @@ def erection_closed_loop(spec: BridgeSpec, controller: Controller, fractions, sp
     rows.append(done)
     side = spec.erected(1.0, side_spans=side_spans).side_span_decks
     return ErectionControlResult(spec.name, tuple(rows), side)
+
+
+def check_stage_modes(spec: BridgeSpec, fractions, n_modes: int,
+                      side_spans: str | None = None, field: str = "modes") -> None:
+    """Raise naming ``field`` when a stage at ``fractions`` [-] or the completed bridge has
+    fewer vertical and torsional modes than ``n_modes``.
+
+    Parameters
+    ----------
+    spec : BridgeSpec
+        The completed bridge.
+    fractions : array_like
+        Erected fractions of the main span [-], each in (0, 1].
+    n_modes : int
+        Retained vertical + torsional modes of every stage.
+    side_spans : str, optional
+        Side-span decks while erecting (default: the bridge file's).
+    field : str, default "modes"
+        The name a refusal gives (``"modes"``: the command line's ``--modes``).
+
+    Raises
+    ------
+    BridgeflapInputError
+        Naming ``field``: a stage's model has too few modes. Checked before any stage runs
+        (each stage's modal model, a fraction of a second), so that a refusal follows no
+        progress line.
+    """
+    from bridgeflap.design.io.api_args import check_model_modes
+    from bridgeflap.model.analysis import _fractions
+
+    for f in _fractions(fractions):
+        check_model_modes(spec.erected(float(f), side_spans=side_spans), n_modes, field)
+    check_model_modes(spec.completed(), n_modes, field)
+
+
+def stage_design_count(spec: BridgeSpec, fraction: float, card=None) -> int:
+    """The flap strips of ``card`` (default: the packaged card) that fit on the deck erected
+    over ``fraction`` [-]: what :func:`design_for_stage` lays out.
+
+    Raises
+    ------
+    BridgeflapInputError
+        ``fraction``: not one strip fits (checked before the design runs).
+    """
+    from bridgeflap.design.control.settings import DEFAULT_CARD, load_settings
+    from bridgeflap.model.errors import BridgeflapInputError
+
+    base = load_settings(DEFAULT_CARD if card is None else card)
+    n = stage_flap_count(spec, fraction, base.flap_width_m)
+    if n < 1:
+        raise BridgeflapInputError("fraction", f"{fraction:g}: no {base.flap_width_m:g} m flap "
+                                   "strip fits on the erected deck")
+    return n
 
 
 def stage_flap_count(spec: BridgeSpec, fraction: float, flap_width_m: float) -> int:
@@ -161,14 +222,9 @@ def design_for_stage(spec: BridgeSpec, fraction: float, card=None, progress=None
     and the chosen design verifies)."""
     from bridgeflap.design.control.driver import design
     from bridgeflap.design.control.settings import DEFAULT_CARD, load_settings
-    from bridgeflap.model.errors import BridgeflapInputError
 
     card = DEFAULT_CARD if card is None else card
-    base = load_settings(card)
-    n = stage_flap_count(spec, fraction, base.flap_width_m)
-    if n < 1:
-        raise BridgeflapInputError("fraction", f"{fraction:g}: no {base.flap_width_m:g} m flap "
-                                   "strip fits on the erected deck")
+    n = stage_design_count(spec, fraction, card)
     settings = load_settings(card, **({"flap_count": n, "flap_positions_m": ()} | STAGE_DESIGN
                                       | overrides))
     stage = spec.erected(float(fraction), side_spans=side_spans)

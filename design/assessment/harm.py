@@ -153,7 +153,15 @@ class HarmResult(ResultData):
     sampling: str = "random"
 
     def summary(self) -> dict:
-        """Fractions, the worst ratio and its variant (strict-JSON ready)."""
+        """Fractions, the worst ratio and its variant (strict-JSON ready).
+
+        Returns
+        -------
+        dict
+            ``status`` (``no_harm``, ``harm`` or ``unresolved``), the variant count, the
+            fractions stable to the design speed and harmed [-], the worst closed- over open-loop
+            ratio and its variant, the harm-probability bound and the screening check.
+        """
         n = max(len(self.rows), 1)
         ratios = [(r["closed_over_open"], i) for i, r in enumerate(self.rows)
                   if r["resolved"] and r["closed_over_open"] is not None]
@@ -193,13 +201,32 @@ class HarmResult(ResultData):
 
     def plot(self, ax=None):
         """Histogram of the closed- over open-loop critical speed of the variants [-]
-        (:func:`bridgeflap.design.control.result_plots.harm_ratios`)."""
+        (:func:`bridgeflap.design.control.result_plots.harm_ratios`).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         from bridgeflap.design.control.result_plots import harm_ratios
 
         return harm_ratios(self, ax)
 
     def to_dataframe(self):
-        """One row per variant: its inputs and the verdict (unit-named columns)."""
+        """One row per variant: its inputs and the verdict (unit-named columns).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Column ``variant``, the drawn inputs, the open- and closed-loop critical speeds
+            [m/s] (empty beyond the grid) and mechanisms, ``closed_over_open`` [-],
+            ``stable_to_design_speed``, ``harmed``, ``resolved`` and each loop's mode count.
+        """
         import pandas as pd
 
         return pd.DataFrame([{"variant": i, **r} for i, r in enumerate(self.rows)])
@@ -283,6 +310,28 @@ def do_no_harm(controller, bridge="humber", count: int = 200, seed: int = 11,
         :func:`_extreme_candidates`) is on ``n_modes``; the largest screening change
         seen on those rows must stay below :data:`SCREEN_CHECK_FRACTION` of the margin, else
         every row is recomputed on ``n_modes`` (``screen_check``).
+
+    Returns
+    -------
+    HarmResult
+        One row per variant (its inputs, open- and closed-loop critical speeds [m/s], the
+        ratio, harmed or not); ``summary()`` gives the verdict (``no_harm``, ``harm`` or
+        ``unresolved``), the fractions and the harm-probability bound.
+
+    Raises
+    ------
+    BridgeflapInputError
+        Before any work, naming the argument: a count, seed, mode count (also more modes than
+        the bridge's model has), design speed, worker count, method, sampling or scheduler
+        out of range, a controller file or bridge that cannot be read
+        (:class:`~bridgeflap.model.errors.BridgeflapTypeError` for the wrong type).
+
+    Examples
+    --------
+    >>> from bridgeflap import design
+    >>> res = design.do_no_harm("controller.toml", "humber", count=20)  # doctest: +SKIP
+    >>> res.summary()["status"]  # doctest: +SKIP
+    'no_harm'
     """
     from bridgeflap.design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
     from bridgeflap.design.io.api_args import check_harm_args

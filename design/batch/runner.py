@@ -143,14 +143,34 @@ class BatchResult(ResultData):
 
     def to_xarray(self):
         """The cases on the dimension ``case``
-        (:func:`bridgeflap.design.batch.table.cases_dataset`)."""
+        (:func:`bridgeflap.design.batch.table.cases_dataset`).
+
+        Returns
+        -------
+        xarray.Dataset
+            The parameters as coordinates and each scalar result as a variable on the dimension
+            ``case`` (NaN for a failed case).
+        """
         from bridgeflap.design.batch.table import cases_dataset
 
         return cases_dataset(self.rows)
 
     def plot(self, ax=None, output: str | None = None):
         """One numeric output per case (default: the first), failed cases as red crosses
-        (:func:`bridgeflap.design.batch.plots.batch_cases`)."""
+        (:func:`bridgeflap.design.batch.plots.batch_cases`).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+        output : str, optional
+            The numeric result to draw (default: the first in the table).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         from bridgeflap.design.batch.plots import batch_cases
 
         return batch_cases(self, ax, output)

@@ -110,7 +110,13 @@ def set_verbosity(quiet: bool = False, verbose: bool = False) -> None:
     _logger().setLevel(logging.WARNING if quiet else logging.DEBUG if verbose else logging.INFO)
 
 
+#: lines that ``--quiet`` never hides: a refusal, an internal fault, an interruption
+_ERROR_PREFIXES = ("bridgeflap: error:", "bridgeflap: internal error:", "bridgeflap: interrupted")
+
+
 def _level(msg: str) -> int:
+    if msg.startswith(_ERROR_PREFIXES):
+        return logging.ERROR
     return logging.WARNING if msg.startswith(_HELD_PREFIXES) else logging.INFO
 
 

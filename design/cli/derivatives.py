@@ -44,6 +44,11 @@ HELP = "flutter derivatives in use and their RFA fit (error per derivative)"
 #: are 0.8 GB per derivative column before the JSON text
 MAX_TABLE_POINTS = 10000
 
+#: most lag poles of ``--lags``: the tables and the flat plate are fitted within their
+#: accuracy by 2 to 4 lags (docs/methods.md), and every further lag is one more dimension of
+#: the pole search (1000 lags ran for minutes before it was bounded)
+MAX_LAGS = 10
+
 
 def arguments(sp) -> None:
     """The options of ``bridgeflap derivatives``."""
@@ -91,8 +96,8 @@ def run(args):
     from bridgeflap.model.cases.section_cases import case_fit, section_case_flutter
 
     check_plot_target(args)
-    if args.lags is not None and args.lags < 0:
-        raise BridgeflapInputError("lags", f"must be >= 0, got {args.lags}")
+    if args.lags is not None and not 0 <= args.lags <= MAX_LAGS:
+        raise BridgeflapInputError("lags", f"must be between 0 and {MAX_LAGS}, got {args.lags}")
     if not 2 <= args.points <= MAX_TABLE_POINTS:
         raise BridgeflapInputError("points", f"must be between 2 and {MAX_TABLE_POINTS}, got "
                                    f"{args.points}")

@@ -14,6 +14,7 @@ from bridgeflap.design.cli.common import (
     save_plot,
 )
 from bridgeflap.design.io.options import parse_range
+from bridgeflap.model.errors import BridgeflapInputError
 from bridgeflap.model.results import table_text
 from bridgeflap.model.structure.spec import SIDE_SPAN_SEQUENCES
 
@@ -28,6 +29,10 @@ def cmd_erection(args):
     from bridgeflap.model.structure.loader import load_bridge
 
     check_plot_target(args)
+    for option, given in (("--card", args.card), ("--save-controller", args.save_controller)):
+        if given is not None and args.design_stage is None:
+            raise BridgeflapInputError(option, "only with --design-stage (the stage design's "
+                                               "card and controller file)")
     spec = load_bridge(args.bridge)
     if args.design_stage is not None:
         return _design_stage(args, spec)
@@ -66,10 +71,8 @@ def _closed_loop(args, spec):
     controller = controller_from_args(args, spec)
     fractions = parse_range(args.fractions, "fractions", None, None)
     speeds = parse_range(args.speeds, "speeds", 0.0)
-    log(f"erection with flaps: {len(fractions)} stages + the completed bridge, "
-        f"{len(controller.flap_strip_positions_m)} flap strips in the file")
     res = erection_closed_loop(spec, controller, fractions, speeds, args.modes,
-                               side_spans=args.side_spans or None)
+                               side_spans=args.side_spans or None, progress=log)
     s = res.summary()
     s["controller_file"] = str(args.controller)
     lines = [f"side spans while erecting: {res.side_spans}; flaps: the controller's strips on "
@@ -129,6 +132,15 @@ def _design_stage(args, spec):
         load_settings(packaged_card(args.card))
     if args.save_controller:
         _check_save_target(args.save_controller)
+    from bridgeflap.design.assessment.erection_control import (
+        check_stage_modes,
+        stage_design_count,
+    )
+
+    # the stages' closed loops after the design need --modes: checked before it runs
+    check_stage_modes(spec, fractions, args.modes, side)
+    if args.design_stage != "worst":
+        stage_design_count(spec, fraction, args.card)  # a flap strip fits: before any line
     if args.design_stage == "worst":
         from bridgeflap.design.studies.analyses import ANALYSES, RunContext
 
@@ -146,6 +158,8 @@ def _design_stage(args, spec):
         if crit.notna().sum() == 0:
             raise BridgeflapInputError("--design-stage", "no stage has a critical speed on "
                                        "the --speeds grid: give a fraction")
+        i = int(crit.idxmin())
+        stage_design_count(spec, float(rows["erected_fraction"][i]), args.card)
         for line in held:
             log(line)
         i = int(crit.idxmin())

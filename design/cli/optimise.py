@@ -29,7 +29,10 @@ def cmd_optimise(args):
             if v is not None}
     from bridgeflap.design.assessment.acceptance import parse_checks
 
-    parse_checks(args.checks)  # a bad --checks stops here, before the design runs
+    checks = parse_checks(args.checks)  # a bad --checks stops here, before the design runs
+    if args.check_samples is not None and "robustness" not in checks:
+        raise BridgeflapInputError("check-samples", "only with the robustness check (--checks "
+                                                    "all, or a list naming robustness)")
     from bridgeflap.design.assessment.accept import MAX_SAMPLES
 
     for name, v, top in (("check-samples", args.check_samples, MAX_SAMPLES),

@@ -18,7 +18,9 @@ per-variant table (CSV). ``--method fast`` (default) screens each variant on
 flap pair failed instead (:mod:`bridgeflap.design.assessment.failsafe`): stuck at 0, stuck at an
 angle (the same linear stability, plus its static deflection) and the controller off, each with its
 critical speed, mechanism, status and ratios to the intact and the open loop; exit 0 for
-``single_failure_safe``, 1 otherwise; ``--out`` writes the per-pair table.
+``single_failure_safe``, 1 otherwise; ``--out`` writes the per-pair table. The options of the
+fresh variants (``--samples``, ``--seed``, ``--sampling``, ``--method``, ``--screen-modes``,
+``--scheduler``) are refused with ``--failures``.
 """
 
 from __future__ import annotations
@@ -36,10 +38,12 @@ from bridgeflap.design.cli.common import (
 from bridgeflap.design.io.api_args import MAX_VARIANTS
 from bridgeflap.model.errors import BridgeflapInputError
 
-__all__ = ["DEFAULT_SAMPLES", "arguments", "cmd_robustness"]
+__all__ = ["DEFAULT_SAMPLES", "DEFAULT_SEED", "arguments", "cmd_robustness"]
 
 #: fresh variants of ``bridgeflap robustness`` when ``--samples`` is not given
 DEFAULT_SAMPLES = 200
+#: seed of the draws when ``--seed`` is not given
+DEFAULT_SEED = 11
 
 
 def cmd_robustness(args):
@@ -54,7 +58,7 @@ def cmd_robustness(args):
     # the bounds of do_no_harm's own arguments (design.io.api_args), also checked after parsing
     check_design_speed(args.speed_max, "speed-max")
     check_scheduler(args.scheduler, "scheduler")
-    if args.screen_modes < 0:
+    if args.screen_modes is not None and args.screen_modes < 0:
         raise BridgeflapInputError("screen-modes", f"must be >= 0, got {args.screen_modes}")
     if args.stuck_angle_deg is not None and not args.failures:
         raise BridgeflapInputError("stuck-angle-deg", "only with --failures")
@@ -62,7 +66,10 @@ def cmd_robustness(args):
         # the failure table is one bridge's few sweeps, run here: a cluster is not used
         for option, given in (("scheduler", args.scheduler is not None),
                               ("sampling", args.sampling is not None),
-                              ("samples", args.samples is not None)):
+                              ("samples", args.samples is not None),
+                              ("seed", args.seed is not None),
+                              ("method", args.method is not None),
+                              ("screen-modes", args.screen_modes is not None)):
             if given:
                 raise BridgeflapInputError(option, "not with --failures (the single-pair "
                                                    "failure table runs on this machine's "
@@ -74,12 +81,17 @@ def cmd_robustness(args):
     if args.failures:
         return _failures(args)
     spec = load_bridge(args.bridge)
+    from bridgeflap.design.io.api_args import check_model_modes
+
+    check_model_modes(spec, args.modes, "modes")  # before the first progress line
     controller = controller_from_args(args, spec)
     res = do_no_harm(controller, args.bridge, count=DEFAULT_SAMPLES if args.samples is None
-                     else args.samples, seed=args.seed,
+                     else args.samples, seed=DEFAULT_SEED if args.seed is None else args.seed,
                      n_modes=args.modes, speed_max_m_s=args.speed_max, workers=args.workers,
                      progress=log,  # progress on stderr, also with --json
-                     method=args.method, screen_modes=args.screen_modes or None,
+                     method=args.method or "fast",
+                     screen_modes=(DEFAULT_SCREEN_MODES if args.screen_modes is None
+                                   else args.screen_modes or None),
                      scheduler=args.scheduler, sampling=args.sampling or "random")
     s = res.summary()
     if args.out:
@@ -166,8 +178,9 @@ def arguments(sp) -> None:
     sp.add_argument("--samples", type=int, default=None,
                     help=f"fresh variants drawn over the estimated-input ranges (default "
                          f"{DEFAULT_SAMPLES}, at most {MAX_VARIANTS})")
-    sp.add_argument("--seed", type=int, default=11,
-                    help="seed of the draws (random) or of the Sobol' scramble")
+    sp.add_argument("--seed", type=int, default=None,
+                    help=f"seed of the draws (random) or of the Sobol' scramble (default "
+                         f"{DEFAULT_SEED})")
     sp.add_argument("--sampling", choices=SAMPLINGS, default=None,
                     help="random (default): independent draws, with the Clopper-Pearson upper "
                          "bound on the harm probability; sobol: even coverage of the ranges, "
@@ -180,11 +193,12 @@ def arguments(sp) -> None:
     sp.add_argument("--scheduler", default=None, metavar="ADDRESS|local",
                     help="run the variants on a Dask cluster: a scheduler address, or 'local' "
                          "for a local one of --workers (default: a local process pool)")
-    sp.add_argument("--method", choices=HARM_METHODS, default="fast",
-                    help="fast: critical crossings only, screened on --screen-modes; "
-                         "reference: the full sweeps on --modes")
-    sp.add_argument("--screen-modes", type=int, default=DEFAULT_SCREEN_MODES, metavar="N",
-                    help="modes of the fast method's screening (0: none)")
+    sp.add_argument("--method", choices=HARM_METHODS, default=None,
+                    help="fast (default): critical crossings only, screened on "
+                         "--screen-modes; reference: the full sweeps on --modes")
+    sp.add_argument("--screen-modes", type=int, default=None, metavar="N",
+                    help=f"modes of the fast method's screening (default "
+                         f"{DEFAULT_SCREEN_MODES}; 0: none)")
     sp.add_argument("--out", default=None, help="per-variant (or per-pair) table (.csv)")
     sp.add_argument("--failures", action="store_true",
                     help="each single flap pair failed (stuck) and the controller off, on the "

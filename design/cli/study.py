@@ -112,6 +112,10 @@ def _global(args):
             raise BridgeflapInputError("parameters", f"no stated range for {unknown[0]!r} "
                                                      f"(ranges: {', '.join(ranges)})")
         ranges = {p: DEFAULT_UNCERTAIN_RANGES[p] for p in names}
+    from bridgeflap.design.io.api_args import check_model_modes
+
+    # every case runs on --modes: a model with fewer is refused here, not by each case
+    check_model_modes(spec_from_args(args), args.modes, "modes")
     out = args.out or str(Path.cwd() / "runs" / "sensitivity" / f"global_{args.global_method}")
     res = global_sensitivity(args.bridge, ranges, method=args.global_method, n=args.samples,
                              out_dir=out, workers=args.workers, scheduler=args.scheduler,

@@ -68,7 +68,16 @@ class DesignResult(ResultData):
     extras: dict = field(default_factory=dict, compare=False)
 
     def summary(self) -> dict:
-        """Strict-JSON summary (the ``bridgeflap optimise`` contract; not-a-number -> None)."""
+        """Strict-JSON summary (the ``bridgeflap optimise`` contract; not-a-number -> None).
+
+        Returns
+        -------
+        dict
+            Strict-JSON numbers and statuses, units in the key names: the status, the
+            coefficients of ``K(s)``, the flap layout, the usable and critical speeds [m/s], the
+            gain and the robust margin, the verification and, when they ran, the acceptance
+            checks; ``None`` where a number was not computed.
+        """
         k = self.candidate.compensator if self.candidate else None
         coeffs = ({n: getattr(k, n) for n in THETA_NAMES} if k else
                   {n: NAN for n in THETA_NAMES})
@@ -160,14 +169,31 @@ class DesignResult(ResultData):
     def margin_grid(self) -> dict:
         """The chosen design's margin check over the whole speed range
         (:func:`bridgeflap.design.control.checks.margin_on_speed_grid`), or ``{}`` when it did not
-        run."""
+        run.
+
+        Returns
+        -------
+        dict
+            The grid (``speeds_m_s``, ``speed_count``), the smallest robust margin [-]
+            (``margin``) and its speed ``worst_speed_m_s`` [m/s], the margin on the grid
+            points only, at the design's speeds and on the verification model, and whether
+            the reported margin holds; ``{}`` when the check did not run.
+        """
         grid = self.extras.get("robust_margin_speed_grid") or {}
         return grid if isinstance(grid.get("margin"), float) else {}
 
     def best_achievable(self) -> dict:
         """The best design found when none is usable: its K, layout and
         closed-loop critical speed under the stated limits, and every check it misses. It is
-        reported, never written as ``controller.toml``."""
+        reported, never written as ``controller.toml``.
+
+        Returns
+        -------
+        dict
+            ``why_not_usable`` (one reason per missed check), the coefficients of ``K(s)``, the
+            flap positions [m], the peak gain [rad/rad], ``stable_to_m_s`` and the closed- and
+            open-loop critical speeds [m/s].
+        """
         b, s = self.best, self.settings
         lim = self.extras.get("closed_loop_limits", {}) or {}
         why = []
@@ -214,7 +240,13 @@ class DesignResult(ResultData):
     def history(self) -> dict:
         """Ipopt iteration history of every start and round (``ipopt_history.json``):
         per round its label, status and the per-iteration ``obj``, ``inf_pr``, ``inf_du``,
-        ``mu`` lists."""
+        ``mu`` lists.
+
+        Returns
+        -------
+        dict
+            ``{"rounds": [...]}``, one dict per start and round.
+        """
         out = []
         for s in self.starts:
             for r in s.rounds:
@@ -267,12 +299,35 @@ class DesignResult(ResultData):
                 "starts": len(self.starts), "wall_time_s": self.wall_time_s}
 
     def plot(self, ax=None):
-        """The margins per speed with the flap layout (:meth:`plot_margins`)."""
+        """The margins per speed with the flap layout (:meth:`plot_margins`).
+
+        Parameters
+        ----------
+        ax : sequence of four matplotlib.axes.Axes, optional
+            Spectral-abscissa, damping-ratio and robust-margin axes, then the layout's (default:
+            a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         return self.plot_margins(ax)
 
     def plot_bode(self, ax=None):
         """Gain and phase of the compensator against frequency [Hz] with the gain limit
-        (:func:`bridgeflap.design.control.figures.bode`)."""
+        (:func:`bridgeflap.design.control.figures.bode`).
+
+        Parameters
+        ----------
+        ax : sequence of two matplotlib.axes.Axes, optional
+            Gain and phase axes (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         from bridgeflap.design.control.figures import bode
 
         st = self.settings
@@ -287,7 +342,19 @@ class DesignResult(ResultData):
     def plot_margins(self, ax=None):
         """Spectral abscissa, smallest damping ratio of the movable branches with
         ``zeta_min``, robust margin per speed and the flap layout on the deck
-        (:func:`bridgeflap.design.control.figures.margins`)."""
+        (:func:`bridgeflap.design.control.figures.margins`).
+
+        Parameters
+        ----------
+        ax : sequence of four matplotlib.axes.Axes, optional
+            Spectral-abscissa, damping-ratio and robust-margin axes, then the layout's (default:
+            a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         from bridgeflap.design.control.figures import margins
         from bridgeflap.model.errors import BridgeflapError
         from bridgeflap.model.structure.loader import load_bridge
@@ -324,7 +391,16 @@ class DesignResult(ResultData):
 
     def usable_speed(self) -> dict:
         """The usable-speed check's block (``acceptance.usable_speed``; ``{}`` when it did not
-        run): :mod:`bridgeflap.design.assessment.usable_speed`."""
+        run): :mod:`bridgeflap.design.assessment.usable_speed`.
+
+        Returns
+        -------
+        dict
+            ``status``, ``usable_speed_m_s`` [m/s] and what limits it
+            (``usable_speed_limited_by``), the linear closed-loop and open-loop critical
+            speeds [m/s], the 3-sigma flap angle and rate speeds [m/s], the saturated loop's
+            bracket [m/s] and the limits used; ``{}`` when the check did not run.
+        """
         u = (self.extras.get("acceptance") or {}).get("usable_speed") or {}
         return u if "usable_speed_m_s" in u else {}
 

@@ -383,7 +383,19 @@ class DesignSettings:
 
     def positions(self, count: int | None = None) -> np.ndarray:
         """Flap centres from the main-span mid-point [m]: ``flap_positions_m`` when given (and
-        ``count`` is not), else ``count`` (default ``flap_count``) evenly spaced, touching."""
+        ``count`` is not), else ``count`` (default ``flap_count``) evenly spaced, touching.
+
+        Parameters
+        ----------
+        count : int, optional
+            Evenly spaced flaps to lay out (default: ``flap_positions_m`` when given, else
+            ``flap_count``).
+
+        Returns
+        -------
+        numpy.ndarray
+            The flap centres [m], sorted.
+        """
         if count is None and self.flap_positions_m:
             return np.sort(np.asarray(self.flap_positions_m, float))
         count = self.flap_count if count is None else int(count)
@@ -391,7 +403,13 @@ class DesignSettings:
 
     def design_speeds(self) -> np.ndarray:
         """Design grid [m/s], 0 .. speed_max inclusive (never above it: the steps that fit,
-        then ``speed_max``)."""
+        then ``speed_max``).
+
+        Returns
+        -------
+        numpy.ndarray
+            Speeds [m/s] in steps of ``design_step_m_s``, ending at ``speed_max_m_s``.
+        """
         n = int(np.floor(self.speed_max_m_s / self.design_step_m_s + 1e-9))
         return np.unique(np.append(np.linspace(0.0, n * self.design_step_m_s, n + 1),
                                    self.speed_max_m_s))
@@ -399,12 +417,25 @@ class DesignSettings:
     def iteration_cap(self) -> int:
         """Most Ipopt iterations of one start (the total of its progress bar): phase 1 and
         round 0 (``max_iter`` each) and the cut re-solves (``resolve_max_iter`` each); twice
-        that with ``optimise_placement`` (the rounded layout is solved again)."""
+        that with ``optimise_placement`` (the rounded layout is solved again).
+
+        Returns
+        -------
+        int
+            The iteration count.
+        """
         once = 2 * self.max_iter + self.cutting_plane_rounds * self.resolve_max_iter
         return once * (2 if self.optimise_placement else 1)
 
     def check_speeds(self) -> np.ndarray:
-        """Dense verification grid [m/s]."""
+        """Dense verification grid [m/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            Evenly spaced speeds [m/s] from 0 to ``speed_max_m_s``, about ``check_step_m_s``
+            apart.
+        """
         n = int(round(self.speed_max_m_s / self.check_step_m_s))
         return np.linspace(0.0, self.speed_max_m_s, n + 1)
 

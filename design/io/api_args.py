@@ -31,7 +31,7 @@ from bridgeflap.model.arguments import (
 from bridgeflap.model.errors import BridgeflapInputError, BridgeflapTypeError
 
 __all__ = ["MAX_DESIGN_SPEED_M_S", "MAX_SEED", "MAX_VARIANTS", "check_accept_args",
-           "check_design_args", "check_design_speed", "check_harm_args",
+           "check_design_args", "check_design_speed", "check_harm_args", "check_model_modes",
            "check_load_settings_args", "check_scheduler", "check_seed", "check_settings",
            "check_variants"]
 
@@ -183,7 +183,24 @@ def check_harm_args(controller, bridge, count, seed, n_modes, speed_max_m_s, spe
     if not isinstance(spec, BridgeSpec):
         raise BridgeflapTypeError("bridge", "must be a built-in bridge name, a bridge .toml "
                                             f"path or a BridgeSpec, got {describe(bridge)}")
+    check_model_modes(spec, n_modes, "n_modes")
     return controller, spec, grid
+
+
+def check_model_modes(spec, n_modes: int, field: str = "n_modes") -> None:
+    """Raise naming ``field`` when the model of ``spec`` has fewer vertical and torsional
+    modes than ``n_modes``: checked before any work or progress line (its modal model is
+    solved here, a fraction of a second), not by each worker once the variants run."""
+    from bridgeflap.model.analysis import modal_model
+
+    if getattr(spec, "structure", None) is not None:  # imported modal data: checked on use
+        return
+    try:
+        modal_model(spec).structural_basis(int(n_modes))
+    except BridgeflapInputError as exc:
+        if exc.field != "modes":
+            raise
+        raise BridgeflapInputError(field, exc.reason) from None
 
 
 def check_accept_args(seed=None, quick=False, quick_field: str = "quick") -> None:

@@ -253,7 +253,16 @@ class SensitivityResult(ResultData):
     divergence_branch_label: str = ""
 
     def summary(self) -> dict:
-        """The ``bridgeflap sensitivity`` JSON contract."""
+        """The ``bridgeflap sensitivity`` JSON contract.
+
+        Returns
+        -------
+        dict
+            The flutter and divergence speeds [m/s] and statuses, the branch labels, the mode
+            count, the settings, the kinked parameters and, under ``derivatives``, per parameter
+            its value in SI units, the derivatives of each speed ([m/s] per SI unit) by the IFT
+            and the checks, and the relative derivatives [-].
+        """
         return {"bridge": self.bridge, "flutter_speed_m_s": self.flutter_speed_m_s,
                 "flutter_status": self.flutter_status,
                 "critical_branch_label": self.critical_branch_label,
@@ -279,11 +288,29 @@ class SensitivityResult(ResultData):
         return [{_unit_key(k): v for k, v in r.items()} for r in self.rows]
 
     def to_dict(self) -> dict:
-        """Strict JSON: :meth:`summary` (its derivative keys carry their units)."""
+        """Strict JSON: :meth:`summary` (its derivative keys carry their units).
+
+        Returns
+        -------
+        dict
+            :meth:`summary` with NaN and infinities as ``None``.
+        """
         return jsonable(self.summary())
 
     def table(self, fmt: str = "simple") -> str:
-        """Text table of the IFT derivatives and both checks (:mod:`tabulate`)."""
+        """Text table of the IFT derivatives and both checks (:mod:`tabulate`).
+
+        Parameters
+        ----------
+        fmt : str, default "simple"
+            A :mod:`tabulate` table format.
+
+        Returns
+        -------
+        str
+            One row per parameter: its value, the flutter-speed derivative by the IFT and the
+            checks, the relative derivatives [-] and the statuses.
+        """
         cols = {"parameter": "parameter", "value_si": "value",
                 "d_flutter_speed_m_s_per_unit": "dUF/dp IFT",
                 "d_flutter_speed_m_s_per_unit_fd": "full FD",
@@ -311,7 +338,18 @@ class SensitivityResult(ResultData):
         return table
 
     def plot(self, ax=None):
-        """Tornado plot of the relative derivatives ``(p/U) dU/dp`` (flutter and divergence)."""
+        """Tornado plot of the relative derivatives ``(p/U) dU/dp`` (flutter and divergence).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         import matplotlib.pyplot as plt
 
         if ax is None:

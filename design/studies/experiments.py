@@ -119,7 +119,15 @@ class DoeConfig:
     source: str = ""
 
     def as_dict(self) -> dict:
-        """JSON-ready resolved configuration."""
+        """JSON-ready resolved configuration.
+
+        Returns
+        -------
+        dict
+            The name, the bridge's identity (name, file, hash), the analysis and its options,
+            the sampler (``kind``, ``levels``, ``n``, ``seed``), each parameter's range and the
+            source file.
+        """
         from bridgeflap.design.io.identity import bridge_identity
 
         return {"name": self.name, **bridge_identity(self.bridge), "analysis": self.analysis,
@@ -129,7 +137,13 @@ class DoeConfig:
                 "source": self.source}
 
     def cases(self) -> list[dict]:
-        """The design's cases (``case_id`` + parameter values)."""
+        """The design's cases (``case_id`` + parameter values).
+
+        Returns
+        -------
+        list of dict
+            One per case: ``case_id`` and each parameter path with its value (SI).
+        """
         from bridgeflap.design.batch.designs import make_design
 
         if self.kind == "full_factorial":
@@ -140,7 +154,14 @@ class DoeConfig:
                            n=self.n, seed=self.seed)
 
     def case_function(self):
-        """The picklable case function with its settings bound."""
+        """The picklable case function with its settings bound.
+
+        Returns
+        -------
+        functools.partial
+            ``analysis_case`` with the analysis, the bridge and the options bound: called with
+            a case's parameters, it returns that case's result.
+        """
         return functools.partial(analysis_case, analysis=self.analysis, bridge=self.bridge,
                                  **self.options)
 
@@ -331,7 +352,14 @@ class DoeResult(ResultData):
     rows: tuple
 
     def summary(self) -> dict:
-        """The ``bridgeflap doe --json`` contract."""
+        """The ``bridgeflap doe --json`` contract.
+
+        Returns
+        -------
+        dict
+            ``name``, ``analysis``, the case counts (``cases``, ``succeeded``, ``failed``,
+            ``reused``), the ``table`` path, ``out_dir`` and each case's status.
+        """
         return {"name": self.config.name, "analysis": self.config.analysis,
                 "cases": self.cases, "succeeded": self.succeeded, "failed": self.failed,
                 "reused": self.reused, "table": str(self.table_path), "out_dir": str(self.out_dir),
@@ -354,7 +382,13 @@ class DoeResult(ResultData):
     def to_xarray(self):
         """The cases on the dimension ``case``: parameters as coordinates, each scalar result a
         variable (:func:`bridgeflap.design.batch.table.cases_dataset`); ``ds.set_index`` or
-        ``ds.to_dataframe()`` for a grid."""
+        ``ds.to_dataframe()`` for a grid.
+
+        Returns
+        -------
+        xarray.Dataset
+            The cases on the dimension ``case`` (NaN for a failed case).
+        """
         from bridgeflap.design.batch.table import cases_dataset
 
         return cases_dataset(self.rows)

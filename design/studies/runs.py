@@ -77,41 +77,113 @@ class RunRecord(ResultData):
                       "critical_speed_m_s")
 
     def summary(self) -> dict:
-        """The folder's own summary, with ``kind`` and ``folder`` added."""
+        """The folder's own summary, with ``kind`` and ``folder`` added.
+
+        Returns
+        -------
+        dict
+            ``kind`` (``study``, ``doe``, ``batch``, ``optimise``, ...), ``folder`` and the
+            folder's ``summary.json``.
+        """
         return {"kind": self.kind, "folder": str(self.folder), **self.data}
 
     # ----------------------------------------------------------------------- folder parts
     def path(self, name: str) -> Path:
-        """A file of the folder (``run.path("report.html")``); it may not exist."""
+        """A file of the folder (``run.path("report.html")``); it may not exist.
+
+        Parameters
+        ----------
+        name : str
+            A path relative to the folder.
+
+        Returns
+        -------
+        pathlib.Path
+            That path inside the folder.
+        """
         return self.folder / name
 
     def files(self) -> list[str]:
-        """Every file of the folder, relative to it, sorted (the marker included)."""
+        """Every file of the folder, relative to it, sorted (the marker included).
+
+        Returns
+        -------
+        list of str
+            The paths relative to the folder.
+        """
         return sorted(str(p.relative_to(self.folder)) for p in self.folder.rglob("*")
                       if p.is_file())
 
     def results(self) -> dict[str, dict]:
-        """A study's analysis results: analysis -> its ``results/<analysis>.json``."""
+        """A study's analysis results: analysis -> its ``results/<analysis>.json``.
+
+        Returns
+        -------
+        dict
+            Analysis name -> its result's JSON (``{}`` for a folder without ``results/``).
+
+        Raises
+        ------
+        BridgeflapInputError
+            Naming the file: it is not UTF-8 text, not valid JSON or not the expected kind
+            (a corrupt folder).
+        """
         out = {}
         for path in sorted((self.folder / "results").glob("*.json")):
             out[path.stem] = _read_json(path, f"results/{path.name}", None)
         return out
 
     def statuses(self) -> dict:
-        """A study's ``statuses.json`` (analysis -> status), else the DOE case statuses."""
+        """A study's ``statuses.json`` (analysis -> status), else the DOE case statuses.
+
+        Returns
+        -------
+        dict
+            Analysis name (a study) or case id (a DOE or batch) -> status.
+
+        Raises
+        ------
+        BridgeflapInputError
+            Naming the file: it is not UTF-8 text, not valid JSON or not the expected kind
+            (a corrupt folder).
+        """
         path = self.folder / "statuses.json"
         if path.is_file():
             return _read_json(path, "statuses.json")
         return {row["case_id"]: row["status"] for row in self.case_records()}
 
     def case_records(self) -> list[dict]:
-        """A DOE's or batch's case records (``cases/<case_id>.json``), in case order."""
+        """A DOE's or batch's case records (``cases/<case_id>.json``), in case order.
+
+        Returns
+        -------
+        list of dict
+            One per case (``case_id``, ``params``, ``status``, ``error``, ``elapsed_s``,
+            ``result``); empty for a folder without cases.
+
+        Raises
+        ------
+        BridgeflapInputError
+            Naming the file: it is not UTF-8 text, not valid JSON or not the expected kind
+            (a corrupt folder).
+        """
         paths = sorted((self.folder / "cases").glob("*.json"))
         return [_read_json(p, f"cases/{p.name}") for p in paths]
 
     def controller(self):
         """The designed controller (``controller.toml`` of an optimise folder, or
-        ``results/controller.toml`` of a study), or ``None`` when there is none."""
+        ``results/controller.toml`` of a study), or ``None`` when there is none.
+
+        Returns
+        -------
+        Controller or None
+            The controller read from its file.
+
+        Raises
+        ------
+        BridgeflapInputError
+            ``controller...``: the controller file is unreadable or invalid.
+        """
         from bridgeflap.model.aeroelastic.controller_file import load_controller
 
         for name in ("controller.toml", "results/controller.toml"):
@@ -121,7 +193,24 @@ class RunRecord(ResultData):
 
     def dataset(self, analysis: str):
         """A study analysis's labelled arrays (``results/<analysis>.nc``) as an
-        :class:`xarray.Dataset`."""
+        :class:`xarray.Dataset`.
+
+        Parameters
+        ----------
+        analysis : str
+            A study analysis (``"flutter"``, ``"erection"``, ...).
+
+        Returns
+        -------
+        xarray.Dataset
+            Its labelled arrays, loaded into memory.
+
+        Raises
+        ------
+        BridgeflapInputError
+            ``analysis``: the study wrote no arrays of it; ``results/<analysis>.nc``: the file
+            cannot be read.
+        """
         import xarray as xr
 
         path = self.folder / "results" / f"{analysis}.nc"
@@ -156,7 +245,19 @@ class RunRecord(ResultData):
     def to_xarray(self):
         """DOE and batch folders: the cases (:func:`bridgeflap.design.batch.table.cases_dataset`); a
         study: its labelled arrays merged over the analyses' ``results/*.nc`` (variables prefixed
-        ``<analysis>.``)."""
+        ``<analysis>.``).
+
+        Returns
+        -------
+        xarray.Dataset
+            The cases on the dimension ``case``, or the study's arrays; a folder with neither:
+            its table on the dimension ``row``.
+
+        Raises
+        ------
+        BridgeflapInputError
+            A case or array file cannot be read.
+        """
         if (self.folder / "cases").is_dir():
             from bridgeflap.design.batch.table import cases_dataset
 

@@ -70,7 +70,14 @@ class GlobalSensitivityResult(ResultData):
     outputs: dict = field(default_factory=dict, compare=False)
 
     def summary(self) -> dict:
-        """JSON-ready summary."""
+        """JSON-ready summary.
+
+        Returns
+        -------
+        dict
+            ``method``, each parameter's range (SI), the ``indices`` per output, the 5-50-95 %
+            ``band`` of each speed [m/s], the case counts and ``out_dir``.
+        """
         return {"method": self.method, "ranges": {k: list(v) for k, v in self.ranges.items()},
                 "indices": self.indices, "band": self.band, "cases": self.cases,
                 "succeeded": self.succeeded, "failed": self.failed, "out_dir": self.out_dir}
@@ -102,7 +109,18 @@ class GlobalSensitivityResult(ResultData):
 
     def write_indices(self, folder) -> Path | None:
         """Write the indices as ``indices.csv`` (:meth:`to_dataframe`) into ``folder``; None
-        when none were computed."""
+        when none were computed.
+
+        Parameters
+        ----------
+        folder : str or pathlib.Path
+            An existing folder.
+
+        Returns
+        -------
+        pathlib.Path or None
+            The file written, or None when no index was computed.
+        """
         rows = self._rows()
         if not rows:
             return None
@@ -114,7 +132,18 @@ class GlobalSensitivityResult(ResultData):
 
     def plot(self, axes=None):
         """Index bars per output, the Morris ``sigma``-``mu*`` plane (Morris only) and the
-        histograms of the two speeds, left to right."""
+        histograms of the two speeds, left to right.
+
+        Parameters
+        ----------
+        axes : sequence of matplotlib.axes.Axes, optional
+            Three axes for Morris, two for Sobol' (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         import matplotlib.pyplot as plt
 
         morris = self.method == "morris"

@@ -58,9 +58,6 @@ from types import MappingProxyType
 from typing import Any
 
 from bridgeflap.design.io.files import (
-    atomic_save_netcdf,
-    atomic_savez,
-    atomic_write,
     atomic_write_json,
     atomic_write_text,
     output_folder,
@@ -82,6 +79,7 @@ from bridgeflap.design.io.outputs import (
 )
 from bridgeflap.design.studies.analyses import ANALYSES, Outcome, RunContext
 from bridgeflap.design.studies.report import PAPER, study_report, study_report_html
+from bridgeflap.design.studies.study_files import write_outcome
 from bridgeflap.model.arguments import (
     check_callable,
     check_mapping,
@@ -142,7 +140,15 @@ class StudyConfig:
     source: str = ""
 
     def as_dict(self) -> dict:
-        """JSON-ready resolved configuration."""
+        """JSON-ready resolved configuration.
+
+        Returns
+        -------
+        dict
+            The name, the bridge's identity (name, file, hash), ``quick``, the mesh override
+            ``element_length_m`` [m], the description, the source file and each analysis's
+            options.
+        """
         from bridgeflap.design.io.identity import bridge_identity
 
         return {"name": self.name, **bridge_identity(self.bridge), "quick": self.quick,
@@ -151,7 +157,18 @@ class StudyConfig:
                 "analyses": {kind: dict(opts) for kind, opts in self.analyses}}
 
     def spec(self):
-        """The bridge definition with the mesh override applied."""
+        """The bridge definition with the mesh override applied.
+
+        Returns
+        -------
+        BridgeSpec
+            The study's bridge, on elements of ``element_length_m`` [m] when the study sets it.
+
+        Raises
+        ------
+        BridgeflapInputError
+            The bridge cannot be loaded, or the element length is out of range.
+        """
         from bridgeflap.model.structure.loader import load_bridge
 
         spec = load_bridge(self.bridge)
@@ -304,7 +321,15 @@ class StudyResult(ResultData):
         return "ok" if all(s in good for s in self.statuses.values()) else "partial"
 
     def summary(self) -> dict:
-        """The ``bridgeflap study --json`` contract."""
+        """The ``bridgeflap study --json`` contract.
+
+        Returns
+        -------
+        dict
+            ``status``, ``study``, ``quick``, ``out_dir``, ``report``, ``elapsed_s`` [s], each
+            analysis's status and, under ``results``, the flutter and divergence speeds [m/s]
+            beside the paper's.
+        """
         fl = self.results.get("flutter", {})
         return {"status": self.status, "study": self.config.name, "quick": self.config.quick,
                 "out_dir": str(self.out_dir), "report": str(self.report),
@@ -324,7 +349,23 @@ class StudyResult(ResultData):
                 "out_dir": s["out_dir"]}
 
     def plot(self, axes=None):
-        """The flutter root locus and damping/frequency plots (the paper's Fig. 3 left)."""
+        """The flutter root locus and damping/frequency plots (the paper's Fig. 3 left).
+
+        Parameters
+        ----------
+        axes : sequence of three matplotlib.axes.Axes, optional
+            Root-locus, V-g and V-f axes (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+
+        Raises
+        ------
+        BridgeflapError
+            The study ran no flutter analysis.
+        """
         if self.objects.get("flutter") is None:
             raise BridgeflapError("the study has no flutter result to plot")
         return self.objects["flutter"].plot(axes)
@@ -365,32 +406,6 @@ def _run_one(kind: str, spec, opts: Mapping, config: StudyConfig, say,
     if inner is not None and inner != outcome.status:
         summary["solver_status"] = inner
     return Outcome(outcome.status, summary, outcome.arrays, outcome.figures, outcome.result)
-
-
-def _labelled(result) -> bool:
-    """The result has labelled arrays of its own (a sweep's ``to_xarray``), not only the
-    generic table-as-dataset every result has."""
-    from bridgeflap.model.results import ResultData
-
-    method = getattr(type(result), "to_xarray", None)
-    return callable(method) and method is not ResultData.to_xarray
-
-
-def _write_outcome(kind: str, outcome: Outcome, folder: Path) -> tuple[dict, list[str]]:
-    """Write the results, arrays, figures (and a designed controller) of one analysis."""
-    summary = dict(outcome.summary)
-    controller = getattr(outcome.result, "controller", None) if kind == "design" else None
-    if controller is not None:
-        from bridgeflap.model.aeroelastic.controller_file import save_controller
-
-        save_controller(controller, folder / "results" / "controller.toml")
-        summary["controller_file"] = "results/controller.toml"
-    atomic_write_json(folder / "results" / f"{kind}.json", summary)
-    if outcome.arrays:
-        atomic_savez(folder / "results" / f"{kind}.npz", **outcome.arrays)
-    if _labelled(outcome.result):  # sweeps as labelled arrays
-        atomic_save_netcdf(folder / "results" / f"{kind}.nc", outcome.result.to_xarray())
-    return summary, _save_figures(outcome.figures, folder / "figures")
 
 
 @checked(config=optional(instance_or_path(StudyConfig, "bridgeflap.design.load_study")),
@@ -482,7 +497,7 @@ def _run_and_write(kind: str, spec, opts: Mapping, config: StudyConfig, folder: 
     say = say or (lambda msg: None)
     say(f"study {config.name}: {kind} ...")
     outcome = _run_one(kind, spec, opts, config, say, workers)
-    summary, names = _write_outcome(kind, outcome, folder)
+    summary, names = write_outcome(kind, outcome, folder)
     say(f"study {config.name}: {kind} {outcome.status} ({outcome.summary['elapsed_s']:.1f} s)")
     result = outcome.result
     if not in_process:
@@ -576,15 +591,3 @@ def validate_study(config: StudyConfig) -> None:
 #: analyses that rebuild the structure (erection stages, per-stage modes): the cable/FE model
 FE_ONLY_ANALYSES = ("erection", "frequency_ratio")
 
-
-def _save_figures(figs: Mapping, folder: Path) -> list[str]:
-    import matplotlib.pyplot as plt
-
-    names = []
-    for name, fig in figs.items():
-        atomic_write(folder / f"{name}.png",
-                     lambda fh, fig=fig: fig.savefig(fh, format="png", dpi=110,
-                                                     bbox_inches="tight"))
-        plt.close(fig)
-        names.append(f"figures/{name}.png")
-    return names

@@ -183,13 +183,26 @@ class Compensator:
         return (self.b2 * s**2 + self.b1 * s + self.b0) / (self.a2 * s**2 + self.a1 * s + 1.0)
 
     def high_frequency_gain(self) -> float:
-        """Return ``lim_{w->inf} |K(jw)|`` [rad/rad]: ``|b2/a2|``, or ``|b1/a1|`` if first order."""
+        """Return ``lim_{w->inf} |K(jw)|`` [rad/rad]: ``|b2/a2|``, or ``|b1/a1|`` if first order.
+
+        Returns
+        -------
+        float
+            The gain [rad/rad] as the frequency goes to infinity.
+        """
         if self.a2 > 0.0:
             return abs(self.b2 / self.a2)
         return abs(self.b1 / self.a1)
 
     def stationary_frequencies(self) -> np.ndarray:
-        """Frequencies [rad/s] where d|K(jw)|^2 / d(w^2) = 0, w > 0."""
+        """Frequencies [rad/s] where d|K(jw)|^2 / d(w^2) = 0, w > 0.
+
+        Returns
+        -------
+        numpy.ndarray
+            The positive real frequencies [rad/s] (none, one or two), where ``|K|`` has a peak or a
+            trough.
+        """
         # |K|^2 = N(x)/D(x), x = w^2:
         # N = (b0 - b2 x)^2 + b1^2 x,  D = (1 - a2 x)^2 + a1^2 x.
         n = np.array([self.b2**2, self.b1**2 - 2.0 * self.b0 * self.b2, self.b0**2])
@@ -268,7 +281,18 @@ class Compensator:
     def to_control(self):
         """K(s) as a ``control.TransferFunction``
         (:func:`bridgeflap.model.aeroelastic.python_control.compensator_tf`;
-        python-control, the extra ``control``)."""
+        python-control, the extra ``control``).
+
+        Returns
+        -------
+        control.TransferFunction
+            ``K(s)`` named ``K``, with input ``pitch`` and output ``beta`` [rad].
+
+        Raises
+        ------
+        BridgeflapError
+            python-control is not installed (the ``control`` extra).
+        """
         from bridgeflap.model.aeroelastic.python_control import compensator_tf
 
         return compensator_tf(self)
@@ -452,23 +476,46 @@ class Controller:
     def to_statespace(self):
         """The controller (``pitch_flap[f]`` -> ``flap_te[f]``, ``flap_le[f]``) as a
         ``control.StateSpace``
-        (:func:`bridgeflap.model.aeroelastic.python_control.controller_statespace`)."""
+        (:func:`bridgeflap.model.aeroelastic.python_control.controller_statespace`).
+
+        Returns
+        -------
+        control.StateSpace
+            Inputs ``pitch_flap[f]`` [rad], outputs ``flap_te[f]`` and ``flap_le[f]`` [rad], one
+            per flap strip.
+
+        Raises
+        ------
+        BridgeflapError
+            python-control is not installed (the ``control`` extra).
+        """
         from bridgeflap.model.aeroelastic.python_control import controller_statespace
 
         return controller_statespace(self)
 
     def gain_ratio(self) -> float:
-        """Return ``sup_w |K(jw)| / gain_limit`` (<= 1 when the gain limit is met)."""
+        """Return ``sup_w |K(jw)| / gain_limit`` (<= 1 when the gain limit is met).
+
+        Returns
+        -------
+        float
+            The peak gain over the gain limit [-].
+        """
         return self.compensator.max_gain() / self.gain_limit
 
     def gain_check(self) -> dict:
         """Whether ``sup_w |K(jw)|`` respects the controller's own ``gain_limit``.
 
-        Returns ``controller_max_gain`` and ``controller_gain_limit`` [rad/rad] and
-        ``controller_within_gain_limit``. A relative slack of 1e-6 admits a design that sits on
-        its limit (an optimiser meets the bound to its constraint tolerance, about 1e-8 on
-        the scaled gain, and the dense sup is evaluated to roundoff); anything beyond is a
-        controller that does not meet its own definition.
+        A relative slack of 1e-6 admits a design that sits on its limit (an optimiser meets
+        the bound to its constraint tolerance, about 1e-8 on the scaled gain, and the dense
+        sup is evaluated to roundoff); anything beyond is a controller that does not meet its
+        own definition.
+
+        Returns
+        -------
+        dict
+            ``controller_max_gain`` and ``controller_gain_limit`` [rad/rad] and
+            ``controller_within_gain_limit`` (bool).
         """
         gain = self.compensator.max_gain()
         return {"controller_max_gain": gain, "controller_gain_limit": self.gain_limit,

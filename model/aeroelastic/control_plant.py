@@ -99,7 +99,15 @@ class Plant(ResultData):
     inputs: str
 
     def summary(self) -> dict:
-        """Sizes, speed, spectral abscissa [1/s] and the signal names (strict JSON)."""
+        """Sizes, speed, spectral abscissa [1/s] and the signal names (strict JSON).
+
+        Returns
+        -------
+        dict
+            ``inputs`` (the input set), ``states``, ``input_count``, ``output_count``,
+            ``wind_speed_m_s`` [m/s], ``spectral_abscissa_1_s`` [1/s], the signal names and the
+            strip and flap positions [m].
+        """
         return {"inputs": self.inputs, "states": int(self.A.shape[0]),
                 "input_count": int(self.B.shape[1]), "output_count": int(self.C.shape[0]),
                 "wind_speed_m_s": self.wind_speed_m_s,
@@ -111,7 +119,18 @@ class Plant(ResultData):
                       "spectral_abscissa_1_s")
 
     def plot(self, ax=None):
-        """Eigenvalues of ``A`` in the complex plane [1/s]."""
+        """Eigenvalues of ``A`` in the complex plane [1/s].
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         import matplotlib.pyplot as plt
 
         if ax is None:
@@ -130,6 +149,17 @@ class Plant(ResultData):
 
         Names are unicode arrays for ``.npz`` (loadable without pickle) and object arrays for
         ``.mat`` (``scipy.io.savemat`` writes them as MATLAB cell arrays: no space padding).
+
+        Parameters
+        ----------
+        mat : bool, default False
+            Names as MATLAB cell arrays (for ``scipy.io.savemat``) rather than unicode arrays.
+
+        Returns
+        -------
+        dict
+            ``A``, ``B``, ``C``, ``D``, the state, input and output names, ``wind_speed_m_s``
+            [m/s], ``strip_x_m``, ``flap_x_m``, ``flap_position_m`` and ``flap_width_m`` [m].
         """
         def cells(names):
             if not mat:
@@ -146,7 +176,18 @@ class Plant(ResultData):
                 "flap_position_m": self.flap_position_m, "flap_width_m": self.flap_width_m}
 
     def to_control(self):
-        """This plant as a named ``control.StateSpace`` (:func:`to_control`)."""
+        """This plant as a named ``control.StateSpace`` (:func:`to_control`).
+
+        Returns
+        -------
+        control.StateSpace
+            ``A, B, C, D`` with the plant's state, input and output names.
+
+        Raises
+        ------
+        BridgeflapError
+            python-control is not installed (the ``control`` extra).
+        """
         return to_control(self)
 
 

@@ -179,6 +179,16 @@ class ClosedLoopModel:
         (:func:`bridgeflap.model.aeroelastic.assembly.open_pieces`).
 
         ``weights`` (per-flap load factor [-]) may be numeric or a CasADi symbol.
+
+        Parameters
+        ----------
+        weights : array_like or CasADi symbol, optional
+            Per-flap load factor [-] (1 = fitted, 0 = absent); default all ones.
+
+        Returns
+        -------
+        OpenPieces
+            The open-loop polynomial pieces with the flap load columns.
         """
         ol = self.open_loop
         w = self._weights(weights) if not is_symbolic(weights) else weights
@@ -195,8 +205,14 @@ class ClosedLoopModel:
         Parameters
         ----------
         compensator : Compensator
+            The numeric ``K(s)`` on every flap.
         weights : array_like, optional
             Per-flap load factor [-] (1 = fitted, 0 = absent); default all ones.
+
+        Returns
+        -------
+        AeroelasticSystem
+            The open-loop states and the compensator states of every flap.
         """
         w = self._weights(weights)
         Ac, Bc, Cc, Dc = compensator.state_space()
@@ -267,7 +283,23 @@ class ClosedLoopModel:
         U P_gust`` (len(s), n_modes, n_strips) [modal coordinate per m/s of strip gust
         velocity after the admittance], from the same ``D(s)``. With the loop ``beta = K
         alpha``, ``q = (I - K X diag(w) Pa)^{-1} X_gust w_tilde`` (the closed-loop gust
-        response of the RFA state space ``AeroelasticSystem.B_gust``)."""
+        response of the RFA state space ``AeroelasticSystem.B_gust``).
+
+        Parameters
+        ----------
+        wind_speed : float
+            ``U`` [m/s].
+        s : array_like of complex
+            Laplace variables [1/s].
+        weights : array_like, optional
+            Per-flap load factor [-] (1 = fitted, 0 = absent); default all ones.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            ``Pa`` (flaps x modes), ``X`` (len(s), modes, flaps) and ``X_gust`` (len(s),
+            modes, strips).
+        """
         return self._responses(wind_speed, s, weights, gust=True)
 
     def _responses(self, wind_speed, s, weights, gust):
@@ -289,7 +321,22 @@ class ClosedLoopModel:
         return np.asarray(self.flaps.phi_a, float), X, Xg
 
     def abscissa(self, compensator: Compensator, speeds, weights=None) -> np.ndarray:
-        """Closed-loop spectral abscissa [1/s] per speed (lag states dropped at ``U = 0``)."""
+        """Closed-loop spectral abscissa [1/s] per speed (lag states dropped at ``U = 0``).
+
+        Parameters
+        ----------
+        compensator : Compensator
+            The numeric ``K(s)`` on every flap.
+        speeds : array_like
+            Wind speeds [m/s].
+        weights : array_like, optional
+            Per-flap load factor [-] (1 = fitted, 0 = absent); default all ones.
+
+        Returns
+        -------
+        numpy.ndarray
+            The largest real part of the closed-loop eigenvalues [1/s] at each speed.
+        """
         sys_cl = self.system(compensator, weights)
         keep = np.ones(sys_cl.n_states, bool)
         keep[sys_cl.index.aero_lag] = False

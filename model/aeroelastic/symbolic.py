@@ -104,7 +104,20 @@ class SymbolicModel:
     n_states: int
 
     def A(self, wind_speed: float, p=None) -> np.ndarray:
-        """Numeric ``A`` at ``wind_speed`` [m/s] and relative parameters ``p`` (default 1)."""
+        """Numeric ``A`` at ``wind_speed`` [m/s] and relative parameters ``p`` (default 1).
+
+        Parameters
+        ----------
+        wind_speed : float
+            ``U`` [m/s].
+        p : array_like, optional
+            Each of ``parameters`` relative to its nominal value [-] (default all 1).
+
+        Returns
+        -------
+        numpy.ndarray
+            The state matrix (``n_states`` square).
+        """
         p = np.ones(len(self.parameters)) if p is None else np.asarray(p, dtype=float)
         return np.array(self.A_fun(wind_speed, p))
 

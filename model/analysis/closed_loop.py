@@ -41,6 +41,12 @@ class ClosedLoopFlutterResult(ResultData):
         (:mod:`bridgeflap.model.stability.static_divergence`: status, reason, direction of the real
         eigenvalue, whether it is the stability limit); the open-loop values are under
         ``open_loop_*``.
+
+        Returns
+        -------
+        dict
+            Plain Python numbers and strings, units in the key names (NaN where not found on
+            the grid).
         """
         s = self.base.summary()
         ol = self.open_loop.summary()
@@ -61,16 +67,41 @@ class ClosedLoopFlutterResult(ResultData):
         return s
 
     def to_dataframe(self):
-        """The closed-loop sweep, one row per speed x branch."""
+        """The closed-loop sweep, one row per speed x branch.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``speed_m_s``, ``branch``, ``frequency_hz``, ``damping_ratio``,
+            ``real_part_1_s``, ``imag_part_1_s``.
+        """
         return self.base.to_dataframe()
 
     def to_xarray(self):
-        """The closed-loop sweep as an ``xarray.Dataset``."""
+        """The closed-loop sweep as an ``xarray.Dataset``.
+
+        Returns
+        -------
+        xarray.Dataset
+            The branches on ``(branch, speed_m_s)``; the flutter and divergence numbers, the
+            bridge and the model in its attributes.
+        """
         return self.base.to_xarray()
 
     def plot(self, axes=None):
         """Closed-loop root locus and damping/frequency against speed, the open loop in
-        grey underneath."""
+        grey underneath.
+
+        Parameters
+        ----------
+        axes : sequence of three matplotlib.axes.Axes, optional
+            Root-locus, V-g and V-f axes (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         return self.base.sweep.plot(axes, title=f"{self.base.spec.name} with "
                                                 f"{self.controller.n_flaps} flap pairs:",
                                     reference=self.open_loop.sweep)

@@ -165,6 +165,12 @@ class FlutterResult(ResultData):
         ``critical_speed_m_s`` is the lower of the converged flutter and divergence speeds and
         ``critical_mechanism`` says which (``"flutter"``, ``"divergence"``, or ``"none"`` when
         neither converged on the grid).
+
+        Returns
+        -------
+        dict
+            Plain Python numbers and strings, units in the key names (NaN where not found on
+            the grid).
         """
         s = self.sweep.summary()
         label = self.sweep.critical_branch
@@ -195,17 +201,42 @@ class FlutterResult(ResultData):
         return s
 
     def to_dataframe(self):
-        """The sweep, one row per speed x branch (:func:`bridgeflap.model.results.sweep_frame`)."""
+        """The sweep, one row per speed x branch (:func:`bridgeflap.model.results.sweep_frame`).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``speed_m_s``, ``branch``, ``frequency_hz``, ``damping_ratio``,
+            ``real_part_1_s``, ``imag_part_1_s``.
+        """
         return self.sweep.to_dataframe()
 
     def to_xarray(self):
-        """The sweep as an ``xarray.Dataset`` (:func:`bridgeflap.model.results.sweep_dataset`)."""
+        """The sweep as an ``xarray.Dataset`` (:func:`bridgeflap.model.results.sweep_dataset`).
+
+        Returns
+        -------
+        xarray.Dataset
+            The branches on ``(branch, speed_m_s)``; the flutter and divergence numbers, the
+            bridge and the model in its attributes.
+        """
         return self.sweep.to_xarray({"bridge": self.spec.name, "modes_retained": self.n_modes,
                                      "erected_fraction": self.spec.erected_fraction,
                                      "order": self.order, "rfa": self.rfa})
 
     def plot(self, axes=None):
-        """Root locus and damping/frequency against speed."""
+        """Root locus and damping/frequency against speed.
+
+        Parameters
+        ----------
+        axes : sequence of three matplotlib.axes.Axes, optional
+            Root-locus, V-g and V-f axes (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         return self.sweep.plot(axes, title=f"{self.spec.name} (erected "
                                            f"{self.spec.erected_fraction:.2f}):")
 

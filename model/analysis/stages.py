@@ -28,7 +28,14 @@ class _StagesResult(ResultData):
     side_spans: str = ""
 
     def summary(self) -> dict:
-        """JSON-ready ``{"bridge", "side_spans", "stages", "completed_bridge"}``."""
+        """JSON-ready ``{"bridge", "side_spans", "stages", "completed_bridge"}``.
+
+        Returns
+        -------
+        dict
+            ``bridge``, ``side_spans`` (the side-span sequence), ``stages`` (one dict per erected
+            fraction, units in the key names) and ``completed_bridge`` (the same keys).
+        """
         return {"bridge": self.bridge, "side_spans": self.side_spans,
                 "stages": list(self.stages), "completed_bridge": dict(self.completed)}
 
@@ -61,7 +68,18 @@ class ErectionResult(_StagesResult):
 
     def plot(self, ax=None):
         """Flutter and divergence speed against deck completion (the paper's Fig. 3 right):
-        :func:`bridgeflap.model.stability.plots.erection_speeds`."""
+        :func:`bridgeflap.model.stability.plots.erection_speeds`.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         from bridgeflap.model.stability.plots import erection_speeds
 
         return erection_speeds(self, ax)
@@ -182,7 +200,18 @@ class FrequencyRatioResult(_StagesResult):
 
     def plot(self, ax=None):
         """The paper's Fig. 2 style plot
-        (:func:`bridgeflap.model.structure.plots.frequency_ratio`)."""
+        (:func:`bridgeflap.model.structure.plots.frequency_ratio`).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         from bridgeflap.model.structure.plots import frequency_ratio
 
         return frequency_ratio(self, ax)

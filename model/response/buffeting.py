@@ -57,13 +57,7 @@ from bridgeflap.model.spectrum import spectral_abscissa
 from bridgeflap.model.structure.bridge_arg import takes_bridge
 from bridgeflap.model.vocabulary import DEFAULT_MODES
 
-__all__ = [
-    "LOADS",
-    "BuffetingResult",
-    "buffeting",
-    "reduced_response",
-    "row_factor",
-]
+__all__ = ["LOADS", "BuffetingResult", "buffeting", "reduced_response", "row_factor"]
 
 METHODS = ("spectral", "monte-carlo")
 #: Relative grid-convergence estimate above which a speed is flagged ``"unconverged"``.
@@ -172,9 +166,7 @@ def _strip_rms(grid, Gqq, Cl):
     return np.sqrt(np.clip(np.einsum("pi,ij,pj->p", Cl, P, Cl), 0.0, None))
 
 
-# ----------------------------------------------------------------------------------------------
-# result
-# ----------------------------------------------------------------------------------------------
+# -------------------------------------------------------------------------------- result
 @dataclass(frozen=True)
 class BuffetingResult(ResultData):
     """Buffeting response against wind speed.
@@ -245,7 +237,14 @@ class BuffetingResult(ResultData):
         return self.rms_vertical / self.deck_width_m
 
     def summary(self) -> dict:
-        """The ``bridgeflap buffeting`` JSON contract (NaN becomes null in the CLI)."""
+        """The ``bridgeflap buffeting`` JSON contract (NaN becomes null in the CLI).
+
+        Returns
+        -------
+        dict
+            Lists per speed ``speeds_m_s`` [m/s]: ``rms_vertical_m`` [m], ``rms_torsion_rad``
+            [rad], ``rms_vertical_over_width`` [-], status, convergence, ...; ``inputs``.
+        """
         se = (self.standard_error_vertical if self.standard_error_vertical is not None
               else np.full(self.speeds.size, np.nan))
         return {
@@ -297,10 +296,22 @@ class BuffetingResult(ResultData):
     def plot(self, axes=None, label=None, log: bool = False):
         """Vertical ``max sigma_z`` [mm] (``/ 2b`` on a right-hand axis) and torsional
         ``max sigma_alpha`` [deg] on the main span against ``U`` (the paper's Fig. 4 style, two
-        panels;
-        :func:`bridgeflap.model.response.plots.buffeting_panels`).
+        panels; :func:`bridgeflap.model.response.plots.buffeting_panels`). Unstable speeds are
+        NaN and leave a gap; nothing is clipped.
 
-        Unstable speeds are NaN and leave a gap; nothing is clipped.
+        Parameters
+        ----------
+        axes : sequence of two matplotlib.axes.Axes, optional
+            Vertical and torsional axes (default: a new figure).
+        label : str, optional
+            Legend label of this curve (default: none).
+        log : bool, default False
+            Logarithmic response axes.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
         """
         from bridgeflap.model.response.plots import buffeting_panels
 
@@ -314,8 +325,19 @@ class BuffetingResult(ResultData):
         Parameters
         ----------
         ax : sequence of two matplotlib Axes, optional
+            Heave and pitch axes (default: a new figure).
         speeds : sequence of float, optional
             Speeds to show [m/s] (nearest computed); all when omitted.
+
+        Returns
+        -------
+        sequence of two matplotlib.axes.Axes
+            The heave and pitch axes drawn on.
+
+        Raises
+        ------
+        BridgeflapError
+            The result holds no PSDs (the Monte-Carlo method stores none).
         """
         import matplotlib.pyplot as plt
 
@@ -340,9 +362,7 @@ class BuffetingResult(ResultData):
         return ax
 
 
-# ----------------------------------------------------------------------------------------------
-# driver
-# ----------------------------------------------------------------------------------------------
+# -------------------------------------------------------------------------------- driver
 def _main_span_mask(spec, strip_x):
     if spec is None:
         return np.ones(strip_x.size, dtype=bool)

@@ -152,20 +152,61 @@ class ConvergenceResult(ResultData):
                       "first_small_step_modes", "reference_modes", "status")
 
     def row(self, n_modes: int) -> dict:
-        """The row of ``n_modes``."""
+        """The row of ``n_modes``.
+
+        Parameters
+        ----------
+        n_modes : int
+            A mode count of the ladder.
+
+        Returns
+        -------
+        dict
+            Its speeds [m/s], changes [%] and added modes.
+
+        Raises
+        ------
+        BridgeflapInputError
+            ``modes``: ``n_modes`` is not on the ladder.
+        """
         for r in self.rows:
             if r["n_modes"] == n_modes:
                 return r
         raise BridgeflapInputError("modes", f"{n_modes} is not on the ladder")
 
     def error_at_pct(self, n_modes: int, mechanism: str = "flutter") -> float:
-        """``|U(n) - U(n_max)| / U(n_max)`` [%] against the largest count of the ladder."""
+        """``|U(n) - U(n_max)| / U(n_max)`` [%] against the largest count of the ladder.
+
+        Parameters
+        ----------
+        n_modes : int
+            A mode count of the ladder.
+        mechanism : {"flutter", "divergence"}, default "flutter"
+            Which speed.
+
+        Returns
+        -------
+        float
+            The relative difference [%] (NaN when either speed was not found).
+
+        Raises
+        ------
+        BridgeflapInputError
+            ``modes``: ``n_modes`` is not on the ladder.
+        """
         last = self.rows[-1]
         return _change_pct(self.row(n_modes)[f"{mechanism}_speed_m_s"],
                            last[f"{mechanism}_speed_m_s"])
 
     def summary(self) -> dict:
-        """JSON-ready ``{bridge, tolerance_pct, status, converged_modes, ..., rows}``."""
+        """JSON-ready ``{bridge, tolerance_pct, status, converged_modes, ..., rows}``.
+
+        Returns
+        -------
+        dict
+            The verdict (``status``, ``converged_modes`` at ``tolerance_pct`` [%]) and one dict
+            per rung under ``rows``.
+        """
         rows = [{k: (list(v) if isinstance(v, tuple) else v) for k, v in r.items()
                  if k != "labels"} for r in self.rows]
         return {"bridge": self.bridge, "erected_fraction": self.erected_fraction,
@@ -176,7 +217,14 @@ class ConvergenceResult(ResultData):
                 "reference_modes": self.rows[-1]["n_modes"], "rows": rows}
 
     def table(self) -> str:
-        """Plain-text table of the ladder (step: to the next count; error: to the largest)."""
+        """Plain-text table of the ladder (step: to the next count; error: to the largest).
+
+        Returns
+        -------
+        str
+            One line per mode count: flutter and divergence speeds [m/s], their step and error
+            [%] and the modes added.
+        """
         lines = [f"{'modes':>5} {'U_F [m/s]':>10} {'step %':>8} {'error %':>8} "
                  f"{'U_D [m/s]':>10} {'step %':>8} {'error %':>8}  added modes"]
         for r in self.rows:
@@ -190,7 +238,18 @@ class ConvergenceResult(ResultData):
         return "\n".join(lines)
 
     def plot(self, ax=None):
-        """Relative change [%] of both speeds against the largest count, log scale."""
+        """Relative change [%] of both speeds against the largest count, log scale.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         if ax is None:
             import matplotlib.pyplot as plt
 

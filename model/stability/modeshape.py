@@ -149,7 +149,13 @@ class FlutterModeShape(ResultData):
     divergence_speed_m_s: float = float("nan")
 
     def family_shares(self) -> dict:
-        """Kinetic-energy share of the vertical and of the torsional modes [-]."""
+        """Kinetic-energy share of the vertical and of the torsional modes [-].
+
+        Returns
+        -------
+        dict
+            ``{"vertical": share, "torsional": share}``, summing to 1.
+        """
         fam = {"V": "vertical", "T": "torsional"}
         out = {"vertical": 0.0, "torsional": 0.0}
         for lab, s in self.participation.items():
@@ -157,7 +163,13 @@ class FlutterModeShape(ResultData):
         return out
 
     def strain_energy_shares(self) -> dict:
-        """Share of each retained mode in the strain energy, ``omega_j^2 |q_j|^2`` [-]."""
+        """Share of each retained mode in the strain energy, ``omega_j^2 |q_j|^2`` [-].
+
+        Returns
+        -------
+        dict
+            Mode label -> share [-], summing to 1.
+        """
         w2 = np.array([(2 * np.pi * self.mode_frequencies_hz[lab]) ** 2 for lab in self.labels])
         e = w2 * np.abs(self.q) ** 2
         return {lab: float(v) for lab, v in zip(self.labels, e / e.sum(), strict=True)}
@@ -167,7 +179,19 @@ class FlutterModeShape(ResultData):
                       "peak_pitch_x_m", "status")
 
     def summary(self, top: int = 6) -> dict:
-        """JSON-ready numbers: speed, frequency, participation (largest ``top``), peaks."""
+        """JSON-ready numbers: speed, frequency, participation (largest ``top``), peaks.
+
+        Parameters
+        ----------
+        top : int, default 6
+            Modes listed in the participation and strain-energy shares (the largest).
+
+        Returns
+        -------
+        dict
+            Plain Python numbers: flutter speed [m/s] and frequency [Hz], the shares [-], the
+            peak heave [m] and pitch [rad] and where they are along the bridge [m].
+        """
         part = dict(sorted(self.participation.items(), key=lambda kv: -kv[1])[:top])
         strain = dict(sorted(self.strain_energy_shares().items(), key=lambda kv: -kv[1])[:top])
         ih = int(np.argmax(np.abs(self.heave_m)))
@@ -191,7 +215,18 @@ class FlutterModeShape(ResultData):
                 "tower_x_m": list(self.tower_x_m)}
 
     def plot(self, axes=None):
-        """Heave amplitude, pitch amplitude and phase along the bridge (three panels)."""
+        """Heave amplitude, pitch amplitude and phase along the bridge (three panels).
+
+        Parameters
+        ----------
+        axes : sequence of three matplotlib.axes.Axes, optional
+            Heave, pitch and phase axes (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         import matplotlib.pyplot as plt
 
         if axes is None:
@@ -236,7 +271,22 @@ class FlutterModeShape(ResultData):
 
     def animate(self, path, frames: int = 24, fps: int = 8):
         """Write a GIF of one period of the flutter mode (heave and pitch, real part of
-        ``field * exp(i 2 pi t / T)``) to ``path``; returns the path."""
+        ``field * exp(i 2 pi t / T)``) to ``path``; returns the path.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The GIF file to write (its folder must exist).
+        frames : int, default 24
+            Frames in the period.
+        fps : int, default 8
+            Frames per second of the GIF.
+
+        Returns
+        -------
+        str or pathlib.Path
+            ``path``.
+        """
         import matplotlib.pyplot as plt
         from matplotlib.animation import FuncAnimation, PillowWriter
 

@@ -73,7 +73,15 @@ class PKResult(ResultData):
     exact_residual: float = float("nan")
 
     def summary(self) -> dict:
-        """The flutter keys of :meth:`StabilitySweep.summary` from the p-k solution."""
+        """The flutter keys of :meth:`StabilitySweep.summary` from the p-k solution.
+
+        Returns
+        -------
+        dict
+            Plain Python numbers and strings: ``flutter_speed_m_s`` [m/s],
+            ``flutter_frequency_hz`` [Hz], ``flutter_status`` and the slope, onset and branch
+            keys.
+        """
         c = self.flutter
         out = {"flutter_speed_m_s": c.speed, "flutter_frequency_hz": c.frequency_hz,
                "flutter_status": c.status,
@@ -89,7 +97,18 @@ class PKResult(ResultData):
 
 
     def plot(self, ax=None):
-        """Damping ratio ``-Re p/|p|`` [-] of each p-k branch against wind speed [m/s]."""
+        """Damping ratio ``-Re p/|p|`` [-] of each p-k branch against wind speed [m/s].
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         import matplotlib.pyplot as plt
 
         if ax is None:

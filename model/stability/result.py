@@ -102,13 +102,26 @@ class StabilitySweep(ResultData):
         return static_status(self.divergence_static_speed, self.speeds)
 
     def damping_ratios(self) -> np.ndarray:
-        """Branch damping ratios ``-Re/|lambda|`` (n_b, n_u)."""
+        """Branch damping ratios ``-Re/|lambda|`` (n_b, n_u).
+
+        Returns
+        -------
+        numpy.ndarray
+            Damping ratio [-] of each branch (rows) at each speed (columns); NaN where a
+            branch has no eigenvalue.
+        """
         lam = self.branches
         with np.errstate(invalid="ignore", divide="ignore"):
             return -lam.real / np.abs(lam)
 
     def frequencies_hz(self) -> np.ndarray:
-        """Branch frequencies ``|Im|/2pi`` [Hz] (n_b, n_u)."""
+        """Branch frequencies ``|Im|/2pi`` [Hz] (n_b, n_u).
+
+        Returns
+        -------
+        numpy.ndarray
+            Frequency [Hz] of each branch (rows) at each speed (columns).
+        """
         return np.abs(self.branches.imag) / (2 * np.pi)
 
     def summary(self) -> dict:
@@ -120,6 +133,12 @@ class StabilitySweep(ResultData):
         ``second_flutter_speed_m_s`` and its status); ``divergence_static_status`` with the
         static speed NaN unless inside the grid; ``<kind>_bracket_m_s`` and ``<kind>_reason``
         for a crossing seen but not converged.
+
+        Returns
+        -------
+        dict
+            Plain Python numbers and strings (units in the key names; NaN where a quantity was
+            not found on the grid).
         """
         part = sorted(self.critical_participation.items(), key=lambda kv: -kv[1])[:4]
         extra = {}
@@ -167,25 +186,75 @@ class StabilitySweep(ResultData):
         }
 
     def to_dataframe(self):
-        """One row per speed x branch (:func:`bridgeflap.model.results.sweep_frame`)."""
+        """One row per speed x branch (:func:`bridgeflap.model.results.sweep_frame`).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``speed_m_s``, ``branch``, ``frequency_hz``, ``damping_ratio``,
+            ``real_part_1_s``, ``imag_part_1_s``.
+        """
         return sweep_frame(self)
 
     def to_xarray(self, attrs=None):
         """The branches on ``(branch, speed_m_s)``
-        (:func:`bridgeflap.model.results.sweep_dataset`)."""
+        (:func:`bridgeflap.model.results.sweep_dataset`).
+
+        Parameters
+        ----------
+        attrs : mapping, optional
+            Extra dataset attributes (e.g. the bridge name), added to the flutter and divergence
+            numbers.
+
+        Returns
+        -------
+        xarray.Dataset
+            ``frequency_hz``, ``damping_ratio``, ``real_part_1_s``, ``imag_part_1_s`` on
+            ``(branch, speed_m_s)``, each with its ``units`` attribute.
+        """
         return sweep_dataset(self, attrs)
 
     def plot_root_locus(self, ax=None, title: str = "root locus", reference=None):
         """Tracked branches in the complex plane (both axes 1/s, coloured by wind speed);
         ``reference``: another sweep drawn in grey
-        (:func:`bridgeflap.model.stability.plots.root_locus`)."""
+        (:func:`bridgeflap.model.stability.plots.root_locus`).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+        title : str, default "root locus"
+            Axes title.
+        reference : StabilitySweep, optional
+            Another sweep (e.g. the open loop) drawn underneath in grey.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         from bridgeflap.model.stability.plots import root_locus
 
         return root_locus(self, ax, title=title, reference=reference)
 
     def plot(self, axes=None, title: str = "", reference=None):
         """Root locus (left), V-g and V-f (right), unclipped
-        (:func:`bridgeflap.model.stability.plots.stability_panels`)."""
+        (:func:`bridgeflap.model.stability.plots.stability_panels`).
+
+        Parameters
+        ----------
+        axes : sequence of three matplotlib.axes.Axes, optional
+            Root-locus, V-g and V-f axes (default: a new figure).
+        title : str, default ""
+            Figure title, before the flutter and divergence speeds.
+        reference : StabilitySweep, optional
+            Another sweep (e.g. the open loop) drawn underneath in grey.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         from bridgeflap.model.stability.plots import stability_panels
 
         return stability_panels(self, axes, title=title, reference=reference)

@@ -52,14 +52,28 @@ class ModalModel(ResultData):
         return self.structure.spec
 
     def mode_records(self) -> list[dict]:
-        """Modes as JSON-ready dicts, sorted by frequency (the rows of :meth:`table`)."""
+        """Modes as JSON-ready dicts, sorted by frequency (the rows of :meth:`table`).
+
+        Returns
+        -------
+        list of dict
+            Per mode: label, family, symmetry, frequency [Hz], damping ratio [-], main-span share
+            [-] and the other columns of :meth:`to_dataframe`.
+        """
         return [m.as_dict() for m in self.modes]
 
     def _rows(self) -> list[dict]:
         return self.mode_records()
 
     def to_dict(self) -> dict:
-        """Strict-JSON ``{"bridge", "erected_fraction", "modes"}`` (shapes: :meth:`deck_shapes`)."""
+        """Strict-JSON ``{"bridge", "erected_fraction", "modes"}`` (shapes: :meth:`deck_shapes`).
+
+        Returns
+        -------
+        dict
+            ``bridge``, ``erected_fraction`` [-] and ``modes`` (:meth:`mode_records`), NaN as
+            ``None``.
+        """
         return jsonable({"bridge": self.spec.name,
                          "erected_fraction": self.spec.erected_fraction,
                          "modes": self.mode_records()})
@@ -96,7 +110,23 @@ class ModalModel(ResultData):
                 "shape": shape}
 
     def find(self, label: str) -> Mode:
-        """The mode with a label such as ``"TS1"``."""
+        """The mode with a label such as ``"TS1"``.
+
+        Parameters
+        ----------
+        label : str
+            A mode label (``"VS1"``, ``"TA2"``, ...).
+
+        Returns
+        -------
+        Mode
+            That mode (label, family, frequency [Hz], ...).
+
+        Raises
+        ------
+        BridgeflapError
+            No mode has that label.
+        """
         for m in self.modes:
             if m.label == label:
                 return m
@@ -108,6 +138,22 @@ class ModalModel(ResultData):
         Mass-normalised: ``M = I``, ``K = diag(omega^2)``, ``C = diag(2 zeta omega)`` (Rayleigh
         damping is diagonal in the modes). Lateral modes are not coupled by thin-aerofoil
         loads (lift and moment only) and are left out of the aeroelastic state.
+
+        Parameters
+        ----------
+        count : int
+            The vertical and torsional modes kept (the lowest, by frequency), at least 1.
+
+        Returns
+        -------
+        StructuralBasis
+            ``M``, ``C``, ``K`` (count x count), the strip mode shapes ``phi_h`` [m] and
+            ``phi_a`` [rad], the strip lengths and positions [m] and the mode labels.
+
+        Raises
+        ------
+        BridgeflapInputError
+            ``modes``: ``count`` below 1 or above the model's vertical and torsional modes.
         """
         cand = [i for i, m in enumerate(self.modes) if m.family in ("vertical", "torsional")]
         if count < 1:
@@ -139,7 +185,18 @@ class ModalModel(ResultData):
             labels=tuple(self.modes[i].label for i in chosen))
 
     def shape(self, i: int) -> np.ndarray:
-        """Mass-normalised eigenvector (family DOFs) of ``modes[i]``."""
+        """Mass-normalised eigenvector (family DOFs) of ``modes[i]``.
+
+        Parameters
+        ----------
+        i : int
+            Index of the mode in ``modes`` (sorted by frequency).
+
+        Returns
+        -------
+        numpy.ndarray
+            The eigenvector on its family's degrees of freedom (mass-normalised).
+        """
         m = self.modes[i]
         return self.shapes[m.family][:, self.family_index[m.family].index(i)]
 
@@ -147,7 +204,22 @@ class ModalModel(ResultData):
         """Mode shapes along the bridge, one panel per family (vertical, torsional, lateral),
         towers marked: the lowest ``per_family`` of each family, or the modes named in
         ``labels`` (:func:`bridgeflap.model.structure.plots.mode_shapes_by_family`; ``ax``: one axis
-        per family)."""
+        per family).
+
+        Parameters
+        ----------
+        labels : sequence of str, optional
+            Modes to draw (default: the lowest ``per_family`` of each family).
+        ax : sequence of matplotlib.axes.Axes, optional
+            One axes per family (default: a new figure).
+        per_family : int, default 3
+            Modes drawn per family when ``labels`` is not given.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure drawn on (a new one when no axes are given).
+        """
         from bridgeflap.model.structure.plots import mode_shapes_by_family
 
         return mode_shapes_by_family(self, per_family, ax, labels)

@@ -301,6 +301,24 @@ class BridgeSpec:
         ``fraction = 1`` is the closed deck with temporary joints (half GJ, zero EI), not the
         completed bridge (:meth:`completed`). ``side_spans`` overrides the bridge file's
         side-span sequence (:data:`SIDE_SPAN_SEQUENCES`).
+
+        Parameters
+        ----------
+        fraction : float
+            Erected fraction of the main span [-], in (0, 1], placed symmetrically about
+            mid-span.
+        side_spans : {"bare", "in_place", "with_main"}, optional
+            The side-span decks while erecting (default: the bridge file's).
+
+        Returns
+        -------
+        BridgeSpec
+            The stage (this bridge is unchanged).
+
+        Raises
+        ------
+        BridgeflapInputError
+            ``erected_fraction``: ``fraction`` outside (0, 1].
         """
         check_fraction(fraction)
         return dataclasses.replace(
@@ -308,11 +326,29 @@ class BridgeSpec:
             side_span_decks=self.side_span_decks if side_spans is None else side_spans)
 
     def completed(self) -> BridgeSpec:
-        """The completed bridge: every deck in place, joints closed (full GJ and EI)."""
+        """The completed bridge: every deck in place, joints closed (full GJ and EI).
+
+        Returns
+        -------
+        BridgeSpec
+            The completed bridge (this one is unchanged).
+        """
         return dataclasses.replace(self, erected_fraction=1.0, joints_closed=True)
 
     def side_span_deck_fraction(self, span: int) -> float:
-        """Fraction of side span ``span``'s deck in place at this stage [-]."""
+        """Fraction of side span ``span``'s deck in place at this stage [-].
+
+        Parameters
+        ----------
+        span : int
+            Index of the span in ``spans`` (main and side spans, in the file's order).
+
+        Returns
+        -------
+        float
+            0 (bare), the main span's erected fraction (with_main) or 1 (in place, or the
+            completed bridge).
+        """
         if self.joints_closed or self.side_span_decks == "in_place":
             return 1.0
         return 0.0 if self.side_span_decks == "bare" else self.erected_fraction
@@ -361,12 +397,34 @@ class BridgeSpec:
         return spec
 
     def span_cable_area_m2(self, span: int) -> float:
-        """Steel area of one cable in ``span`` [m^2]."""
+        """Steel area of one cable in ``span`` [m^2].
+
+        Parameters
+        ----------
+        span : int
+            Index of the span in ``spans`` (main and side spans, in the file's order).
+
+        Returns
+        -------
+        float
+            The span's own cable area [m^2] when the file gives one, else the cable's.
+        """
         a = self.spans[span].cable_area_m2
         return self.cable.area_m2 if a is None else a
 
     def span_cable_mass_kg_per_m(self, span: int) -> float:
-        """Mass of one cable per metre of cable in ``span`` [kg/m] (scaled with its area)."""
+        """Mass of one cable per metre of cable in ``span`` [kg/m] (scaled with its area).
+
+        Parameters
+        ----------
+        span : int
+            Index of the span in ``spans`` (main and side spans, in the file's order).
+
+        Returns
+        -------
+        float
+            The cable mass [kg/m] times the span's area over the cable's.
+        """
         return self.cable.mass_kg_per_m * self.span_cable_area_m2(span) / self.cable.area_m2
 
     @property
@@ -377,7 +435,14 @@ class BridgeSpec:
     def to_toml(self) -> str:
         """This bridge as bridge-file text, sources kept
         (:func:`bridgeflap.model.structure.spec_writer.to_toml`; the text is
-        :func:`bridgeflap.model.structure.bridge_toml.bridge_toml`)."""
+        :func:`bridgeflap.model.structure.bridge_toml.bridge_toml`).
+
+        Returns
+        -------
+        str
+            TOML text that :func:`~bridgeflap.model.load_bridge` reads back to an equal bridge,
+            every value with its source note.
+        """
         from bridgeflap.model.structure.bridge_toml import bridge_toml
 
         return bridge_toml(self)

@@ -35,6 +35,8 @@ CHECKED_INSIDE = {
     "line",
     "bridgeflap.design.load_settings": "bridgeflap.design.io.api_args.check_load_settings_args on "
     "its first line",
+    "bridgeflap.design.do_no_harm": "bridgeflap.design.io.api_args.check_harm_args on its first "
+    "line",
 }
 
 _CONTROLLER = Controller(Compensator(0.0, 0.1, 0.5, 0.0, 0.1), flap_strip_positions_m=(0.0,),
