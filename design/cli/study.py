@@ -61,13 +61,26 @@ def cmd_study(args):
     return 0
 
 
+def _local_workers(args) -> int:
+    """``--workers`` of a batch (default 1), refused with ``--scheduler``: a scheduler's cluster
+    (or ``serial``, in this process) decides how many cases run at once."""
+    if args.workers is None:
+        return 1
+    if args.scheduler is not None:
+        raise BridgeflapInputError(
+            "workers", f"applies to the local cluster only; with --scheduler {args.scheduler} "
+                       "the scheduler's workers run the cases (give one of the two)")
+    if args.workers < 1:
+        raise BridgeflapInputError("workers", f"must be at least 1, got {args.workers}")
+    return int(args.workers)
+
+
 def cmd_doe(args):
     from bridgeflap.design.studies.experiments import load_doe, run_doe
 
-    if args.workers < 1:
-        raise BridgeflapInputError("workers", f"must be at least 1, got {args.workers}")
+    workers = _local_workers(args)
     config = load_doe(args.file, quick=args.quick)
-    res = run_doe(config, out_dir=args.out, workers=args.workers, scheduler=args.scheduler,
+    res = run_doe(config, out_dir=args.out, workers=workers, scheduler=args.scheduler,
                   resume=args.resume, progress=not args.json)
     s = res.summary()
     text = (f"doe {s['name']} ({s['analysis']}): {s['cases']} cases, {s['succeeded']} ok, "
@@ -114,11 +127,12 @@ def _global(args):
         ranges = {p: DEFAULT_UNCERTAIN_RANGES[p] for p in names}
     from bridgeflap.design.io.api_args import check_model_modes
 
+    workers = _local_workers(args)
     # every case runs on --modes: a model with fewer is refused here, not by each case
     check_model_modes(spec_from_args(args), args.modes, "modes")
     out = args.out or str(Path.cwd() / "runs" / "sensitivity" / f"global_{args.global_method}")
     res = global_sensitivity(args.bridge, ranges, method=args.global_method, n=args.samples,
-                             out_dir=out, workers=args.workers, scheduler=args.scheduler,
+                             out_dir=out, workers=workers, scheduler=args.scheduler,
                              resume=args.resume,
                              case_options={"speeds": args.speeds, "modes": args.modes},
                              progress=not args.json)
@@ -146,7 +160,8 @@ def doe_arguments(sp) -> None:
     """The options of ``bridgeflap doe``."""
     sp.add_argument("file", help="DOE .toml")
     sp.add_argument("--out", default=None, help="output folder (default runs/<name>/output)")
-    sp.add_argument("--workers", type=int, default=1)
+    sp.add_argument("--workers", type=int, default=None,
+                    help="processes of the local cluster (default 1; not with --scheduler)")
     sp.add_argument("--scheduler", default=None,
                     help="Dask scheduler address, or 'serial' (default: a local cluster)")
     sp.add_argument("--resume", action="store_true", help="reuse finished cases")
@@ -167,7 +182,9 @@ def sensitivity_arguments(sp) -> None:
                     help="global sensitivity over the estimated inputs' ranges")
     sp.add_argument("--samples", type=int, default=8,
                     help="Morris trajectories or Sobol base sample (power of 2)")
-    sp.add_argument("--workers", type=int, default=1)
+    sp.add_argument("--workers", type=int, default=None,
+                    help="processes of --global's local cluster (default 1; not with "
+                         "--scheduler)")
     sp.add_argument("--scheduler", default=None)
     sp.add_argument("--resume", action="store_true")
     sp.add_argument("--out", default=None, help="batch folder of --global")

@@ -10,7 +10,8 @@ ended as an internal error, the worker's refusal could not be unpickled), the st
 before "no flap strip fits", a stage design that ran before its --modes was refused, a --lags
 that ran for minutes, actuator records too long to hold in memory (an internal MemoryError
 after a progress line), options that only apply to another mode of the command, a global
-sensitivity whose every case failed on --modes, --quiet, which hid the error line itself, and
+sensitivity whose every case failed on --modes, a batch's --workers beside a --scheduler that
+decides them, --quiet, which hid the error line itself, and
 options of the fresh variants that robustness --failures ignored.
 No physics result is compared, so there are no tolerances.
 """
@@ -52,6 +53,10 @@ CASES = [
     (["sensitivity", "--global", "morris", "--bridge", "{coarse}", "--modes", "90", "--out",
       "g"], "modes"),
     (["--quiet", "flutter", "--modes", "0"], "modes"),
+    # --workers with a scheduler, whose cluster decides (it was ignored and the batch ran)
+    (["doe", "{doe}", "--scheduler", "serial", "--workers", "2"], "workers"),
+    (["sensitivity", "--global", "morris", "--scheduler", "serial", "--workers", "2", "--out",
+      "g"], "workers"),
     # options of the fresh variants that --failures ignored (it ran, and exited 1)
     *[(["robustness", "--controller", "{c}", "--bridge", "great-belt", "--failures", option,
         value], option.lstrip("-")) for option, value in (
@@ -73,13 +78,15 @@ def test_a_refusal_prints_one_line(argv, field, tmp_path, capsys, monkeypatch):
                                    flap_chord_m=3.0, plant=plant_record("humber", 8)),
                         tmp_path / "c.toml")
     (tmp_path / "coarse.toml").write_text(COARSE, encoding="utf-8")
-    rc = main([a.format(c=c, coarse=tmp_path / "coarse.toml") for a in argv])
+    doe = tmp_path / "doe.toml"     # (refused before it is read)
+    doe.write_text('name = "d"\nanalysis = "flutter"\n', encoding="utf-8")
+    rc = main([a.format(c=c, coarse=tmp_path / "coarse.toml", doe=doe) for a in argv])
     cap = capsys.readouterr()
     assert rc == 2 and cap.out == "", cap
     assert cap.err.splitlines() == [cap.err.rstrip("\n")], cap.err  # exactly one line
     assert cap.err.startswith(f"bridgeflap: error: {field}: "), cap.err
     # nothing written
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.toml", "coarse.toml"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.toml", "coarse.toml", "doe.toml"]
 
 
 @pytest.mark.parametrize("error", ["input", "type", "batch"])
