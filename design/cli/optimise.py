@@ -140,8 +140,11 @@ def _design_and_write(args, settings, out):
              f"{payload['verification'].get('step_m_s')} m/s grid): stable everywhere "
              f"{payload['verification'].get('stable_everywhere')}, stable to "
              f"{payload['verification'].get('stable_to_m_s')} m/s",
-             (f"flap layout optimised (placement): {payload['flap_count']} of "
-              f"{settings.flap_count} candidate pairs"
+             ((f"flap layout optimised (placement): {payload['flap_count']} of "
+               f"{settings.flap_count} candidate pairs"
+               if payload['flap_count'] < settings.flap_count else
+               f"flap layout: placement kept every candidate ({payload['flap_count']} of "
+               f"{settings.flap_count} pairs; the relaxed weights left none out)")
               if settings.optimise_placement else
               f"minimum flap count (same K) {payload['minimum_flaps']['minimum']}"),
              f"controller written: {payload['controller_file']}"]
