@@ -146,7 +146,10 @@ def doe_rows(card, quick, checks, out: pathlib.Path) -> list[dict]:
     """The nearby-bridges group: a 3 x 3 design DOE through the DOE runner (resumes)."""
     from bridgeflap.design.batch.runner import run_batch
 
-    cases = [{"case_id": f"gj{g:+.0%}_mass{m:+.0%}".replace("%", "pc"), "gj_scale": 1.0 + g,
+    def pc(x):      # a case id takes letters, digits, '.', '_' and '-': +10 % -> p10pc
+        return f"{x:+.0%}".replace("+", "p").replace("-", "m").replace("%", "pc")
+
+    cases = [{"case_id": f"gj{pc(g)}_mass{pc(m)}", "gj_scale": 1.0 + g,
               "mass_scale": 1.0 + m, "card": card or "", "quick": bool(quick),
               "checks": checks}
              for g in (-0.10, 0.0, 0.10) for m in (-0.05, 0.0, 0.05)]
