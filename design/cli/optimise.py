@@ -211,8 +211,8 @@ def arguments(sp) -> None:
     sp.add_argument("--out", default="optimise_out", help="output folder")
     sp.add_argument("--quick", action="store_true",
                     help="reduced problem (one start, a 10 m/s design grid, two cut rounds, "
-                         "scenario corners only, 8 fresh variants in the checks): about 2 "
-                         "minutes on 2 cores (the full card: about 4 minutes)")
+                         "scenario corners only, 8 fresh variants in the checks): about a "
+                         "minute on 2 cores (the full card: about 3 minutes)")
     sp.add_argument("--objective", default=None,
                     help="margin (default: max robust margin, stable to speed_max_m_s) or "
                          "critical_speed (max closed-loop critical speed subject to robust "

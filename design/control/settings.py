@@ -548,7 +548,7 @@ def quick_settings(settings: DesignSettings) -> DesignSettings:
 
     One start, a design grid of at least 10 m/s, two cut rounds, fewer flap counts, and of a
     scenario design the corners only (no Sobol' draws). On the packaged card the design takes
-    about 2 minutes on 2 cores (docs/background/benchmarks.md).
+    about a minute on 2 cores (docs/background/benchmarks.md).
 
     Two rounds, not one: on humber:box the first re-solve after the cuts can stop at its
     iteration cap 4.6e-6 1/s short of the damping at a design speed (status then infeasible); the
