@@ -245,7 +245,8 @@ def recover_output(target: str | os.PathLike, say: Callable[[str], None] | None 
     * other marked backups of dead swappers (the target exists): deleted;
     * marked temporaries ``.<name>.tmp-*`` whose writer is gone: deleted; an unmarked one
       named exactly as ours (``.<name>.tmp-<pid>-<8 hex>``, killed between its ``mkdir`` and
-      its marker) only if it is empty (:func:`os.rmdir`: nothing in it can be lost).
+      its marker) only if it is empty or holds nothing but its half-written marker
+      (:func:`os.rmdir`: nothing in it can be lost).
 
     Unmarked folders are never deleted with their content. Returns the actions as one-line
     texts (also given to ``say``).
@@ -270,6 +271,7 @@ def recover_output(target: str | os.PathLike, say: Callable[[str], None] | None 
             actions.append(f"removed the temporary folder {stale.name} of a run that died")
         elif pid is not None and not _pid_alive(pid) and read_marker(stale) is None:
             with contextlib.suppress(OSError):  # not empty: not provably ours, kept
+                _remove_marker_temporaries(stale)   # killed while writing its marker
                 os.rmdir(stale)
                 actions.append(f"removed the empty temporary folder {stale.name} of a run "
                                "that died")
@@ -279,6 +281,18 @@ def recover_output(target: str | os.PathLike, say: Callable[[str], None] | None 
 
 
 _ATOMIC_TMP = re.compile(r"^\..+\.[0-9a-f]{12}\.tmp$")
+
+
+def _remove_marker_temporaries(folder: Path) -> None:
+    """In an unmarked temporary folder of a dead writer: delete the half-written marker
+    (:func:`write_marker` writes it through :func:`atomic_write`, a ``.<marker>.<random>.tmp``
+    file first) when that is all the folder holds, so that the folder is then empty. A folder
+    with anything else in it is left as it is."""
+    entries = list(folder.iterdir())
+    if entries and all(e.is_file() and not e.is_symlink() and _ATOMIC_TMP.match(e.name)
+                       and e.name.startswith(OUTPUT_MARKER + ".") for e in entries):
+        for e in entries:
+            e.unlink()
 
 
 def remove_stale_file_temporaries(folder: str | os.PathLike) -> int:

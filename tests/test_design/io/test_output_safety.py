@@ -1,5 +1,6 @@
 """Nothing that is not ours is touched: a planted lock link is not followed, a read-only output
-folder is refused, a folder of the user's named like a temporary is kept, and SIGTERM ends a
+folder is refused, a folder of the user's named like a temporary is kept, the temporary of a run
+killed while writing its marker is removed, and SIGTERM ends a
 command like Ctrl-C (one line, its ``finally`` clean-up run). No physics: no tolerances."""
 
 from __future__ import annotations
@@ -85,3 +86,19 @@ def test_sigterm_ends_a_command_like_ctrl_c(tmp_path, capsys):
     assert rc == 128 + signal.SIGTERM and cleaned.exists()
     assert capsys.readouterr().err.strip().splitlines() == ["bridgeflap: interrupted"]
     assert signal.getsignal(signal.SIGTERM) is not None  # restored
+
+
+def test_a_run_killed_while_writing_its_marker_leaves_no_temporary(tmp_path):
+    """Killed between its marker's temporary file and the rename (the marker is written
+    atomically): the folder holds only ``.bridgeflap-output.<12 hex>.tmp``, and the next run
+    removes it. The same file beside anything else keeps the folder (not provably ours)."""
+    target, gone = tmp_path / "s1out", _dead_pid()
+    half = tmp_path / f".s1out.tmp-{gone}-0123abcd"
+    mixed = tmp_path / f".s1out.tmp-{gone}-4567abcd"
+    for folder in (half, mixed):
+        folder.mkdir()
+        (folder / ".bridgeflap-output.0123456789ab.tmp").write_text('{"tool": "bridg')
+    (mixed / "keep.txt").write_text("mine")
+    recover_output(target, say=lambda text: None)
+    assert not half.exists()
+    assert (mixed / "keep.txt").read_text() == "mine"
