@@ -182,6 +182,8 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
             new_speeds = sorted({u for vv in checks for u in _worst_per_run(
                 vv.speeds_m_s, vv.violation_1_s > VIOLATION_TOL, vv.violation_1_s)
                 if u not in speeds})
+            if ver.guard_violation_1_s > VIOLATION_TOL and ver.guard_speed_m_s not in speeds:
+                new_speeds = sorted({*new_speeds, ver.guard_speed_m_s})   # SPEED_GUARD_REL
         peak = rob.peak if rob else float("nan")
         history.append(CutRound(
             round=rnd, ipopt_status=res.ipopt_status + (

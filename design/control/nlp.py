@@ -150,6 +150,9 @@ class DesignProblem:
         #: Multi-model: bridge-variant problems (same layout, settings; design.control.variants)
         self.variants: list[DesignProblem] = []
         self.lazy_speeds: list[float] = []   # a variant's own damping speeds (ditto)
+        #: The damping is checked at ``speed_max_m_s (1 + speed_guard_rel)`` too (0: not;
+        #: design.control.verification.verify): set on a start's design model only
+        self.speed_guard_rel = 0.0
 
     @property
     def functions(self) -> dict:

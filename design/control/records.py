@@ -47,6 +47,11 @@ class Verification:
         Where it occurs [m/s].
     damping_ratio : ndarray
         That smallest damping ratio per speed [-].
+    guard_speed_m_s, guard_violation_1_s : float
+        The design model's guard speed above the grid [m/s] and the damping measure there
+        [1/s] (counted in ``max_violation_1_s`` and ``meets_damping``;
+        :data:`bridgeflap.design.control.nlp_tolerances.SPEED_GUARD_REL`); NaN on a model
+        checked without one (the verification model, the scenario bridges).
     """
 
     speeds_m_s: np.ndarray
@@ -62,11 +67,16 @@ class Verification:
     min_damping_ratio: float = NAN
     min_damping_speed_m_s: float = NAN
     damping_ratio: np.ndarray | None = None
+    guard_speed_m_s: float = NAN
+    guard_violation_1_s: float = NAN
 
     @strict_json
     def to_dict(self) -> dict:
         """The scalar part (the ``verification`` JSON object)."""
-        return {"max_violation": self.max_violation_1_s,
+        guard = ({} if not np.isfinite(self.guard_speed_m_s) else
+                 {"guard_speed_m_s": self.guard_speed_m_s,
+                  "guard_violation_1_s": self.guard_violation_1_s})
+        return {**guard, "max_violation": self.max_violation_1_s,
                 "stable_everywhere": self.stable_everywhere,
                 "stable_to_m_s": self.stable_to_m_s, "max_gain": self.max_gain,
                 "modes": self.modes, "step_m_s": self.step_m_s,

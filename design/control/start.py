@@ -15,6 +15,7 @@ import numpy as np
 from bridgeflap.design.control.checks import nlp_active_speeds
 from bridgeflap.design.control.loop_algebra import compensator_damped, compensator_damping_ratio
 from bridgeflap.design.control.nlp import EIG_SCALE, DesignProblem
+from bridgeflap.design.control.nlp_tolerances import SPEED_GUARD_REL
 from bridgeflap.design.control.problem_model import build_model, verify_layout
 from bridgeflap.design.control.records import RobustMargin, StartRecord
 from bridgeflap.design.control.settings import DesignSettings
@@ -225,6 +226,7 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
         # the relaxed rounds only choose the layout: their own cut budget
         relaxed = replace(settings, cutting_plane_rounds=settings.placement_cut_rounds)
     prob = DesignProblem(relaxed, model, spec=spec)
+    prob.speed_guard_rel = SPEED_GUARD_REL
     # multi-model with placement: the relaxed solve chooses the layout on the nominal bridge,
     # the variants join the rounded layout's K (fixed layout: 5 parameters per variant block,
     # not 5 + the flap weights; measured: variants in the relaxed solve too took the default
@@ -285,6 +287,7 @@ def solve_fixed_layout(settings: DesignSettings, positions, theta0, spec=None, v
     fixed = DesignProblem(fixed_s, build_model(settings, positions=positions, spec=spec)[1],
                           spec=spec)
     fixed.on_iteration = on_iteration
+    fixed.speed_guard_rel = SPEED_GUARD_REL
     fixed.variants = extra_models(fixed_s, fixed.model, spec, variants, positions)
     return fixed, fixed.solve_with_cuts(np.asarray(theta0, float))
 

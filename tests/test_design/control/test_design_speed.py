@@ -341,3 +341,49 @@ def test_multi_model_design_in_two_processes_reports_every_variant(small_box_fre
     ser = fresh_variant_check(s, res.candidate, fresh)
     assert fv["variants"] == ser["variants"]
     assert fv["fraction_stable"] == ser["fraction_stable"]
+
+
+def test_the_speed_guard_checks_the_damping_just_above_the_design_speed(small):
+    # a start's design model checks the damping at speed_max (1 + SPEED_GUARD_REL) too: there a
+    # crossing just above speed_max fails the check (and becomes a cutting plane), while the
+    # grid to speed_max alone passes; the guard's value is the dense check's at that speed
+    from dataclasses import replace
+
+    from bridgeflap.design.control.nlp_tolerances import SPEED_GUARD_REL, VIOLATION_TOL
+    from bridgeflap.design.control.plant import damping_check, lag_rates
+
+    s, model = small
+    prob = DesignProblem(s, model, numeric=True)
+    dense = prob.verify(THETA)
+    bad = np.flatnonzero(dense.violation_1_s > VIOLATION_TOL)
+    assert bad.size and bad[0] > 0, "THETA must fail the damping somewhere above 0 m/s"
+    parts = prob.A_parts(THETA)
+    rates = lag_rates(model)
+
+    def excess(u):
+        return damping_check(parts, [u], rates, THETA, s.zeta_min)["measure_1_s"][0] \
+            - VIOLATION_TOL
+
+    lo, hi = float(dense.speeds_m_s[bad[0] - 1]), float(dense.speeds_m_s[bad[0]])
+    for _ in range(60):                 # the first crossing of the tolerance, to ~1e-16 m/s
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if excess(mid) <= 0 else (lo, mid)
+    # the design speed just below the crossing: 0.1 guard widths below it
+    top = replace(s, speed_max_m_s=hi / (1.0 + 0.1 * SPEED_GUARD_REL))
+    plain = DesignProblem(top, model, numeric=True)
+    guarded = DesignProblem(top, model, numeric=True)
+    guarded.speed_guard_rel = SPEED_GUARD_REL
+    v0, v1 = plain.verify(THETA), guarded.verify(THETA)
+    assert v0.meets_damping and np.isnan(v0.guard_speed_m_s)
+    assert not v1.meets_damping
+    assert v1.guard_speed_m_s == pytest.approx(top.speed_max_m_s * (1 + SPEED_GUARD_REL),
+                                               rel=1e-15)
+    # the same eigenvalues (verify's parts are reduced by the compensator copies: round-off)
+    assert v1.guard_violation_1_s == pytest.approx(excess(v1.guard_speed_m_s) + VIOLATION_TOL,
+                                                   rel=0, abs=1e-12)
+    assert v1.max_violation_1_s == v1.guard_violation_1_s
+    # the grid's arrays are the plain check's: the guard sits beside them
+    np.testing.assert_array_equal(v1.speeds_m_s, v0.speeds_m_s)
+    np.testing.assert_array_equal(v1.violation_1_s, v0.violation_1_s)
+    assert v1.to_dict()["guard_speed_m_s"] == v1.guard_speed_m_s
+    assert "guard_speed_m_s" not in v0.to_dict()
