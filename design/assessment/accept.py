@@ -283,7 +283,7 @@ def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=N
 
     Returns
     -------
-    bridgeflap.design.control.result.DesignResult
+    bridgeflap.design.control.results.result.DesignResult
         ``controller`` is None unless the status is ``converged``.
     """
     from bridgeflap.design.control.driver import design as run_design

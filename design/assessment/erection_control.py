@@ -117,8 +117,8 @@ class ErectionControlResult(ResultData):
 
     def plot(self, ax=None):
         """Open- and closed-loop critical speeds against the erected fraction
-        (:func:`bridgeflap.design.control.result_plots.erection_stages`)."""
-        from bridgeflap.design.control.result_plots import erection_stages
+        (:func:`bridgeflap.design.control.results.result_plots.erection_stages`)."""
+        from bridgeflap.design.control.results.result_plots import erection_stages
 
         return erection_stages(self, ax)
 
@@ -217,9 +217,10 @@ def design_for_stage(spec: BridgeSpec, fraction: float, card=None, progress=None
     """A controller designed for one erection stage: the card's flaps and
     limits (gain, chord, damping, margin_min), the strips that fit on the erected deck as the
     layout, and :data:`STAGE_DESIGN` (maximise the closed-loop critical speed); ``overrides``
-    are further card keys. Returns the :class:`bridgeflap.design.control.result.DesignResult` (its
-    status as the design reports it: ``converged`` only when the critical-speed search is bracketed
-    and the chosen design verifies)."""
+    are further card keys. Returns the
+    :class:`bridgeflap.design.control.results.result.DesignResult` (its status as the design reports
+    it: ``converged`` only when the critical-speed search is bracketed and the chosen design
+    verifies)."""
     from bridgeflap.design.control.driver import design
     from bridgeflap.design.control.settings import DEFAULT_CARD, load_settings
 

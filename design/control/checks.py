@@ -14,7 +14,7 @@ from dataclasses import replace
 import numpy as np
 
 from bridgeflap.design.control.nlp import DesignProblem
-from bridgeflap.design.control.records import BuffetingComparison, ParetoPoint
+from bridgeflap.design.control.results.records import BuffetingComparison, ParetoPoint
 from bridgeflap.design.control.settings import DesignSettings
 from bridgeflap.model.aeroelastic.control import Controller
 

@@ -61,8 +61,9 @@ class Evaluation:
     ``reason``) or ``failed`` (no design: solver error); ``theta`` its coefficients (None
     when failed); ``warm_start_from_m_s`` the design speed of the warm start (None: the
     initial start); ``details``: JSON numbers of its checks (units in the keys);
-    ``record``, ``settings``: the chosen :class:`bridgeflap.design.control.records.StartRecord` and
-    the inner settings (not serialised).
+    ``record``, ``settings``: the chosen
+    :class:`bridgeflap.design.control.results.records.StartRecord` and the inner settings (not
+    serialised).
     """
 
     design_speed_m_s: float
@@ -301,7 +302,7 @@ def critical_speed_design(settings: DesignSettings, progress=None, spec=None, wa
     """The critical-speed design (module docstring): search, then the chosen design's checks
     by ``design`` (:func:`bridgeflap.design.control.driver.design`, which calls this and passes
     itself: the search does not import the driver back; ``records``). Returns a
-    :class:`bridgeflap.design.control.result.DesignResult` whose ``status`` is the search's
+    :class:`bridgeflap.design.control.results.result.DesignResult` whose ``status`` is the search's
     (``controller`` only when ``converged``) and ``extras["critical_speed"]`` the search record."""
     from bridgeflap.design.control.problem_model import NOMINAL_START, warm_start_theta
     from bridgeflap.design.control.scenarios import scenario_specs

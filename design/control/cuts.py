@@ -20,7 +20,7 @@ from bridgeflap.design.control.nlp_tolerances import (
     ROBUST_CUTS_PER_SPEED,
     VIOLATION_TOL,
 )
-from bridgeflap.design.control.records import CutRound, CutsOutcome
+from bridgeflap.design.control.results.records import CutRound, CutsOutcome
 from bridgeflap.model.aeroelastic.control import Compensator
 
 #: Round 0 warm-started (monotone barrier from ``design.control.nlp_tolerances.WARM_MU_INIT``) when

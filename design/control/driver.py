@@ -65,10 +65,10 @@ from bridgeflap.design.control.problem_model import (  # noqa: F401 - re-exporte
     verify_layout,
     warm_start_theta,
 )
-from bridgeflap.design.control.records import (
+from bridgeflap.design.control.results.records import (
     BuffetingComparison,
 )
-from bridgeflap.design.control.result import DesignResult
+from bridgeflap.design.control.results.result import DesignResult
 from bridgeflap.design.control.scenarios import scenario_specs
 from bridgeflap.design.control.settings import DesignSettings
 from bridgeflap.design.control.start import (  # noqa: F401 - re-exported (tests, API)

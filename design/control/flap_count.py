@@ -15,7 +15,7 @@ import numpy as np
 
 from bridgeflap.design.control.nlp import DesignProblem
 from bridgeflap.design.control.nlp_tolerances import VIOLATION_TOL
-from bridgeflap.design.control.records import FlapCountCheck, FlapCountSearch
+from bridgeflap.design.control.results.records import FlapCountCheck, FlapCountSearch
 from bridgeflap.design.control.settings import DesignSettings
 
 #: The same-K search over every count stops after this many consecutive failing counts.

@@ -132,7 +132,7 @@ def neighbour_layouts(candidates, positions, symmetric=True, blocks=1) -> list[d
 class LayoutRow:
     """One layout of :func:`compare_layouts` with its re-optimised K(s).
 
-    ``record`` is the :class:`bridgeflap.design.control.records.StartRecord` of
+    ``record`` is the :class:`bridgeflap.design.control.results.records.StartRecord` of
     :func:`bridgeflap.design.control.start.layout_record` (or the design's own for the rounded
     layout); ``weight_relaxed`` [-] the relaxed weight ``z`` of the flipped group (NaN: not known or
     not a flip); ``gap_pct`` [%] the robust margin's difference to the rounded layout's,

@@ -93,7 +93,7 @@ from bridgeflap.design.control.plant import (
     lag_free_indices,
     lag_rates,
 )
-from bridgeflap.design.control.records import CutsOutcome, RobustMargin, Solve, Verification
+from bridgeflap.design.control.results.records import CutsOutcome, RobustMargin, Solve, Verification
 from bridgeflap.design.control.robust import (
     robust_dense_omega,
     robust_margin,
@@ -366,7 +366,7 @@ class DesignProblem:
         ``FEASIBILITY_BACKOFF_1_S`` (see there). ``trust = (centre, radius)``: theta is held
         within ``centre +- radius max(|centre|, THETA_SCALE)`` (a trust region, intersected with
         the bounds; :mod:`bridgeflap.design.control.cuts`). Returns a
-        :class:`bridgeflap.design.control.records.Solve`.
+        :class:`bridgeflap.design.control.results.records.Solve`.
         """
         s = self.settings
         nF = self.model.n_flaps
@@ -552,9 +552,9 @@ class DesignProblem:
           :meth:`robust_check_speeds`; the worst (speed, frequency) peaks above
           ``gamma_T (1 + robust_cut_tol)`` join the robust epigraph points.
 
-        Returns the :class:`bridgeflap.design.control.records.CutsOutcome` of the best round: its
-        solve, verification and dense robust check, every round, the design speeds and cuts then in
-        force, ``gain_ok`` and ``robust_bound_holds`` (dense peak <= gamma_T within
+        Returns the :class:`bridgeflap.design.control.results.records.CutsOutcome` of the best
+        round: its solve, verification and dense robust check, every round, the design speeds and
+        cuts then in force, ``gain_ok`` and ``robust_bound_holds`` (dense peak <= gamma_T within
         ``robust_cut_tol``).
         """
         from bridgeflap.design.control.cuts import solve_with_cuts

@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 
 from bridgeflap.design.control.nlp import DesignProblem
-from bridgeflap.design.control.records import Verification
+from bridgeflap.design.control.results.records import Verification
 from bridgeflap.design.control.settings import DesignSettings
 from bridgeflap.model.aeroelastic.control import Compensator
 

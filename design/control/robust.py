@@ -18,7 +18,7 @@ import scipy.linalg
 from bridgeflap.design.control.eigen import _JacobianCallback, _VectorIO
 from bridgeflap.design.control.loop_algebra import LOWRANK_RTOL, _loop_block, k_complex
 from bridgeflap.design.control.plant import plant_factors
-from bridgeflap.design.control.records import RobustMargin
+from bridgeflap.design.control.results.records import RobustMargin
 from bridgeflap.model.aeroelastic.control import Compensator
 
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from bridgeflap.design.control.nlp_tolerances import VIOLATION_TOL
 from bridgeflap.design.control.plant import damping_check, damping_check_refined, lag_rates
-from bridgeflap.design.control.records import Verification
+from bridgeflap.design.control.results.records import Verification
 from bridgeflap.model.aeroelastic.control import Compensator
 
 

@@ -11,7 +11,7 @@ from bridgeflap.design.control.buffeting_term import BuffetingCost
 from bridgeflap.design.control.driver import build_model, select_start
 from bridgeflap.design.control.nlp import DesignProblem
 from bridgeflap.design.control.plant import plant_factors
-from bridgeflap.design.control.records import RobustMargin, StartRecord, Verification
+from bridgeflap.design.control.results.records import RobustMargin, StartRecord, Verification
 from bridgeflap.design.control.robust import refine_peaks, robust_point_function, true_t_peak
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.aeroelastic.control import Compensator, Controller
@@ -444,7 +444,7 @@ def test_failed_design_summary_keeps_the_optimise_contract():
     from dataclasses import FrozenInstanceError
     from pathlib import Path
 
-    from bridgeflap.design.control.result import DesignResult
+    from bridgeflap.design.control.results.result import DesignResult
 
     s = load_settings(None)
     failed = StartRecord(start=0, theta0=(0.0,) * 5, ipopt_status="failed: x", success=False,

@@ -20,7 +20,7 @@ from bridgeflap.design.control.layout_search import (
     neighbour_layouts,
     relaxed_theta,
 )
-from bridgeflap.design.control.records import RobustMargin, StartRecord, Verification
+from bridgeflap.design.control.results.records import RobustMargin, StartRecord, Verification
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.errors import BridgeflapInputError
 

@@ -17,7 +17,7 @@ from bridgeflap.design.control.loop_algebra import (
     compensator_damped,
     compensator_damping_ratio,
 )
-from bridgeflap.design.control.records import RobustMargin, StartRecord, Verification
+from bridgeflap.design.control.results.records import RobustMargin, StartRecord, Verification
 from bridgeflap.design.control.start import (
     DEAD_BAND_GROUPS,
     START_TIE_REL,

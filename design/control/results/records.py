@@ -165,7 +165,8 @@ class CutRound:
     chosen: bool = False
     placement: str | None = None
     #: Ipopt's per-iteration ``obj``, ``inf_pr``, ``inf_du``, ``mu`` (not in the JSON summary;
-    #: written to ``ipopt_history.json`` by :meth:`design.control.result.DesignResult.history`)
+    #: written to ``ipopt_history.json`` by
+    #: :meth:`design.control.results.result.DesignResult.history`)
     history: dict | None = None
     #: multi-model: (variant, speed) damping constraints the round's NLP carried, and the
     #: pairs it adds (design.control.variants; 0 without variants)

@@ -6,7 +6,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from bridgeflap.design.control.records import FlapCountSearch, StartRecord
+from bridgeflap.design.control.results.records import FlapCountSearch, StartRecord
 from bridgeflap.design.control.settings import CRITICAL_SPEED_FIELDS, THETA_NAMES, DesignSettings
 from bridgeflap.model.aeroelastic.actuator_limits import ACTUATOR_DEFAULTS, ACTUATOR_FIELDS
 from bridgeflap.model.aeroelastic.control import Controller
@@ -47,8 +47,9 @@ class DesignResult(ResultData):
     wall_time_s : float
     extras : dict
         ``open_loop_abscissa`` [1/s], ``closed_loop`` (state space), ``buffeting``
-        (:class:`bridgeflap.design.control.records.BuffetingComparison`), ``response_by_speed``
-        (the paper's Fig. 5 right as rows, :mod:`bridgeflap.design.assessment.usable_speed`).
+        (:class:`bridgeflap.design.control.results.records.BuffetingComparison`),
+        ``response_by_speed`` (the paper's Fig. 5 right as rows,
+        :mod:`bridgeflap.design.assessment.usable_speed`).
 
     The headline is :attr:`usable_speed_m_s` (with :attr:`usable_speed_limited_by`) beside
     :attr:`open_loop_critical_speed_m_s`; :attr:`closed_loop_critical_speed_m_s` is the linear
@@ -316,7 +317,7 @@ class DesignResult(ResultData):
 
     def plot_bode(self, ax=None):
         """Gain and phase of the compensator against frequency [Hz] with the gain limit
-        (:func:`bridgeflap.design.control.figures.bode`).
+        (:func:`bridgeflap.design.control.results.figures.bode`).
 
         Parameters
         ----------
@@ -328,7 +329,7 @@ class DesignResult(ResultData):
         matplotlib.figure.Figure
             The figure drawn on (a new one when no axes are given).
         """
-        from bridgeflap.design.control.figures import bode
+        from bridgeflap.design.control.results.figures import bode
 
         st = self.settings
         from bridgeflap.model.results import figure_of
@@ -342,7 +343,7 @@ class DesignResult(ResultData):
     def plot_margins(self, ax=None):
         """Spectral abscissa, smallest damping ratio of the movable branches with
         ``zeta_min``, robust margin per speed and the flap layout on the deck
-        (:func:`bridgeflap.design.control.figures.margins`).
+        (:func:`bridgeflap.design.control.results.figures.margins`).
 
         Parameters
         ----------
@@ -355,7 +356,7 @@ class DesignResult(ResultData):
         matplotlib.figure.Figure
             The figure drawn on (a new one when no axes are given).
         """
-        from bridgeflap.design.control.figures import margins
+        from bridgeflap.design.control.results.figures import margins
         from bridgeflap.model.errors import BridgeflapError
         from bridgeflap.model.structure.loader import load_bridge
 
