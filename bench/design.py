@@ -38,7 +38,7 @@ def run(modes=(8, 12, 16), steps=(10.0, 5.0)) -> list[dict]:
     import casadi as ca
 
     from bridgeflap.design.control.driver import build_model
-    from bridgeflap.design.control.nlp import DesignProblem
+    from bridgeflap.design.control.formulation.nlp import DesignProblem
     from bridgeflap.design.control.settings import load_settings
 
     rows = []

@@ -215,7 +215,7 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
         return AcceptanceResult("not_run", {"checks": [], "status": "not_run"})
     _warn_other_bridge(controller, settings, bridge)  # the bridge is read: a bad one stops here
     if closed_loop is None and "independent_check" in opts.checks:
-        from bridgeflap.design.control.problem_model import build_model
+        from bridgeflap.design.control.formulation.problem_model import build_model
 
         _, model = build_model(settings, n_modes=settings.verification_modes,
                                positions=controller.flap_strip_positions_m, spec=bridge)

@@ -116,7 +116,7 @@ def design_closed_loop(result, settings):
     keep it)."""
     cl = result.extras.get("closed_loop")
     if cl is None:
-        from bridgeflap.design.control.problem_model import build_model
+        from bridgeflap.design.control.formulation.problem_model import build_model
 
         _, model = build_model(settings, n_modes=settings.verification_modes,
                                positions=result.candidate.flap_strip_positions_m)

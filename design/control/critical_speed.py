@@ -199,7 +199,7 @@ def settings_at(settings: DesignSettings, speed_m_s: float) -> DesignSettings:
     ``robust_speeds_m_s`` -- cut at ``speed_m_s`` and extended to it at their finest spacing
     (the card's 85 m/s lists: 5 m/s above 80 m/s), ``speed_m_s`` included. The cutting planes'
     robust check speeds are their union
-    (:meth:`bridgeflap.design.control.nlp.DesignProblem.robust_check_speeds`)."""
+    (:meth:`bridgeflap.design.control.formulation.nlp.DesignProblem.robust_check_speeds`)."""
     u = float(speed_m_s)
     return replace(settings, speed_max_m_s=u, critical_speed_max_m_s=search_limit_m_s(settings),
                    robust_design_speeds_m_s=_extend(settings.robust_design_speeds_m_s, u,
@@ -304,7 +304,7 @@ def critical_speed_design(settings: DesignSettings, progress=None, spec=None, wa
     itself: the search does not import the driver back; ``records``). Returns a
     :class:`bridgeflap.design.control.results.result.DesignResult` whose ``status`` is the search's
     (``controller`` only when ``converged``) and ``extras["critical_speed"]`` the search record."""
-    from bridgeflap.design.control.problem_model import NOMINAL_START, warm_start_theta
+    from bridgeflap.design.control.formulation.problem_model import NOMINAL_START, warm_start_theta
     from bridgeflap.design.control.scenarios import scenario_specs
     from bridgeflap.model.structure.loader import load_bridge
 

@@ -1,8 +1,9 @@
 """Multistart driver of the compensator design: starts, per-start runs, selection, checks.
 
-:func:`design` runs one :class:`bridgeflap.design.control.nlp.DesignProblem` per start (a nominal
-start and screened Sobol points, optionally in processes), selects one (:func:`select_start`),
-checks it on the verification model, searches the minimum flap count and compares buffeting.
+:func:`design` runs one :class:`bridgeflap.design.control.formulation.nlp.DesignProblem` per start
+(a nominal start and screened Sobol points, optionally in processes), selects one
+(:func:`select_start`), checks it on the verification model, searches the minimum flap count and
+compares buffeting.
 
 Verification. Every solution is checked a posteriori on the dense ``check_step_m_s`` grid
 (cutting planes: violating speeds join the design grid and the problem is re-solved) and, when
@@ -57,9 +58,9 @@ from bridgeflap.design.control.checks import (  # noqa: F401 - re-exported (test
 
 # re-exported
 from bridgeflap.design.control.flap_count import MISSES_TO_STOP, minimum_flap_count  # noqa: F401
-from bridgeflap.design.control.nlp import DesignProblem
-from bridgeflap.design.control.plant import closed_loop_abscissa
-from bridgeflap.design.control.problem_model import (  # noqa: F401 - re-exported (tests, API)
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.formulation.plant import closed_loop_abscissa
+from bridgeflap.design.control.formulation.problem_model import (  # noqa: F401 - re-exported (tests, API)
     NOMINAL_START,
     build_model,
     verify_layout,

@@ -38,8 +38,8 @@ def layout_groups(candidates, symmetric=True) -> np.ndarray:
 
     With ``symmetric`` each mirror pair ``(x, -x)`` of the candidate positions [m] (and the
     centre flap of an odd count) is one group, as
-    :attr:`bridgeflap.design.control.nlp.DesignProblem.symmetry` pairs them; otherwise every
-    candidate is its own group. Columns are sorted by ``|x|``.
+    :attr:`bridgeflap.design.control.formulation.nlp.DesignProblem.symmetry` pairs them; otherwise
+    every candidate is its own group. Columns are sorted by ``|x|``.
     """
     x = np.asarray(candidates, float)
     n = x.size

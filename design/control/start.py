@@ -13,9 +13,12 @@ from dataclasses import replace
 import numpy as np
 
 from bridgeflap.design.control.checks import nlp_active_speeds
-from bridgeflap.design.control.loop_algebra import compensator_damped, compensator_damping_ratio
-from bridgeflap.design.control.nlp import EIG_SCALE, DesignProblem
-from bridgeflap.design.control.problem_model import build_model, verify_layout
+from bridgeflap.design.control.formulation.loop_algebra import (
+    compensator_damped,
+    compensator_damping_ratio,
+)
+from bridgeflap.design.control.formulation.nlp import EIG_SCALE, DesignProblem
+from bridgeflap.design.control.formulation.problem_model import build_model, verify_layout
 from bridgeflap.design.control.results.records import RobustMargin, StartRecord
 from bridgeflap.design.control.settings import DesignSettings
 from bridgeflap.model.aeroelastic.control import Compensator

@@ -2,10 +2,10 @@
 
 For each buffeting weight the default design (``runs/humber_flaps.toml``: its starts, cuts
 and checks; the CasADi spectral buffeting integral in modal coordinates
-``buffeting_term = "modal"``, :class:`bridgeflap.design.control.buffeting_term.ModalBuffeting`,
-same-K flap-count search limited to the design count) is run through
-:func:`bridgeflap.design.control.driver.design`; the table holds the closed-loop / open-loop RMS
-ratios (vertical and torsional, numpy
+``buffeting_term = "modal"``,
+:class:`bridgeflap.design.control.formulation.buffeting_term.ModalBuffeting`, same-K flap-count
+search limited to the design count) is run through :func:`bridgeflap.design.control.driver.design`;
+the table holds the closed-loop / open-loop RMS ratios (vertical and torsional, numpy
 :func:`bridgeflap.model.response.buffeting.buffeting` on the verification model, max over the main
 span) at the buffeting speeds, the robust margin, the closed-loop critical speed and the status.
 

@@ -25,7 +25,8 @@ class Verification:
     speeds_m_s, abscissa_1_s, violation_1_s : ndarray
         Check grid [m/s], spectral abscissa (every eigenvalue) [1/s] and the largest damping
         measure ``Re lambda + zeta_min |lambda|`` of the movable branches [1/s] (<= 0 meets
-        the minimum damping ratio; :func:`bridgeflap.design.control.plant.damping_check`).
+        the minimum damping ratio;
+        :func:`bridgeflap.design.control.formulation.plant.damping_check`).
     max_violation_1_s : float
         Largest violation [1/s].
     stable_everywhere : bool
@@ -39,7 +40,7 @@ class Verification:
         Grid step [m/s].
     meets_damping : bool
         ``max_violation_1_s`` within the feasibility tolerance
-        (``bridgeflap.design.control.nlp_tolerances.VIOLATION_TOL``).
+        (``bridgeflap.design.control.formulation.nlp_tolerances.VIOLATION_TOL``).
     min_damping_ratio : float
         Smallest damping ratio of the movable branches over the grid [-] (-1: a real root
         in the right half-plane).
@@ -79,7 +80,7 @@ class Verification:
 @dataclass(frozen=True)
 class RobustMargin:
     """Dense small-gain check ``1 / max_U sup_w sigma_max(T(jw))``
-    (:mod:`bridgeflap.design.control.robust`).
+    (:mod:`bridgeflap.design.control.formulation.robust`).
 
     Attributes
     ----------
@@ -131,10 +132,11 @@ class Solve:
     eig_evaluations: int
     eig_time_per_speed_s: float
     history: dict | None = None
-    #: the divergence watchdog stopped this warm re-solve (design.control.nlp.DIVERGE_LEVEL)
+    #: the divergence watchdog stopped this warm re-solve
+    #: (design.control.formulation.nlp.DIVERGE_LEVEL)
     diverged: bool = False
-    #: the solution lies on a bound of the solve's trust region (design.control.cuts), which
-    #: the problem itself does not have: not yet a solution of the design problem
+    #: the solution lies on a bound of the solve's trust region (design.control.formulation.cuts),
+    #: which the problem itself does not have: not yet a solution of the design problem
     on_trust_bound: bool = False
 
 
@@ -169,14 +171,14 @@ class CutRound:
     #: :meth:`design.control.results.result.DesignResult.history`)
     history: dict | None = None
     #: multi-model: (variant, speed) damping constraints the round's NLP carried, and the
-    #: pairs it adds (design.control.variants; 0 without variants)
+    #: pairs it adds (design.control.formulation.variants; 0 without variants)
     n_variant_constraints: int = 0
     new_variant_constraints: int = 0
     #: what started this solve: ``"cuts"`` (the first solve, or a re-solve after cuts),
     #: ``"recovery"`` (after a diverged solve: from the last point that met damping and gain,
     #: inside a trust region), ``"trust step"`` (the previous solution lay on its trust
     #: region's bound: re-centred there) or ``"continuation"`` (the previous solve stopped at
-    #: its iteration cap: continued with the same cuts) (design.control.cuts)
+    #: its iteration cap: continued with the same cuts) (design.control.formulation.cuts)
     step: str = "cuts"
     #: relative half-width of the solve's trust region on theta (NaN: none)
     trust_radius: float = float("nan")
@@ -299,7 +301,7 @@ class StartRecord:
     #: Ipopt's objective value of the chosen round [-] (not serialised:
     # design.control.layout_search)
     nlp_objective: float = NAN
-    #: damping ratio of the compensator's own poles [-] (design.control.loop_algebra)
+    #: damping ratio of the compensator's own poles [-] (design.control.formulation.loop_algebra)
     compensator_damping_ratio: float = NAN
     #: how a placement's layout was rounded (design.control.start.choose_layout)
     layout_choice: dict | None = None

@@ -7,12 +7,16 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.buffeting_term import BuffetingCost
 from bridgeflap.design.control.driver import build_model, select_start
-from bridgeflap.design.control.nlp import DesignProblem
-from bridgeflap.design.control.plant import plant_factors
+from bridgeflap.design.control.formulation.buffeting_term import BuffetingCost
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.formulation.plant import plant_factors
+from bridgeflap.design.control.formulation.robust import (
+    refine_peaks,
+    robust_point_function,
+    true_t_peak,
+)
 from bridgeflap.design.control.results.records import RobustMargin, StartRecord, Verification
-from bridgeflap.design.control.robust import refine_peaks, robust_point_function, true_t_peak
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.aeroelastic.control import Compensator, Controller
 from bridgeflap.model.errors import BridgeflapInputError
@@ -122,12 +126,15 @@ def test_robust_bound_is_frobenius_of_true_t(small):
 
 
 def test_lowrank_robust_form_equals_the_full_solve(small):
-    # design.control.robust.lowrank_point_function (the placement design's robust constraint): the
-    # push-through identity through the rank-r pitch map Phi_a = U_r S V_r^T turns the
-    # n_modes solve into an r x r one. Same algebra, so values and Jacobians in theta and
+    # design.control.formulation.robust.lowrank_point_function (the placement design's robust
+    # constraint): the push-through identity through the rank-r pitch map Phi_a = U_r S V_r^T turns
+    # the n_modes solve into an r x r one. Same algebra, so values and Jacobians in theta and
     # in the flap weights agree with robust_point_function to round-off (1e-10 relative:
     # ~1e6 ulps, far below any effect, far above the ~1e-15 observed)
-    from bridgeflap.design.control.robust import lowrank_point_function, lowrank_robust_data
+    from bridgeflap.design.control.formulation.robust import (
+        lowrank_point_function,
+        lowrank_robust_data,
+    )
 
     s, model = small
     om = np.array([0.3, 1.2, 2.5])
@@ -537,8 +544,8 @@ def test_damping_constraint_is_active_when_only_regularised(small_box):
 def test_copies_of_lag_and_compensator_poles_are_excluded(small):
     # the excluded eigenvalues are exactly the fixed copies: -p_i U / b and the roots of
     # a2 s^2 + a1 s + 1; every other eigenvalue is kept
-    from bridgeflap.design.control.eigen import fixed_pole_copies
-    from bridgeflap.design.control.plant import lag_rates
+    from bridgeflap.design.control.formulation.eigen import fixed_pole_copies
+    from bridgeflap.design.control.formulation.plant import lag_rates
 
     s, model = small
     prob = DesignProblem(s, model)
@@ -575,7 +582,7 @@ def test_peak_tracking_margin_matches_verified_within_one_percent(small_box):
 def test_symbolic_buffeting_term_matches_numeric_and_is_differentiable(buffeting_problem):
     # the CasADi spectral integral (frozen grid) against model.response.buffeting's adaptive one at
     # the reference design, and its AD gradient against central differences of itself
-    from bridgeflap.design.control.buffeting_term import SymbolicBuffeting
+    from bridgeflap.design.control.formulation.buffeting_term import SymbolicBuffeting
     from bridgeflap.model.response.buffeting import buffeting
 
     s, spec, model = buffeting_problem
@@ -748,13 +755,13 @@ def test_closed_loop_limits_fast_path_on_the_default_design():
 
 
 def test_lazy_variant_constraints_meet_every_variant(small_box):
-    # design.control.variants: the lazy (variant, speed) sets carry fewer damping constraints than
-    # the full multi-model NLP ("all": every variant at every design speed), and the lazy loop
-    # reaches a design that meets zeta_min on the nominal bridge and on every variant's dense
-    # check -- the constraints left out are verified, not assumed. The loop's own test (the
-    # refined check) gives the dense check's maximum violation on every variant.
+    # design.control.formulation.variants: the lazy (variant, speed) sets carry fewer damping
+    # constraints than the full multi-model NLP ("all": every variant at every design speed), and
+    # the lazy loop reaches a design that meets zeta_min on the nominal bridge and on every
+    # variant's dense check -- the constraints left out are verified, not assumed. The loop's own
+    # test (the refined check) gives the dense check's maximum violation on every variant.
     from bridgeflap.design.control.driver import sample_variants
-    from bridgeflap.design.control.nlp_tolerances import VIOLATION_TOL
+    from bridgeflap.design.control.formulation.nlp_tolerances import VIOLATION_TOL
     from bridgeflap.model.structure.loader import load_bridge
 
     s, model = small_box
@@ -774,7 +781,8 @@ def test_lazy_variant_constraints_meet_every_variant(small_box):
     for q in prob.variants:
         dense = q.verify(res.solve.theta)
         assert dense.max_violation_1_s <= VIOLATION_TOL
-        # the refined subset keeps the dense maximum (design.control.plant.damping_check_refined)
+        # the refined subset keeps the dense maximum
+        # (design.control.formulation.plant.damping_check_refined)
         assert q.verify(res.solve.theta, refined=True).max_violation_1_s == pytest.approx(
             dense.max_violation_1_s, rel=1e-12, abs=1e-15)
     assert n_lazy <= sum(len(v.lazy_speeds) for v in prob.variants)

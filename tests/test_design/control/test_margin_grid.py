@@ -39,7 +39,7 @@ def test_grid_margin_is_the_minimum_over_the_whole_speed_range():
     # larger peak (1e-4 relative: the refined speed is within xatol 0.01 m/s of the local
     # maximum of a smooth peak, whose relative drop there is second order)
     from bridgeflap.design.control.driver import build_model
-    from bridgeflap.design.control.nlp import DesignProblem
+    from bridgeflap.design.control.formulation.nlp import DesignProblem
 
     _, model = build_model(s, positions=np.asarray(pos))
     prob = DesignProblem(replace(s, optimise_placement=False), model, numeric=True)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from bridgeflap.design.control.driver import build_model
-from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.formulation.nlp import DesignProblem
 from bridgeflap.design.control.pair_failure import FailedPairProblem, extra_models
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.aeroelastic.control import Compensator

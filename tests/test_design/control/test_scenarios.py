@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.problem_model import build_model
+from bridgeflap.design.control.formulation.problem_model import build_model
 from bridgeflap.design.control.scenarios import (
     NO_HARM_GRID_FACTOR,
     NO_HARM_SPEED_MARGIN,

@@ -10,7 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.formulation.nlp import DesignProblem
 from bridgeflap.design.control.results.records import Verification
 from bridgeflap.design.control.settings import DesignSettings
 from bridgeflap.model.aeroelastic.control import Compensator
@@ -91,8 +91,8 @@ def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,
     """Dense check of ``theta`` on the layout ``positions`` [m] with ``n_modes`` (default: the
     verification model, ``settings.verification_modes``), as ``bridgeflap flutter`` sees it;
     ``spec`` the bridge (default ``settings.bridge``); ``refined``: on the refined subset of
-    the check grid (:func:`bridgeflap.design.control.plant.damping_check_refined`: the same
-    decisions)."""
+    the check grid (:func:`bridgeflap.design.control.formulation.plant.damping_check_refined`: the
+    same decisions)."""
     nm = settings.verification_modes if n_modes is None else int(n_modes)
     _, model = build_model(settings, n_modes=nm, positions=positions, spec=spec)
     return DesignProblem(replace(settings, optimise_placement=False), model,

@@ -1,5 +1,5 @@
 """Ipopt iteration hooks of the compensator NLP
-(:meth:`bridgeflap.design.control.nlp.DesignProblem.solve`).
+(:meth:`bridgeflap.design.control.formulation.nlp.DesignProblem.solve`).
 
 :class:`IterationCallback` is CasADi's ``iteration_callback``: once per Ipopt iteration it
 calls the progress function (the tqdm bars of :func:`bridgeflap.design.control.driver.design`) and,
