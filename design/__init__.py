@@ -51,7 +51,7 @@ _MOVED = {
     "batch_case": "bridgeflap.design.batch.case", "batch_table": "bridgeflap.design.batch.table",
     "branch_flags": "bridgeflap.design.batch.branch_flags",
     "buffeting_term": "bridgeflap.design.control.formulation.buffeting_term",
-    "cases": "bridgeflap.design.studies.cases", "checks": "bridgeflap.design.control.checks",
+    "cases": "bridgeflap.design.studies.cases", "checks": "bridgeflap.design.control.review.checks",
     "cli_common": "bridgeflap.design.cli.common", "cli_help": "bridgeflap.design.cli.help",
     "cli_run": "bridgeflap.design.cli.run",
     "cluster": "bridgeflap.design.batch.cluster",
@@ -73,7 +73,7 @@ _MOVED = {
     "failsafe": "bridgeflap.design.assessment.failsafe",
     "figures": "bridgeflap.design.control.results.figures, bridgeflap.design.sensitivity.figures, "
     "bridgeflap.design.studies.figures",
-    "flap_count": "bridgeflap.design.control.flap_count",
+    "flap_count": "bridgeflap.design.control.review.flap_count",
     "harm": "bridgeflap.design.assessment.harm",
     "harm_fast": "bridgeflap.design.assessment.harm_fast",
     "harm_verdict": "bridgeflap.design.assessment.harm_verdict",

@@ -178,8 +178,8 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
         variants are drawn about it.
     closed_loop_limits : dict, optional
         The design's closed- and open-loop limits on its verification model
-        (:func:`bridgeflap.design.control.checks.closed_loop_limits`), read by the usable-speed
-        check (default: computed).
+        (:func:`bridgeflap.design.control.review.checks.closed_loop_limits`), read by the
+        usable-speed check (default: computed).
 
     Returns
     -------

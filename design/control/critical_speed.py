@@ -2,7 +2,7 @@
 
 ``objective = "critical_speed"`` in :class:`bridgeflap.design.control.settings.DesignSettings`. The
 critical speed is the lower of closed-loop flutter and divergence
-(:func:`bridgeflap.design.control.checks.closed_loop_limits`).
+(:func:`bridgeflap.design.control.review.checks.closed_loop_limits`).
 
 Method (docs/methods.md#critical-speed-objective). An outer search over the design speed
 ``U_d``; the inner problem at ``U_d`` is the default design
@@ -185,8 +185,8 @@ def _extend(speeds, speed: float, fallback_step: float) -> tuple:
 def search_limit_m_s(settings: DesignSettings) -> float:
     """Upper end of the search [m/s]: ``critical_speed_max_m_s``, 0 meaning twice the start
     (the range of the closed-loop limits,
-    ``bridgeflap.design.control.checks.LIMIT_SPEED_FACTOR``)."""
-    from bridgeflap.design.control.checks import LIMIT_SPEED_FACTOR
+    ``bridgeflap.design.control.review.checks.LIMIT_SPEED_FACTOR``)."""
+    from bridgeflap.design.control.review.checks import LIMIT_SPEED_FACTOR
 
     return float(settings.critical_speed_max_m_s
                  or LIMIT_SPEED_FACTOR * settings.speed_max_m_s)
@@ -226,9 +226,9 @@ def _reason(rec, s: DesignSettings) -> str:
 
 def _limits(s: DesignSettings, rec, spec) -> dict:
     """Closed-loop critical speed [m/s] and mechanism of a start record's design on the
-    verification model (:func:`bridgeflap.design.control.checks.closed_loop_limits`, ~5 s on 30
-    modes)."""
-    from bridgeflap.design.control.checks import closed_loop_limits
+    verification model (:func:`bridgeflap.design.control.review.checks.closed_loop_limits`, ~5 s on
+    30 modes)."""
+    from bridgeflap.design.control.review.checks import closed_loop_limits
     from bridgeflap.model.aeroelastic.control import Compensator, Controller
 
     ctrl = Controller(Compensator(*(float(v) for v in rec.theta)),

@@ -38,7 +38,19 @@ from dataclasses import replace
 
 import numpy as np
 
-from bridgeflap.design.control.checks import (  # noqa: F401 - re-exported (tests, API)
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.formulation.plant import closed_loop_abscissa
+from bridgeflap.design.control.formulation.problem_model import (  # noqa: F401 - re-exported (tests, API)
+    NOMINAL_START,
+    build_model,
+    verify_layout,
+    warm_start_theta,
+)
+from bridgeflap.design.control.results.records import (
+    BuffetingComparison,
+)
+from bridgeflap.design.control.results.result import DesignResult
+from bridgeflap.design.control.review.checks import (  # noqa: F401 - re-exported (tests, API)
     ACTIVE_ABS_TOL_1_S,
     ACTIVE_REL_TOL,
     LIMIT_SPEED_FACTOR,
@@ -57,19 +69,7 @@ from bridgeflap.design.control.checks import (  # noqa: F401 - re-exported (test
 )
 
 # re-exported
-from bridgeflap.design.control.flap_count import MISSES_TO_STOP, minimum_flap_count  # noqa: F401
-from bridgeflap.design.control.formulation.nlp import DesignProblem
-from bridgeflap.design.control.formulation.plant import closed_loop_abscissa
-from bridgeflap.design.control.formulation.problem_model import (  # noqa: F401 - re-exported (tests, API)
-    NOMINAL_START,
-    build_model,
-    verify_layout,
-    warm_start_theta,
-)
-from bridgeflap.design.control.results.records import (
-    BuffetingComparison,
-)
-from bridgeflap.design.control.results.result import DesignResult
+from bridgeflap.design.control.review.flap_count import MISSES_TO_STOP, minimum_flap_count  # noqa: F401
 from bridgeflap.design.control.scenarios import scenario_specs
 from bridgeflap.design.control.settings import DesignSettings
 from bridgeflap.design.control.start import (  # noqa: F401 - re-exported (tests, API)

@@ -61,8 +61,8 @@ def corner_specs(settings, base) -> list:
 
 def scenario_specs(settings, base) -> list:
     """The scenario bridges of a design: the corners (:func:`corner_specs`), then ``variants``
-    Sobol' draws (:func:`bridgeflap.design.control.checks.sample_variants`)."""
-    from bridgeflap.design.control.checks import sample_variants
+    Sobol' draws (:func:`bridgeflap.design.control.review.checks.sample_variants`)."""
+    from bridgeflap.design.control.review.checks import sample_variants
 
     return corner_specs(settings, base) + sample_variants(settings, base, settings.variants,
                                                           settings.variant_seed)

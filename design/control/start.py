@@ -12,7 +12,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from bridgeflap.design.control.checks import nlp_active_speeds
 from bridgeflap.design.control.formulation.loop_algebra import (
     compensator_damped,
     compensator_damping_ratio,
@@ -20,6 +19,7 @@ from bridgeflap.design.control.formulation.loop_algebra import (
 from bridgeflap.design.control.formulation.nlp import EIG_SCALE, DesignProblem
 from bridgeflap.design.control.formulation.problem_model import build_model, verify_layout
 from bridgeflap.design.control.results.records import RobustMargin, StartRecord
+from bridgeflap.design.control.review.checks import nlp_active_speeds
 from bridgeflap.design.control.settings import DesignSettings
 from bridgeflap.model.aeroelastic.control import Compensator
 from bridgeflap.model.progress import Eta

@@ -169,8 +169,8 @@ class DesignResult(ResultData):
 
     def margin_grid(self) -> dict:
         """The chosen design's margin check over the whole speed range
-        (:func:`bridgeflap.design.control.checks.margin_on_speed_grid`), or ``{}`` when it did not
-        run.
+        (:func:`bridgeflap.design.control.review.checks.margin_on_speed_grid`), or ``{}`` when it
+        did not run.
 
         Returns
         -------
