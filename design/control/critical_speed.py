@@ -263,7 +263,7 @@ def inner_design(settings: DesignSettings, speed_m_s: float, theta0, spec=None,
                  progress_bar=None, variants=(), warm_from=None) -> Evaluation:
     """The inner design at ``speed_m_s`` [m/s] from ``theta0`` (plus ``starts - 1`` screened
     Sobol starts, serially), its outcome and checks (:class:`Evaluation`)."""
-    from bridgeflap.design.control.start import run_start, screened_starts, select_start
+    from bridgeflap.design.control.solve.start import run_start, screened_starts, select_start
 
     t0 = time.perf_counter()
     s = settings_at(settings, speed_m_s)
@@ -305,7 +305,7 @@ def critical_speed_design(settings: DesignSettings, progress=None, spec=None, wa
     :class:`bridgeflap.design.control.results.result.DesignResult` whose ``status`` is the search's
     (``controller`` only when ``converged``) and ``extras["critical_speed"]`` the search record."""
     from bridgeflap.design.control.formulation.problem_model import NOMINAL_START, warm_start_theta
-    from bridgeflap.design.control.scenarios import scenario_specs
+    from bridgeflap.design.control.solve.scenarios import scenario_specs
     from bridgeflap.model.structure.loader import load_bridge
 
     t0 = time.perf_counter()

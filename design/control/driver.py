@@ -70,9 +70,9 @@ from bridgeflap.design.control.review.checks import (  # noqa: F401 - re-exporte
 
 # re-exported
 from bridgeflap.design.control.review.flap_count import MISSES_TO_STOP, minimum_flap_count  # noqa: F401
-from bridgeflap.design.control.scenarios import scenario_specs
 from bridgeflap.design.control.settings import DesignSettings
-from bridgeflap.design.control.start import (  # noqa: F401 - re-exported (tests, API)
+from bridgeflap.design.control.solve.scenarios import scenario_specs
+from bridgeflap.design.control.solve.start import (  # noqa: F401 - re-exported (tests, API)
     SCREEN_FACTOR,
     _progress_bar,
     layout_record,
@@ -126,7 +126,7 @@ def _early_jobs(settings, given, variants, spec):
     and then the open-loop abscissa; ``(None, None)`` otherwise or when the starts are given."""
     if not settings.parallel or given:
         return None, None
-    from bridgeflap.design.control.scenarios import adopt_limits, open_loop_limits
+    from bridgeflap.design.control.solve.scenarios import adopt_limits, open_loop_limits
     from bridgeflap.model.workers import process_pool
 
     pool = process_pool(2)

@@ -63,7 +63,7 @@ def speeds_of(variant, speeds) -> np.ndarray:
 def _within(variant, speeds) -> np.ndarray:
     """The ``speeds`` [m/s] within ``variant``'s own range (its ``speed_max_m_s``: below its
     open-loop critical speed with ``variant_rule = "no_harm"``,
-    :mod:`bridgeflap.design.control.scenarios`)."""
+    :mod:`bridgeflap.design.control.solve.scenarios`)."""
     U = np.asarray(speeds, float)
     return U[U <= variant.settings.speed_max_m_s]
 

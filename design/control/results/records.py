@@ -303,7 +303,7 @@ class StartRecord:
     nlp_objective: float = NAN
     #: damping ratio of the compensator's own poles [-] (design.control.formulation.loop_algebra)
     compensator_damping_ratio: float = NAN
-    #: how a placement's layout was rounded (design.control.start.choose_layout)
+    #: how a placement's layout was rounded (design.control.solve.start.choose_layout)
     layout_choice: dict | None = None
 
     @property

@@ -152,8 +152,8 @@ class DesignResult(ResultData):
             "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"
                          and (crit or k2 not in CRITICAL_SPEED_FIELDS)
                          and (k2 not in ACTUATOR_FIELDS or v != ACTUATOR_DEFAULTS[k2])
-                         # shown when set (design.control.pair_failure): older records stay as they
-                         # were
+                         # shown when set (design.control.solve.pair_failure): older records stay as
+                         # they were
                          and (k2 not in ("design_for_pair_failure", "layout_neighbours",
                                          "layout_adopt") or v)},
         })

@@ -278,7 +278,7 @@ def test_a_phase_1_point_has_no_design_objective():
     # solve, 1.4 against start 0's design objective): it must not win on that number
     from types import SimpleNamespace
 
-    from bridgeflap.design.control.start import _phase_1
+    from bridgeflap.design.control.solve.start import _phase_1
 
     rounds = (SimpleNamespace(placement="phase 1 (feasibility, no robust epigraph)"),
               SimpleNamespace(placement=None))

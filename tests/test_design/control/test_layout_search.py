@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import bridgeflap.design.control.driver as driver
-import bridgeflap.design.control.start as start
+import bridgeflap.design.control.solve.start as start
 from bridgeflap.design.control.layout_search import (
     compare_layouts,
     design_step,

@@ -1,6 +1,6 @@
 """The discrete choices of a design do not depend on last-bit differences: the start chosen
 among near-equal ones, the layout rounded from relaxed weights near the 0.5 threshold, and the
-compensator's pole damping constraint (bridgeflap.design.control.start,
+compensator's pole damping constraint (bridgeflap.design.control.solve.start,
 bridgeflap.design.control.formulation.loop_algebra)."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from bridgeflap.design.control.formulation.loop_algebra import (
     compensator_damping_ratio,
 )
 from bridgeflap.design.control.results.records import RobustMargin, StartRecord, Verification
-from bridgeflap.design.control.start import (
+from bridgeflap.design.control.solve.start import (
     DEAD_BAND_GROUPS,
     START_TIE_REL,
     layout_candidates,

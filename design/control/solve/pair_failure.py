@@ -44,7 +44,7 @@ def extra_models(settings, model, spec, variants, positions=None) -> list:
     ``design_for_pair_failure``, one :class:`FailedPairProblem` per flap pair of ``model`` (the
     nominal bridge)."""
     from bridgeflap.design.control.formulation.problem_model import build_model
-    from bridgeflap.design.control.scenarios import scenario_settings
+    from bridgeflap.design.control.solve.scenarios import scenario_settings
 
     out = []
     for v in variants:

@@ -219,7 +219,7 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     every variant as well; ``say``: a progress function (None: silent), told at every tenth of
     the iteration cap how many Ipopt iterations ran, with the elapsed time and the time left at
     the rate so far (an upper bound: the cap is rarely reached)."""
-    from bridgeflap.design.control.pair_failure import extra_models
+    from bridgeflap.design.control.solve.pair_failure import extra_models
 
     t0 = time.perf_counter()
     spec, model = build_model(settings, spec=spec)
@@ -280,7 +280,7 @@ def solve_fixed_layout(settings: DesignSettings, positions, theta0, spec=None, v
     :mod:`bridgeflap.design.control.layout_search`). The candidates left out are not built, so the
     flap loop (and its robust margin) has no channel for them. ``variants``: multi-model bridges.
     Returns ``(problem, CutsOutcome)``; raises what the solve raises."""
-    from bridgeflap.design.control.pair_failure import extra_models
+    from bridgeflap.design.control.solve.pair_failure import extra_models
     from bridgeflap.model.structure.loader import load_bridge
 
     spec = load_bridge(settings.bridge if spec is None else spec)
@@ -313,7 +313,7 @@ def layout_record(settings: DesignSettings, positions, theta0, index: int = 0, s
 def _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_cont,
                   spec) -> StartRecord:
     """The record of a solved start: dense margin, verification-model check, variants."""
-    from bridgeflap.design.control.pair_failure import pair_label
+    from bridgeflap.design.control.solve.pair_failure import pair_label
 
     theta = res.theta
     ver = res.verification
