@@ -1,9 +1,9 @@
 """A design you can install: the compensator design with its acceptance checks folded into its
 status (:func:`design`), and the checks of any controller (:func:`accept`).
 
-:func:`design` runs :func:`bridgeflap.design.control.driver.design` and then, when it produced a
-controller, the acceptance checks of :mod:`bridgeflap.design.assessment.acceptance` on that
-controller as written to its file and read back. The verdict is part of the design's status:
+:func:`design` runs :func:`bridgeflap.design.control.search.driver.design` and then, when it
+produced a controller, the acceptance checks of :mod:`bridgeflap.design.assessment.acceptance` on
+that controller as written to its file and read back. The verdict is part of the design's status:
 
 ==================  =========================================================================
 ``converged``       the design met every check of the design model and the acceptance checks
@@ -265,15 +265,15 @@ def _warn_other_bridge(controller, settings, bridge) -> None:
 def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=None,
            records=None, *, checks="all", check_samples: int | None = None,
            check_workers: int | None = None, quick_checks: bool = False):
-    """Design the compensator and judge it: :func:`bridgeflap.design.control.driver.design`, then
-    :func:`accept` on its controller, the verdict folded into the status (module docstring).
+    """Design the compensator and judge it: :func:`bridgeflap.design.control.search.driver.design`,
+    then :func:`accept` on its controller, the verdict folded into the status (module docstring).
 
     Parameters
     ----------
     settings : DesignSettings
         The design card (:func:`bridgeflap.design.control.settings.load_settings`).
     progress, bridge, warm_start, progress_bar, records
-        As :func:`bridgeflap.design.control.driver.design`.
+        As :func:`bridgeflap.design.control.search.driver.design`.
     checks : str or sequence of str
         Acceptance checks (``"all"``, the default; ``"none"`` skips them and says so).
     check_samples, check_workers : int, optional
@@ -286,7 +286,7 @@ def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=N
     bridgeflap.design.control.results.result.DesignResult
         ``controller`` is None unless the status is ``converged``.
     """
-    from bridgeflap.design.control.driver import design as run_design
+    from bridgeflap.design.control.search.driver import design as run_design
     from bridgeflap.design.io.api_args import check_design_args
 
     check_design_args(settings, progress, bridge, warm_start, progress_bar, records)

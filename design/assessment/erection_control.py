@@ -25,8 +25,8 @@ __all__ = ["STAGE_DESIGN", "ErectionControlResult", "design_for_stage", "erectio
 
 #: Card overrides of a design for one erection stage (:func:`design_for_stage`): the largest
 #: closed-loop critical speed subject to the card's robust margin (``objective =
-#: "critical_speed"``, :mod:`design.control.critical_speed`), the search from 40 m/s in 5 m/s steps
-#: (a stage's open-loop critical speed lies at 32-52 m/s, the paper's Fig. 3 right and
+#: "critical_speed"``, :mod:`design.control.search.critical_speed`), the search from 40 m/s in 5 m/s
+#: steps (a stage's open-loop critical speed lies at 32-52 m/s, the paper's Fig. 3 right and
 #: ``bridgeflap erection``) to 1 m/s, on a fixed layout of touching strips on the erected
 #: deck (a handful of candidates: no placement), one start.
 STAGE_DESIGN = {"objective": "critical_speed", "speed_max_m_s": 40.0,
@@ -221,7 +221,7 @@ def design_for_stage(spec: BridgeSpec, fraction: float, card=None, progress=None
     :class:`bridgeflap.design.control.results.result.DesignResult` (its status as the design reports
     it: ``converged`` only when the critical-speed search is bracketed and the chosen design
     verifies)."""
-    from bridgeflap.design.control.driver import design
+    from bridgeflap.design.control.search.driver import design
     from bridgeflap.design.control.settings import DEFAULT_CARD, load_settings
 
     card = DEFAULT_CARD if card is None else card

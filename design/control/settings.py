@@ -89,13 +89,13 @@ class DesignSettings:
     ``speed_max_m_s`` in steps of ``critical_speed_step_m_s`` up to ``critical_speed_max_m_s``
     (0: ``2 speed_max_m_s``, the closed-loop limits' range), bisected to
     ``critical_speed_tol_m_s``, at most ``critical_speed_evaluations`` inner designs
-    (:mod:`bridgeflap.design.control.critical_speed`).
+    (:mod:`bridgeflap.design.control.search.critical_speed`).
 
     ``layout_neighbours``: after the design, the chosen layout is compared with its
     neighbouring integer layouts (one mirror pair added or removed, centred blocks) at
-    re-optimised K (:mod:`bridgeflap.design.control.layout_search`; JSON key ``layout_neighbours``);
-    ``layout_adopt``: the best verified neighbour replaces it when its margin is larger.
-    Both left out of the design's JSON settings while false.
+    re-optimised K (:mod:`bridgeflap.design.control.search.layout_search`; JSON key
+    ``layout_neighbours``); ``layout_adopt``: the best verified neighbour replaces it when its
+    margin is larger. Both left out of the design's JSON settings while false.
 
     ``flap_angle_limit_deg`` [deg] and ``flap_rate_limit_deg_s`` [deg/s]: the flap actuator's
     angle and rate limits (defaults 20 deg and 40 deg/s, engineering estimates for hydraulic

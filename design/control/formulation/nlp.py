@@ -54,11 +54,11 @@ round is recorded. A design whose true peak gain exceeds ``gain_limit`` is never
 Placement (``optimise_placement``): relaxed weights ``w = S z`` in [0, 1], one per mirror pair
 with ``symmetric_layout`` (:attr:`DesignProblem.symmetry`), an optional flap-count budget
 ``sum(w) <= flap_budget`` and penalty ``weight_flaps``; rounding and the re-solve of K for the
-rounded layout are in :mod:`bridgeflap.design.control.driver`. Multi-model:
+rounded layout are in :mod:`bridgeflap.design.control.search.driver`. Multi-model:
 :mod:`bridgeflap.design.control.formulation.variants`.
 
 Multistart, verification on the ``verification_modes`` model, placement rounding and the
-result records: :mod:`bridgeflap.design.control.driver`; settings:
+result records: :mod:`bridgeflap.design.control.search.driver`; settings:
 :mod:`bridgeflap.design.control.settings`.
 """
 

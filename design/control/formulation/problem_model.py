@@ -2,7 +2,7 @@
 check of a compensator on a layout (:func:`verify_layout`) and the coefficients of a warm
 start (:func:`warm_start_theta`): below the multistart driver, so that its steps (starts,
 checks, flap count, pair failure, acceptance, the critical-speed search) use them without
-importing :mod:`bridgeflap.design.control.driver` back; the driver re-exports them."""
+importing :mod:`bridgeflap.design.control.search.driver` back; the driver re-exports them."""
 
 from __future__ import annotations
 

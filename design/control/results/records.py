@@ -231,7 +231,7 @@ class CutsOutcome:
 
 @dataclass(frozen=True)
 class StartRecord:
-    """One multistart run (``bridgeflap.design.control.driver.run_start``): solve, cuts,
+    """One multistart run (``bridgeflap.design.control.search.driver.run_start``): solve, cuts,
     verification, margin.
 
     A failed start has ``ipopt_status`` ``"failed: <reason>"``, ``theta`` None and NaN numbers.
@@ -299,7 +299,7 @@ class StartRecord:
     #: dense check on the design model (reused by the driver, not serialised)
     design_verification: Verification | None = None
     #: Ipopt's objective value of the chosen round [-] (not serialised:
-    # design.control.layout_search)
+    # design.control.search.layout_search)
     nlp_objective: float = NAN
     #: damping ratio of the compensator's own poles [-] (design.control.formulation.loop_algebra)
     compensator_damping_ratio: float = NAN
@@ -403,7 +403,7 @@ class FlapCountCheck:
 @dataclass(frozen=True)
 class FlapCountSearch:
     """Fewest evenly spaced flaps meeting the minimum damping
-    (``bridgeflap.design.control.driver.minimum_flap_count``).
+    (``bridgeflap.design.control.search.driver.minimum_flap_count``).
 
     ``minimum`` None when no checked count meets it; ``modes`` of the verification model.
     """
@@ -424,7 +424,7 @@ class FlapCountSearch:
 @dataclass(frozen=True)
 class BuffetingComparison:
     """Open- vs closed-loop max RMS buffeting response
-    (``bridgeflap.design.control.driver.buffeting_comparison``).
+    (``bridgeflap.design.control.search.driver.buffeting_comparison``).
 
     RMS vertical [m] and torsional [rad] response per speed [m/s] on the ``modes``-mode
     verification model; ``status`` ``ok`` or ``failed: <reason>`` (then no numbers).
@@ -452,8 +452,9 @@ class BuffetingComparison:
 
 @dataclass(frozen=True)
 class ParetoPoint:
-    """One flap count of the Pareto search (``bridgeflap.design.control.driver.flap_count_pareto``):
-    K(s) re-optimised for the evenly spaced symmetric layout of ``flap_count`` flaps, verified.
+    """One flap count of the Pareto search
+    (``bridgeflap.design.control.search.driver.flap_count_pareto``): K(s) re-optimised for the
+    evenly spaced symmetric layout of ``flap_count`` flaps, verified.
 
     ``verified``: damping and gain on the design model's dense grid and stable on the
     verification model's (the same criterion as a converged design); ``robust_margin`` the

@@ -17,14 +17,14 @@ NAN = float("nan")
 
 @dataclass(frozen=True)
 class DesignResult(ResultData):
-    """Outcome of :func:`bridgeflap.design.control.driver.design`.
+    """Outcome of :func:`bridgeflap.design.control.search.driver.design`.
 
     Attributes
     ----------
     status : str
         ``converged``, ``unverified``, ``infeasible`` or ``failed``
-        (:func:`bridgeflap.design.control.driver.select_start`); after the acceptance checks of
-        :func:`bridgeflap.design.assessment.accept.design` also ``harm``, ``failed_checks`` (the
+        (:func:`bridgeflap.design.control.search.driver.select_start`); after the acceptance checks
+        of :func:`bridgeflap.design.assessment.accept.design` also ``harm``, ``failed_checks`` (the
         independent check disagrees, or the usable speed is not above the open-loop critical
         speed) or ``unresolved``. Only ``converged`` carries a ``controller``.
     settings : DesignSettings
@@ -43,7 +43,8 @@ class DesignResult(ResultData):
         model [1/s] (NaN without a design).
     min_flaps : FlapCountSearch or None
         Fewest evenly spaced flaps meeting the minimum damping
-        (:func:`bridgeflap.design.control.driver.minimum_flap_count`; None when not searched).
+        (:func:`bridgeflap.design.control.search.driver.minimum_flap_count`; None when not
+        searched).
     wall_time_s : float
     extras : dict
         ``open_loop_abscissa`` [1/s], ``closed_loop`` (state space), ``buffeting``
@@ -141,7 +142,7 @@ class DesignResult(ResultData):
             "start_selection": "verified starts (damping, gain limit, verification model) "
                                "ranked by the NLP objective, lowest first, a phase-1 point "
                                "(no design objective) after them by margin "
-                               "(bridgeflap.design.control.driver."
+                               "(bridgeflap.design.control.search.driver."
                                "select_start); each row is that start's own optimum",
             "dense_T_peak": 1.0 / margin if margin else NAN,
             "robust_bound_holds": b.robust_bound_holds if b is not None else None,
@@ -161,9 +162,11 @@ class DesignResult(ResultData):
             out["robust_margin_speed_grid"] = jsonable(self.extras["robust_margin_speed_grid"])
         if self.controller is None and b is not None:
             out["best_achievable"] = jsonable(self.best_achievable())
-        if "layout_neighbours" in self.extras:   # design.control.layout_search, only when it ran
+        # design.control.search.layout_search, only when it ran
+        if "layout_neighbours" in self.extras:
             out["layout_neighbours"] = jsonable(self.extras["layout_neighbours"])
-        if crit:    # the critical-speed search (design.control.critical_speed), only when it ran
+        # the critical-speed search (design.control.search.critical_speed), only when it ran
+        if crit:
             out["critical_speed"] = jsonable(self.extras.get("critical_speed", {}))
         return out
 

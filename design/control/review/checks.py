@@ -1,9 +1,11 @@
-"""Checks and reports around a compensator design (:func:`bridgeflap.design.control.driver.design`).
+"""Checks and reports around a compensator design
+(:func:`bridgeflap.design.control.search.driver.design`).
 
 Closed-loop flutter/divergence limits and mechanism, the constraints active at the optimum,
 the flap-count Pareto with K re-optimised per count, and the multi-model variants (sampling
-and the a posteriori check on fresh variants). Split from :mod:`bridgeflap.design.control.driver`
-(one job per file); the driver re-exports these names.
+and the a posteriori check on fresh variants). Split from
+:mod:`bridgeflap.design.control.search.driver` (one job per file); the driver re-exports these
+names.
 """
 
 from __future__ import annotations
@@ -223,7 +225,8 @@ def fresh_variant_check(settings: DesignSettings, controller: Controller, specs)
 
 def fresh_variant_rows(settings: DesignSettings, controller: Controller, specs) -> list:
     """The per-variant rows of :func:`fresh_variant_check` (a chunk of them can run in a
-    worker process: :func:`bridgeflap.design.control.driver.design` splits them over its pool)."""
+    worker process: :func:`bridgeflap.design.control.search.driver.design` splits them over its
+    pool)."""
     rows = []
     th = _driver().warm_start_theta(controller)
     for v in specs:

@@ -4,7 +4,7 @@ The optimised K(s) is kept and every evenly spaced flap count is checked on the 
 the verification model, refined from a coarse subset
 (:func:`bridgeflap.design.control.formulation.plant.damping_check_refined`), with one modal solution
 for all counts (only the closed loop and its sweep per count). Re-exported by
-:mod:`bridgeflap.design.control.driver`.
+:mod:`bridgeflap.design.control.search.driver`.
 """
 
 from __future__ import annotations

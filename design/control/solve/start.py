@@ -1,4 +1,4 @@
-"""One start of the multistart design (:func:`bridgeflap.design.control.driver.design`): the
+"""One start of the multistart design (:func:`bridgeflap.design.control.search.driver.design`): the
 starting points (the nominal one and screened Sobol points), the solve with cutting planes, the
 rounding of a relaxed flap layout by whole groups and the re-solve on it, the record of a solved
 start (dense margin, verification-model check, design variants), and the choice among the starts.
@@ -277,9 +277,9 @@ def solve_fixed_layout(settings: DesignSettings, positions, theta0, spec=None, v
                        on_iteration=None):
     """K(s) re-optimised with cutting planes on the flaps at ``positions`` [m] only, from
     ``theta0`` (the rounded layout's step of :func:`run_start`; also
-    :mod:`bridgeflap.design.control.layout_search`). The candidates left out are not built, so the
-    flap loop (and its robust margin) has no channel for them. ``variants``: multi-model bridges.
-    Returns ``(problem, CutsOutcome)``; raises what the solve raises."""
+    :mod:`bridgeflap.design.control.search.layout_search`). The candidates left out are not built,
+    so the flap loop (and its robust margin) has no channel for them. ``variants``: multi-model
+    bridges. Returns ``(problem, CutsOutcome)``; raises what the solve raises."""
     from bridgeflap.design.control.solve.pair_failure import extra_models
     from bridgeflap.model.structure.loader import load_bridge
 

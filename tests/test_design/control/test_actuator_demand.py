@@ -8,8 +8,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.driver import build_model
 from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.search.driver import build_model
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.aeroelastic.control import Compensator, Controller
 

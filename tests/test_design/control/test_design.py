@@ -7,7 +7,6 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.driver import build_model, select_start
 from bridgeflap.design.control.formulation.buffeting_term import BuffetingCost
 from bridgeflap.design.control.formulation.nlp import DesignProblem
 from bridgeflap.design.control.formulation.plant import plant_factors
@@ -17,6 +16,7 @@ from bridgeflap.design.control.formulation.robust import (
     true_t_peak,
 )
 from bridgeflap.design.control.results.records import RobustMargin, StartRecord, Verification
+from bridgeflap.design.control.search.driver import build_model, select_start
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.aeroelastic.control import Compensator, Controller
 from bridgeflap.model.errors import BridgeflapInputError
@@ -486,7 +486,7 @@ def test_failed_design_summary_keeps_the_optimise_contract():
 
 def test_round_layout_keeps_whole_mirror_pairs_within_budget():
     # 5 flaps, 3 groups (outer pair, inner pair, centre): w = S z
-    from bridgeflap.design.control.driver import round_layout
+    from bridgeflap.design.control.search.driver import round_layout
 
     S = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 1, 0], [1, 0, 0]], float)
     # budget 3: the inner pair (0.9) and the centre (0.8) fit, the outer pair (0.85) would not
@@ -516,7 +516,7 @@ def test_damping_constraint_is_active_when_only_regularised(small_box):
     # objective |theta/scale|^2 only (no robust term): it pulls K towards 0, the open loop
     # (K = 0) flutters at 70 m/s on this model, so the NLP optimum must sit on a damping
     # constraint -- the constraints act (earlier, the decay-rate constraints never did)
-    from bridgeflap.design.control.driver import (
+    from bridgeflap.design.control.search.driver import (
         ACTIVE_ABS_TOL_1_S,
         active_constraints,
         nlp_active_speeds,
@@ -616,7 +616,7 @@ def test_multi_model_design_constrains_every_variant(small_box):
     # two variants of the small humber:box model (Sobol' over the estimated-input ranges,
     # half-chord held): the NLP carries one damping block per model, and a short solve_with_cuts
     # reports feasibility only when every variant's dense check meets zeta_min
-    from bridgeflap.design.control.driver import sample_variants
+    from bridgeflap.design.control.search.driver import sample_variants
     from bridgeflap.model.structure.loader import load_bridge
 
     s, model = small_box
@@ -642,7 +642,7 @@ def test_multi_model_design_constrains_every_variant(small_box):
 def test_closed_loop_limits_reported_with_mechanism(small_box):
     # the reported limits are model.analysis.closed_loop_flutter's, searched to 2 x 85 m/s,
     # and the governing one is the lower of the sweep's critical speed and the static check
-    from bridgeflap.design.control.driver import closed_loop_limits
+    from bridgeflap.design.control.search.driver import closed_loop_limits
     from bridgeflap.model.analysis import closed_loop_flutter
     from bridgeflap.model.structure.loader import load_bridge
 
@@ -677,7 +677,7 @@ def test_b1425_with_5m_flaps_is_stable_to_85(tmp_path):
     # limit above 85 m/s and the gain limit met (3 m flaps: no such K found, the golden case)
     from pathlib import Path
 
-    from bridgeflap.design.control.driver import design
+    from bridgeflap.design.control.search.driver import design
 
     card = Path(__file__).resolve().parents[3] / "design" / "studies" / "humber_b1425_flaps5m.toml"
     s = load_settings(card, starts=1, parallel=False)
@@ -692,7 +692,7 @@ def test_b1425_with_5m_flaps_is_stable_to_85(tmp_path):
 def test_iteration_callback_history_and_warm_start(small_box):
     # the Ipopt iteration callback fires once per iteration (and once for iteration 0), the
     # saved history has one entry per call, and a warm start is parsed from a Controller
-    from bridgeflap.design.control.driver import warm_start_theta
+    from bridgeflap.design.control.search.driver import warm_start_theta
 
     s, model = small_box
     prob = DesignProblem(replace(s, max_iter=6), model)
@@ -712,7 +712,7 @@ def test_iteration_callback_history_and_warm_start(small_box):
 def test_pareto_points_are_each_verified(small_box):
     # K re-optimised per count; each point's "verified" is recomputed here from an
     # independent dense check of its own theta on its own layout (damping, gain, stability)
-    from bridgeflap.design.control.driver import flap_count_pareto, verify_layout
+    from bridgeflap.design.control.search.driver import flap_count_pareto, verify_layout
 
     s, _ = small_box
     s2 = replace(s, max_iter=40, resolve_max_iter=20, cutting_plane_rounds=1,
@@ -760,8 +760,8 @@ def test_lazy_variant_constraints_meet_every_variant(small_box):
     # the lazy loop reaches a design that meets zeta_min on the nominal bridge and on every
     # variant's dense check -- the constraints left out are verified, not assumed. The loop's own
     # test (the refined check) gives the dense check's maximum violation on every variant.
-    from bridgeflap.design.control.driver import sample_variants
     from bridgeflap.design.control.formulation.nlp_tolerances import VIOLATION_TOL
+    from bridgeflap.design.control.search.driver import sample_variants
     from bridgeflap.model.structure.loader import load_bridge
 
     s, model = small_box

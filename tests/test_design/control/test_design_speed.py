@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from bridgeflap.design.control.driver import build_model
 from bridgeflap.design.control.formulation.eigen import inverse_iteration
 from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.search.driver import build_model
 from bridgeflap.design.control.settings import load_settings
 
 THETA = np.array([0.3, 0.25, -1.5, 0.08, 0.5])
@@ -89,7 +89,7 @@ def test_fresh_variants_reported_stable_are_stable(small_box_fresh):
     # stable 0..speed_max is stable in an independent sweep (model.stability.sweeps.sweep on the
     # closed-loop system of that variant, same grid and modes), and every one it counts as
     # unstable is not -- so the reported fraction is the sweep's
-    from bridgeflap.design.control.driver import fresh_variant_check, sample_variants
+    from bridgeflap.design.control.search.driver import fresh_variant_check, sample_variants
     from bridgeflap.model.aeroelastic.control import Compensator, Controller
     from bridgeflap.model.stability.sweeps import sweep
     from bridgeflap.model.structure.loader import load_bridge
@@ -116,7 +116,7 @@ def test_flap_count_search_in_two_processes_equals_the_serial_one(small_box_fres
     # minimum, the stopping rule applied count by count (exact: same computation per count)
     from dataclasses import replace
 
-    from bridgeflap.design.control.driver import minimum_flap_count
+    from bridgeflap.design.control.search.driver import minimum_flap_count
 
     s = small_box_fresh
     theta = (0.0, 0.5, -1.0, 0.05, 0.5)
@@ -126,7 +126,7 @@ def test_flap_count_search_in_two_processes_equals_the_serial_one(small_box_fres
     assert len(ser.counts) >= 1
     # the full layout's check already made (a start's verification) is reused as its row:
     # the same computation, so the same search to the last bit
-    from bridgeflap.design.control.driver import verify_layout
+    from bridgeflap.design.control.search.driver import verify_layout
 
     ver = verify_layout(s, theta, s.positions())
     assert minimum_flap_count(replace(s, parallel=True), theta,
@@ -326,7 +326,7 @@ def test_multi_model_design_in_two_processes_reports_every_variant(small_box_fre
     # variant, in order), and the design variants' checks are reported one per variant
     from dataclasses import replace
 
-    from bridgeflap.design.control.driver import design, fresh_variant_check, sample_variants
+    from bridgeflap.design.control.search.driver import design, fresh_variant_check, sample_variants
     from bridgeflap.model.structure.loader import load_bridge
 
     # 3 rounds of 60 iterations: since the model updating 1 x 30 ends infeasible (max

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from bridgeflap.design.cli.run import run
-from bridgeflap.design.control.driver import build_model
 from bridgeflap.design.control.formulation.ipopt_hooks import signals_deferred, stop_requested
 from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.search.driver import build_model
 from bridgeflap.design.control.settings import load_settings
 
 
@@ -33,7 +33,7 @@ def small():
 _SCRIPT = """
 import os, signal, sys
 import numpy as np
-from bridgeflap.design.control.driver import build_model
+from bridgeflap.design.control.search.driver import build_model
 from bridgeflap.design.control.formulation.ipopt_hooks import stop_requested
 from bridgeflap.design.control.formulation.nlp import DesignProblem
 from bridgeflap.design.control.settings import load_settings

@@ -38,8 +38,8 @@ def test_grid_margin_is_the_minimum_over_the_whole_speed_range():
     # independent check: a 0.02 m/s brute-force grid about the worst grid speed finds no
     # larger peak (1e-4 relative: the refined speed is within xatol 0.01 m/s of the local
     # maximum of a smooth peak, whose relative drop there is second order)
-    from bridgeflap.design.control.driver import build_model
     from bridgeflap.design.control.formulation.nlp import DesignProblem
+    from bridgeflap.design.control.search.driver import build_model
 
     _, model = build_model(s, positions=np.asarray(pos))
     prob = DesignProblem(replace(s, optimise_placement=False), model, numeric=True)

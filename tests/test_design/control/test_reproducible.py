@@ -150,8 +150,8 @@ def test_a_last_bit_perturbation_of_the_model_gives_the_same_design(monkeypatch)
     # closed-loop critical speed within 0.01 m/s (the tolerances a user can rely on between
     # machines: an earlier kernel study saw K move > 10 % where a choice was taken on
     # unconverged iterates)
-    from bridgeflap.design.control.driver import design
     from bridgeflap.design.control.formulation.problem_model import PERTURB_ENV
+    from bridgeflap.design.control.search.driver import design
 
     card = _small_card()
     base = _design_numbers(design(card))

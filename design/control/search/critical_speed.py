@@ -6,19 +6,19 @@ critical speed is the lower of closed-loop flutter and divergence
 
 Method (docs/methods.md#critical-speed-objective). An outer search over the design speed
 ``U_d``; the inner problem at ``U_d`` is the default design
-(:func:`bridgeflap.design.control.driver.run_start`: phase 1, Ipopt, cutting planes, dense checks)
-with the damping ratio ``zeta_min`` required on 0..``U_d`` (:func:`settings_at`: design grid, dense
-check grid and robust speeds extended to ``U_d``). ``U_d`` is *feasible* when the inner design
-verifies -- damping on the design model's dense grid to ``U_d``, true peak gain <= ``gain_limit``,
-stable to ``U_d`` on the verification model -- and its dense robust margin is >= ``margin_min``. The
-search starts at the card's ``speed_max_m_s``, steps by ``critical_speed_step_m_s`` (up, or down
-when the start is not feasible) until the feasibility changes (the bracket), then bisects to
-``critical_speed_tol_m_s``, each inner solve warm-started from the design at the bracket's
-feasible end. Every feasible design's closed-loop limits are computed (~5 s on 30 modes);
-the chosen design is the feasible one of highest closed-loop critical speed (the objective;
-normally the one at the largest feasible ``U_d``, whose damping holds furthest); the result
-is :func:`bridgeflap.design.control.driver.design`'s checks of it (closed-loop limits, flap count,
-buffeting).
+(:func:`bridgeflap.design.control.search.driver.run_start`: phase 1, Ipopt, cutting planes, dense
+checks) with the damping ratio ``zeta_min`` required on 0..``U_d`` (:func:`settings_at`: design
+grid, dense check grid and robust speeds extended to ``U_d``). ``U_d`` is *feasible* when the inner
+design verifies -- damping on the design model's dense grid to ``U_d``, true peak gain <=
+``gain_limit``, stable to ``U_d`` on the verification model -- and its dense robust margin is >=
+``margin_min``. The search starts at the card's ``speed_max_m_s``, steps by
+``critical_speed_step_m_s`` (up, or down when the start is not feasible) until the feasibility
+changes (the bracket), then bisects to ``critical_speed_tol_m_s``, each inner solve warm-started
+from the design at the bracket's feasible end. Every feasible design's closed-loop limits are
+computed (~5 s on 30 modes); the chosen design is the feasible one of highest closed-loop critical
+speed (the objective; normally the one at the largest feasible ``U_d``, whose damping holds
+furthest); the result is :func:`bridgeflap.design.control.search.driver.design`'s checks of it
+(closed-loop limits, flap count, buffeting).
 
 The inner objective stays the robust margin (not ``gamma_T <= 1/margin_min`` with the
 regularisation as objective): both define the same feasible set of ``U_d`` (a design with
@@ -300,8 +300,8 @@ def inner_design(settings: DesignSettings, speed_m_s: float, theta0, spec=None,
 def critical_speed_design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
                           progress_bar=None, *, design):
     """The critical-speed design (module docstring): search, then the chosen design's checks
-    by ``design`` (:func:`bridgeflap.design.control.driver.design`, which calls this and passes
-    itself: the search does not import the driver back; ``records``). Returns a
+    by ``design`` (:func:`bridgeflap.design.control.search.driver.design`, which calls this and
+    passes itself: the search does not import the driver back; ``records``). Returns a
     :class:`bridgeflap.design.control.results.result.DesignResult` whose ``status`` is the search's
     (``controller`` only when ``converged``) and ``extras["critical_speed"]`` the search record."""
     from bridgeflap.design.control.formulation.problem_model import NOMINAL_START, warm_start_theta

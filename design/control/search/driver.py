@@ -197,13 +197,13 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     records : sequence of StartRecord, optional
         Starts already run on ``settings`` (:func:`run_start`): only the selection and the
         checks follow. ``objective = "critical_speed"`` without them runs
-        :func:`bridgeflap.design.control.critical_speed.critical_speed_design`, which calls this
-        with its chosen inner design.
+        :func:`bridgeflap.design.control.search.critical_speed.critical_speed_design`, which calls
+        this with its chosen inner design.
     """
     check_design_args(settings, progress, bridge, warm_start, progress_bar, records)
     spec = None if bridge is None else load_bridge(bridge)  # a name, a file or a BridgeSpec
     if records is None and settings.objective == "critical_speed":
-        from bridgeflap.design.control.critical_speed import critical_speed_design
+        from bridgeflap.design.control.search.critical_speed import critical_speed_design
 
         # this function is the search's inner design (passed in: no import back)
         return critical_speed_design(settings, progress=progress, spec=spec,
@@ -258,8 +258,8 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     mark("starts (Ipopt, cuts, verification)")
     best, status = select_start(records, settings.gain_limit)
     extras, controller = {}, None
-    if settings.layout_neighbours:  # design.control.layout_search
-        from bridgeflap.design.control.layout_search import design_step
+    if settings.layout_neighbours:  # design.control.search.layout_search
+        from bridgeflap.design.control.search.layout_search import design_step
 
         best, status, extras["layout_neighbours"] = design_step(settings, best, status, spec,
                                                                 variants, log)

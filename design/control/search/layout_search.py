@@ -335,8 +335,8 @@ def relaxed_theta(record) -> np.ndarray | None:
 
 
 def design_step(settings, best, status, spec=None, variants=(), log=None):
-    """The ``layout_neighbours`` step of :func:`bridgeflap.design.control.driver.design` on its
-    chosen start.
+    """The ``layout_neighbours`` step of :func:`bridgeflap.design.control.search.driver.design` on
+    its chosen start.
 
     The rounded layout's row is the design's own record (not re-solved; the same machinery,
     ``tests/test_layout_search.py``); every neighbour is re-optimised from the design's K.
