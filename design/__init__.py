@@ -6,7 +6,8 @@ tests/project/test_layering.py holds the rule):
 - :mod:`bridgeflap.design.io`: reading options and definition files, atomic outputs, output folders,
   the run manifest.
 - :mod:`bridgeflap.design.batch`: the fault-tolerant batch runner and sampling plans (no physics).
-- :mod:`bridgeflap.design.control`: the compensator NLP, its driver, checks and result.
+- :mod:`bridgeflap.design.control`: the compensator NLP, its driver, checks and result (in rooms
+  of its own: results, formulation, review, solve, search).
 - :mod:`bridgeflap.design.sensitivity`: implicit-function sensitivities and global screening.
 - :mod:`bridgeflap.design.assessment`: do no harm, failed flaps, actuator limits, acceptance.
 - :mod:`bridgeflap.design.studies`: the analyses registry, studies, DOE files, the report.
