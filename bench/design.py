@@ -37,8 +37,8 @@ def run(modes=(8, 12, 16), steps=(10.0, 5.0)) -> list[dict]:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     import casadi as ca
 
-    from bridgeflap.design.control.driver import build_model
-    from bridgeflap.design.control.nlp import DesignProblem
+    from bridgeflap.design.control.formulation.nlp import DesignProblem
+    from bridgeflap.design.control.search.driver import build_model
     from bridgeflap.design.control.settings import load_settings
 
     rows = []

@@ -12,8 +12,8 @@ three groups, and compares every run with the first (the machine as found):
   layout, the closed-loop critical speed within 0.01 m/s, the robust margin within 1e-3.
 * **nearby** -- the model perturbed by 1e-9 and 1e-6 relative, ``--draws`` draws each (other
   signs and sizes per input: ``BRIDGEFLAP_PERTURB_REL`` / ``BRIDGEFLAP_PERTURB_SEED``,
-  :mod:`bridgeflap.design.control.problem_model`). Target: converged with acceptance passed,
-  the critical speed within 0.05 m/s.
+  :mod:`bridgeflap.design.control.formulation.problem_model`). Target: converged with acceptance
+  passed, the critical speed within 0.05 m/s.
 * **doe** -- nearby bridges: a design DOE over the deck's GJ +-10 % and its mass with its
   torsional inertia +-5 % (3 x 3), run through the DOE runner
   (:func:`bridgeflap.design.batch.runner.run_batch`) as a user's design batch runs. Target:

@@ -38,7 +38,7 @@ def coarse_humber() -> BridgeSpec:
 def buffeting_problem():
     """``(settings, spec, model)`` of a small design with the buffeting term's code path:
     6 modes, 5 flaps, two buffeting speeds (the 16-mode design's path, seconds to build)."""
-    from bridgeflap.design.control.driver import build_model
+    from bridgeflap.design.control.search.driver import build_model
     from bridgeflap.design.control.settings import load_settings
 
     s = load_settings(None, n_modes=6, verification_modes=6, flap_count=5,

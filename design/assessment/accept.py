@@ -1,9 +1,9 @@
 """A design you can install: the compensator design with its acceptance checks folded into its
 status (:func:`design`), and the checks of any controller (:func:`accept`).
 
-:func:`design` runs :func:`bridgeflap.design.control.driver.design` and then, when it produced a
-controller, the acceptance checks of :mod:`bridgeflap.design.assessment.acceptance` on that
-controller as written to its file and read back. The verdict is part of the design's status:
+:func:`design` runs :func:`bridgeflap.design.control.search.driver.design` and then, when it
+produced a controller, the acceptance checks of :mod:`bridgeflap.design.assessment.acceptance` on
+that controller as written to its file and read back. The verdict is part of the design's status:
 
 ==================  =========================================================================
 ``converged``       the design met every check of the design model and the acceptance checks
@@ -178,8 +178,8 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
         variants are drawn about it.
     closed_loop_limits : dict, optional
         The design's closed- and open-loop limits on its verification model
-        (:func:`bridgeflap.design.control.checks.closed_loop_limits`), read by the usable-speed
-        check (default: computed).
+        (:func:`bridgeflap.design.control.review.checks.closed_loop_limits`), read by the
+        usable-speed check (default: computed).
 
     Returns
     -------
@@ -215,7 +215,7 @@ def accept(controller, settings=None, *, checks="all", samples: int | None = Non
         return AcceptanceResult("not_run", {"checks": [], "status": "not_run"})
     _warn_other_bridge(controller, settings, bridge)  # the bridge is read: a bad one stops here
     if closed_loop is None and "independent_check" in opts.checks:
-        from bridgeflap.design.control.problem_model import build_model
+        from bridgeflap.design.control.formulation.problem_model import build_model
 
         _, model = build_model(settings, n_modes=settings.verification_modes,
                                positions=controller.flap_strip_positions_m, spec=bridge)
@@ -265,15 +265,15 @@ def _warn_other_bridge(controller, settings, bridge) -> None:
 def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=None,
            records=None, *, checks="all", check_samples: int | None = None,
            check_workers: int | None = None, quick_checks: bool = False):
-    """Design the compensator and judge it: :func:`bridgeflap.design.control.driver.design`, then
-    :func:`accept` on its controller, the verdict folded into the status (module docstring).
+    """Design the compensator and judge it: :func:`bridgeflap.design.control.search.driver.design`,
+    then :func:`accept` on its controller, the verdict folded into the status (module docstring).
 
     Parameters
     ----------
     settings : DesignSettings
         The design card (:func:`bridgeflap.design.control.settings.load_settings`).
     progress, bridge, warm_start, progress_bar, records
-        As :func:`bridgeflap.design.control.driver.design`.
+        As :func:`bridgeflap.design.control.search.driver.design`.
     checks : str or sequence of str
         Acceptance checks (``"all"``, the default; ``"none"`` skips them and says so).
     check_samples, check_workers : int, optional
@@ -283,10 +283,10 @@ def design(settings, progress=None, bridge=None, warm_start=None, progress_bar=N
 
     Returns
     -------
-    bridgeflap.design.control.result.DesignResult
+    bridgeflap.design.control.results.result.DesignResult
         ``controller`` is None unless the status is ``converged``.
     """
-    from bridgeflap.design.control.driver import design as run_design
+    from bridgeflap.design.control.search.driver import design as run_design
     from bridgeflap.design.io.api_args import check_design_args
 
     check_design_args(settings, progress, bridge, warm_start, progress_bar, records)

@@ -116,7 +116,7 @@ def design_closed_loop(result, settings):
     keep it)."""
     cl = result.extras.get("closed_loop")
     if cl is None:
-        from bridgeflap.design.control.problem_model import build_model
+        from bridgeflap.design.control.formulation.problem_model import build_model
 
         _, model = build_model(settings, n_modes=settings.verification_modes,
                                positions=result.candidate.flap_strip_positions_m)
@@ -230,7 +230,7 @@ def _actuators(controller, settings, opts, say, bridge):
 
 def _usable_speed(controller, settings, opts, say, bridge, limits=None):
     from bridgeflap.design.assessment.usable_speed import usable_speed
-    from bridgeflap.design.control.checks import closed_loop_limits
+    from bridgeflap.design.control.review.checks import closed_loop_limits
     from bridgeflap.model.aeroelastic.actuator_limits import ActuatorLimits
     from bridgeflap.model.structure.loader import load_bridge
 
@@ -263,7 +263,7 @@ def acceptance(controller, settings, options: AcceptanceOptions | None = None, *
     actuator simulation) reports ``status: "error"`` with the reason. ``bridge``: the bridge
     the controller was designed for (a spec, name or path; default ``settings.bridge``).
     ``closed_loop_limits``: the design's own closed- and open-loop limits
-    (:func:`bridgeflap.design.control.checks.closed_loop_limits`; computed when not given).
+    (:func:`bridgeflap.design.control.review.checks.closed_loop_limits`; computed when not given).
     """
     opts = AcceptanceOptions() if options is None else options
     say = progress or (lambda _msg: None)

@@ -25,8 +25,8 @@ __all__ = ["STAGE_DESIGN", "ErectionControlResult", "design_for_stage", "erectio
 
 #: Card overrides of a design for one erection stage (:func:`design_for_stage`): the largest
 #: closed-loop critical speed subject to the card's robust margin (``objective =
-#: "critical_speed"``, :mod:`design.control.critical_speed`), the search from 40 m/s in 5 m/s steps
-#: (a stage's open-loop critical speed lies at 32-52 m/s, the paper's Fig. 3 right and
+#: "critical_speed"``, :mod:`design.control.search.critical_speed`), the search from 40 m/s in 5 m/s
+#: steps (a stage's open-loop critical speed lies at 32-52 m/s, the paper's Fig. 3 right and
 #: ``bridgeflap erection``) to 1 m/s, on a fixed layout of touching strips on the erected
 #: deck (a handful of candidates: no placement), one start.
 STAGE_DESIGN = {"objective": "critical_speed", "speed_max_m_s": 40.0,
@@ -117,8 +117,8 @@ class ErectionControlResult(ResultData):
 
     def plot(self, ax=None):
         """Open- and closed-loop critical speeds against the erected fraction
-        (:func:`bridgeflap.design.control.result_plots.erection_stages`)."""
-        from bridgeflap.design.control.result_plots import erection_stages
+        (:func:`bridgeflap.design.control.results.result_plots.erection_stages`)."""
+        from bridgeflap.design.control.results.result_plots import erection_stages
 
         return erection_stages(self, ax)
 
@@ -217,10 +217,11 @@ def design_for_stage(spec: BridgeSpec, fraction: float, card=None, progress=None
     """A controller designed for one erection stage: the card's flaps and
     limits (gain, chord, damping, margin_min), the strips that fit on the erected deck as the
     layout, and :data:`STAGE_DESIGN` (maximise the closed-loop critical speed); ``overrides``
-    are further card keys. Returns the :class:`bridgeflap.design.control.result.DesignResult` (its
-    status as the design reports it: ``converged`` only when the critical-speed search is bracketed
-    and the chosen design verifies)."""
-    from bridgeflap.design.control.driver import design
+    are further card keys. Returns the
+    :class:`bridgeflap.design.control.results.result.DesignResult` (its status as the design reports
+    it: ``converged`` only when the critical-speed search is bracketed and the chosen design
+    verifies)."""
+    from bridgeflap.design.control.search.driver import design
     from bridgeflap.design.control.settings import DEFAULT_CARD, load_settings
 
     card = DEFAULT_CARD if card is None else card

@@ -253,8 +253,8 @@ class FailSafeResult(ResultData):
 
     def plot(self, ax=None):
         """Critical speed [m/s] with each flap pair failed, against the pair's position [m]
-        (:func:`bridgeflap.design.control.result_plots.pair_failures`)."""
-        from bridgeflap.design.control.result_plots import pair_failures
+        (:func:`bridgeflap.design.control.results.result_plots.pair_failures`)."""
+        from bridgeflap.design.control.results.result_plots import pair_failures
 
         return pair_failures(self, ax)
 

@@ -201,7 +201,7 @@ class HarmResult(ResultData):
 
     def plot(self, ax=None):
         """Histogram of the closed- over open-loop critical speed of the variants [-]
-        (:func:`bridgeflap.design.control.result_plots.harm_ratios`).
+        (:func:`bridgeflap.design.control.results.result_plots.harm_ratios`).
 
         Parameters
         ----------
@@ -213,7 +213,7 @@ class HarmResult(ResultData):
         matplotlib.figure.Figure
             The figure drawn on (a new one when no axes are given).
         """
-        from bridgeflap.design.control.result_plots import harm_ratios
+        from bridgeflap.design.control.results.result_plots import harm_ratios
 
         return harm_ratios(self, ax)
 

@@ -1,5 +1,5 @@
 """``bridgeflap optimise``: design the flap compensator K(s) (the paper, §6), see
-bridgeflap.design.control.driver."""
+bridgeflap.design.control.search.driver."""
 
 from __future__ import annotations
 

@@ -76,12 +76,12 @@ class DesignSettings:
     ``zeta_min`` [-] is the minimum damping ratio ``-Re lambda / |lambda|`` demanded of every
     closed-loop branch the flaps can move (default 0.5 %, half the structural 1 %), at every
     design speed 0..``speed_max_m_s``; the copies of the aerodynamic lag poles ``-p_i U / b``
-    and of the compensator poles are excluded (:mod:`bridgeflap.design.control.eigen`).
+    and of the compensator poles are excluded (:mod:`bridgeflap.design.control.formulation.eigen`).
 
     ``robust_cut_tol`` [-]: the cutting planes stop when the dense peak of ``sigma_max(T)`` is
     within this of the optimiser's bound ``gamma_T`` (``robust_bound_holds``), i.e. the
     verified margin is within it of the optimiser's (default 1 %,
-    :data:`bridgeflap.design.control.nlp_tolerances.ROBUST_CUT_TOL`).
+    :data:`bridgeflap.design.control.formulation.nlp_tolerances.ROBUST_CUT_TOL`).
 
     ``objective``: ``"margin"`` (default) maximises the robust margin subject to the damping up
     to ``speed_max_m_s``; ``"critical_speed"`` searches the largest design speed whose
@@ -89,13 +89,13 @@ class DesignSettings:
     ``speed_max_m_s`` in steps of ``critical_speed_step_m_s`` up to ``critical_speed_max_m_s``
     (0: ``2 speed_max_m_s``, the closed-loop limits' range), bisected to
     ``critical_speed_tol_m_s``, at most ``critical_speed_evaluations`` inner designs
-    (:mod:`bridgeflap.design.control.critical_speed`).
+    (:mod:`bridgeflap.design.control.search.critical_speed`).
 
     ``layout_neighbours``: after the design, the chosen layout is compared with its
     neighbouring integer layouts (one mirror pair added or removed, centred blocks) at
-    re-optimised K (:mod:`bridgeflap.design.control.layout_search`; JSON key ``layout_neighbours``);
-    ``layout_adopt``: the best verified neighbour replaces it when its margin is larger.
-    Both left out of the design's JSON settings while false.
+    re-optimised K (:mod:`bridgeflap.design.control.search.layout_search`; JSON key
+    ``layout_neighbours``); ``layout_adopt``: the best verified neighbour replaces it when its
+    margin is larger. Both left out of the design's JSON settings while false.
 
     ``flap_angle_limit_deg`` [deg] and ``flap_rate_limit_deg_s`` [deg/s]: the flap actuator's
     angle and rate limits (defaults 20 deg and 40 deg/s, engineering estimates for hydraulic
@@ -103,7 +103,7 @@ class DesignSettings:
     --card`` simulates the designed loop with them in turbulent wind.
     ``actuator_design_speeds_m_s`` [m/s]: at these speeds the NLP holds the 3 sigma flap angle
     and rate of the linear closed loop in the bridge's design turbulence within those limits
-    (:mod:`bridgeflap.design.control.actuator_demand`; empty: not constrained).
+    (:mod:`bridgeflap.design.control.formulation.actuator_demand`; empty: not constrained).
     Left out of the design's JSON settings while at their defaults.
 
     Attributes
@@ -324,7 +324,7 @@ class DesignSettings:
         if self.variant_speeds not in ("lazy", "all"):
             raise BridgeflapInputError("variant_speeds", "must be 'lazy' (constraint generation "
                                        "over variant and speed, "
-                                       "bridgeflap.design.control.variants) or 'all', "
+                                       "bridgeflap.design.control.formulation.variants) or 'all', "
                                        f"got {self.variant_speeds!r}")
         if self.variant_rule not in VARIANT_RULES:
             raise BridgeflapInputError("variant_rule", "must be 'no_harm' (each variant damped "

@@ -1,5 +1,5 @@
 """The stated uncertainty set of the estimated bridge inputs: the ranges the design's
-robustness variants (:mod:`bridgeflap.design.control.checks`), the do-no-harm check
+robustness variants (:mod:`bridgeflap.design.control.review.checks`), the do-no-harm check
 (:mod:`bridgeflap.design.assessment.harm`) and the global sensitivity study
 (:mod:`bridgeflap.design.studies.screening`, which also serves it) sample. It sits in the lowest
 room that uses it, so every user imports it downwards. A leaf module (no design imports)."""

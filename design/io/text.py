@@ -2,7 +2,7 @@
 value (``None``/NaN) as a word, never "nan".
 
 Used by the command line (:mod:`bridgeflap.design.cli.common` serves them to the commands) and by
-the text of the design checks (:mod:`bridgeflap.design.control.checks`).
+the text of the design checks (:mod:`bridgeflap.design.control.review.checks`).
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@ and without the flaps.
 
 :func:`bridgeflap.design.studies.analyses.fig5` (the report's figure) calls it (matplotlib imported
 lazily); speeds in m/s. The figures of a compensator design (Bode plot, margins, flap layout)
-are in :mod:`bridgeflap.design.control.figures`, the Morris plane of the global sensitivity study in
-:mod:`bridgeflap.design.sensitivity.figures`.
+are in :mod:`bridgeflap.design.control.results.figures`, the Morris plane of the global sensitivity
+study in :mod:`bridgeflap.design.sensitivity.figures`.
 """
 
 from __future__ import annotations

@@ -4,9 +4,9 @@ The default card (``runs/humber_flaps.toml``) places its flaps by rounding relax
 at 0.5 and re-optimises K(s) on the rounded layout. This script re-optimises and verifies
 K(s) on every layout one mirror pair away from it (added or removed) and on the centred
 contiguous blocks of about the same size
-(:func:`bridgeflap.design.control.layout_search.compare_layouts`, the same fixed-layout machinery as
-the design), every layout from the same start, and prints the table ranked by the dense robust
-margin among verified layouts, with the gap of the best neighbour to the rounded layout.
+(:func:`bridgeflap.design.control.search.layout_search.compare_layouts`, the same fixed-layout
+machinery as the design), every layout from the same start, and prints the table ranked by the dense
+robust margin among verified layouts, with the gap of the best neighbour to the rounded layout.
 
 The layout and start default to the default design as recorded in the README (18 flap pairs
 at +-225.6..+-676.8 m, K = (-1.0520 s^2 + 0.7242 s - 4.9907)/(0.2457 s^2 + 0.1963 s + 1));
@@ -29,7 +29,7 @@ import os
 import sys
 from pathlib import Path
 
-from bridgeflap.design.control.layout_search import compare_layouts
+from bridgeflap.design.control.search.layout_search import compare_layouts
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.design.io.files import atomic_write_json, atomic_write_text, ensure_writable_dir
 from bridgeflap.design.io.manifest import build_manifest
@@ -67,7 +67,7 @@ def main(argv=None) -> int:
     settings = load_settings(DEFINITION, **(QUICK if quick else {"parallel": False}))
     weights, theta, positions, source = None, DEFAULT_THETA, DEFAULT_POSITIONS_M, "README"
     if quick:
-        from bridgeflap.design.control.driver import NOMINAL_START, run_start
+        from bridgeflap.design.control.search.driver import NOMINAL_START, run_start
 
         rec = run_start(settings, NOMINAL_START, 0)
         theta, positions, weights = rec.theta, rec.flap_positions_m, rec.weights_continuous

@@ -2,12 +2,13 @@
 
 For each buffeting weight the default design (``runs/humber_flaps.toml``: its starts, cuts
 and checks; the CasADi spectral buffeting integral in modal coordinates
-``buffeting_term = "modal"``, :class:`bridgeflap.design.control.buffeting_term.ModalBuffeting`,
-same-K flap-count search limited to the design count) is run through
-:func:`bridgeflap.design.control.driver.design`; the table holds the closed-loop / open-loop RMS
-ratios (vertical and torsional, numpy
-:func:`bridgeflap.model.response.buffeting.buffeting` on the verification model, max over the main
-span) at the buffeting speeds, the robust margin, the closed-loop critical speed and the status.
+``buffeting_term = "modal"``,
+:class:`bridgeflap.design.control.formulation.buffeting_term.ModalBuffeting`, same-K flap-count
+search limited to the design count) is run through
+:func:`bridgeflap.design.control.search.driver.design`; the table holds the closed-loop / open-loop
+RMS ratios (vertical and torsional, numpy :func:`bridgeflap.model.response.buffeting.buffeting` on
+the verification model, max over the main span) at the buffeting speeds, the robust margin, the
+closed-loop critical speed and the status.
 
 Writes ``tradeoff.csv``, ``tradeoff.md`` and ``tradeoff.png`` to ``--out`` (default
 ``runs/optimisation/buffeting_tradeoff``).
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bridgeflap.design.control.driver import design
+from bridgeflap.design.control.search.driver import design
 from bridgeflap.design.control.settings import load_settings
 
 DEFINITION = Path(__file__).resolve().parents[1] / "humber_flaps.toml"

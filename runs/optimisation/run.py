@@ -1,9 +1,9 @@
 """Scripted flap-controller optimisation on the Humber case (the paper's Fig. 5).
 
-Designs the compensator K(s) with :func:`bridgeflap.design.control.driver.design` from the packaged
-definition ``runs/humber_flaps.toml`` on a bridge specification built in this script (``--quick``:
-:func:`bridgeflap.design.control.settings.quick_settings`, one start; otherwise 4 starts; the
-built-in mesh both ways). Writes ``manifest.json`` (configuration, versions,
+Designs the compensator K(s) with :func:`bridgeflap.design.control.search.driver.design` from the
+packaged definition ``runs/humber_flaps.toml`` on a bridge specification built in this script
+(``--quick``: :func:`bridgeflap.design.control.settings.quick_settings`, one start; otherwise 4
+starts; the built-in mesh both ways). Writes ``manifest.json`` (configuration, versions,
 commit), ``result.json`` (the ``bridgeflap optimise`` summary) and ``controller.toml``.
 
 Exits 1 when the design is not ``converged`` (every start's status is in ``result.json``);
@@ -20,7 +20,7 @@ import os
 import sys
 from pathlib import Path
 
-from bridgeflap.design.control.driver import design
+from bridgeflap.design.control.search.driver import design
 from bridgeflap.design.control.settings import load_settings, quick_settings
 from bridgeflap.design.io.files import atomic_write_json, ensure_writable_dir
 from bridgeflap.design.io.manifest import build_manifest

@@ -4,9 +4,9 @@ The default design is stable to 85 m/s on 73 % of 200 fresh variants, and every 
 misses 85 m/s has GJ below the nominal (README, "Control"). This asks whether *any* design with
 the default card's limits (3 m flaps, gain <= 15, zeta_min, 25 candidate pairs with placement)
 is stable to 85 m/s on a bridge whose GJ lies low in the range, everything else nominal: the
-full default design (`bridgeflap.design.control.driver.design`, the packaged card) is run on each GJ
-given. A GJ at which no design verifies bounds the fraction of the uncertainty set that any single
-controller can hold to 85 m/s from above.
+full default design (`bridgeflap.design.control.search.driver.design`, the packaged card) is run on
+each GJ given. A GJ at which no design verifies bounds the fraction of the uncertainty set that any
+single controller can hold to 85 m/s from above.
 
     python runs/robust_limit/run.py [--gj 4.7e11,5.0e11] [--json] [--quick]
 
@@ -22,7 +22,7 @@ import os
 import sys
 import time
 
-from bridgeflap.design.control.driver import design
+from bridgeflap.design.control.search.driver import design
 from bridgeflap.design.control.settings import DEFAULT_CARD, load_settings, quick_settings
 from bridgeflap.design.io.files import to_jsonable
 from bridgeflap.model.structure.loader import load_bridge

@@ -23,7 +23,7 @@ from bridgeflap.design.assessment.acceptance import (
     parse_checks,
 )
 from bridgeflap.design.cli.main import main
-from bridgeflap.design.control.driver import build_model
+from bridgeflap.design.control.search.driver import build_model
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.aeroelastic.control import Compensator, Controller
 from bridgeflap.model.errors import BridgeflapInputError

@@ -230,11 +230,11 @@ def test_optimise_out_of_space_is_one_line_and_removes_its_temporary(tmp_path, c
     the writing of its folder."""
     import types
 
-    import bridgeflap.design.control.driver
+    import bridgeflap.design.control.search.driver
 
     fake = types.SimpleNamespace(summary=lambda: {"status": "failed"}, history=lambda: [],
                                  candidate=None, controller=None, extras={})
-    monkeypatch.setattr(bridgeflap.design.control.driver, "design",
+    monkeypatch.setattr(bridgeflap.design.control.search.driver, "design",
                         lambda settings, progress=None, **kw: fake)
     out = tmp_path / "opt"
     _enospc_after(monkeypatch, 2)  # the marker written, then no room for the history

@@ -5,7 +5,7 @@ import math
 import pytest
 
 from bridgeflap.design.cli.main import main
-from bridgeflap.design.control.checks import limits_text as _limits_text
+from bridgeflap.design.control.review.checks import limits_text as _limits_text
 from bridgeflap.design.io.text import number_text, speed_text
 
 

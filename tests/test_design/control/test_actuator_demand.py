@@ -1,6 +1,6 @@
-"""The actuator-demand constraints of the design (bridgeflap.design.control.actuator_demand):
-the frozen CasADi integral against the acceptance's numpy flap demand, and its gradient against
-finite differences."""
+"""The actuator-demand constraints of the design
+(bridgeflap.design.control.formulation.actuator_demand): the frozen CasADi integral against the
+acceptance's numpy flap demand, and its gradient against finite differences."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.driver import build_model
-from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.search.driver import build_model
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.aeroelastic.control import Compensator, Controller
 

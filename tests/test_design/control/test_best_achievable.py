@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 
-from bridgeflap.design.control.driver import design
+from bridgeflap.design.control.search.driver import design
 from bridgeflap.design.control.settings import load_settings
 
 

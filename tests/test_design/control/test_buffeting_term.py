@@ -1,5 +1,5 @@
 """The design's buffeting term in modal coordinates
-(bridgeflap.design.control.buffeting_term.ModalBuffeting).
+(bridgeflap.design.control.formulation.buffeting_term.ModalBuffeting).
 
 Cross-method checks: the closed form in K(j omega) against the numpy state-space integrand of
 bridgeflap.model.response.buffeting on the same frozen grid, the solve form (flap weights variable)
@@ -13,8 +13,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.buffeting_term import ModalBuffeting
-from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.formulation.buffeting_term import ModalBuffeting
+from bridgeflap.design.control.formulation.nlp import DesignProblem
 from bridgeflap.model.aero.gust import gust_field
 from bridgeflap.model.aeroelastic.control import Compensator
 from bridgeflap.model.response.buffeting import reduced_response
@@ -62,7 +62,7 @@ def test_defective_loop_matrix_falls_back_to_the_lowrank_form(term, monkeypatch)
     # nearly defective (cond(V) 1.6e18)" ended a start) no longer raises: the fixed layout's
     # speeds are built in the low-rank form, exact without eigenvectors -- the closed form's
     # value to round-off (same algebra, 1e-10 as the test above)
-    import bridgeflap.design.control.buffeting_term as bt
+    import bridgeflap.design.control.formulation.buffeting_term as bt
 
     prob, _, _, mb = term
 
@@ -117,11 +117,11 @@ def test_frozen_grid_against_the_converged_adaptive_grid(term):
 
 
 def test_compiled_point_function_equals_the_virtual_machine():
-    # the JIT-compiled closed form (design.control.buffeting_term.JIT) is the same SX expression
-    # evaluated by C code instead of CasADi's virtual machine: only the floating-point
+    # the JIT-compiled closed form (design.control.formulation.buffeting_term.JIT) is the same SX
+    # expression evaluated by C code instead of CasADi's virtual machine: only the floating-point
     # evaluation order may differ (-O2 keeps IEEE semantics), so values and reverse-mode
     # gradients agree to round-off; 1e-12 relative is ~1e4 ulps on sums of ~1e3 terms
-    import bridgeflap.design.control.buffeting_term as bt
+    import bridgeflap.design.control.formulation.buffeting_term as bt
 
     n = 6
     rng = np.random.default_rng(3)
@@ -150,7 +150,7 @@ def test_compiled_point_function_equals_the_virtual_machine():
 def test_compiled_point_function_writes_nothing_in_the_working_directory(tmp_path, monkeypatch):
     # CasADi's JIT writes its C source and library into the current directory by default;
     # bridgeflap's go to a private temporary directory (a user's folder stays clean)
-    import bridgeflap.design.control.buffeting_term as bt
+    import bridgeflap.design.control.formulation.buffeting_term as bt
 
     monkeypatch.chdir(tmp_path)
     bt._POINT_CACHE.pop((3, True), None)
@@ -167,11 +167,11 @@ def test_jit_directories_of_finished_processes_are_removed(tmp_path, monkeypatch
     import subprocess
     import sys
 
-    import bridgeflap.design.control.buffeting_term as bt
+    import bridgeflap.design.control.formulation.buffeting_term as bt
 
     monkeypatch.setenv("TMPDIR", str(tmp_path))
-    code = ("import tempfile, bridgeflap.design.control.buffeting_term as bt; tempfile.tempdir = "
-            "None; "
+    code = ("import tempfile, bridgeflap.design.control.formulation.buffeting_term as bt; "
+            "tempfile.tempdir = None; "
             "bt._jit_options(); print(bt._JIT_DIR)")
     first = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                            check=True).stdout.strip()
@@ -185,16 +185,16 @@ def test_jit_directories_of_finished_processes_are_removed(tmp_path, monkeypatch
 
 
 def test_point_function_library_is_kept_between_processes(tmp_path):
-    # design.control.buffeting_term._compiled: the first process compiles the point function into
-    # the cache directory, the next one loads that library (no compile), and a corrupt library
-    # (here: garbage under its name) is rebuilt rather than trusted; every process's values
+    # design.control.formulation.buffeting_term._compiled: the first process compiles the point
+    # function into the cache directory, the next one loads that library (no compile), and a corrupt
+    # library (here: garbage under its name) is rebuilt rather than trusted; every process's values
     # equal the virtual machine's (1e-12 relative, as the compiled-vs-VM test). Each step runs
     # in its own process: a library already loaded in a process is not opened again by name.
     import os
     import subprocess
     import sys
 
-    code = ("import numpy as np, bridgeflap.design.control.buffeting_term as bt; "
+    code = ("import numpy as np, bridgeflap.design.control.formulation.buffeting_term as bt; "
             "f = bt._eig_point_function(4); g = bt._eig_point_function(4, jit=False); "
             "rng = np.random.default_rng(0); "
             "a = [rng.random(f.size_in(i)) for i in range(f.n_in())]; "

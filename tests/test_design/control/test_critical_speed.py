@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.critical_speed import (
+from bridgeflap.design.control.search.critical_speed import (
     FAILED,
     FEASIBLE,
     NOT_FEASIBLE,
@@ -155,7 +155,7 @@ def test_end_to_end_design_speed_is_verified_and_the_next_is_not():
     # humber:box on 6 modes, 5 flap pairs, coarse grids (seconds per inner solve): the chosen
     # design is re-checked here on its own dense grid to its design speed, and the next
     # evaluated speed above it is reported not feasible with a reason
-    from bridgeflap.design.control.driver import design, verify_layout
+    from bridgeflap.design.control.search.driver import design, verify_layout
 
     s = load_settings(None, bridge="humber:box", n_modes=6, verification_modes=6, flap_count=5,
                       robust_design_speeds_m_s=(30.0, 60.0), n_robust_omega=8,

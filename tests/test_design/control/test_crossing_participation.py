@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.checks import closed_loop_limits
+from bridgeflap.design.control.review.checks import closed_loop_limits
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.aeroelastic.control import Compensator, Controller
 from bridgeflap.model.aeroelastic.flaps import closed_loop_model

@@ -7,12 +7,16 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.buffeting_term import BuffetingCost
-from bridgeflap.design.control.driver import build_model, select_start
-from bridgeflap.design.control.nlp import DesignProblem
-from bridgeflap.design.control.plant import plant_factors
-from bridgeflap.design.control.records import RobustMargin, StartRecord, Verification
-from bridgeflap.design.control.robust import refine_peaks, robust_point_function, true_t_peak
+from bridgeflap.design.control.formulation.buffeting_term import BuffetingCost
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.formulation.plant import plant_factors
+from bridgeflap.design.control.formulation.robust import (
+    refine_peaks,
+    robust_point_function,
+    true_t_peak,
+)
+from bridgeflap.design.control.results.records import RobustMargin, StartRecord, Verification
+from bridgeflap.design.control.search.driver import build_model, select_start
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.aeroelastic.control import Compensator, Controller
 from bridgeflap.model.errors import BridgeflapInputError
@@ -122,12 +126,15 @@ def test_robust_bound_is_frobenius_of_true_t(small):
 
 
 def test_lowrank_robust_form_equals_the_full_solve(small):
-    # design.control.robust.lowrank_point_function (the placement design's robust constraint): the
-    # push-through identity through the rank-r pitch map Phi_a = U_r S V_r^T turns the
-    # n_modes solve into an r x r one. Same algebra, so values and Jacobians in theta and
+    # design.control.formulation.robust.lowrank_point_function (the placement design's robust
+    # constraint): the push-through identity through the rank-r pitch map Phi_a = U_r S V_r^T turns
+    # the n_modes solve into an r x r one. Same algebra, so values and Jacobians in theta and
     # in the flap weights agree with robust_point_function to round-off (1e-10 relative:
     # ~1e6 ulps, far below any effect, far above the ~1e-15 observed)
-    from bridgeflap.design.control.robust import lowrank_point_function, lowrank_robust_data
+    from bridgeflap.design.control.formulation.robust import (
+        lowrank_point_function,
+        lowrank_robust_data,
+    )
 
     s, model = small
     om = np.array([0.3, 1.2, 2.5])
@@ -271,7 +278,7 @@ def test_a_phase_1_point_has_no_design_objective():
     # solve, 1.4 against start 0's design objective): it must not win on that number
     from types import SimpleNamespace
 
-    from bridgeflap.design.control.start import _phase_1
+    from bridgeflap.design.control.solve.start import _phase_1
 
     rounds = (SimpleNamespace(placement="phase 1 (feasibility, no robust epigraph)"),
               SimpleNamespace(placement=None))
@@ -444,7 +451,7 @@ def test_failed_design_summary_keeps_the_optimise_contract():
     from dataclasses import FrozenInstanceError
     from pathlib import Path
 
-    from bridgeflap.design.control.result import DesignResult
+    from bridgeflap.design.control.results.result import DesignResult
 
     s = load_settings(None)
     failed = StartRecord(start=0, theta0=(0.0,) * 5, ipopt_status="failed: x", success=False,
@@ -479,7 +486,7 @@ def test_failed_design_summary_keeps_the_optimise_contract():
 
 def test_round_layout_keeps_whole_mirror_pairs_within_budget():
     # 5 flaps, 3 groups (outer pair, inner pair, centre): w = S z
-    from bridgeflap.design.control.driver import round_layout
+    from bridgeflap.design.control.search.driver import round_layout
 
     S = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 1, 0], [1, 0, 0]], float)
     # budget 3: the inner pair (0.9) and the centre (0.8) fit, the outer pair (0.85) would not
@@ -509,7 +516,7 @@ def test_damping_constraint_is_active_when_only_regularised(small_box):
     # objective |theta/scale|^2 only (no robust term): it pulls K towards 0, the open loop
     # (K = 0) flutters at 70 m/s on this model, so the NLP optimum must sit on a damping
     # constraint -- the constraints act (earlier, the decay-rate constraints never did)
-    from bridgeflap.design.control.driver import (
+    from bridgeflap.design.control.search.driver import (
         ACTIVE_ABS_TOL_1_S,
         active_constraints,
         nlp_active_speeds,
@@ -537,8 +544,8 @@ def test_damping_constraint_is_active_when_only_regularised(small_box):
 def test_copies_of_lag_and_compensator_poles_are_excluded(small):
     # the excluded eigenvalues are exactly the fixed copies: -p_i U / b and the roots of
     # a2 s^2 + a1 s + 1; every other eigenvalue is kept
-    from bridgeflap.design.control.eigen import fixed_pole_copies
-    from bridgeflap.design.control.plant import lag_rates
+    from bridgeflap.design.control.formulation.eigen import fixed_pole_copies
+    from bridgeflap.design.control.formulation.plant import lag_rates
 
     s, model = small
     prob = DesignProblem(s, model)
@@ -575,7 +582,7 @@ def test_peak_tracking_margin_matches_verified_within_one_percent(small_box):
 def test_symbolic_buffeting_term_matches_numeric_and_is_differentiable(buffeting_problem):
     # the CasADi spectral integral (frozen grid) against model.response.buffeting's adaptive one at
     # the reference design, and its AD gradient against central differences of itself
-    from bridgeflap.design.control.buffeting_term import SymbolicBuffeting
+    from bridgeflap.design.control.formulation.buffeting_term import SymbolicBuffeting
     from bridgeflap.model.response.buffeting import buffeting
 
     s, spec, model = buffeting_problem
@@ -609,7 +616,7 @@ def test_multi_model_design_constrains_every_variant(small_box):
     # two variants of the small humber:box model (Sobol' over the estimated-input ranges,
     # half-chord held): the NLP carries one damping block per model, and a short solve_with_cuts
     # reports feasibility only when every variant's dense check meets zeta_min
-    from bridgeflap.design.control.driver import sample_variants
+    from bridgeflap.design.control.search.driver import sample_variants
     from bridgeflap.model.structure.loader import load_bridge
 
     s, model = small_box
@@ -635,7 +642,7 @@ def test_multi_model_design_constrains_every_variant(small_box):
 def test_closed_loop_limits_reported_with_mechanism(small_box):
     # the reported limits are model.analysis.closed_loop_flutter's, searched to 2 x 85 m/s,
     # and the governing one is the lower of the sweep's critical speed and the static check
-    from bridgeflap.design.control.driver import closed_loop_limits
+    from bridgeflap.design.control.search.driver import closed_loop_limits
     from bridgeflap.model.analysis import closed_loop_flutter
     from bridgeflap.model.structure.loader import load_bridge
 
@@ -670,7 +677,7 @@ def test_b1425_with_5m_flaps_is_stable_to_85(tmp_path):
     # limit above 85 m/s and the gain limit met (3 m flaps: no such K found, the golden case)
     from pathlib import Path
 
-    from bridgeflap.design.control.driver import design
+    from bridgeflap.design.control.search.driver import design
 
     card = Path(__file__).resolve().parents[3] / "design" / "studies" / "humber_b1425_flaps5m.toml"
     s = load_settings(card, starts=1, parallel=False)
@@ -685,7 +692,7 @@ def test_b1425_with_5m_flaps_is_stable_to_85(tmp_path):
 def test_iteration_callback_history_and_warm_start(small_box):
     # the Ipopt iteration callback fires once per iteration (and once for iteration 0), the
     # saved history has one entry per call, and a warm start is parsed from a Controller
-    from bridgeflap.design.control.driver import warm_start_theta
+    from bridgeflap.design.control.search.driver import warm_start_theta
 
     s, model = small_box
     prob = DesignProblem(replace(s, max_iter=6), model)
@@ -705,7 +712,7 @@ def test_iteration_callback_history_and_warm_start(small_box):
 def test_pareto_points_are_each_verified(small_box):
     # K re-optimised per count; each point's "verified" is recomputed here from an
     # independent dense check of its own theta on its own layout (damping, gain, stability)
-    from bridgeflap.design.control.driver import flap_count_pareto, verify_layout
+    from bridgeflap.design.control.search.driver import flap_count_pareto, verify_layout
 
     s, _ = small_box
     s2 = replace(s, max_iter=40, resolve_max_iter=20, cutting_plane_rounds=1,
@@ -748,13 +755,13 @@ def test_closed_loop_limits_fast_path_on_the_default_design():
 
 
 def test_lazy_variant_constraints_meet_every_variant(small_box):
-    # design.control.variants: the lazy (variant, speed) sets carry fewer damping constraints than
-    # the full multi-model NLP ("all": every variant at every design speed), and the lazy loop
-    # reaches a design that meets zeta_min on the nominal bridge and on every variant's dense
-    # check -- the constraints left out are verified, not assumed. The loop's own test (the
-    # refined check) gives the dense check's maximum violation on every variant.
-    from bridgeflap.design.control.driver import sample_variants
-    from bridgeflap.design.control.nlp_tolerances import VIOLATION_TOL
+    # design.control.formulation.variants: the lazy (variant, speed) sets carry fewer damping
+    # constraints than the full multi-model NLP ("all": every variant at every design speed), and
+    # the lazy loop reaches a design that meets zeta_min on the nominal bridge and on every
+    # variant's dense check -- the constraints left out are verified, not assumed. The loop's own
+    # test (the refined check) gives the dense check's maximum violation on every variant.
+    from bridgeflap.design.control.formulation.nlp_tolerances import VIOLATION_TOL
+    from bridgeflap.design.control.search.driver import sample_variants
     from bridgeflap.model.structure.loader import load_bridge
 
     s, model = small_box
@@ -774,7 +781,8 @@ def test_lazy_variant_constraints_meet_every_variant(small_box):
     for q in prob.variants:
         dense = q.verify(res.solve.theta)
         assert dense.max_violation_1_s <= VIOLATION_TOL
-        # the refined subset keeps the dense maximum (design.control.plant.damping_check_refined)
+        # the refined subset keeps the dense maximum
+        # (design.control.formulation.plant.damping_check_refined)
         assert q.verify(res.solve.theta, refined=True).max_violation_1_s == pytest.approx(
             dense.max_violation_1_s, rel=1e-12, abs=1e-15)
     assert n_lazy <= sum(len(v.lazy_speeds) for v in prob.variants)

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from bridgeflap.design.control.driver import build_model
-from bridgeflap.design.control.eigen import inverse_iteration
-from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.formulation.eigen import inverse_iteration
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.search.driver import build_model
 from bridgeflap.design.control.settings import load_settings
 
 THETA = np.array([0.3, 0.25, -1.5, 0.08, 0.5])
@@ -89,7 +89,7 @@ def test_fresh_variants_reported_stable_are_stable(small_box_fresh):
     # stable 0..speed_max is stable in an independent sweep (model.stability.sweeps.sweep on the
     # closed-loop system of that variant, same grid and modes), and every one it counts as
     # unstable is not -- so the reported fraction is the sweep's
-    from bridgeflap.design.control.driver import fresh_variant_check, sample_variants
+    from bridgeflap.design.control.search.driver import fresh_variant_check, sample_variants
     from bridgeflap.model.aeroelastic.control import Compensator, Controller
     from bridgeflap.model.stability.sweeps import sweep
     from bridgeflap.model.structure.loader import load_bridge
@@ -116,7 +116,7 @@ def test_flap_count_search_in_two_processes_equals_the_serial_one(small_box_fres
     # minimum, the stopping rule applied count by count (exact: same computation per count)
     from dataclasses import replace
 
-    from bridgeflap.design.control.driver import minimum_flap_count
+    from bridgeflap.design.control.search.driver import minimum_flap_count
 
     s = small_box_fresh
     theta = (0.0, 0.5, -1.0, 0.05, 0.5)
@@ -126,7 +126,7 @@ def test_flap_count_search_in_two_processes_equals_the_serial_one(small_box_fres
     assert len(ser.counts) >= 1
     # the full layout's check already made (a start's verification) is reused as its row:
     # the same computation, so the same search to the last bit
-    from bridgeflap.design.control.driver import verify_layout
+    from bridgeflap.design.control.search.driver import verify_layout
 
     ver = verify_layout(s, theta, s.positions())
     assert minimum_flap_count(replace(s, parallel=True), theta,
@@ -165,7 +165,7 @@ def test_damping_callback_lazy_vectors_values_and_jacobian(small):
 def test_closed_form_compensator_poles_equal_numpy_roots():
     # the copy test's compensator poles in closed form: the roots np.roots gives (real pair,
     # complex pair, double root), to round-off (1e-15 relative)
-    from bridgeflap.design.control.eigen import _quadratic_roots
+    from bridgeflap.design.control.formulation.eigen import _quadratic_roots
 
     for a2, a1 in [(0.05, 0.5), (0.0268, 0.8375), (1.0, 0.1), (1e-3, 10.0), (0.25, 1.0)]:
         got = np.sort_complex(np.array(_quadratic_roots(a2, a1), complex))
@@ -193,15 +193,15 @@ def test_numeric_verification_equals_the_symbolic_parts(small):
 
 @pytest.mark.parametrize("placement", [False, True])
 def test_compensator_reduction_keeps_every_constraint_and_derivative(small, placement):
-    # design.control.plant.compensator_reduction: the per-flap compensator states of 5 flaps on 6
-    # modes (rank Phi_a < 5) projected on their invariant subspace. The reduced A(U) has exactly the
-    # eigenvalues of the full one minus copies of the compensator poles (the 0 m/s and 60 m/s
-    # matrices, sorted, to 1e-9 relative: eigenvalue round-off of a 50-state matrix), and the
+    # design.control.formulation.plant.compensator_reduction: the per-flap compensator states of 5
+    # flaps on 6 modes (rank Phi_a < 5) projected on their invariant subspace. The reduced A(U) has
+    # exactly the eigenvalues of the full one minus copies of the compensator poles (the 0 m/s and
+    # 60 m/s matrices, sorted, to 1e-9 relative: eigenvalue round-off of a 50-state matrix), and the
     # damping constraints and their Jacobians equal the full-state ones (the same eigenvalues
     # and, T being constant, the same derivatives; 1e-9 relative: FD rows use 1e-6 steps,
     # identical in both paths, the analytic rows agree to round-off).
-    import bridgeflap.design.control.nlp as nlp
-    from bridgeflap.design.control.plant import compensator_reduction
+    import bridgeflap.design.control.formulation.nlp as nlp
+    from bridgeflap.design.control.formulation.plant import compensator_reduction
 
     s, model = small
     s = s if not placement else load_settings(None, n_modes=6, flap_count=5,
@@ -239,13 +239,13 @@ def test_compensator_reduction_keeps_every_constraint_and_derivative(small, plac
 
 
 def test_robust_check_plant_cache_is_exact(small):
-    # design.control.robust.cached_plant: the dense robust check of every cutting-plane round reuses
-    # the theta-independent plant factors of its fixed grid. Exactness is bitwise (each
+    # design.control.formulation.robust.cached_plant: the dense robust check of every cutting-plane
+    # round reuses the theta-independent plant factors of its fixed grid. Exactness is bitwise (each
     # frequency is solved on its own in both paths), so the margins, peaks and the factors
     # themselves must be identical, at a first theta (cache filled) and a second (reused),
     # and the cache must actually hold the fixed grid after the first call.
-    from bridgeflap.design.control.plant import plant_factors
-    from bridgeflap.design.control.robust import cached_plant, robust_margin
+    from bridgeflap.design.control.formulation.plant import plant_factors
+    from bridgeflap.design.control.formulation.robust import cached_plant, robust_margin
 
     s, model = small
     prob = DesignProblem(s, model)
@@ -275,7 +275,7 @@ def _feed(cb, violations, ub=0.0):
 
 @pytest.mark.parametrize("stall", [True, False])
 def test_divergence_watchdog_stops_a_stall_not_a_falling_violation(stall):
-    from bridgeflap.design.control.ipopt_hooks import (
+    from bridgeflap.design.control.formulation.ipopt_hooks import (
         DIVERGE_ITERATIONS,
         DIVERGE_LEVEL,
         IterationCallback,
@@ -284,7 +284,8 @@ def test_divergence_watchdog_stops_a_stall_not_a_falling_violation(stall):
     cb = IterationCallback("w", 1, 1, watch=([-np.inf], [0.0], DIVERGE_LEVEL,
                                              DIVERGE_ITERATIONS))
     n = DIVERGE_ITERATIONS + 1
-    if stall:       # start 1 round 1 of the default card: flat at ~30 (design.control.nlp comment)
+    # stall: start 1 round 1 of the default card, flat at ~30 (design.control.formulation.nlp)
+    if stall:
         seq = [0.0] * 5 + [30.0] * (n + 3)
     else:           # start 0 round 0: 390 -> 11 above the level, halving on the way
         seq = [0.0] * 3 + list(np.geomspace(390.0, 6.0, n + 3)) + [0.0] * 5
@@ -325,7 +326,7 @@ def test_multi_model_design_in_two_processes_reports_every_variant(small_box_fre
     # variant, in order), and the design variants' checks are reported one per variant
     from dataclasses import replace
 
-    from bridgeflap.design.control.driver import design, fresh_variant_check, sample_variants
+    from bridgeflap.design.control.search.driver import design, fresh_variant_check, sample_variants
     from bridgeflap.model.structure.loader import load_bridge
 
     # 3 rounds of 60 iterations: since the model updating 1 x 30 ends infeasible (max
@@ -349,8 +350,8 @@ def test_the_speed_guard_checks_the_damping_just_above_the_design_speed(small):
     # grid to speed_max alone passes; the guard's value is the dense check's at that speed
     from dataclasses import replace
 
-    from bridgeflap.design.control.nlp_tolerances import SPEED_GUARD_REL, VIOLATION_TOL
-    from bridgeflap.design.control.plant import damping_check, lag_rates
+    from bridgeflap.design.control.formulation.nlp_tolerances import SPEED_GUARD_REL, VIOLATION_TOL
+    from bridgeflap.design.control.formulation.plant import damping_check, lag_rates
 
     s, model = small
     prob = DesignProblem(s, model, numeric=True)

@@ -1,4 +1,4 @@
-"""Tests of design/control/eigen.py (eigenvalue callback and its use in Ipopt) and
+"""Tests of design/control/formulation/eigen.py (eigenvalue callback and its use in Ipopt) and
 model/spectrum.py."""
 
 import casadi as ca
@@ -7,7 +7,7 @@ import pytest
 import scipy.linalg
 import scipy.optimize
 
-from bridgeflap.design.control.eigen import PolynomialTopRealParts
+from bridgeflap.design.control.formulation.eigen import PolynomialTopRealParts
 from bridgeflap.model.spectrum import (
     eigenvalue_derivative,
     eigenvalue_derivatives,

@@ -1,4 +1,5 @@
-"""Ctrl-C and SIGTERM during an Ipopt solve end it (bridgeflap.design.control.ipopt_hooks).
+"""Ctrl-C and SIGTERM during an Ipopt solve end it
+(bridgeflap.design.control.formulation.ipopt_hooks).
 
 Without the deferral a KeyboardInterrupt raised inside one of CasADi's Python callbacks was
 caught by CasADi and the solve went on to a design (6 of 9 signals lost in a measured run).
@@ -15,9 +16,9 @@ import numpy as np
 import pytest
 
 from bridgeflap.design.cli.run import run
-from bridgeflap.design.control.driver import build_model
-from bridgeflap.design.control.ipopt_hooks import signals_deferred, stop_requested
-from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.formulation.ipopt_hooks import signals_deferred, stop_requested
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.search.driver import build_model
 from bridgeflap.design.control.settings import load_settings
 
 
@@ -32,9 +33,9 @@ def small():
 _SCRIPT = """
 import os, signal, sys
 import numpy as np
-from bridgeflap.design.control.driver import build_model
-from bridgeflap.design.control.ipopt_hooks import stop_requested
-from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.search.driver import build_model
+from bridgeflap.design.control.formulation.ipopt_hooks import stop_requested
+from bridgeflap.design.control.formulation.nlp import DesignProblem
 from bridgeflap.design.control.settings import load_settings
 
 # Python's own Ctrl-C handler, whatever disposition this process inherited (a pytest-xdist

@@ -1,5 +1,5 @@
-"""Layout search (bridgeflap.design.control.layout_search): the rounded flap layout against its
-neighbours.
+"""Layout search (bridgeflap.design.control.search.layout_search): the rounded flap layout against
+its neighbours.
 
 (a) the neighbour set of the default design's layout (pure geometry), (b) the rounded
 layout's row reproduces the design's own record (the same machinery, a real small design),
@@ -11,16 +11,16 @@ import json
 import numpy as np
 import pytest
 
-import bridgeflap.design.control.driver as driver
-import bridgeflap.design.control.start as start
-from bridgeflap.design.control.layout_search import (
+import bridgeflap.design.control.search.driver as driver
+import bridgeflap.design.control.solve.start as start
+from bridgeflap.design.control.results.records import RobustMargin, StartRecord, Verification
+from bridgeflap.design.control.search.layout_search import (
     compare_layouts,
     design_step,
     layout_groups,
     neighbour_layouts,
     relaxed_theta,
 )
-from bridgeflap.design.control.records import RobustMargin, StartRecord, Verification
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.errors import BridgeflapInputError
 
@@ -238,7 +238,7 @@ def test_design_reports_layout_neighbours_in_its_summary():
     # the whole design with the card key on the small card: the summary carries the table
     # (strict JSON), its rounded row is the chosen start's record, and the key is shown in
     # the settings only when set (older records stay as they were)
-    from bridgeflap.design.control.driver import design
+    from bridgeflap.design.control.search.driver import design
 
     s = load_settings(**SMALL, starts=1, layout_neighbours=True, min_flap_counts=(3,))
     res = design(s)

@@ -1,11 +1,11 @@
 """The robust margin re-checked between the robust speeds.
 
-:func:`bridgeflap.design.control.checks.margin_on_speed_grid` evaluates ``1 / max sigma_max(T)`` on
-a 0.5 m/s grid over the whole speed range that contains the robust speeds, then refines the worst
-grid speed, so its margin can never exceed the margin at the robust speeds alone (the same function
-on a superset of speeds: equality to round-off at most). On the default design the grid finds
-0.1722 at 76.2 m/s against 0.1861 at the robust speeds; here a small model keeps the test
-quick.
+:func:`bridgeflap.design.control.review.checks.margin_on_speed_grid` evaluates ``1 / max
+sigma_max(T)`` on a 0.5 m/s grid over the whole speed range that contains the robust speeds, then
+refines the worst grid speed, so its margin can never exceed the margin at the robust speeds alone
+(the same function on a superset of speeds: equality to round-off at most). On the default design
+the grid finds 0.1722 at 76.2 m/s against 0.1861 at the robust speeds; here a small model keeps
+the test quick.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.checks import MARGIN_GRID_STEP_M_S, margin_on_speed_grid
+from bridgeflap.design.control.review.checks import MARGIN_GRID_STEP_M_S, margin_on_speed_grid
 from bridgeflap.design.control.settings import load_settings
 from bridgeflap.model.aeroelastic.control import Compensator, Controller
 
@@ -38,8 +38,8 @@ def test_grid_margin_is_the_minimum_over_the_whole_speed_range():
     # independent check: a 0.02 m/s brute-force grid about the worst grid speed finds no
     # larger peak (1e-4 relative: the refined speed is within xatol 0.01 m/s of the local
     # maximum of a smooth peak, whose relative drop there is second order)
-    from bridgeflap.design.control.driver import build_model
-    from bridgeflap.design.control.nlp import DesignProblem
+    from bridgeflap.design.control.formulation.nlp import DesignProblem
+    from bridgeflap.design.control.search.driver import build_model
 
     _, model = build_model(s, positions=np.asarray(pos))
     prob = DesignProblem(replace(s, optimise_placement=False), model, numeric=True)

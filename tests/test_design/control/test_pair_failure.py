@@ -13,10 +13,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.driver import build_model
-from bridgeflap.design.control.nlp import DesignProblem
-from bridgeflap.design.control.pair_failure import FailedPairProblem, extra_models
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.search.driver import build_model
 from bridgeflap.design.control.settings import load_settings
+from bridgeflap.design.control.solve.pair_failure import FailedPairProblem, extra_models
 from bridgeflap.model.aeroelastic.control import Compensator
 
 THETA = np.array([0.3, 0.25, -1.5, 0.08, 0.5])

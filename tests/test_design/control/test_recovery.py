@@ -1,5 +1,6 @@
 """A diverged solve recovers from the last feasible point inside a trust region
-(bridgeflap.design.control.cuts), and a trust region's bound is never taken for the solution."""
+(bridgeflap.design.control.formulation.cuts), and a trust region's bound is never taken for the
+solution."""
 
 from __future__ import annotations
 
@@ -8,10 +9,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.cuts import TRUST_RADIUS
-from bridgeflap.design.control.driver import build_model
-from bridgeflap.design.control.nlp import DesignProblem
-from bridgeflap.design.control.nlp_tolerances import THETA_SCALE
+from bridgeflap.design.control.formulation.cuts import TRUST_RADIUS
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.formulation.nlp_tolerances import THETA_SCALE
+from bridgeflap.design.control.search.driver import build_model
 from bridgeflap.design.control.settings import load_settings
 
 START = np.array([0.0, 0.5, -1.0, 0.05, 0.5])

@@ -1,7 +1,7 @@
 """The discrete choices of a design do not depend on last-bit differences: the start chosen
 among near-equal ones, the layout rounded from relaxed weights near the 0.5 threshold, and the
-compensator's pole damping constraint (bridgeflap.design.control.start,
-bridgeflap.design.control.loop_algebra)."""
+compensator's pole damping constraint (bridgeflap.design.control.solve.start,
+bridgeflap.design.control.formulation.loop_algebra)."""
 
 from __future__ import annotations
 
@@ -12,13 +12,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bridgeflap.design.control.loop_algebra import (
+from bridgeflap.design.control.formulation.loop_algebra import (
     COMPENSATOR_DAMPING_RTOL,
     compensator_damped,
     compensator_damping_ratio,
 )
-from bridgeflap.design.control.records import RobustMargin, StartRecord, Verification
-from bridgeflap.design.control.start import (
+from bridgeflap.design.control.results.records import RobustMargin, StartRecord, Verification
+from bridgeflap.design.control.solve.start import (
     DEAD_BAND_GROUPS,
     START_TIE_REL,
     layout_candidates,
@@ -146,12 +146,12 @@ def _design_numbers(res):
 @pytest.mark.slow
 def test_a_last_bit_perturbation_of_the_model_gives_the_same_design(monkeypatch):
     # every model matrix moved by 1e-12 relative (the test hook of
-    # design.control.problem_model): the same layout, K within 1e-4 relative and the
+    # design.control.formulation.problem_model): the same layout, K within 1e-4 relative and the
     # closed-loop critical speed within 0.01 m/s (the tolerances a user can rely on between
     # machines: an earlier kernel study saw K move > 10 % where a choice was taken on
     # unconverged iterates)
-    from bridgeflap.design.control.driver import design
-    from bridgeflap.design.control.problem_model import PERTURB_ENV
+    from bridgeflap.design.control.formulation.problem_model import PERTURB_ENV
+    from bridgeflap.design.control.search.driver import design
 
     card = _small_card()
     base = _design_numbers(design(card))

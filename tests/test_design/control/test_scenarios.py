@@ -1,13 +1,14 @@
-"""Scenario design (bridgeflap.design.control.scenarios): the scenario bridges and the do-no-harm
-range of each, read from its own open loop."""
+"""Scenario design (bridgeflap.design.control.solve.scenarios): the scenario bridges and the
+do-no-harm range of each, read from its own open loop."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from bridgeflap.design.control.problem_model import build_model
-from bridgeflap.design.control.scenarios import (
+from bridgeflap.design.control.formulation.problem_model import build_model
+from bridgeflap.design.control.settings import load_settings
+from bridgeflap.design.control.solve.scenarios import (
     NO_HARM_GRID_FACTOR,
     NO_HARM_SPEED_MARGIN,
     corner_specs,
@@ -15,7 +16,6 @@ from bridgeflap.design.control.scenarios import (
     scenario_settings,
     scenario_specs,
 )
-from bridgeflap.design.control.settings import load_settings
 from bridgeflap.design.control.uncertainty import DEFAULT_UNCERTAIN_RANGES
 from bridgeflap.model.analysis import flutter
 from bridgeflap.model.errors import BridgeflapInputError

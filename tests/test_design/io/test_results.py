@@ -127,7 +127,7 @@ def test_batch_rows_are_flat():
 
 
 def test_design_result_is_strict_json():
-    from bridgeflap.design.control.result import DesignResult
+    from bridgeflap.design.control.results.result import DesignResult
     from bridgeflap.design.control.settings import DesignSettings
     from bridgeflap.model.aeroelastic.control import Compensator, Controller
 

@@ -1,5 +1,5 @@
 """Figures (model/axes.py, model/{structure,stability,response}/plots.py,
-design/control/figures.py, design/sensitivity/figures.py,
+design/control/results/figures.py, design/sensitivity/figures.py,
 design/studies/figures.py): what an engineer reads off them is there.
 
 Every test draws on the Agg backend and checks the drawn data, not the pixels: axis limits
@@ -17,7 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from bridgeflap.design.cli.common import save_figure  # noqa: E402
-from bridgeflap.design.control.figures import (  # noqa: E402
+from bridgeflap.design.control.results.figures import (  # noqa: E402
     bode,
     compensator_response,
     flap_layout,

@@ -105,7 +105,7 @@ def test_casadi_function_matches_numeric_assembly(humber_model):
 
 
 def test_eigenvalue_constraint_gradient_matches_finite_differences(humber_model):
-    from bridgeflap.design.control.eigen import PolynomialTopRealParts
+    from bridgeflap.design.control.formulation.eigen import PolynomialTopRealParts
 
     A_parts = humber_model.casadi_functions()["A_parts"]
     p = ca.SX.sym("p", 5)

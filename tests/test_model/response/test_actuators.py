@@ -68,7 +68,7 @@ def test_design_json_leaves_default_limits_out():
     them when a card changes them."""
     from dataclasses import asdict
 
-    from bridgeflap.design.control.result import ACTUATOR_FIELDS
+    from bridgeflap.design.control.results.result import ACTUATOR_FIELDS
     from bridgeflap.design.control.settings import load_settings
 
     s = load_settings(None, flap_rate_limit_deg_s=30.0)

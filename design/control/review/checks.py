@@ -1,9 +1,11 @@
-"""Checks and reports around a compensator design (:func:`bridgeflap.design.control.driver.design`).
+"""Checks and reports around a compensator design
+(:func:`bridgeflap.design.control.search.driver.design`).
 
 Closed-loop flutter/divergence limits and mechanism, the constraints active at the optimum,
 the flap-count Pareto with K re-optimised per count, and the multi-model variants (sampling
-and the a posteriori check on fresh variants). Split from :mod:`bridgeflap.design.control.driver`
-(one job per file); the driver re-exports these names.
+and the a posteriori check on fresh variants). Split from
+:mod:`bridgeflap.design.control.search.driver` (one job per file); the driver re-exports these
+names.
 """
 
 from __future__ import annotations
@@ -13,8 +15,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from bridgeflap.design.control.nlp import DesignProblem
-from bridgeflap.design.control.records import BuffetingComparison, ParetoPoint
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.results.records import BuffetingComparison, ParetoPoint
 from bridgeflap.design.control.settings import DesignSettings
 from bridgeflap.model.aeroelastic.control import Controller
 
@@ -22,9 +24,10 @@ NAN = float("nan")
 
 
 def _driver():
-    """The design problem's model and checks (:mod:`bridgeflap.design.control.problem_model`;
-    imported on use: it loads the NLP)."""
-    import bridgeflap.design.control.problem_model as problem_model
+    """The design problem's model and checks
+    (:mod:`bridgeflap.design.control.formulation.problem_model`; imported on use: it loads the
+    NLP)."""
+    import bridgeflap.design.control.formulation.problem_model as problem_model
 
     return problem_model
 
@@ -36,11 +39,11 @@ def flap_count_pareto(settings: DesignSettings, theta0, counts=None, spec=None,
     Counts from ``flap_count`` down (``counts`` overrides; default every count
     ``pareto_step`` apart down to 1), each the evenly spaced symmetric layout
     :meth:`DesignSettings.positions`; each is designed by
-    :meth:`bridgeflap.design.control.nlp.DesignProblem.solve_with_cuts` warm-started from the
-    previous count's K (the first from ``theta0``) and verified like a design (damping and gain on
-    the design model, stability on the verification model). The search stops after two consecutive
-    counts that do not verify (fewer flaps have less authority). Returns ``{"points": [...],
-    "minimum_verified": count or None}``.
+    :meth:`bridgeflap.design.control.formulation.nlp.DesignProblem.solve_with_cuts` warm-started
+    from the previous count's K (the first from ``theta0``) and verified like a design (damping and
+    gain on the design model, stability on the verification model). The search stops after two
+    consecutive counts that do not verify (fewer flaps have less authority). Returns ``{"points":
+    [...], "minimum_verified": count or None}``.
     """
     log = log or (lambda msg: None)
     if counts is None:
@@ -214,14 +217,16 @@ def fresh_variant_check(settings: DesignSettings, controller: Controller, specs)
     """A posteriori check of a design on fresh variants (not in the design set) on the finer
     ``fresh_variant_modes`` model: the fraction stable 0..speed_max and meeting ``zeta_min``.
     On the refined subset of the check grid
-    (:func:`bridgeflap.design.control.plant.damping_check_refined`: the dense check's decisions at
-    ~1/5 of its eigenvalues; ``min_damping_ratio`` is the smallest over the speeds checked)."""
+    (:func:`bridgeflap.design.control.formulation.plant.damping_check_refined`: the dense check's
+    decisions at ~1/5 of its eigenvalues; ``min_damping_ratio`` is the smallest over the speeds
+    checked)."""
     return fresh_variant_summary(settings, fresh_variant_rows(settings, controller, specs))
 
 
 def fresh_variant_rows(settings: DesignSettings, controller: Controller, specs) -> list:
     """The per-variant rows of :func:`fresh_variant_check` (a chunk of them can run in a
-    worker process: :func:`bridgeflap.design.control.driver.design` splits them over its pool)."""
+    worker process: :func:`bridgeflap.design.control.search.driver.design` splits them over its
+    pool)."""
     rows = []
     th = _driver().warm_start_theta(controller)
     for v in specs:

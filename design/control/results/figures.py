@@ -1,9 +1,9 @@
 """Figures of the compensator design: Bode plot, margins per speed, flap layout on the deck.
 
-:class:`bridgeflap.design.control.result.DesignResult` (``plot_bode``, ``plot_margins``) calls these
-(matplotlib imported lazily). Frequencies are in Hz as in every other figure (the compensator's
-response is :func:`scipy.signal.freqs` of its numerator and denominator), speeds in m/s,
-positions along the bridge in m from the main-span mid-point (the controller's coordinate,
+:class:`bridgeflap.design.control.results.result.DesignResult` (``plot_bode``, ``plot_margins``)
+calls these (matplotlib imported lazily). Frequencies are in Hz as in every other figure (the
+compensator's response is :func:`scipy.signal.freqs` of its numerator and denominator), speeds in
+m/s, positions along the bridge in m from the main-span mid-point (the controller's coordinate,
 :class:`bridgeflap.model.aeroelastic.control.Controller`). The seed Fig. 5 is in
 :mod:`bridgeflap.design.studies.figures`, the Morris plane in
 :mod:`bridgeflap.design.sensitivity.figures`.
@@ -114,7 +114,7 @@ def margins(result, axes=None, spec=None):
     """Spectral abscissa (open and closed loop), smallest damping ratio of the movable
     branches with ``zeta_min``, the robust margin ``1 / sup_w sigma_max(T)`` per speed (top
     row) and the flap layout on the deck (bottom) of a
-    :class:`bridgeflap.design.control.result.DesignResult`."""
+    :class:`bridgeflap.design.control.results.result.DesignResult`."""
     if axes is None:
         import matplotlib.pyplot as plt
 

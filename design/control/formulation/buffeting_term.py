@@ -7,8 +7,8 @@ RMS at two main-span strips relative to the same loop with ``K = 0`` (flaps fitt
   a CasADi expression of the compensator coefficients (and the flap weights), written in modal
   coordinates. The compensator enters the closed-loop gust response only through the scalar
   ``K(j omega)`` (the structure of the analytic robust constraint,
-  :mod:`bridgeflap.design.control.robust`), so the frequency data are computed once and each
-  evaluation costs O(n_modes^2) per frequency.
+  :mod:`bridgeflap.design.control.formulation.robust`), so the frequency data are computed once and
+  each evaluation costs O(n_modes^2) per frequency.
 * :class:`SymbolicBuffeting` (``"casadi"``): the same integral on the closed-loop state matrix
   (one dense 2 n_x solve per frequency in the graph): the cross-check, ~1000x slower to build.
 * :class:`BuffetingCost` (``"callback"``): numpy
@@ -24,8 +24,8 @@ import os
 import casadi as ca
 import numpy as np
 
-from bridgeflap.design.control.loop_algebra import _loop_block, k_complex
-from bridgeflap.design.control.spectral_terms import gust_frequency_data, point_symbols
+from bridgeflap.design.control.formulation.loop_algebra import _loop_block, k_complex
+from bridgeflap.design.control.formulation.spectral_terms import gust_frequency_data, point_symbols
 
 
 class BuffetingCost(ca.Callback):
@@ -114,7 +114,7 @@ class SymbolicBuffeting:
 
     Parameters
     ----------
-    problem : bridgeflap.design.control.nlp.DesignProblem
+    problem : bridgeflap.design.control.formulation.nlp.DesignProblem
     theta_ref, w_ref : array_like
         Reference design (frozen grid, strips): e.g. the start point.
     n_base, peaks_per_mode : int
@@ -194,7 +194,7 @@ class ModalBuffeting:
 
     Parameters
     ----------
-    problem : bridgeflap.design.control.nlp.DesignProblem
+    problem : bridgeflap.design.control.formulation.nlp.DesignProblem
     theta_ref : array_like, optional
         Reference design for the grid (default: only the open-loop grid).
     fixed_layout : bool
@@ -481,9 +481,9 @@ def _eig_point_expression(n) -> ca.Function:
 
 def _lowrank_pitch_map(Pa) -> tuple[np.ndarray, np.ndarray]:
     """``(U_r S, V_r)`` of ``Phi_a = U_r S V_r^T`` truncated at
-    ``bridgeflap.design.control.loop_algebra.LOWRANK_RTOL``
+    ``bridgeflap.design.control.formulation.loop_algebra.LOWRANK_RTOL``
     (rank 4 for 25 flaps on 16 modes: only the torsional modes pitch)."""
-    from bridgeflap.design.control.loop_algebra import LOWRANK_RTOL
+    from bridgeflap.design.control.formulation.loop_algebra import LOWRANK_RTOL
 
     U, s, Vt = np.linalg.svd(np.asarray(Pa, float), full_matrices=False)
     r = max(1, int(np.sum(s > LOWRANK_RTOL * s[0]))) if s.size and s[0] > 0 else 1

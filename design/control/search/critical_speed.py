@@ -2,23 +2,23 @@
 
 ``objective = "critical_speed"`` in :class:`bridgeflap.design.control.settings.DesignSettings`. The
 critical speed is the lower of closed-loop flutter and divergence
-(:func:`bridgeflap.design.control.checks.closed_loop_limits`).
+(:func:`bridgeflap.design.control.review.checks.closed_loop_limits`).
 
 Method (docs/methods.md#critical-speed-objective). An outer search over the design speed
 ``U_d``; the inner problem at ``U_d`` is the default design
-(:func:`bridgeflap.design.control.driver.run_start`: phase 1, Ipopt, cutting planes, dense checks)
-with the damping ratio ``zeta_min`` required on 0..``U_d`` (:func:`settings_at`: design grid, dense
-check grid and robust speeds extended to ``U_d``). ``U_d`` is *feasible* when the inner design
-verifies -- damping on the design model's dense grid to ``U_d``, true peak gain <= ``gain_limit``,
-stable to ``U_d`` on the verification model -- and its dense robust margin is >= ``margin_min``. The
-search starts at the card's ``speed_max_m_s``, steps by ``critical_speed_step_m_s`` (up, or down
-when the start is not feasible) until the feasibility changes (the bracket), then bisects to
-``critical_speed_tol_m_s``, each inner solve warm-started from the design at the bracket's
-feasible end. Every feasible design's closed-loop limits are computed (~5 s on 30 modes);
-the chosen design is the feasible one of highest closed-loop critical speed (the objective;
-normally the one at the largest feasible ``U_d``, whose damping holds furthest); the result
-is :func:`bridgeflap.design.control.driver.design`'s checks of it (closed-loop limits, flap count,
-buffeting).
+(:func:`bridgeflap.design.control.search.driver.run_start`: phase 1, Ipopt, cutting planes, dense
+checks) with the damping ratio ``zeta_min`` required on 0..``U_d`` (:func:`settings_at`: design
+grid, dense check grid and robust speeds extended to ``U_d``). ``U_d`` is *feasible* when the inner
+design verifies -- damping on the design model's dense grid to ``U_d``, true peak gain <=
+``gain_limit``, stable to ``U_d`` on the verification model -- and its dense robust margin is >=
+``margin_min``. The search starts at the card's ``speed_max_m_s``, steps by
+``critical_speed_step_m_s`` (up, or down when the start is not feasible) until the feasibility
+changes (the bracket), then bisects to ``critical_speed_tol_m_s``, each inner solve warm-started
+from the design at the bracket's feasible end. Every feasible design's closed-loop limits are
+computed (~5 s on 30 modes); the chosen design is the feasible one of highest closed-loop critical
+speed (the objective; normally the one at the largest feasible ``U_d``, whose damping holds
+furthest); the result is :func:`bridgeflap.design.control.search.driver.design`'s checks of it
+(closed-loop limits, flap count, buffeting).
 
 The inner objective stays the robust margin (not ``gamma_T <= 1/margin_min`` with the
 regularisation as objective): both define the same feasible set of ``U_d`` (a design with
@@ -61,8 +61,9 @@ class Evaluation:
     ``reason``) or ``failed`` (no design: solver error); ``theta`` its coefficients (None
     when failed); ``warm_start_from_m_s`` the design speed of the warm start (None: the
     initial start); ``details``: JSON numbers of its checks (units in the keys);
-    ``record``, ``settings``: the chosen :class:`bridgeflap.design.control.records.StartRecord` and
-    the inner settings (not serialised).
+    ``record``, ``settings``: the chosen
+    :class:`bridgeflap.design.control.results.records.StartRecord` and the inner settings (not
+    serialised).
     """
 
     design_speed_m_s: float
@@ -184,8 +185,8 @@ def _extend(speeds, speed: float, fallback_step: float) -> tuple:
 def search_limit_m_s(settings: DesignSettings) -> float:
     """Upper end of the search [m/s]: ``critical_speed_max_m_s``, 0 meaning twice the start
     (the range of the closed-loop limits,
-    ``bridgeflap.design.control.checks.LIMIT_SPEED_FACTOR``)."""
-    from bridgeflap.design.control.checks import LIMIT_SPEED_FACTOR
+    ``bridgeflap.design.control.review.checks.LIMIT_SPEED_FACTOR``)."""
+    from bridgeflap.design.control.review.checks import LIMIT_SPEED_FACTOR
 
     return float(settings.critical_speed_max_m_s
                  or LIMIT_SPEED_FACTOR * settings.speed_max_m_s)
@@ -198,7 +199,7 @@ def settings_at(settings: DesignSettings, speed_m_s: float) -> DesignSettings:
     ``robust_speeds_m_s`` -- cut at ``speed_m_s`` and extended to it at their finest spacing
     (the card's 85 m/s lists: 5 m/s above 80 m/s), ``speed_m_s`` included. The cutting planes'
     robust check speeds are their union
-    (:meth:`bridgeflap.design.control.nlp.DesignProblem.robust_check_speeds`)."""
+    (:meth:`bridgeflap.design.control.formulation.nlp.DesignProblem.robust_check_speeds`)."""
     u = float(speed_m_s)
     return replace(settings, speed_max_m_s=u, critical_speed_max_m_s=search_limit_m_s(settings),
                    robust_design_speeds_m_s=_extend(settings.robust_design_speeds_m_s, u,
@@ -225,9 +226,9 @@ def _reason(rec, s: DesignSettings) -> str:
 
 def _limits(s: DesignSettings, rec, spec) -> dict:
     """Closed-loop critical speed [m/s] and mechanism of a start record's design on the
-    verification model (:func:`bridgeflap.design.control.checks.closed_loop_limits`, ~5 s on 30
-    modes)."""
-    from bridgeflap.design.control.checks import closed_loop_limits
+    verification model (:func:`bridgeflap.design.control.review.checks.closed_loop_limits`, ~5 s on
+    30 modes)."""
+    from bridgeflap.design.control.review.checks import closed_loop_limits
     from bridgeflap.model.aeroelastic.control import Compensator, Controller
 
     ctrl = Controller(Compensator(*(float(v) for v in rec.theta)),
@@ -262,7 +263,7 @@ def inner_design(settings: DesignSettings, speed_m_s: float, theta0, spec=None,
                  progress_bar=None, variants=(), warm_from=None) -> Evaluation:
     """The inner design at ``speed_m_s`` [m/s] from ``theta0`` (plus ``starts - 1`` screened
     Sobol starts, serially), its outcome and checks (:class:`Evaluation`)."""
-    from bridgeflap.design.control.start import run_start, screened_starts, select_start
+    from bridgeflap.design.control.solve.start import run_start, screened_starts, select_start
 
     t0 = time.perf_counter()
     s = settings_at(settings, speed_m_s)
@@ -299,12 +300,12 @@ def inner_design(settings: DesignSettings, speed_m_s: float, theta0, spec=None,
 def critical_speed_design(settings: DesignSettings, progress=None, spec=None, warm_start=None,
                           progress_bar=None, *, design):
     """The critical-speed design (module docstring): search, then the chosen design's checks
-    by ``design`` (:func:`bridgeflap.design.control.driver.design`, which calls this and passes
-    itself: the search does not import the driver back; ``records``). Returns a
-    :class:`bridgeflap.design.control.result.DesignResult` whose ``status`` is the search's
+    by ``design`` (:func:`bridgeflap.design.control.search.driver.design`, which calls this and
+    passes itself: the search does not import the driver back; ``records``). Returns a
+    :class:`bridgeflap.design.control.results.result.DesignResult` whose ``status`` is the search's
     (``controller`` only when ``converged``) and ``extras["critical_speed"]`` the search record."""
-    from bridgeflap.design.control.problem_model import NOMINAL_START, warm_start_theta
-    from bridgeflap.design.control.scenarios import scenario_specs
+    from bridgeflap.design.control.formulation.problem_model import NOMINAL_START, warm_start_theta
+    from bridgeflap.design.control.solve.scenarios import scenario_specs
     from bridgeflap.model.structure.loader import load_bridge
 
     t0 = time.perf_counter()

@@ -1,8 +1,9 @@
 """Multistart driver of the compensator design: starts, per-start runs, selection, checks.
 
-:func:`design` runs one :class:`bridgeflap.design.control.nlp.DesignProblem` per start (a nominal
-start and screened Sobol points, optionally in processes), selects one (:func:`select_start`),
-checks it on the verification model, searches the minimum flap count and compares buffeting.
+:func:`design` runs one :class:`bridgeflap.design.control.formulation.nlp.DesignProblem` per start
+(a nominal start and screened Sobol points, optionally in processes), selects one
+(:func:`select_start`), checks it on the verification model, searches the minimum flap count and
+compares buffeting.
 
 Verification. Every solution is checked a posteriori on the dense ``check_step_m_s`` grid
 (cutting planes: violating speeds join the design grid and the problem is re-solved) and, when
@@ -37,7 +38,19 @@ from dataclasses import replace
 
 import numpy as np
 
-from bridgeflap.design.control.checks import (  # noqa: F401 - re-exported (tests, API)
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.formulation.plant import closed_loop_abscissa
+from bridgeflap.design.control.formulation.problem_model import (  # noqa: F401 - re-exported (tests, API)
+    NOMINAL_START,
+    build_model,
+    verify_layout,
+    warm_start_theta,
+)
+from bridgeflap.design.control.results.records import (
+    BuffetingComparison,
+)
+from bridgeflap.design.control.results.result import DesignResult
+from bridgeflap.design.control.review.checks import (  # noqa: F401 - re-exported (tests, API)
     ACTIVE_ABS_TOL_1_S,
     ACTIVE_REL_TOL,
     LIMIT_SPEED_FACTOR,
@@ -56,22 +69,10 @@ from bridgeflap.design.control.checks import (  # noqa: F401 - re-exported (test
 )
 
 # re-exported
-from bridgeflap.design.control.flap_count import MISSES_TO_STOP, minimum_flap_count  # noqa: F401
-from bridgeflap.design.control.nlp import DesignProblem
-from bridgeflap.design.control.plant import closed_loop_abscissa
-from bridgeflap.design.control.problem_model import (  # noqa: F401 - re-exported (tests, API)
-    NOMINAL_START,
-    build_model,
-    verify_layout,
-    warm_start_theta,
-)
-from bridgeflap.design.control.records import (
-    BuffetingComparison,
-)
-from bridgeflap.design.control.result import DesignResult
-from bridgeflap.design.control.scenarios import scenario_specs
+from bridgeflap.design.control.review.flap_count import MISSES_TO_STOP, minimum_flap_count  # noqa: F401
 from bridgeflap.design.control.settings import DesignSettings
-from bridgeflap.design.control.start import (  # noqa: F401 - re-exported (tests, API)
+from bridgeflap.design.control.solve.scenarios import scenario_specs
+from bridgeflap.design.control.solve.start import (  # noqa: F401 - re-exported (tests, API)
     SCREEN_FACTOR,
     _progress_bar,
     layout_record,
@@ -125,7 +126,7 @@ def _early_jobs(settings, given, variants, spec):
     and then the open-loop abscissa; ``(None, None)`` otherwise or when the starts are given."""
     if not settings.parallel or given:
         return None, None
-    from bridgeflap.design.control.scenarios import adopt_limits, open_loop_limits
+    from bridgeflap.design.control.solve.scenarios import adopt_limits, open_loop_limits
     from bridgeflap.model.workers import process_pool
 
     pool = process_pool(2)
@@ -196,13 +197,13 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     records : sequence of StartRecord, optional
         Starts already run on ``settings`` (:func:`run_start`): only the selection and the
         checks follow. ``objective = "critical_speed"`` without them runs
-        :func:`bridgeflap.design.control.critical_speed.critical_speed_design`, which calls this
-        with its chosen inner design.
+        :func:`bridgeflap.design.control.search.critical_speed.critical_speed_design`, which calls
+        this with its chosen inner design.
     """
     check_design_args(settings, progress, bridge, warm_start, progress_bar, records)
     spec = None if bridge is None else load_bridge(bridge)  # a name, a file or a BridgeSpec
     if records is None and settings.objective == "critical_speed":
-        from bridgeflap.design.control.critical_speed import critical_speed_design
+        from bridgeflap.design.control.search.critical_speed import critical_speed_design
 
         # this function is the search's inner design (passed in: no import back)
         return critical_speed_design(settings, progress=progress, spec=spec,
@@ -257,8 +258,8 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
     mark("starts (Ipopt, cuts, verification)")
     best, status = select_start(records, settings.gain_limit)
     extras, controller = {}, None
-    if settings.layout_neighbours:  # design.control.layout_search
-        from bridgeflap.design.control.layout_search import design_step
+    if settings.layout_neighbours:  # design.control.search.layout_search
+        from bridgeflap.design.control.search.layout_search import design_step
 
         best, status, extras["layout_neighbours"] = design_step(settings, best, status, spec,
                                                                 variants, log)

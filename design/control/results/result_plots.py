@@ -1,5 +1,6 @@
 """Plots of the design results that have no figure of their own in
-:mod:`bridgeflap.design.control.figures` (the batch plot is :mod:`bridgeflap.design.batch.plots`).
+:mod:`bridgeflap.design.control.results.figures` (the batch plot is
+:mod:`bridgeflap.design.batch.plots`).
 
 Each takes the result and an optional matplotlib axis (a new figure when None), draws, and
 returns the axis; matplotlib is imported here only, and nothing calls ``plt.show()``

@@ -1,14 +1,15 @@
 """The closed-form pieces shared by the spectral terms of the design (the buffeting term,
-:mod:`bridgeflap.design.control.buffeting_term`, and the actuator demand,
-:mod:`bridgeflap.design.control.actuator_demand`): the frozen quadrature data of the modal gust
-response at one speed, and the symbolic output PSDs of the loop closed by ``K(j omega)``."""
+:mod:`bridgeflap.design.control.formulation.buffeting_term`, and the actuator demand,
+:mod:`bridgeflap.design.control.formulation.actuator_demand`): the frozen quadrature data of the
+modal gust response at one speed, and the symbolic output PSDs of the loop closed by ``K(j
+omega)``."""
 
 from __future__ import annotations
 
 import casadi as ca
 import numpy as np
 
-from bridgeflap.design.control.loop_algebra import k_complex
+from bridgeflap.design.control.formulation.loop_algebra import k_complex
 
 
 def gust_frequency_data(model, gust, Vt, strip_x, U, systems, n_base=80, peaks_per_mode=25,
@@ -17,7 +18,8 @@ def gust_frequency_data(model, gust, Vt, strip_x, U, systems, n_base=80, peaks_p
     grid (the union of the adaptive grids of ``systems``, state matrices at ``U``; only
     ``omega > 0`` when ``positive``), the flap transfer ``X`` and the gust response cross
     spectrum ``M = E S E^H`` times the trapezoid weights (the buffeting term's
-    :class:`~bridgeflap.design.control.buffeting_term.ModalBuffeting`, and the actuator demand)."""
+    :class:`~bridgeflap.design.control.formulation.buffeting_term.ModalBuffeting`, and the actuator
+    demand)."""
     from bridgeflap.model.aero.gust import coherence_projection
     from bridgeflap.model.response.buffeting import OMEGA_MAX_FACTOR
     from bridgeflap.model.spectral import adaptive_frequency_grid, trapezoid_weights
@@ -48,7 +50,7 @@ def point_symbols(n):
     """The symbols of a closed-form point function for ``n`` modes and its two output PSDs:
     ``(inputs, (Kr, Ki), (G_1, G_2))`` with ``inputs = [theta, omega, mu_r, mu_i, H0..H3]``
     and ``G = d^T H conj(d)``, ``d = 1 / (1 - K mu)`` (also the actuator-demand term's,
-    :mod:`bridgeflap.design.control.actuator_demand`)."""
+    :mod:`bridgeflap.design.control.formulation.actuator_demand`)."""
     th = ca.SX.sym("theta", 5)
     om = ca.SX.sym("omega")
     mr, mi = ca.SX.sym("mu_r", n), ca.SX.sym("mu_i", n)

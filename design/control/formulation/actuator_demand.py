@@ -3,8 +3,8 @@ loop in the bridge's design turbulence, as CasADi expressions of the compensator
 
 The flap angle at a flap is ``beta = K(j omega) alpha_f`` with ``alpha_f = Phi_a[f] q`` the deck
 pitch at that flap. The closed-loop PSD of ``alpha_f`` is the modal spectral integrand of the
-buffeting term (:class:`bridgeflap.design.control.buffeting_term.ModalBuffeting`, the same
-frozen-RFA gust transfer, load cross-spectra and closed form in ``K(j omega)`` for a fixed
+buffeting term (:class:`bridgeflap.design.control.formulation.buffeting_term.ModalBuffeting`, the
+same frozen-RFA gust transfer, load cross-spectra and closed form in ``K(j omega)`` for a fixed
 layout), so::
 
     sigma_beta^2     = int |K(j omega)|^2 G_alpha_f(omega) d omega
@@ -27,9 +27,9 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from bridgeflap.design.control.buffeting_term import _compiled, _eig_point_data
-from bridgeflap.design.control.loop_algebra import k_complex
-from bridgeflap.design.control.spectral_terms import gust_frequency_data, point_symbols
+from bridgeflap.design.control.formulation.buffeting_term import _compiled, _eig_point_data
+from bridgeflap.design.control.formulation.loop_algebra import k_complex
+from bridgeflap.design.control.formulation.spectral_terms import gust_frequency_data, point_symbols
 
 #: peak factor of the flap demand: a Gaussian signal passes 3 sigma 0.27 % of the time (the
 #: rule of the acceptance's usable speed, design.assessment.usable_speed.SIGMAS)
@@ -46,8 +46,8 @@ _POINTS: dict = {}
 def _point_function(n, jacobian=False) -> ca.Function:
     """:func:`_point_expression` (``jacobian``: its Jacobian in ``theta``, 4 x 5, instead)
     compiled (as the buffeting term's point function,
-    :data:`bridgeflap.design.control.buffeting_term.JIT`), or evaluated by CasADi's virtual
-    machine when no compiler works; cached per process."""
+    :data:`bridgeflap.design.control.formulation.buffeting_term.JIT`), or evaluated by CasADi's
+    virtual machine when no compiler works; cached per process."""
     key = (int(n), bool(jacobian))
     if key not in _POINTS:
         f = _point_expression(n)
@@ -68,7 +68,7 @@ def _point_function(n, jacobian=False) -> ca.Function:
 def _point_expression(n) -> ca.Function:
     """Per frequency: ``[|K|^2 G_1, |K|^2 G_2, w^2 |K|^2 G_1, w^2 |K|^2 G_2]`` for the two
     output rows of the buffeting term's closed form
-    (:func:`bridgeflap.design.control.buffeting_term.point_symbols`)."""
+    (:func:`bridgeflap.design.control.formulation.buffeting_term.point_symbols`)."""
     inputs, (Kr, Ki), (g1, g2) = point_symbols(n)
     om = inputs[1]
     k2 = Kr * Kr + Ki * Ki

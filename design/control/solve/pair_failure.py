@@ -3,10 +3,10 @@
 ``design_for_pair_failure = true`` on a design card adds, for every flap pair ``f`` of the
 fixed layout whose K(s) is optimised (the card's layout, or the rounded one of a placement),
 the same bridge with pair ``f`` stuck at 0 as one more model of the multi-model design
-(:mod:`bridgeflap.design.control.variants`): its damping constraints at the design speeds (lazily
-generated like a bridge variant's) and its dense check, so the design verifies only when every
-one-pair-failed loop meets ``zeta_min`` on ``0 .. speed_max`` as well. A failed pair is weight 0 on
-its flap loads (:class:`FailedPairProblem`, the weights of the placement;
+(:mod:`bridgeflap.design.control.formulation.variants`): its damping constraints at the design
+speeds (lazily generated like a bridge variant's) and its dense check, so the design verifies only
+when every one-pair-failed loop meets ``zeta_min`` on ``0 .. speed_max`` as well. A failed pair is
+weight 0 on its flap loads (:class:`FailedPairProblem`, the weights of the placement;
 :mod:`bridgeflap.design.assessment.failsafe` judges a controller the same way). The relaxed
 placement solve is not given them: which pair fails is a question of the layout it chooses.
 """
@@ -15,15 +15,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from bridgeflap.design.control.nlp import DesignProblem
+from bridgeflap.design.control.formulation.nlp import DesignProblem
 
 __all__ = ["FailedPairProblem", "extra_models", "pair_label"]
 
 
 class FailedPairProblem(DesignProblem):
-    """A :class:`~bridgeflap.design.control.nlp.DesignProblem` on ``model`` with flap pair ``pair``
-    failed: its weight is 0 whatever weights the caller passes (a multi-model check passes the
-    nominal problem's)."""
+    """A :class:`~bridgeflap.design.control.formulation.nlp.DesignProblem` on ``model`` with flap
+    pair ``pair`` failed: its weight is 0 whatever weights the caller passes (a multi-model check
+    passes the nominal problem's)."""
 
     def __init__(self, settings, model, pair: int, spec=None):
         self.mask = np.ones(model.n_flaps)
@@ -39,11 +39,12 @@ class FailedPairProblem(DesignProblem):
 
 def extra_models(settings, model, spec, variants, positions=None) -> list:
     """The extra models of a fixed-layout design: one
-    :class:`~bridgeflap.design.control.nlp.DesignProblem` per bridge variant (``variants``: specs;
-    the layout ``positions``, default the card's), then, with ``design_for_pair_failure``, one
-    :class:`FailedPairProblem` per flap pair of ``model`` (the nominal bridge)."""
-    from bridgeflap.design.control.problem_model import build_model
-    from bridgeflap.design.control.scenarios import scenario_settings
+    :class:`~bridgeflap.design.control.formulation.nlp.DesignProblem` per bridge variant
+    (``variants``: specs; the layout ``positions``, default the card's), then, with
+    ``design_for_pair_failure``, one :class:`FailedPairProblem` per flap pair of ``model`` (the
+    nominal bridge)."""
+    from bridgeflap.design.control.formulation.problem_model import build_model
+    from bridgeflap.design.control.solve.scenarios import scenario_settings
 
     out = []
     for v in variants:

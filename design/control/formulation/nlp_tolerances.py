@@ -1,7 +1,7 @@
-"""Scales and tolerances of the compensator NLP (:mod:`bridgeflap.design.control.nlp`), shared with
-its cutting-plane loop (:mod:`bridgeflap.design.control.cuts`) and its dense verification
-(:mod:`bridgeflap.design.control.verification`). A leaf module: the NLP imports the loop and the
-check, and they
+"""Scales and tolerances of the compensator NLP (:mod:`bridgeflap.design.control.formulation.nlp`),
+shared with its cutting-plane loop (:mod:`bridgeflap.design.control.formulation.cuts`) and its dense
+verification (:mod:`bridgeflap.design.control.formulation.verification`). A leaf module: the NLP
+imports the loop and the check, and they
 read these values from here rather than from the NLP (no import cycle)."""
 
 from __future__ import annotations
@@ -44,12 +44,11 @@ ROBUST_CUTS_PER_SPEED = 2
 #: 2.44 at the peak, 2.13 at -2 %); a single point is escaped by shifting the resonance by a
 #: fraction of that, a 1 % spaced cluster bounds the under-read of a shifted peak to ~5 %.
 ROBUST_CLUSTER_STEP = 0.01
-#: Phase 1 (:meth:`design.control.nlp.DesignProblem.solve_with_cuts`). From a start that violates
-# the
-#: damping constraints the robust epigraph is an obstacle: ``||T(j omega)||`` is infinite where a
-#: branch crosses the imaginary axis at a sample frequency, so Ipopt, which must carry an
-#: unstable branch across the axis to reach feasibility, drives ``gamma_T`` (the objective) to
-#: ~1e2 and stalls there (humber:box from the nominal start: 80 iterations, gamma_T 158). The
+#: Phase 1 (:meth:`design.control.formulation.nlp.DesignProblem.solve_with_cuts`). From a start that
+#: violates the damping constraints the robust epigraph is an obstacle: ``||T(j omega)||`` is
+#: infinite where a branch crosses the imaginary axis at a sample frequency, so Ipopt, which must
+#: carry an unstable branch across the axis to reach feasibility, drives ``gamma_T`` (the objective)
+#: to ~1e2 and stalls there (humber:box from the nominal start: 80 iterations, gamma_T 158). The
 #: phase-1 solve drops the epigraph (objective: the regularisation only) and tightens every
 #: damping constraint by this [1/s] (1/20 of ``zeta_min |lambda|`` at 0.2 rad/s, the lowest
 #: structural frequency, for zeta_min = 0.5 %), so phase 2 starts strictly inside.

@@ -2,9 +2,9 @@
 
 The optimised K(s) is kept and every evenly spaced flap count is checked on the dense grid of
 the verification model, refined from a coarse subset
-(:func:`bridgeflap.design.control.plant.damping_check_refined`), with one modal solution for all
-counts (only the closed loop and its sweep per count). Re-exported by
-:mod:`bridgeflap.design.control.driver`.
+(:func:`bridgeflap.design.control.formulation.plant.damping_check_refined`), with one modal solution
+for all counts (only the closed loop and its sweep per count). Re-exported by
+:mod:`bridgeflap.design.control.search.driver`.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from bridgeflap.design.control.nlp import DesignProblem
-from bridgeflap.design.control.nlp_tolerances import VIOLATION_TOL
-from bridgeflap.design.control.records import FlapCountCheck, FlapCountSearch
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.formulation.nlp_tolerances import VIOLATION_TOL
+from bridgeflap.design.control.results.records import FlapCountCheck, FlapCountSearch
 from bridgeflap.design.control.settings import DesignSettings
 
 #: The same-K search over every count stops after this many consecutive failing counts.
@@ -108,12 +108,13 @@ def _count_row(count, ver) -> FlapCountCheck:
 
 def _check_count(settings, count, modal, spec, theta) -> FlapCountCheck:
     """Dense same-K check of ``count`` evenly spaced flaps on the verification model."""
-    from bridgeflap.design.control.problem_model import build_model
+    from bridgeflap.design.control.formulation.problem_model import build_model
 
     _, model = build_model(settings, count, modal, n_modes=settings.verification_modes,
                            spec=spec)
-    # on the refined subset of the dense grid (design.control.plant.damping_check_refined): the same
-    # decisions at 2.5-6x fewer eigen-solutions (default design, counts 25..8: 58-145 of 341
-    # speeds, every row identical to the dense check's)
+    # on the refined subset of the dense grid
+    # (design.control.formulation.plant.damping_check_refined): the same decisions at 2.5-6x fewer
+    # eigen-solutions (default design, counts 25..8: 58-145 of 341 speeds, every row identical to
+    # the dense check's)
     return _count_row(count, DesignProblem(replace(settings, optimise_placement=False), model,
                                            numeric=True).verify(np.asarray(theta), refined=True))

@@ -6,7 +6,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from bridgeflap.design.control.records import FlapCountSearch, StartRecord
+from bridgeflap.design.control.results.records import FlapCountSearch, StartRecord
 from bridgeflap.design.control.settings import CRITICAL_SPEED_FIELDS, THETA_NAMES, DesignSettings
 from bridgeflap.model.aeroelastic.actuator_limits import ACTUATOR_DEFAULTS, ACTUATOR_FIELDS
 from bridgeflap.model.aeroelastic.control import Controller
@@ -17,14 +17,14 @@ NAN = float("nan")
 
 @dataclass(frozen=True)
 class DesignResult(ResultData):
-    """Outcome of :func:`bridgeflap.design.control.driver.design`.
+    """Outcome of :func:`bridgeflap.design.control.search.driver.design`.
 
     Attributes
     ----------
     status : str
         ``converged``, ``unverified``, ``infeasible`` or ``failed``
-        (:func:`bridgeflap.design.control.driver.select_start`); after the acceptance checks of
-        :func:`bridgeflap.design.assessment.accept.design` also ``harm``, ``failed_checks`` (the
+        (:func:`bridgeflap.design.control.search.driver.select_start`); after the acceptance checks
+        of :func:`bridgeflap.design.assessment.accept.design` also ``harm``, ``failed_checks`` (the
         independent check disagrees, or the usable speed is not above the open-loop critical
         speed) or ``unresolved``. Only ``converged`` carries a ``controller``.
     settings : DesignSettings
@@ -43,12 +43,14 @@ class DesignResult(ResultData):
         model [1/s] (NaN without a design).
     min_flaps : FlapCountSearch or None
         Fewest evenly spaced flaps meeting the minimum damping
-        (:func:`bridgeflap.design.control.driver.minimum_flap_count`; None when not searched).
+        (:func:`bridgeflap.design.control.search.driver.minimum_flap_count`; None when not
+        searched).
     wall_time_s : float
     extras : dict
         ``open_loop_abscissa`` [1/s], ``closed_loop`` (state space), ``buffeting``
-        (:class:`bridgeflap.design.control.records.BuffetingComparison`), ``response_by_speed``
-        (the paper's Fig. 5 right as rows, :mod:`bridgeflap.design.assessment.usable_speed`).
+        (:class:`bridgeflap.design.control.results.records.BuffetingComparison`),
+        ``response_by_speed`` (the paper's Fig. 5 right as rows,
+        :mod:`bridgeflap.design.assessment.usable_speed`).
 
     The headline is :attr:`usable_speed_m_s` (with :attr:`usable_speed_limited_by`) beside
     :attr:`open_loop_critical_speed_m_s`; :attr:`closed_loop_critical_speed_m_s` is the linear
@@ -140,7 +142,7 @@ class DesignResult(ResultData):
             "start_selection": "verified starts (damping, gain limit, verification model) "
                                "ranked by the NLP objective, lowest first, a phase-1 point "
                                "(no design objective) after them by margin "
-                               "(bridgeflap.design.control.driver."
+                               "(bridgeflap.design.control.search.driver."
                                "select_start); each row is that start's own optimum",
             "dense_T_peak": 1.0 / margin if margin else NAN,
             "robust_bound_holds": b.robust_bound_holds if b is not None else None,
@@ -151,8 +153,8 @@ class DesignResult(ResultData):
             "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"
                          and (crit or k2 not in CRITICAL_SPEED_FIELDS)
                          and (k2 not in ACTUATOR_FIELDS or v != ACTUATOR_DEFAULTS[k2])
-                         # shown when set (design.control.pair_failure): older records stay as they
-                         # were
+                         # shown when set (design.control.solve.pair_failure): older records stay as
+                         # they were
                          and (k2 not in ("design_for_pair_failure", "layout_neighbours",
                                          "layout_adopt") or v)},
         })
@@ -160,16 +162,18 @@ class DesignResult(ResultData):
             out["robust_margin_speed_grid"] = jsonable(self.extras["robust_margin_speed_grid"])
         if self.controller is None and b is not None:
             out["best_achievable"] = jsonable(self.best_achievable())
-        if "layout_neighbours" in self.extras:   # design.control.layout_search, only when it ran
+        # design.control.search.layout_search, only when it ran
+        if "layout_neighbours" in self.extras:
             out["layout_neighbours"] = jsonable(self.extras["layout_neighbours"])
-        if crit:    # the critical-speed search (design.control.critical_speed), only when it ran
+        # the critical-speed search (design.control.search.critical_speed), only when it ran
+        if crit:
             out["critical_speed"] = jsonable(self.extras.get("critical_speed", {}))
         return out
 
     def margin_grid(self) -> dict:
         """The chosen design's margin check over the whole speed range
-        (:func:`bridgeflap.design.control.checks.margin_on_speed_grid`), or ``{}`` when it did not
-        run.
+        (:func:`bridgeflap.design.control.review.checks.margin_on_speed_grid`), or ``{}`` when it
+        did not run.
 
         Returns
         -------
@@ -316,7 +320,7 @@ class DesignResult(ResultData):
 
     def plot_bode(self, ax=None):
         """Gain and phase of the compensator against frequency [Hz] with the gain limit
-        (:func:`bridgeflap.design.control.figures.bode`).
+        (:func:`bridgeflap.design.control.results.figures.bode`).
 
         Parameters
         ----------
@@ -328,7 +332,7 @@ class DesignResult(ResultData):
         matplotlib.figure.Figure
             The figure drawn on (a new one when no axes are given).
         """
-        from bridgeflap.design.control.figures import bode
+        from bridgeflap.design.control.results.figures import bode
 
         st = self.settings
         from bridgeflap.model.results import figure_of
@@ -342,7 +346,7 @@ class DesignResult(ResultData):
     def plot_margins(self, ax=None):
         """Spectral abscissa, smallest damping ratio of the movable branches with
         ``zeta_min``, robust margin per speed and the flap layout on the deck
-        (:func:`bridgeflap.design.control.figures.margins`).
+        (:func:`bridgeflap.design.control.results.figures.margins`).
 
         Parameters
         ----------
@@ -355,7 +359,7 @@ class DesignResult(ResultData):
         matplotlib.figure.Figure
             The figure drawn on (a new one when no axes are given).
         """
-        from bridgeflap.design.control.figures import margins
+        from bridgeflap.design.control.results.figures import margins
         from bridgeflap.model.errors import BridgeflapError
         from bridgeflap.model.structure.loader import load_bridge
 

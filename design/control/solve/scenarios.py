@@ -20,8 +20,8 @@ open-loop one by construction. ``U_j`` is the last stable speed of the scenario'
 bridge (the stronger multi-model requirement).
 
 A scenario's problem is the nominal one on its own bridge with ``speed_max_m_s`` set to its
-limit, so the lazy constraint generation of :mod:`bridgeflap.design.control.variants` and every
-check of a round read its own range.
+limit, so the lazy constraint generation of :mod:`bridgeflap.design.control.formulation.variants`
+and every check of a round read its own range.
 """
 
 from __future__ import annotations
@@ -61,8 +61,8 @@ def corner_specs(settings, base) -> list:
 
 def scenario_specs(settings, base) -> list:
     """The scenario bridges of a design: the corners (:func:`corner_specs`), then ``variants``
-    Sobol' draws (:func:`bridgeflap.design.control.checks.sample_variants`)."""
-    from bridgeflap.design.control.checks import sample_variants
+    Sobol' draws (:func:`bridgeflap.design.control.review.checks.sample_variants`)."""
+    from bridgeflap.design.control.review.checks import sample_variants
 
     return corner_specs(settings, base) + sample_variants(settings, base, settings.variants,
                                                           settings.variant_seed)
@@ -72,7 +72,7 @@ def open_loop_limit(settings, spec, model) -> float:
     """The last stable speed [m/s] of ``spec``'s open loop on the dense check grid to
     ``NO_HARM_GRID_FACTOR speed_max_m_s`` (the grid end when stable throughout), on ``model``
     (the design model on ``spec``; the flaps play no part at ``K = 0``). Cached per process."""
-    from bridgeflap.design.control.nlp import DesignProblem
+    from bridgeflap.design.control.formulation.nlp import DesignProblem
 
     key = (repr(spec), int(model.open_loop.basis.n), float(settings.speed_max_m_s),
            float(settings.check_step_m_s))
@@ -90,7 +90,7 @@ def open_loop_limits(settings, specs) -> dict:
     """:func:`open_loop_limit` of every scenario in ``specs`` on its design model, as the
     entries of this process's cache (``{key: speed}``): a worker's share, which the design's
     process then adopts (:func:`adopt_limits`) before it builds the scenario problems."""
-    from bridgeflap.design.control.problem_model import build_model
+    from bridgeflap.design.control.formulation.problem_model import build_model
 
     out = {}
     for spec in specs:

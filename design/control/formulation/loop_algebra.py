@@ -1,17 +1,17 @@
 """The flap loop's algebra in real arithmetic, shared by the robustness terms
-(:mod:`bridgeflap.design.control.robust`) and the buffeting term
-(:mod:`bridgeflap.design.control.buffeting_term`): ``K(j omega)`` of the 2nd-order compensator for
-symbolic or numeric coefficients, the real block form of ``I - K N``, and the rank tolerance of the
-flap pitch map. A leaf module: it imports neither."""
+(:mod:`bridgeflap.design.control.formulation.robust`) and the buffeting term
+(:mod:`bridgeflap.design.control.formulation.buffeting_term`): ``K(j omega)`` of the 2nd-order
+compensator for symbolic or numeric coefficients, the real block form of ``I - K N``, and the rank
+tolerance of the flap pitch map. A leaf module: it imports neither."""
 
 from __future__ import annotations
 
 import casadi as ca
 
 #: Relative singular value of ``Phi_a`` below which a direction counts as absent in
-#: :func:`design.control.robust.lowrank_robust_data` (the pitch map of 25 flaps on 16 modes has rank
-# 4
-#: exactly: only the torsional modes pitch; the rest of its spectrum is round-off, ~1e-16).
+#: :func:`design.control.formulation.robust.lowrank_robust_data` (the pitch map of 25 flaps on 16
+#: modes has rank 4 exactly: only the torsional modes pitch; the rest of its spectrum is round-off,
+#: ~1e-16).
 LOWRANK_RTOL = 1e-12
 
 
@@ -34,7 +34,8 @@ def _loop_block(Kr, Ki, Nr, Ni):
 
 #: The compensator's pole damping may fall short of ``compensator_damping_min`` by this
 #: (relative): Ipopt meets the constraint to its ``constr_viol_tol`` (1e-6, relative as written
-#: in :mod:`design.control.nlp`), so 1e-5 separates a met constraint from a violated one.
+#: in :mod:`design.control.formulation.nlp`), so 1e-5 separates a met constraint from a violated
+#: one.
 COMPENSATOR_DAMPING_RTOL = 1e-5
 
 

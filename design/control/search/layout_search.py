@@ -2,16 +2,16 @@
 
 With ``optimise_placement`` the relaxed weights ``w = S z`` (one ``z`` per mirror pair with
 ``symmetric_layout``) choose the layout by rounding (:func:`round_layout`), then K(s) is
-re-optimised on the rounded layout (:func:`bridgeflap.design.control.start.solve_fixed_layout`).
-Rounding at 0.5 is a heuristic; this module measures how far it is from the neighbouring integer
-layouts.
+re-optimised on the rounded layout
+(:func:`bridgeflap.design.control.solve.start.solve_fixed_layout`). Rounding at 0.5 is a heuristic;
+this module measures how far it is from the neighbouring integer layouts.
 :func:`compare_layouts` answers that at re-optimised K: every layout one group flip away
 (a mirror pair, or the centre flap, added or removed; :func:`neighbour_layouts`) and the
 contiguous centred blocks of about the same size are re-optimised and verified by
-:func:`bridgeflap.design.control.start.layout_record` -- the very machinery
-:func:`bridgeflap.design.control.start.run_start` applies to the rounded layout -- and ranked by the
-design's selection criterion (:func:`bridgeflap.design.control.start.select_start`: the dense robust
-margin among verified layouts).
+:func:`bridgeflap.design.control.solve.start.layout_record` -- the very machinery
+:func:`bridgeflap.design.control.solve.start.run_start` applies to the rounded layout -- and ranked
+by the design's selection criterion (:func:`bridgeflap.design.control.solve.start.select_start`: the
+dense robust margin among verified layouts).
 
 Every row carries its status; a layout whose solve fails is a row (``failed: ...``), never
 dropped. ``bridgeflap optimise`` runs it on the chosen design with ``layout_neighbours =
@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bridgeflap.design.control.start import round_layout  # noqa: F401 - also served from here
+from bridgeflap.design.control.solve.start import round_layout  # noqa: F401 - also served from here
 from bridgeflap.model.results import strict_json
 
 NAN = float("nan")
@@ -38,8 +38,8 @@ def layout_groups(candidates, symmetric=True) -> np.ndarray:
 
     With ``symmetric`` each mirror pair ``(x, -x)`` of the candidate positions [m] (and the
     centre flap of an odd count) is one group, as
-    :attr:`bridgeflap.design.control.nlp.DesignProblem.symmetry` pairs them; otherwise every
-    candidate is its own group. Columns are sorted by ``|x|``.
+    :attr:`bridgeflap.design.control.formulation.nlp.DesignProblem.symmetry` pairs them; otherwise
+    every candidate is its own group. Columns are sorted by ``|x|``.
     """
     x = np.asarray(candidates, float)
     n = x.size
@@ -132,8 +132,8 @@ def neighbour_layouts(candidates, positions, symmetric=True, blocks=1) -> list[d
 class LayoutRow:
     """One layout of :func:`compare_layouts` with its re-optimised K(s).
 
-    ``record`` is the :class:`bridgeflap.design.control.records.StartRecord` of
-    :func:`bridgeflap.design.control.start.layout_record` (or the design's own for the rounded
+    ``record`` is the :class:`bridgeflap.design.control.results.records.StartRecord` of
+    :func:`bridgeflap.design.control.solve.start.layout_record` (or the design's own for the rounded
     layout); ``weight_relaxed`` [-] the relaxed weight ``z`` of the flipped group (NaN: not known or
     not a flip); ``gap_pct`` [%] the robust margin's difference to the rounded layout's,
     relative to it.
@@ -203,7 +203,8 @@ class LayoutComparison:
                 "best_neighbour_gap_pct": self.best_neighbour_gap_pct,
                 "adopted": self.adopted,
                 "criterion": "largest dense robust margin among verified layouts (as "
-                             "bridgeflap.design.control.start.select_start); K(s) re-optimised per "
+                             "bridgeflap.design.control.solve.start.select_start); K(s) "
+                             "re-optimised per "
                              "layout "
                               "with "
                              "cutting planes and verified like the rounded layout's",
@@ -266,7 +267,7 @@ def compare_layouts(settings, positions, theta0, spec=None, variants=(), weights
     """
     import time
 
-    from bridgeflap.design.control import start
+    from bridgeflap.design.control.solve import start
 
     t0 = time.perf_counter()
     log = log or (lambda msg: None)
@@ -324,8 +325,8 @@ def compare_layouts(settings, positions, theta0, spec=None, variants=(), weights
 
 def relaxed_theta(record) -> np.ndarray | None:
     """The K(s) the rounded layout's re-optimisation started from in
-    :func:`bridgeflap.design.control.start.run_start`: the chosen round of the relaxed (placement)
-    solve, or None without placement rounds."""
+    :func:`bridgeflap.design.control.solve.start.run_start`: the chosen round of the relaxed
+    (placement) solve, or None without placement rounds."""
     relaxed = [r for r in record.rounds if r.placement != "rounded"]
     if not relaxed or len(relaxed) == len(record.rounds):
         return None
@@ -334,8 +335,8 @@ def relaxed_theta(record) -> np.ndarray | None:
 
 
 def design_step(settings, best, status, spec=None, variants=(), log=None):
-    """The ``layout_neighbours`` step of :func:`bridgeflap.design.control.driver.design` on its
-    chosen start.
+    """The ``layout_neighbours`` step of :func:`bridgeflap.design.control.search.driver.design` on
+    its chosen start.
 
     The rounded layout's row is the design's own record (not re-solved; the same machinery,
     ``tests/test_layout_search.py``); every neighbour is re-optimised from the design's K.

@@ -17,7 +17,7 @@ Robustness: ``T`` is the input complementary sensitivity of the flap loop; the N
 Frobenius norm (an upper bound of ``sigma_max``) at ``robust_design_speeds_m_s`` and
 ``n_robust_omega`` log-spaced frequencies plus the in-vacuo structural frequencies, so
 ``1/gamma_T`` is a guaranteed lower bound of the small-gain margin at those points
-(:mod:`bridgeflap.design.control.robust`); the true margin is checked on a dense grid
+(:mod:`bridgeflap.design.control.formulation.robust`); the true margin is checked on a dense grid
 (:meth:`robust_margin`).
 
 Damping. The constraint is a minimum damping ratio ``zeta_min`` (default 0.5 %) of
@@ -27,20 +27,21 @@ copies of the RFA lag poles ``-p_i U / b`` (up to 16 identical ones, the spectra
 most speeds) and of the compensator poles are excluded: no flap moves them, and the former
 decay-rate constraint on the top real parts was therefore never active. At ``U = 0`` the lag
 states are exactly decoupled (their input is proportional to ``U``) and dropped. The
-constraints use :class:`bridgeflap.design.control.eigen.PolynomialStructuralDamping` (analytic
-eigenvalue Jacobians through the one assembly, limited-memory Hessian).
+constraints use :class:`bridgeflap.design.control.formulation.eigen.PolynomialStructuralDamping`
+(analytic eigenvalue Jacobians through the one assembly, limited-memory Hessian).
 
 Buffeting. ``J_buf`` is the mean over ``buffeting_speeds_m_s`` of the squared RMS vertical and
 torsional deck response (each normalised by its ``K = 0`` value): by default the CasADi spectral
-integral in modal coordinates (:class:`bridgeflap.design.control.buffeting_term.ModalBuffeting`,
-exact AD derivatives); used only when ``weight_buffeting > 0``.
+integral in modal coordinates
+(:class:`bridgeflap.design.control.formulation.buffeting_term.ModalBuffeting`, exact AD
+derivatives); used only when ``weight_buffeting > 0``.
 
 Phase 1 and cutting planes (:meth:`DesignProblem.solve_with_cuts`). From a start that violates
 the damping constraints a phase-1 solve without the robust epigraph finds a strictly feasible
 point first (``FEASIBILITY_BACKOFF_1_S``; it stops at the first feasible iterate,
-:mod:`bridgeflap.design.control.ipopt_hooks`). Then at most ``cutting_plane_rounds`` warm-started
-re-solves (monotone barrier from ``WARM_MU_INIT``) of at most ``resolve_max_iter`` iterations:
-violating speeds of the dense damping
+:mod:`bridgeflap.design.control.formulation.ipopt_hooks`). Then at most ``cutting_plane_rounds``
+warm-started re-solves (monotone barrier from ``WARM_MU_INIT``) of at most ``resolve_max_iter``
+iterations: violating speeds of the dense damping
 check join the design grid; if the true peak ``Compensator.max_gain()`` exceeds the limit, its
 frequency joins the gain grid; dense ``sigma_max(T)`` peaks above ``gamma_T`` join the robust
 epigraph, and while the bound fails the dense peak frequency of every check speed is tracked
@@ -53,11 +54,11 @@ round is recorded. A design whose true peak gain exceeds ``gain_limit`` is never
 Placement (``optimise_placement``): relaxed weights ``w = S z`` in [0, 1], one per mirror pair
 with ``symmetric_layout`` (:attr:`DesignProblem.symmetry`), an optional flap-count budget
 ``sum(w) <= flap_budget`` and penalty ``weight_flaps``; rounding and the re-solve of K for the
-rounded layout are in :mod:`bridgeflap.design.control.driver`. Multi-model:
-:mod:`bridgeflap.design.control.variants`.
+rounded layout are in :mod:`bridgeflap.design.control.search.driver`. Multi-model:
+:mod:`bridgeflap.design.control.formulation.variants`.
 
 Multistart, verification on the ``verification_modes`` model, placement rounding and the
-result records: :mod:`bridgeflap.design.control.driver`; settings:
+result records: :mod:`bridgeflap.design.control.search.driver`; settings:
 :mod:`bridgeflap.design.control.settings`.
 """
 
@@ -69,42 +70,42 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from bridgeflap.design.control.buffeting_term import buffeting_objective
-from bridgeflap.design.control.eigen import PolynomialStructuralDamping, parts_jacobian
-from bridgeflap.design.control.ipopt_hooks import (
+from bridgeflap.design.control.formulation.buffeting_term import buffeting_objective
+from bridgeflap.design.control.formulation.eigen import PolynomialStructuralDamping, parts_jacobian
+from bridgeflap.design.control.formulation.ipopt_hooks import (
     DIVERGE_ITERATIONS,
     DIVERGE_LEVEL,
     IterationCallback,
     signals_deferred,
 )
-from bridgeflap.design.control.loop_algebra import k_complex
+from bridgeflap.design.control.formulation.loop_algebra import k_complex
 
 # the NLP's scales and tolerances (shared with the loop)
-from bridgeflap.design.control.nlp_tolerances import (
+from bridgeflap.design.control.formulation.nlp_tolerances import (
     EIG_SCALE,
     FEASIBILITY_BACKOFF_1_S,
     GAIN_BACKOFF,
     THETA_SCALE,
     WARM_MU_INIT,
 )
-from bridgeflap.design.control.plant import (
+from bridgeflap.design.control.formulation.plant import (
     compensator_reduction,
     damping_check,
     lag_free_indices,
     lag_rates,
 )
-from bridgeflap.design.control.records import CutsOutcome, RobustMargin, Solve, Verification
-from bridgeflap.design.control.robust import (
+from bridgeflap.design.control.formulation.robust import (
     robust_dense_omega,
     robust_margin,
 )
+from bridgeflap.design.control.formulation.variants import speeds_of
+from bridgeflap.design.control.results.records import CutsOutcome, RobustMargin, Solve, Verification
 from bridgeflap.design.control.settings import DesignSettings
-from bridgeflap.design.control.variants import speeds_of
 from bridgeflap.model.aeroelastic.control import Compensator
 
 #: Damping constraints and dense checks on the closed loop without the per-flap compensator
-#: copies (:func:`design.control.plant.compensator_reduction`, exact): 146 -> 104 states on the
-#: default card, 230 -> 200 on its 30-mode check (closed-loop limits: the full state).
+#: copies (:func:`design.control.formulation.plant.compensator_reduction`, exact): 146 -> 104 states
+#: on the default card, 230 -> 200 on its 30-mode check (closed-loop limits: the full state).
 REDUCE_COMPENSATORS = True
 
 
@@ -137,7 +138,7 @@ class DesignProblem:
         self._functions = None
         self._keep0 = None
         self._reduction = None
-        self.callbacks: dict = {}      # kept alive (design.control.eigen docstring)
+        self.callbacks: dict = {}      # kept alive (design.control.formulation.eigen docstring)
         self._robust = None
         self._robust_base = None
         self._buffeting_ref = None
@@ -147,11 +148,12 @@ class DesignProblem:
         self.gain_cuts: list[float] = []
         #: ``(iteration, objective, x) -> None`` called once per Ipopt iteration (progress).
         self.on_iteration = None
-        #: Multi-model: bridge-variant problems (same layout, settings; design.control.variants)
+        #: Multi-model: bridge-variant problems (same layout, settings;
+        #: design.control.formulation.variants)
         self.variants: list[DesignProblem] = []
         self.lazy_speeds: list[float] = []   # a variant's own damping speeds (ditto)
         #: The damping is checked at ``speed_max_m_s (1 + speed_guard_rel)`` too (0: not;
-        #: design.control.verification.verify): set on a start's design model only
+        #: design.control.formulation.verification.verify): set on a start's design model only
         self.speed_guard_rel = 0.0
 
     @property
@@ -176,8 +178,8 @@ class DesignProblem:
         return self.keep0 if red is None else red[2]
 
     def reduction(self, nx):
-        """:func:`bridgeflap.design.control.plant.compensator_reduction` of this model (None: not
-        reduced)."""
+        """:func:`bridgeflap.design.control.formulation.plant.compensator_reduction` of this model
+        (None: not reduced)."""
         if not REDUCE_COMPENSATORS:
             return None
         if self._reduction is None or self._reduction[0] != nx:
@@ -220,8 +222,8 @@ class DesignProblem:
     # ---- pieces
     def parts_function(self) -> ca.Function:
         """``p -> (A0, A1, A2)`` with ``p = theta`` or ``(theta, w)`` (placement), built once,
-        with its Jacobian (:func:`bridgeflap.design.control.eigen.parts_jacobian`, shared by every
-        grid)."""
+        with its Jacobian (:func:`bridgeflap.design.control.formulation.eigen.parts_jacobian`,
+        shared by every grid)."""
         if self.callbacks.get("parts") is None:
             self.callbacks["parts"] = (f := self._parts_function(), parts_jacobian(f))
         return self.callbacks["parts"][0]
@@ -300,19 +302,19 @@ class DesignProblem:
 
         ``analytic``: the layout ``w`` is fixed at :attr:`weights` (the ``w`` argument is
         ignored) and ``T`` is a closed-form expression of the scalar ``K(j omega)`` per point
-        (:func:`bridgeflap.design.control.robust.analytic_robust_data`; same values to round-off,
-        ~10x cheaper Jacobian); the points are then ordered diagonalised first."""
-        from bridgeflap.design.control.robust import robust_epigraph_function
+        (:func:`bridgeflap.design.control.formulation.robust.analytic_robust_data`; same values to
+        round-off, ~10x cheaper Jacobian); the points are then ordered diagonalised first."""
+        from bridgeflap.design.control.formulation.robust import robust_epigraph_function
 
         return robust_epigraph_function(self, analytic)
 
     # ---- actuator demand
     def flap_demand(self, theta_ref=None):
         """The actuator-demand constraints of this layout
-        (:class:`bridgeflap.design.control.actuator_demand.FlapDemand`), built once (the
+        (:class:`bridgeflap.design.control.formulation.actuator_demand.FlapDemand`), built once (the
         quadrature grids and the flaps frozen at ``theta_ref``, the first solve's start)."""
         if self.callbacks.get("flap_demand") is None:
-            from bridgeflap.design.control.actuator_demand import FlapDemand
+            from bridgeflap.design.control.formulation.actuator_demand import FlapDemand
             from bridgeflap.model.aeroelastic.actuator_limits import ActuatorLimits
 
             s = self.settings
@@ -368,8 +370,8 @@ class DesignProblem:
         phase 1 -- no robust epigraph, damping constraints tightened by
         ``FEASIBILITY_BACKOFF_1_S`` (see there). ``trust = (centre, radius)``: theta is held
         within ``centre +- radius max(|centre|, THETA_SCALE)`` (a trust region, intersected with
-        the bounds; :mod:`bridgeflap.design.control.cuts`). Returns a
-        :class:`bridgeflap.design.control.records.Solve`.
+        the bounds; :mod:`bridgeflap.design.control.formulation.cuts`). Returns a
+        :class:`bridgeflap.design.control.results.records.Solve`.
         """
         s = self.settings
         nF = self.model.n_flaps
@@ -482,7 +484,7 @@ class DesignProblem:
             watch = (np.concatenate(lbg), np.concatenate(ubg), DIVERGE_LEVEL,
                      DIVERGE_ITERATIONS)
         # always: it stops Ipopt on Ctrl-C/SIGTERM; phase 1 stops at its first feasible
-        # iterate, a warm re-solve when it diverges (design.control.ipopt_hooks)
+        # iterate, a warm re-solve when it diverges (design.control.formulation.ipopt_hooks)
         it_cb = IterationCallback("design_iterations", x.size1(), nlp["g"].size1(),
                                   self.on_iteration,
                                   np.concatenate(ubg) if feasibility else None, watch)
@@ -533,10 +535,10 @@ class DesignProblem:
     # ---- verification
     def verify(self, theta, weights=None, refined=False) -> Verification:
         """Dense a posteriori check on the check grid: abscissa (every eigenvalue), damping of
-        the movable branches, peak gain (:func:`bridgeflap.design.control.verification.verify`;
-        ``refined``: on the subset of
-        :func:`bridgeflap.design.control.plant.damping_check_refined`)."""
-        from bridgeflap.design.control.verification import verify
+        the movable branches, peak gain
+        (:func:`bridgeflap.design.control.formulation.verification.verify`; ``refined``: on the
+        subset of :func:`bridgeflap.design.control.formulation.plant.damping_check_refined`)."""
+        from bridgeflap.design.control.formulation.verification import verify
 
         return verify(self, theta, weights, refined)
 
@@ -555,25 +557,25 @@ class DesignProblem:
           :meth:`robust_check_speeds`; the worst (speed, frequency) peaks above
           ``gamma_T (1 + robust_cut_tol)`` join the robust epigraph points.
 
-        Returns the :class:`bridgeflap.design.control.records.CutsOutcome` of the best round: its
-        solve, verification and dense robust check, every round, the design speeds and cuts then in
-        force, ``gain_ok`` and ``robust_bound_holds`` (dense peak <= gamma_T within
+        Returns the :class:`bridgeflap.design.control.results.records.CutsOutcome` of the best
+        round: its solve, verification and dense robust check, every round, the design speeds and
+        cuts then in force, ``gain_ok`` and ``robust_bound_holds`` (dense peak <= gamma_T within
         ``robust_cut_tol``).
         """
-        from bridgeflap.design.control.cuts import solve_with_cuts
+        from bridgeflap.design.control.formulation.cuts import solve_with_cuts
 
         return solve_with_cuts(self, theta0, weights0)
 
     # ---- robustness
     def robust_dense_omega(self, theta, U, weights=None) -> np.ndarray:
         """Dense check frequencies [rad/s] at speed ``U`` [m/s] of the closed loop at ``theta``
-        (:func:`bridgeflap.design.control.robust.robust_dense_omega`)."""
+        (:func:`bridgeflap.design.control.formulation.robust.robust_dense_omega`)."""
         return robust_dense_omega(self.A_parts(theta, weights), U, self.structural_frequencies())
 
     def robust_margin(self, theta, speeds=None, omega=None, weights=None,
                       peaks=1) -> RobustMargin:
         """True small-gain margin on a dense grid
-        (:func:`bridgeflap.design.control.robust.robust_margin`).
+        (:func:`bridgeflap.design.control.formulation.robust.robust_margin`).
 
         Default grid: ``robust_speeds_m_s`` x :meth:`robust_dense_omega`, or the fixed
         frequencies ``omega`` [rad/s] at every speed; ``peaks`` local peaks kept per speed.

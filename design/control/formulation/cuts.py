@@ -1,9 +1,10 @@
 """The cutting-plane loop of the compensator NLP
-(:meth:`bridgeflap.design.control.nlp.DesignProblem.solve_with_cuts`).
+(:meth:`bridgeflap.design.control.formulation.nlp.DesignProblem.solve_with_cuts`).
 
 Phase 1 (feasibility, no robust epigraph) from an infeasible start, then warm-started
 re-solves with damping-speed, gain and robust cuts and robust peak tracking; the best round
-is returned and every round recorded (docstrings of :mod:`bridgeflap.design.control.nlp`).
+is returned and every round recorded (docstrings of
+:mod:`bridgeflap.design.control.formulation.nlp`).
 """
 
 from __future__ import annotations
@@ -12,32 +13,33 @@ from dataclasses import replace
 
 import numpy as np
 
-from bridgeflap.design.control import variants
-from bridgeflap.design.control.loop_algebra import compensator_damped
-from bridgeflap.design.control.nlp_tolerances import (
+from bridgeflap.design.control.formulation import variants
+from bridgeflap.design.control.formulation.loop_algebra import compensator_damped
+from bridgeflap.design.control.formulation.nlp_tolerances import (
     GAIN_BACKOFF,
     ROBUST_CLUSTER_STEP,
     ROBUST_CUTS_PER_SPEED,
     VIOLATION_TOL,
 )
-from bridgeflap.design.control.records import CutRound, CutsOutcome
+from bridgeflap.design.control.results.records import CutRound, CutsOutcome
 from bridgeflap.model.aeroelastic.control import Compensator
 
-#: Round 0 warm-started (monotone barrier from ``design.control.nlp_tolerances.WARM_MU_INIT``) when
-#: its start is feasible (a feasible start, or phase 1's first feasible iterate). Measured on the
-#: default card (``python -m bench.design``, 2 starts): Ipopt's adaptive barrier in round 0
-#: crawled to its 80-iteration cap from phase 1's point (start 0: gamma_T 40.7 against a
-#: dense peak of 4.5, then 77-103 more iterations in round 1). Warm: 424 + 554 -> 289 + 274
-#: iterations, both starts on the same design (margin 0.3228 / 0.3230). With the card's
-#: former 20 robust frequencies per band the effect was mixed (start 0 393 -> 276, start 1
-#: 315 -> 582 into another basin); with 60 it is not. Tried and dropped: re-solves started
-#: from the previous multipliers (warm_start_init_point): 313 iterations and another design.
+#: Round 0 warm-started (monotone barrier from
+#: ``design.control.formulation.nlp_tolerances.WARM_MU_INIT``) when its start is feasible (a
+#: feasible start, or phase 1's first feasible iterate). Measured on the default card (``python -m
+#: bench.design``, 2 starts): Ipopt's adaptive barrier in round 0 crawled to its 80-iteration cap
+#: from phase 1's point (start 0: gamma_T 40.7 against a dense peak of 4.5, then 77-103 more
+#: iterations in round 1). Warm: 424 + 554 -> 289 + 274 iterations, both starts on the same design
+#: (margin 0.3228 / 0.3230). With the card's former 20 robust frequencies per band the effect was
+#: mixed (start 0 393 -> 276, start 1 315 -> 582 into another basin); with 60 it is not. Tried and
+#: dropped: re-solves started from the previous multipliers (warm_start_init_point): 313 iterations
+#: and another design.
 WARM_FIRST = True
 #: Recovery of a diverged solve. A re-solve stopped by the divergence watchdog
-#: (``design.control.ipopt_hooks.DIVERGE_LEVEL``) has left the basin of the design: its iterate
-#: is no warm start. The loop restarts from the *anchor* -- the last point that met the damping
-#: and the gain limit (a feasible round, or phase 1's feasible point) -- inside a trust region
-#: on theta of relative half-width ``TRUST_RADIUS * TRUST_SHRINK**k`` for the k-th recovery
+#: (``design.control.formulation.ipopt_hooks.DIVERGE_LEVEL``) has left the basin of the design: its
+#: iterate is no warm start. The loop restarts from the *anchor* -- the last point that met the
+#: damping and the gain limit (a feasible round, or phase 1's feasible point) -- inside a trust
+#: region on theta of relative half-width ``TRUST_RADIUS * TRUST_SHRINK**k`` for the k-th recovery
 #: (``max(|theta_i|, THETA_SCALE_i)`` the unit), at most ``MAX_RECOVERIES`` times. A solution
 #: on the trust region's bound is not yet a solution of the design problem: the next solve is
 #: re-centred there (a "trust step", at most ``MAX_TRUST_STEPS``), and a design ends only on a
@@ -68,8 +70,9 @@ MAX_CONTINUATIONS = 4
 
 
 def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
-    """Solve ``prob`` (a :class:`bridgeflap.design.control.nlp.DesignProblem`) with phase 1 and
-    cutting planes; see :meth:`bridgeflap.design.control.nlp.DesignProblem.solve_with_cuts`."""
+    """Solve ``prob`` (a :class:`bridgeflap.design.control.formulation.nlp.DesignProblem`) with
+    phase 1 and cutting planes; see
+    :meth:`bridgeflap.design.control.formulation.nlp.DesignProblem.solve_with_cuts`."""
     s = prob.settings
     speeds = list(prob.settings.design_speeds())
     history = []
@@ -141,9 +144,9 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
         theta, w = res.theta, res.weights
         gamma = res.gamma_T if use_rob else None
         # the rounds on the refined subset of the check grid (the same decisions and worst
-        # speeds, design.control.plant.damping_check_refined); the chosen round is re-checked on the
-        # dense grid below. Variants: checked alike; when lazy, their violating and
-        # near-active speeds join their own sets (design.control.variants)
+        # speeds, design.control.formulation.plant.damping_check_refined); the chosen round is
+        # re-checked on the dense grid below. Variants: checked alike; when lazy, their violating
+        # and near-active speeds join their own sets (design.control.formulation.variants)
         ver = prob.verify(theta, w, refined=True)
         vvers, new_variant = variants.round_checks(prob, theta, w, sorted(speeds),
                                                    VIOLATION_TOL, _worst_per_run)

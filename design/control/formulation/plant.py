@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from bridgeflap.design.control.eigen import damping_measure, fixed_pole_copies
+from bridgeflap.design.control.formulation.eigen import damping_measure, fixed_pole_copies
 from bridgeflap.model.spectrum import eigen_map, polynomial_abscissa
 
 
@@ -97,7 +97,7 @@ def lag_rates(model) -> np.ndarray:
 
 def movable_spectrum(A_parts, U, rates, theta) -> tuple[np.ndarray, np.ndarray]:
     """All eigenvalues [1/s] at ``U`` [m/s] and the movable ones (no fixed-pole copies,
-    ``Im >= 0``; :func:`bridgeflap.design.control.eigen.fixed_pole_copies`)."""
+    ``Im >= 0``; :func:`bridgeflap.design.control.formulation.eigen.fixed_pole_copies`)."""
     A0, A1, A2, keep0 = A_parts
     A = A0 + U * A1 + U * U * A2
     if U == 0:

@@ -2,7 +2,7 @@
 check of a compensator on a layout (:func:`verify_layout`) and the coefficients of a warm
 start (:func:`warm_start_theta`): below the multistart driver, so that its steps (starts,
 checks, flap count, pair failure, acceptance, the critical-speed search) use them without
-importing :mod:`bridgeflap.design.control.driver` back; the driver re-exports them."""
+importing :mod:`bridgeflap.design.control.search.driver` back; the driver re-exports them."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from bridgeflap.design.control.nlp import DesignProblem
-from bridgeflap.design.control.records import Verification
+from bridgeflap.design.control.formulation.nlp import DesignProblem
+from bridgeflap.design.control.results.records import Verification
 from bridgeflap.design.control.settings import DesignSettings
 from bridgeflap.model.aeroelastic.control import Compensator
 
@@ -91,8 +91,8 @@ def verify_layout(settings: DesignSettings, theta, positions, n_modes=None,
     """Dense check of ``theta`` on the layout ``positions`` [m] with ``n_modes`` (default: the
     verification model, ``settings.verification_modes``), as ``bridgeflap flutter`` sees it;
     ``spec`` the bridge (default ``settings.bridge``); ``refined``: on the refined subset of
-    the check grid (:func:`bridgeflap.design.control.plant.damping_check_refined`: the same
-    decisions)."""
+    the check grid (:func:`bridgeflap.design.control.formulation.plant.damping_check_refined`: the
+    same decisions)."""
     nm = settings.verification_modes if n_modes is None else int(n_modes)
     _, model = build_model(settings, n_modes=nm, positions=positions, spec=spec)
     return DesignProblem(replace(settings, optimise_placement=False), model,

@@ -1,4 +1,4 @@
-"""One start of the multistart design (:func:`bridgeflap.design.control.driver.design`): the
+"""One start of the multistart design (:func:`bridgeflap.design.control.search.driver.design`): the
 starting points (the nominal one and screened Sobol points), the solve with cutting planes, the
 rounding of a relaxed flap layout by whole groups and the re-solve on it, the record of a solved
 start (dense margin, verification-model check, design variants), and the choice among the starts.
@@ -12,12 +12,15 @@ from dataclasses import replace
 
 import numpy as np
 
-from bridgeflap.design.control.checks import nlp_active_speeds
-from bridgeflap.design.control.loop_algebra import compensator_damped, compensator_damping_ratio
-from bridgeflap.design.control.nlp import EIG_SCALE, DesignProblem
-from bridgeflap.design.control.nlp_tolerances import SPEED_GUARD_REL
-from bridgeflap.design.control.problem_model import build_model, verify_layout
-from bridgeflap.design.control.records import RobustMargin, StartRecord
+from bridgeflap.design.control.formulation.loop_algebra import (
+    compensator_damped,
+    compensator_damping_ratio,
+)
+from bridgeflap.design.control.formulation.nlp import EIG_SCALE, DesignProblem
+from bridgeflap.design.control.formulation.nlp_tolerances import SPEED_GUARD_REL
+from bridgeflap.design.control.formulation.problem_model import build_model, verify_layout
+from bridgeflap.design.control.results.records import RobustMargin, StartRecord
+from bridgeflap.design.control.review.checks import nlp_active_speeds
 from bridgeflap.design.control.settings import DesignSettings
 from bridgeflap.model.aeroelastic.control import Compensator
 from bridgeflap.model.progress import Eta
@@ -217,7 +220,7 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
     every variant as well; ``say``: a progress function (None: silent), told at every tenth of
     the iteration cap how many Ipopt iterations ran, with the elapsed time and the time left at
     the rate so far (an upper bound: the cap is rarely reached)."""
-    from bridgeflap.design.control.pair_failure import extra_models
+    from bridgeflap.design.control.solve.pair_failure import extra_models
 
     t0 = time.perf_counter()
     spec, model = build_model(settings, spec=spec)
@@ -276,10 +279,10 @@ def solve_fixed_layout(settings: DesignSettings, positions, theta0, spec=None, v
                        on_iteration=None):
     """K(s) re-optimised with cutting planes on the flaps at ``positions`` [m] only, from
     ``theta0`` (the rounded layout's step of :func:`run_start`; also
-    :mod:`bridgeflap.design.control.layout_search`). The candidates left out are not built, so the
-    flap loop (and its robust margin) has no channel for them. ``variants``: multi-model bridges.
-    Returns ``(problem, CutsOutcome)``; raises what the solve raises."""
-    from bridgeflap.design.control.pair_failure import extra_models
+    :mod:`bridgeflap.design.control.search.layout_search`). The candidates left out are not built,
+    so the flap loop (and its robust margin) has no channel for them. ``variants``: multi-model
+    bridges. Returns ``(problem, CutsOutcome)``; raises what the solve raises."""
+    from bridgeflap.design.control.solve.pair_failure import extra_models
     from bridgeflap.model.structure.loader import load_bridge
 
     spec = load_bridge(settings.bridge if spec is None else spec)
@@ -313,7 +316,7 @@ def layout_record(settings: DesignSettings, positions, theta0, index: int = 0, s
 def _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_cont,
                   spec) -> StartRecord:
     """The record of a solved start: dense margin, verification-model check, variants."""
-    from bridgeflap.design.control.pair_failure import pair_label
+    from bridgeflap.design.control.solve.pair_failure import pair_label
 
     theta = res.theta
     ver = res.verification

@@ -25,7 +25,8 @@ class Verification:
     speeds_m_s, abscissa_1_s, violation_1_s : ndarray
         Check grid [m/s], spectral abscissa (every eigenvalue) [1/s] and the largest damping
         measure ``Re lambda + zeta_min |lambda|`` of the movable branches [1/s] (<= 0 meets
-        the minimum damping ratio; :func:`bridgeflap.design.control.plant.damping_check`).
+        the minimum damping ratio;
+        :func:`bridgeflap.design.control.formulation.plant.damping_check`).
     max_violation_1_s : float
         Largest violation [1/s].
     stable_everywhere : bool
@@ -39,7 +40,7 @@ class Verification:
         Grid step [m/s].
     meets_damping : bool
         ``max_violation_1_s`` within the feasibility tolerance
-        (``bridgeflap.design.control.nlp_tolerances.VIOLATION_TOL``).
+        (``bridgeflap.design.control.formulation.nlp_tolerances.VIOLATION_TOL``).
     min_damping_ratio : float
         Smallest damping ratio of the movable branches over the grid [-] (-1: a real root
         in the right half-plane).
@@ -50,8 +51,8 @@ class Verification:
     guard_speed_m_s, guard_violation_1_s : float
         The design model's guard speed above the grid [m/s] and the damping measure there
         [1/s] (counted in ``max_violation_1_s`` and ``meets_damping``;
-        :data:`bridgeflap.design.control.nlp_tolerances.SPEED_GUARD_REL`); NaN on a model
-        checked without one (the verification model, the scenario bridges).
+        :data:`bridgeflap.design.control.formulation.nlp_tolerances.SPEED_GUARD_REL`); NaN on a
+        model checked without one (the verification model, the scenario bridges).
     """
 
     speeds_m_s: np.ndarray
@@ -89,7 +90,7 @@ class Verification:
 @dataclass(frozen=True)
 class RobustMargin:
     """Dense small-gain check ``1 / max_U sup_w sigma_max(T(jw))``
-    (:mod:`bridgeflap.design.control.robust`).
+    (:mod:`bridgeflap.design.control.formulation.robust`).
 
     Attributes
     ----------
@@ -141,10 +142,11 @@ class Solve:
     eig_evaluations: int
     eig_time_per_speed_s: float
     history: dict | None = None
-    #: the divergence watchdog stopped this warm re-solve (design.control.nlp.DIVERGE_LEVEL)
+    #: the divergence watchdog stopped this warm re-solve
+    #: (design.control.formulation.nlp.DIVERGE_LEVEL)
     diverged: bool = False
-    #: the solution lies on a bound of the solve's trust region (design.control.cuts), which
-    #: the problem itself does not have: not yet a solution of the design problem
+    #: the solution lies on a bound of the solve's trust region (design.control.formulation.cuts),
+    #: which the problem itself does not have: not yet a solution of the design problem
     on_trust_bound: bool = False
 
 
@@ -175,17 +177,18 @@ class CutRound:
     chosen: bool = False
     placement: str | None = None
     #: Ipopt's per-iteration ``obj``, ``inf_pr``, ``inf_du``, ``mu`` (not in the JSON summary;
-    #: written to ``ipopt_history.json`` by :meth:`design.control.result.DesignResult.history`)
+    #: written to ``ipopt_history.json`` by
+    #: :meth:`design.control.results.result.DesignResult.history`)
     history: dict | None = None
     #: multi-model: (variant, speed) damping constraints the round's NLP carried, and the
-    #: pairs it adds (design.control.variants; 0 without variants)
+    #: pairs it adds (design.control.formulation.variants; 0 without variants)
     n_variant_constraints: int = 0
     new_variant_constraints: int = 0
     #: what started this solve: ``"cuts"`` (the first solve, or a re-solve after cuts),
     #: ``"recovery"`` (after a diverged solve: from the last point that met damping and gain,
     #: inside a trust region), ``"trust step"`` (the previous solution lay on its trust
     #: region's bound: re-centred there) or ``"continuation"`` (the previous solve stopped at
-    #: its iteration cap: continued with the same cuts) (design.control.cuts)
+    #: its iteration cap: continued with the same cuts) (design.control.formulation.cuts)
     step: str = "cuts"
     #: relative half-width of the solve's trust region on theta (NaN: none)
     trust_radius: float = float("nan")
@@ -238,7 +241,7 @@ class CutsOutcome:
 
 @dataclass(frozen=True)
 class StartRecord:
-    """One multistart run (``bridgeflap.design.control.driver.run_start``): solve, cuts,
+    """One multistart run (``bridgeflap.design.control.search.driver.run_start``): solve, cuts,
     verification, margin.
 
     A failed start has ``ipopt_status`` ``"failed: <reason>"``, ``theta`` None and NaN numbers.
@@ -306,11 +309,11 @@ class StartRecord:
     #: dense check on the design model (reused by the driver, not serialised)
     design_verification: Verification | None = None
     #: Ipopt's objective value of the chosen round [-] (not serialised:
-    # design.control.layout_search)
+    # design.control.search.layout_search)
     nlp_objective: float = NAN
-    #: damping ratio of the compensator's own poles [-] (design.control.loop_algebra)
+    #: damping ratio of the compensator's own poles [-] (design.control.formulation.loop_algebra)
     compensator_damping_ratio: float = NAN
-    #: how a placement's layout was rounded (design.control.start.choose_layout)
+    #: how a placement's layout was rounded (design.control.solve.start.choose_layout)
     layout_choice: dict | None = None
 
     @property
@@ -410,7 +413,7 @@ class FlapCountCheck:
 @dataclass(frozen=True)
 class FlapCountSearch:
     """Fewest evenly spaced flaps meeting the minimum damping
-    (``bridgeflap.design.control.driver.minimum_flap_count``).
+    (``bridgeflap.design.control.search.driver.minimum_flap_count``).
 
     ``minimum`` None when no checked count meets it; ``modes`` of the verification model.
     """
@@ -431,7 +434,7 @@ class FlapCountSearch:
 @dataclass(frozen=True)
 class BuffetingComparison:
     """Open- vs closed-loop max RMS buffeting response
-    (``bridgeflap.design.control.driver.buffeting_comparison``).
+    (``bridgeflap.design.control.search.driver.buffeting_comparison``).
 
     RMS vertical [m] and torsional [rad] response per speed [m/s] on the ``modes``-mode
     verification model; ``status`` ``ok`` or ``failed: <reason>`` (then no numbers).
@@ -459,8 +462,9 @@ class BuffetingComparison:
 
 @dataclass(frozen=True)
 class ParetoPoint:
-    """One flap count of the Pareto search (``bridgeflap.design.control.driver.flap_count_pareto``):
-    K(s) re-optimised for the evenly spaced symmetric layout of ``flap_count`` flaps, verified.
+    """One flap count of the Pareto search
+    (``bridgeflap.design.control.search.driver.flap_count_pareto``): K(s) re-optimised for the
+    evenly spaced symmetric layout of ``flap_count`` flaps, verified.
 
     ``verified``: damping and gain on the design model's dense grid and stable on the
     verification model's (the same criterion as a converged design); ``robust_margin`` the

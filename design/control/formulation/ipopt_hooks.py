@@ -1,13 +1,14 @@
 """Ipopt iteration hooks of the compensator NLP
-(:meth:`bridgeflap.design.control.nlp.DesignProblem.solve`).
+(:meth:`bridgeflap.design.control.formulation.nlp.DesignProblem.solve`).
 
 :class:`IterationCallback` is CasADi's ``iteration_callback``: once per Ipopt iteration it
-calls the progress function (the tqdm bars of :func:`bridgeflap.design.control.driver.design`) and,
-for the phase-1 solve, stops Ipopt at the first iterate that satisfies every constraint (the
-damping constraints backed off by ``FEASIBILITY_BACKOFF_1_S``): phase 1 only has to find a
-strictly feasible point, and its objective (the regularisation alone) gives the free
-``gamma_T`` no direction, so the iterations after the first feasible one only polish a
-point phase 2 moves away from (default card, start 0: feasible at iteration 16 of 77).
+calls the progress function (the tqdm bars of
+:func:`bridgeflap.design.control.search.driver.design`) and, for the phase-1 solve, stops Ipopt at
+the first iterate that satisfies every constraint (the damping constraints backed off by
+``FEASIBILITY_BACKOFF_1_S``): phase 1 only has to find a strictly feasible point, and its objective
+(the regularisation alone) gives the free ``gamma_T`` no direction, so the iterations after the
+first feasible one only polish a point phase 2 moves away from (default card, start 0: feasible at
+iteration 16 of 77).
 
 Interrupts. Python runs a signal handler only between bytecodes; inside Ipopt that is inside one
 of CasADi's Python callbacks, where an exception raised by the handler (``KeyboardInterrupt``) is

@@ -8,7 +8,7 @@ design speed and Ipopt iteration: 9x the nominal eigenvalue work for 8 variants 
 slack: the variants are perturbations of one bridge, and where the nominal constraint is
 satisfied with room so are theirs. ``variant_speeds = "lazy"`` (default) keeps, per variant,
 only the speeds at which its constraint can bind (constraint generation, the same cutting-plane
-idea as the nominal bridge's dense-check cuts of :mod:`bridgeflap.design.control.cuts`):
+idea as the nominal bridge's dense-check cuts of :mod:`bridgeflap.design.control.formulation.cuts`):
 
 * **seed** (before the first solve, :func:`seed`): at each design speed the variant whose
   damping measure at the start is the largest, when it exceeds the nominal one (an envelope:
@@ -17,22 +17,23 @@ idea as the nominal bridge's dense-check cuts of :mod:`bridgeflap.design.control
   190 s (one start's first rounded solve wandered into the left-out constraints: 80 + 146
   iterations at ~0.7 s, line-search trials evaluating every speed); both 107 s;
 * **cuts** (after every round, :func:`round_checks`): every variant is checked on the check
-  grid (the refined subset of :func:`bridgeflap.design.control.plant.damping_check_refined`, which
-  keeps the dense check's decisions); the worst speed of each run of violations joins that variant's
-  set, and so does every design speed at which the variant is near its bound
-  (:data:`NEAR_ACTIVE_REL`; the next round would otherwise be free to push it over).
+  grid (the refined subset of
+  :func:`bridgeflap.design.control.formulation.plant.damping_check_refined`, which keeps the dense
+  check's decisions); the worst speed of each run of violations joins that variant's set, and so
+  does every design speed at which the variant is near its bound (:data:`NEAR_ACTIVE_REL`; the next
+  round would otherwise be free to push it over).
 
-A round of :mod:`bridgeflap.design.control.cuts` counts as feasible, and a start as verified, only
-when every variant passes its check, so a lazy design is held to the same a posteriori standard as a
-full one: the constraints left out are verified satisfied, not assumed. The sets only grow, so the
-loop cannot cycle.
+A round of :mod:`bridgeflap.design.control.formulation.cuts` counts as feasible, and a start as
+verified, only when every variant passes its check, so a lazy design is held to the same a
+posteriori standard as a full one: the constraints left out are verified satisfied, not assumed. The
+sets only grow, so the loop cannot cycle.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from bridgeflap.design.control.plant import damping_check, lag_rates
+from bridgeflap.design.control.formulation.plant import damping_check, lag_rates
 
 #: A design speed joins a variant's constraint set when, at a round's design, the variant's
 #: smallest damping ratio of the movable branches there is below ``(1 + NEAR_ACTIVE_REL)
@@ -47,7 +48,7 @@ NEAR_ACTIVE_1_S = 1e-4
 
 def lazy(prob) -> bool:
     """Whether ``prob``'s variants (or ``prob``, a variant) carry their own (lazy) speed
-    sets (:attr:`bridgeflap.design.control.nlp.DesignProblem.lazy_speeds`)."""
+    sets (:attr:`bridgeflap.design.control.formulation.nlp.DesignProblem.lazy_speeds`)."""
     return prob.settings.variant_speeds == "lazy"
 
 
@@ -62,7 +63,7 @@ def speeds_of(variant, speeds) -> np.ndarray:
 def _within(variant, speeds) -> np.ndarray:
     """The ``speeds`` [m/s] within ``variant``'s own range (its ``speed_max_m_s``: below its
     open-loop critical speed with ``variant_rule = "no_harm"``,
-    :mod:`bridgeflap.design.control.scenarios`)."""
+    :mod:`bridgeflap.design.control.solve.scenarios`)."""
     U = np.asarray(speeds, float)
     return U[U <= variant.settings.speed_max_m_s]
 
@@ -125,7 +126,7 @@ def _near_active(v, theta, w, U) -> np.ndarray:
 def _near(chk, z) -> np.ndarray:
     """Near the bound (or over it): damping ratio below ``(1 + NEAR_ACTIVE_REL) z`` or measure
     above ``-NEAR_ACTIVE_1_S``, per speed of a
-    :func:`bridgeflap.design.control.plant.damping_check`."""
+    :func:`bridgeflap.design.control.formulation.plant.damping_check`."""
     return (chk["zeta"] < z * (1.0 + NEAR_ACTIVE_REL)) | (chk["measure_1_s"] > -NEAR_ACTIVE_1_S)
 
 

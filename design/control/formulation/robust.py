@@ -15,10 +15,10 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from bridgeflap.design.control.eigen import _JacobianCallback, _VectorIO
-from bridgeflap.design.control.loop_algebra import LOWRANK_RTOL, _loop_block, k_complex
-from bridgeflap.design.control.plant import plant_factors
-from bridgeflap.design.control.records import RobustMargin
+from bridgeflap.design.control.formulation.eigen import _JacobianCallback, _VectorIO
+from bridgeflap.design.control.formulation.loop_algebra import LOWRANK_RTOL, _loop_block, k_complex
+from bridgeflap.design.control.formulation.plant import plant_factors
+from bridgeflap.design.control.results.records import RobustMargin
 from bridgeflap.model.aeroelastic.control import Compensator
 
 
@@ -93,12 +93,12 @@ class PointsCallback(_VectorIO, ca.Callback):
     robust constraint (816 points, 30 parameters), against 0.029 s here, where each point's
     gradient is one reverse sweep of its own SX graph (``casadi.jacobian`` of the scalar point
     function), mapped and evaluated numerically -- compiled when
-    ``bridgeflap.design.control.buffeting_term.JIT`` (0.009 s; the library is cached by its source,
-    so the same point function on other data is not recompiled), value and Jacobian together, cached
-    for the last ``p``; the same numbers to 2e-15 relative. ``point``: SX function ``(p, *data) ->
-    f`` (scalar); ``data``: per-point DM inputs stacked horizontally (the one-input boilerplate:
-    ``bridgeflap.design.control.eigen._VectorIO``). Keep the object alive while expressions built
-    from it are used (bridgeflap.design.control.eigen).
+    ``bridgeflap.design.control.formulation.buffeting_term.JIT`` (0.009 s; the library is cached by
+    its source, so the same point function on other data is not recompiled), value and Jacobian
+    together, cached for the last ``p``; the same numbers to 2e-15 relative. ``point``: SX function
+    ``(p, *data) -> f`` (scalar); ``data``: per-point DM inputs stacked horizontally (the one-input
+    boilerplate: ``bridgeflap.design.control.formulation.eigen._VectorIO``). Keep the object alive
+    while expressions built from it are used (bridgeflap.design.control.formulation.eigen).
     """
 
     def __init__(self, point: ca.Function, data, n_points: int, name: str):
@@ -106,7 +106,7 @@ class PointsCallback(_VectorIO, ca.Callback):
         ins = point.sx_in()
         f = point(*ins)
         both = ca.Function(f"{point.name()}_grad", ins, [f, ca.jacobian(f, ins[0])])
-        from bridgeflap.design.control import buffeting_term as bt
+        from bridgeflap.design.control.formulation import buffeting_term as bt
 
         if bt.JIT:          # compiled like the buffeting term's point functions (else the VM)
             try:
@@ -263,9 +263,9 @@ PLANT_CACHE_POINTS = 2000
 
 
 def cached_plant(model, U, omega, cache) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`bridgeflap.design.control.plant.plant_factors` at ``(U, j omega)`` with the
-    frequencies computed before at ``U`` taken from ``cache`` (``{U: (sorted omega, X)}``) and the
-    others computed and added (up to :data:`PLANT_CACHE_POINTS` per speed). The plant does not
+    """:func:`bridgeflap.design.control.formulation.plant.plant_factors` at ``(U, j omega)`` with
+    the frequencies computed before at ``U`` taken from ``cache`` (``{U: (sorted omega, X)}``) and
+    the others computed and added (up to :data:`PLANT_CACHE_POINTS` per speed). The plant does not
     depend on ``theta``: the dense robust check of every cutting-plane round reuses the fixed part
     of its grid (400 log points + the structural frequencies per speed). The values are the
     plant's own, point by point (bitwise: each frequency is solved on its own either way)."""
@@ -380,9 +380,9 @@ def robust_margin(model, theta, speeds, weights, omega_at, peaks=1,
 
 def robust_epigraph_function(problem, analytic=False):
     """``(theta, w) -> ||T||_F^2`` at every (robust design speed, frequency) and robust cut of
-    ``problem`` (a :class:`bridgeflap.design.control.nlp.DesignProblem`) and the ``(speed,
-    omega)`` points, cached on the problem
-    (:meth:`bridgeflap.design.control.nlp.DesignProblem.robust_function`)."""
+    ``problem`` (a :class:`bridgeflap.design.control.formulation.nlp.DesignProblem`) and the
+    ``(speed, omega)`` points, cached on the problem
+    (:meth:`bridgeflap.design.control.formulation.nlp.DesignProblem.robust_function`)."""
     key = (tuple(problem.robust_cuts), bool(analytic))
     if problem._robust is None or problem._robust[2] != key:
         s = problem.settings
@@ -417,7 +417,7 @@ def robust_epigraph_function(problem, analytic=False):
                 vals.append(fa(th).T)
                 cbs.append(fa)
         j = np.flatnonzero(exact)
-        if j.size:      # the exact solve, in its low-rank form (design.control.robust)
+        if j.size:      # the exact solve, in its low-rank form (design.control.formulation.robust)
             US, sv, E = lowrank_robust_data(Pa, [Xs[k] for k in j])
             cbs.append(lowrank_robust_points(US, sv, oms[j], E))
             wj = ca.DM(problem.weights) if analytic else w

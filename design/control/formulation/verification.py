@@ -1,5 +1,5 @@
 """The dense a posteriori check of a compensator design
-(:meth:`bridgeflap.design.control.nlp.DesignProblem.verify`).
+(:meth:`bridgeflap.design.control.formulation.nlp.DesignProblem.verify`).
 
 Every eigenvalue of the closed loop on the check grid (the spectral abscissa), the damping of the
 branches the flaps can move against ``zeta_min``, and the compensator's peak gain.
@@ -9,23 +9,27 @@ from __future__ import annotations
 
 import numpy as np
 
-from bridgeflap.design.control.nlp_tolerances import VIOLATION_TOL
-from bridgeflap.design.control.plant import damping_check, damping_check_refined, lag_rates
-from bridgeflap.design.control.records import Verification
+from bridgeflap.design.control.formulation.nlp_tolerances import VIOLATION_TOL
+from bridgeflap.design.control.formulation.plant import (
+    damping_check,
+    damping_check_refined,
+    lag_rates,
+)
+from bridgeflap.design.control.results.records import Verification
 from bridgeflap.model.aeroelastic.control import Compensator
 
 
 def verify(prob, theta, weights=None, refined=False) -> Verification:
     """Check ``theta`` (b2, b1, b0, a2, a1) with flap ``weights`` on ``prob`` (a
-    :class:`bridgeflap.design.control.nlp.DesignProblem`) on its settings' check grid
+    :class:`bridgeflap.design.control.formulation.nlp.DesignProblem`) on its settings' check grid
     ``check_speeds()``.
 
     ``refined``: on the subset of the check grid of
-    :func:`bridgeflap.design.control.plant.damping_check_refined` (a coarse grid refined where a
-    threshold could be reached; the same decisions; ``speeds_m_s`` then lists the speeds checked).
-    With ``prob.speed_guard_rel > 0`` (the design model of a start) the damping is checked at
-    the guard speed ``speed_max_m_s (1 + speed_guard_rel)`` too, outside the grid's arrays
-    (:data:`bridgeflap.design.control.nlp_tolerances.SPEED_GUARD_REL`).
+    :func:`bridgeflap.design.control.formulation.plant.damping_check_refined` (a coarse grid refined
+    where a threshold could be reached; the same decisions; ``speeds_m_s`` then lists the speeds
+    checked). With ``prob.speed_guard_rel > 0`` (the design model of a start) the damping is
+    checked at the guard speed ``speed_max_m_s (1 + speed_guard_rel)`` too, outside the grid's
+    arrays (:data:`bridgeflap.design.control.formulation.nlp_tolerances.SPEED_GUARD_REL`).
     """
     s = prob.settings
     U = s.check_speeds()
