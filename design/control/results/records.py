@@ -275,6 +275,14 @@ class StartRecord:
     flap_positions_m, design_speeds_m_s, robust_cuts, gain_cuts : tuple
     weights_continuous : tuple or None
         Relaxed flap weights (placement only).
+    flap_demand : dict or None
+        The 3 sigma flap angle [deg] and rate [deg/s] of the solution at the card's
+        ``actuator_design_speeds_m_s`` (the NLP's own frozen spectral integral, ideal
+        actuator, the two flaps of largest demand), the limits and ``within_limits``; None
+        without actuator constraints.
+    actuator_ok : bool
+        The flap demand within the card's limits at every actuator design speed (counted
+        with the damping and the gain in the design's feasibility).
     """
 
     start: int
@@ -315,6 +323,8 @@ class StartRecord:
     compensator_damping_ratio: float = NAN
     #: how a placement's layout was rounded (design.control.solve.start.choose_layout)
     layout_choice: dict | None = None
+    flap_demand: dict | None = None
+    actuator_ok: bool = True
 
     @property
     def failed(self) -> bool:
@@ -341,6 +351,8 @@ class StartRecord:
             out["layout_choice"] = dict(self.layout_choice)
         if self.variant_checks:
             out["variant_checks"] = list(self.variant_checks)
+        if self.flap_demand is not None:
+            out["flap_demand"] = dict(self.flap_demand)
         if self.failed:
             return out | {"status": self.ipopt_status, "success": self.success,
                           "time_s": self.time_s}

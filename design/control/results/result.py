@@ -212,6 +212,9 @@ class DesignResult(ResultData):
                        f"{ver.stable_to_m_s:g} m/s (design range to {s.speed_max_m_s:g} m/s)")
         if not all(v.get("meets_damping", True) for v in b.variant_checks):
             why.append("a design variant misses zeta_min")
+        if not b.actuator_ok and b.flap_demand:
+            why.append("flap demand beyond the actuator limits: "
+                       + "; ".join(b.flap_demand.get("exceeded", [])))
         acc = self.extras.get("acceptance") or {}
         if acc.get("status") in ("harm", "failed", "unresolved"):
             rob = acc.get("robustness") or {}

@@ -331,6 +331,7 @@ def _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_c
     # met, first unstable speed; the smallest damping ratio over the speeds checked)
     vchecks = [q.verify(theta, refined=True) for q in prob.variants]
     variants_ok = all(v.meets_damping for v in vchecks)
+    demand = flap_demand_record(settings, prob, theta)
     return StartRecord(
         start=index, theta0=theta0, theta=tuple(float(v) for v in theta),
         ipopt_status=res.solve.ipopt_status, success=res.solve.success,
@@ -356,7 +357,37 @@ def _start_record(settings, prob, res, rounds, positions, theta0, index, t0, w_c
                               "min_damping_ratio": v.min_damping_ratio,
                               "stable_to_m_s": v.stable_to_m_s}
                              for q, v in zip(prob.variants, vchecks, strict=True)),
-        design_verification=ver, nlp_objective=float(res.solve.objective))
+        design_verification=ver, nlp_objective=float(res.solve.objective),
+        flap_demand=demand, actuator_ok=bool(demand is None or demand["within_limits"]))
+
+
+def flap_demand_record(settings: DesignSettings, prob, theta) -> dict | None:
+    """The a posteriori check of the actuator-demand constraints at the solution ``theta``:
+    the 3 sigma flap angle [deg] and rate [deg/s] per ``actuator_design_speeds_m_s`` on the
+    NLP's own frozen integral (:meth:`DesignProblem.flap_demand`, built by the solve), against
+    the card's limits themselves (the NLP holds 5 % inside them); None without actuator
+    constraints (none set, or a placement's relaxed problem). A design whose demand exceeds a
+    limit is not feasible: the NLP did not meet its own constraint (a solve stopped at an
+    infeasible or capped iterate)."""
+    from bridgeflap.design.control.formulation.actuator_demand import SIGMAS
+
+    dem = prob.callbacks.get("flap_demand")
+    if not settings.actuator_design_speeds_m_s or settings.optimise_placement or dem is None:
+        return None
+    r = SIGMAS * dem.rms_deg(np.asarray(theta, float))
+    angle, rate = r[:, :2].max(axis=1), r[:, 2:].max(axis=1)
+    a_lim, r_lim = float(settings.flap_angle_limit_deg), float(settings.flap_rate_limit_deg_s)
+    over = [f"flap angle 3 sigma {a:.3g} deg > {a_lim:g} deg at {u:g} m/s"
+            for u, a in zip(dem.speeds_m_s, angle, strict=True) if a > a_lim]
+    over += [f"flap rate 3 sigma {v:.3g} deg/s > {r_lim:g} deg/s at {u:g} m/s"
+             for u, v in zip(dem.speeds_m_s, rate, strict=True) if v > r_lim]
+    return {"speeds_m_s": [float(u) for u in dem.speeds_m_s],
+            "flap_angle_3sigma_deg": [float(a) for a in angle],
+            "flap_rate_3sigma_deg_s": [float(v) for v in rate],
+            "flap_angle_limit_deg": a_lim, "flap_rate_limit_deg_s": r_lim,
+            "within_limits": not over, "exceeded": over,
+            "basis": "the design's own frozen spectral integral (ideal actuator), the two "
+                     "flaps of largest demand"}
 
 
 def _phase_1(res) -> bool:
@@ -402,10 +433,12 @@ def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
     to fewer flaps, then the lower start index; after them the starts without an objective
     (a phase-1 point, NaN) by the larger margin; whatever its Ipopt exit status;
     ``unverified``: feasible on the design model only; ``infeasible``: no start meets the
-    damping and the gain limit (the least violating is reported, never as converged);
+    damping, the gain limit and the flap demand within the actuator limits
+    (:func:`flap_demand_record`; the least violating is reported, never as converged);
     ``failed``: no start produced a design.
     """
-    feasible = [r for r in records if r.meets_damping and r.max_gain <= gain_limit]
+    feasible = [r for r in records if r.meets_damping and r.max_gain <= gain_limit
+                and r.actuator_ok]
     verified = [r for r in feasible if r.verified]
     if verified:
         best = min((r.objective for r in verified if np.isfinite(r.objective)),
@@ -424,4 +457,5 @@ def select_start(records, gain_limit) -> tuple[StartRecord | None, str]:
     cands = [r for r in records if not r.failed]
     if not cands:
         return None, "failed"
-    return min(cands, key=lambda r: (max(r.max_violation_1_s, 0.0), r.max_gain)), "infeasible"
+    return min(cands, key=lambda r: (max(r.max_violation_1_s, 0.0), not r.actuator_ok,
+                                     r.max_gain)), "infeasible"

@@ -258,6 +258,47 @@ def test_select_start_best_verified_and_gain_never_converged():
     assert select_start([failed], 15.0) == (None, "failed")
 
 
+def test_a_design_beyond_its_actuator_limits_is_not_converged():
+    # the flap demand the NLP holds within the limits is checked a posteriori: a solution that
+    # left it beyond a limit (an infeasible or capped iterate) is no design, whatever its
+    # damping, gain and verification; measured: the default quick card on a deck with GJ -10 %
+    # and mass +5 % ended on such an iterate (3 sigma flap angle 25 deg at 74 m/s, limit 20)
+    # and was reported converged before its acceptance failed
+    from dataclasses import replace as repl
+    from types import SimpleNamespace
+
+    from bridgeflap.design.control.solve.start import flap_demand_record
+
+    ok, over = _rec(0, -1e-5, 4.0, True, 0.40), _rec(1, -1e-5, 3.0, True, 0.45)
+    over = repl(over, actuator_ok=False)
+    assert select_start([ok, over], 15.0)[0].start == 0
+    best, status = select_start([over], 15.0)
+    assert status == "infeasible" and best.start == 1
+    # the record: 3 sigma of the RMS per speed (two flaps, angle then rate), the limits
+    # themselves (the NLP's 5 % back-off is not a limit)
+    s = SimpleNamespace(actuator_design_speeds_m_s=(60.0, 74.0), optimise_placement=False,
+                        flap_angle_limit_deg=20.0, flap_rate_limit_deg_s=40.0)
+    rms = np.array([[3.0, 2.0, 5.0, 4.0], [6.8, 6.0, 13.0, 14.0]])     # deg, deg/s
+    dem = SimpleNamespace(speeds_m_s=np.array([60.0, 74.0]), rms_deg=lambda th: rms)
+    prob = SimpleNamespace(callbacks={"flap_demand": dem})
+    rec = flap_demand_record(s, prob, np.zeros(5))
+    assert rec["flap_angle_3sigma_deg"] == pytest.approx([9.0, 20.4])
+    assert rec["flap_rate_3sigma_deg_s"] == pytest.approx([15.0, 42.0])
+    assert not rec["within_limits"] and len(rec["exceeded"]) == 2
+    assert "74 m/s" in rec["exceeded"][0] and "angle" in rec["exceeded"][0]
+    rms[1] = [6.6, 6.0, 13.0, 13.3]                      # 19.8 deg, 39.9 deg/s: within
+    assert flap_demand_record(s, prob, np.zeros(5))["within_limits"]
+    # no actuator constraints: no record, and the design is judged without one
+    assert flap_demand_record(repl_ns(s, actuator_design_speeds_m_s=()), prob, None) is None
+    assert flap_demand_record(s, SimpleNamespace(callbacks={}), None) is None
+
+
+def repl_ns(ns, **kw):
+    from types import SimpleNamespace
+
+    return SimpleNamespace(**{**vars(ns), **kw})
+
+
 def test_select_start_ranks_verified_starts_by_objective():
     # the design's own objective decides, not the margin (start 1 has the
     # larger margin but the worse objective); an unverified start never wins on objective
