@@ -180,7 +180,10 @@ def design_case(params: dict) -> dict:
     return {"design_status": s.get("status"),
             "acceptance": (s.get("acceptance") or {}).get("status"),
             "critical_speed_m_s": (s.get("closed_loop_limits") or {}).get("critical_speed_m_s"),
-            "robust_margin": s.get("robust_margin")}
+            "robust_margin": s.get("robust_margin"),
+            "usable_speed_m_s": s.get("usable_speed_m_s"),
+            "why_not_usable": "; ".join((s.get("best_achievable") or {}).get(
+                "why_not_usable", []))}
 
 
 def main(argv=None) -> int:
