@@ -12,67 +12,16 @@ unbounded: :func:`eigenvalue_derivatives` flags those eigenvalues by the normali
 
 from __future__ import annotations
 
-import os
-import threading
-
 import numpy as np
 import scipy.linalg
 
 __all__ = [
     "DEFECT_TOL",
-    "eigen_map",
     "eigenvalue_derivative",
     "eigenvalue_derivatives",
     "polynomial_abscissa",
     "spectral_abscissa",
 ]
-
-#: Threads of :func:`eigen_map` in the main process (LAPACK's ``geev`` runs without the GIL, so
-#: the dense eigen-decompositions of a speed grid use both cores of a 2-core machine while the
-#: design's one process would leave one idle). ``BRIDGEFLAP_EIG_THREADS=1`` runs them in turn.
-#: Worker processes run them in turn: their pool already holds the cores.
-EIG_THREADS = 2
-#: Fewer tasks than this run in turn (a thread's start costs ~100 us).
-EIG_MAP_MIN_TASKS = 4
-_IN_MAP = threading.local()
-
-
-def _eig_threads() -> int:
-    import multiprocessing
-
-    if multiprocessing.parent_process() is not None:
-        return 1
-    try:
-        n = int(os.environ.get("BRIDGEFLAP_EIG_THREADS", EIG_THREADS))
-    except ValueError:
-        n = EIG_THREADS
-    return max(1, min(n, os.cpu_count() or 1))
-
-
-def eigen_map(fn, items) -> list:
-    """``[fn(x) for x in items]``, in up to :data:`EIG_THREADS` threads.
-
-    For per-speed eigen-decompositions (``fn`` spends its time in LAPACK, which releases the
-    GIL, and shares no state between calls): each call computes what it computes in turn, so
-    the results are bit-identical to the serial loop's, in the same order. Serial in a worker
-    process, for fewer than :data:`EIG_MAP_MIN_TASKS` items, and inside a call of its own.
-    The threads live for the call only: a process forked later (a worker pool) starts from a
-    process with no extra thread."""
-    items = list(items)
-    n = _eig_threads()
-    if n == 1 or len(items) < EIG_MAP_MIN_TASKS or getattr(_IN_MAP, "on", False):
-        return [fn(x) for x in items]
-    from concurrent.futures import ThreadPoolExecutor
-
-    def run(x):
-        _IN_MAP.on = True
-        try:
-            return fn(x)
-        finally:
-            _IN_MAP.on = False
-
-    with ThreadPoolExecutor(n, thread_name_prefix="bridgeflap-eig") as ex:
-        return list(ex.map(run, items))
 
 #: Default threshold on ``|w^H v| / (|w| |v|)`` below which an eigenvalue is treated as nearly
 #: defective (its derivative is then taken by finite differences by the callers).

@@ -40,7 +40,7 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from bridgeflap.model.spectrum import DEFECT_TOL, eigen_map, eigenvalue_derivatives
+from bridgeflap.model.spectrum import DEFECT_TOL, eigenvalue_derivatives
 
 __all__ = ["PolynomialStructuralDamping", "PolynomialTopRealParts", "damping_measure",
            "fixed_pole_copies", "inverse_iteration", "structural_selection"]
@@ -236,21 +236,17 @@ class PolynomialTopRealParts(_VectorIO, ca.Callback):
         if key != self._key:
             t0 = time.perf_counter()
             ctx = self._selection_context(p)
-            # the speeds' decompositions in threads (LAPACK without the GIL; the same
-            # results in the same order: model.spectrum.eigen_map)
-            self._store = eigen_map(
-                lambda uA: (None if not np.all(np.isfinite(uA[1]))
-                            else list(self._eigenpairs(uA[0], uA[1], ctx)) + [uA[1]]),
-                list(zip(self.speeds, self.matrices(p), strict=True)))
+            self._store = [None if not np.all(np.isfinite(A))
+                           else list(self._eigenpairs(u, A, ctx)) + [A]
+                           for u, A in zip(self.speeds, self.matrices(p), strict=True)]
             self._key = key
             self.evaluations += 1
             self.eval_time_s += time.perf_counter() - t0
         if vectors and any(r is not None and r[1] is None for r in self._store):
             t0 = time.perf_counter()
-            todo = [r for r in self._store if r is not None and r[1] is None]
-            for r, (left, right) in zip(todo, eigen_map(
-                    lambda r: inverse_iteration(r[3], r[0]), todo), strict=True):
-                r[1], r[2] = left, right
+            for r in self._store:
+                if r is not None and r[1] is None:
+                    r[1], r[2] = inverse_iteration(r[3], r[0])
             self.eval_time_s += time.perf_counter() - t0
         return self._store
 

@@ -14,7 +14,7 @@ import numpy as np
 import scipy.linalg
 
 from bridgeflap.design.control.formulation.eigen import damping_measure, fixed_pole_copies
-from bridgeflap.model.spectrum import eigen_map, polynomial_abscissa
+from bridgeflap.model.spectrum import polynomial_abscissa
 
 
 def plant_factors(model, U, s) -> tuple[np.ndarray, np.ndarray]:
@@ -113,9 +113,8 @@ def damping_check(A_parts, speeds, rates, theta, zeta_min) -> dict:
     damping), ``zeta`` (their smallest damping ratio ``-Re lambda / |lambda|``, -1 for a
     real unstable root) and ``omega_rad_s`` (``|lambda|`` of that branch)."""
     out = {k: [] for k in ("abscissa_1_s", "measure_1_s", "zeta", "omega_rad_s")}
-    spectra = eigen_map(lambda u: movable_spectrum(A_parts, float(u), rates, theta),
-                        np.atleast_1d(np.asarray(speeds, float)))
-    for lam, mv in spectra:
+    for u in np.atleast_1d(np.asarray(speeds, float)):
+        lam, mv = movable_spectrum(A_parts, float(u), rates, theta)
         g = damping_measure(mv, zeta_min)
         mag = np.abs(mv)
         z = np.where(mag > 0, -mv.real / np.where(mag > 0, mag, 1.0), 0.0)
