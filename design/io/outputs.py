@@ -285,12 +285,12 @@ _ATOMIC_TMP = re.compile(r"^\..+\.[0-9a-f]{12}\.tmp$")
 
 def _remove_marker_temporaries(folder: Path) -> None:
     """In an unmarked temporary folder of a dead writer: delete the half-written marker
-    (:func:`write_marker` writes it through :func:`atomic_write`, a ``.<marker>.<random>.tmp``
-    file first) when that is all the folder holds, so that the folder is then empty. A folder
-    with anything else in it is left as it is."""
+    (:func:`write_marker` writes it through :func:`atomic_write`, a temporary file
+    ``..bridgeflap-output.<12 hex>.tmp`` first) when that is all the folder holds, so that
+    the folder is then empty. A folder with anything else in it is left as it is."""
     entries = list(folder.iterdir())
     if entries and all(e.is_file() and not e.is_symlink() and _ATOMIC_TMP.match(e.name)
-                       and e.name.startswith(OUTPUT_MARKER + ".") for e in entries):
+                       and e.name.startswith(f".{OUTPUT_MARKER}.") for e in entries):
         for e in entries:
             e.unlink()
 

@@ -8,10 +8,12 @@ from __future__ import annotations
 import argparse
 import os
 import signal
+from pathlib import Path
 
 import pytest
 
 from bridgeflap.design.cli.run import run
+from bridgeflap.design.io import files
 from bridgeflap.design.io.outputs import claim_output, lock_path, recover_output, write_marker
 from bridgeflap.model.errors import BridgeflapInputError
 
@@ -88,7 +90,7 @@ def test_sigterm_ends_a_command_like_ctrl_c(tmp_path, capsys):
     assert signal.getsignal(signal.SIGTERM) is not None  # restored
 
 
-def test_a_run_killed_while_writing_its_marker_leaves_no_temporary(tmp_path):
+def test_a_run_killed_while_writing_its_marker_leaves_no_temporary(tmp_path, monkeypatch):
     """Killed between its marker's temporary file and the rename (the marker is written
     atomically): the folder holds only ``.bridgeflap-output.<12 hex>.tmp``, and the next run
     removes it. The same file beside anything else keeps the folder (not provably ours)."""
@@ -97,7 +99,13 @@ def test_a_run_killed_while_writing_its_marker_leaves_no_temporary(tmp_path):
     mixed = tmp_path / f".s1out.tmp-{gone}-4567abcd"
     for folder in (half, mixed):
         folder.mkdir()
-        (folder / ".bridgeflap-output.0123456789ab.tmp").write_text('{"tool": "bridg')
+        # the temporary file exactly as write_marker leaves it when killed before its rename
+        # (os.replace skipped: the name comes from the code, not from this test)
+        left: list[Path] = []
+        monkeypatch.setattr(files.os, "replace", lambda src, dst, left=left: left.append(Path(src)))
+        write_marker(folder, "study")
+        monkeypatch.undo()
+        assert [p.name for p in folder.iterdir()] == [left[0].name]
     (mixed / "keep.txt").write_text("mine")
     recover_output(target, say=lambda text: None)
     assert not half.exists()
