@@ -26,6 +26,13 @@ skips the guard. It checks the guard before any process starts, keeps the platfo
 start method (no package-wide context is set: fork on Linux up to Python 3.13), makes every
 worker end with the process that started it (:func:`_die_with_parent`) and starts at least
 one worker. Dask (:mod:`bridgeflap.design.batch.cluster`) is for DOE batches only.
+
+On an interrupt (a :class:`KeyboardInterrupt` leaving the pool's ``with`` block, or a shutdown
+after :func:`note_interrupt`, which the command line calls on Ctrl-C and SIGTERM) the pool
+terminates its worker processes before it waits for them, and with them every process
+started while it was open (a worker forked just after the terminal's signal went out, not yet
+registered with the pool, would otherwise wait for work forever and the interpreter's exit
+with it).
 """
 
 from __future__ import annotations
@@ -35,11 +42,54 @@ import functools
 import multiprocessing
 import os
 import sys
+import threading
 from concurrent.futures import ProcessPoolExecutor
 
 from bridgeflap.model.errors import BridgeflapInputError
 
-__all__ = ["MAIN_GUARD_REASON", "check_main_guard", "process_pool"]
+__all__ = ["MAIN_GUARD_REASON", "check_main_guard", "clear_interrupt", "note_interrupt",
+           "process_pool"]
+
+_INTERRUPTED = threading.Event()
+
+
+def note_interrupt() -> None:
+    """Record that this process was interrupted (Ctrl-C, SIGTERM): pools shut down from now on
+    terminate their workers instead of waiting for their tasks. Called by the command line's
+    signal handler; an ``Event.set``, no process is touched here."""
+    _INTERRUPTED.set()
+
+
+def clear_interrupt() -> None:
+    """Forget :func:`note_interrupt` (a command run from Python ended; its process goes on)."""
+    _INTERRUPTED.clear()
+
+
+class _Pool(ProcessPoolExecutor):
+    """:class:`ProcessPoolExecutor` that terminates its workers when interrupted (module doc)."""
+
+    def __init__(self, *args, **kwargs):
+        self._before = {id(p) for p in multiprocessing.active_children()}
+        super().__init__(*args, **kwargs)
+
+    def _terminate_workers(self) -> None:
+        started = [p for p in multiprocessing.active_children() if id(p) not in self._before]
+        for proc in {id(p): p for p in [*(getattr(self, "_processes", None) or {}).values(),
+                                        *started]}.values():
+            try:
+                proc.terminate()
+            except (OSError, AttributeError, ValueError):  # already gone or closed
+                pass
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        if _INTERRUPTED.is_set():
+            self._terminate_workers()
+        super().shutdown(wait=wait, cancel_futures=cancel_futures)
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is not None and issubclass(exc_type, KeyboardInterrupt):
+            self._terminate_workers()
+        return super().__exit__(exc_type, exc, tb)
 
 #: the reason of the one-line error
 MAIN_GUARD_REASON = ("this script starts worker processes, which re-run it: put its code under "
@@ -145,7 +195,7 @@ def process_pool(workers: int, *, die_with_parent: bool = True) -> ProcessPoolEx
     check_main_guard(max(2, int(workers)))  # even one spawned worker re-runs the script
     extra = {"initializer": _die_with_parent, "initargs": (os.getpid(),)} if die_with_parent \
         else {}
-    return ProcessPoolExecutor(max_workers=max(1, int(workers)), **extra)
+    return _Pool(max_workers=max(1, int(workers)), **extra)
 
 
 def _die_with_parent(parent: int) -> None:

@@ -570,13 +570,14 @@ def main(argv=None) -> int:
     from bridgeflap.design.cli.run import one_line_warning, run
 
     _limit_blas_threads()
+    console = argv is None  # the console script: its process ends with the command
     argv = sys.argv[1:] if argv is None else [str(a) for a in argv]
     debug = "--debug" in argv
     with warnings.catch_warnings():
         if not debug:
             warnings.showwarning = one_line_warning
         return run(argv, debug, build_parser=build_parser, check_args=_check_args,
-                   command_names=[c.name for c in COMMANDS])
+                   command_names=[c.name for c in COMMANDS], bounded_interrupt=console)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -20,14 +20,23 @@
   (:data:`bridgeflap.design.batch.cluster.LOCAL_WORKER_CONFIG`): the cluster is closed by this
   process. So a terminal's Ctrl-C, which signals the whole process group, prints no worker's
   traceback.
+* **A bound on the clean-up.** Run as the console script, the command ends at the latest
+  :data:`INTERRUPT_GRACE_S` after the first Ctrl-C or SIGTERM, whatever it is waiting for: a
+  watchdog thread then kills the worker processes still alive, prints the one line (unless it
+  was printed) and ends the process with the same status. A clean-up takes well under a second;
+  the bound is for a pool left waiting by a signal that came in the middle of starting a worker.
+  What such an ending leaves behind (a run lock, a temporary folder) is removed by the next run
+  into that folder (:func:`bridgeflap.design.io.outputs.recover_output`).
 """
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import signal
 import sys
 import threading
+import time
 
 from bridgeflap.design.cli.common import (
     drop_warnings,
@@ -38,6 +47,7 @@ from bridgeflap.design.cli.common import (
     set_verbosity,
 )
 from bridgeflap.model.errors import BatchFailedError, BridgeflapError
+from bridgeflap.model.workers import clear_interrupt, note_interrupt
 
 __all__ = ["BUG_REPORT", "EXIT_BAD_INPUT", "EXIT_INTERNAL", "EXIT_INTERRUPTED", "run"]
 
@@ -50,7 +60,13 @@ INTERRUPTED = "bridgeflap: interrupted"
 BUG_REPORT = ("this is a bug in bridgeflap, not in your input; please report it to the bridgeflap "
               "maintainers with the command line and the traceback of --debug")
 
-_STATE = {"pid": None, "interrupted": False, "caught": False, "timers": []}
+_STATE = {"pid": None, "interrupted": False, "caught": False, "timers": [], "said": False,
+          "watchdog": None}
+
+#: seconds from the first Ctrl-C or SIGTERM to the forced end of a console-script run whose
+#: clean-up waits on something that will not come (the watchdog of the module docstring); a
+#: clean-up takes well under a second, a local Dask cluster's close a few seconds
+INTERRUPT_GRACE_S = 30.0
 
 
 def _on_sigint(signum, frame):
@@ -64,7 +80,41 @@ def _on_sigint(signum, frame):
         os._exit(status)
     _STATE["interrupted"] = True
     _STATE["status"] = status
+    if _STATE["watchdog"] is not None:  # a write to a pipe: safe in a signal handler
+        try:
+            os.write(_STATE["watchdog"], b"i")
+        except OSError:
+            pass
+    note_interrupt()
     raise KeyboardInterrupt
+
+
+def _start_watchdog() -> int:
+    """A daemon thread that ends this process :data:`INTERRUPT_GRACE_S` after it reads ``i``
+    from the pipe whose write end is returned (:func:`_on_sigint` writes it)."""
+    read_end, write_end = os.pipe()
+    pid = os.getpid()
+
+    def watch() -> None:
+        try:
+            if os.read(read_end, 1) != b"i":
+                return
+        except OSError:
+            return
+        time.sleep(INTERRUPT_GRACE_S)
+        if os.getpid() != pid:
+            return
+        for child in multiprocessing.active_children():
+            try:
+                child.kill()
+            except (OSError, AttributeError):
+                pass
+        if not _STATE["said"]:
+            os.write(2, (INTERRUPTED + "\n").encode())
+        os._exit(_STATE.get("status", EXIT_INTERRUPTED))
+
+    threading.Thread(target=watch, name="bridgeflap-interrupt-watchdog", daemon=True).start()
+    return write_end
 
 
 def _unraisable(hook):
@@ -107,16 +157,21 @@ if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_child_after_fork)
 
 
-def run(argv: list[str], debug: bool, *, build_parser, check_args, command_names) -> int:
+def run(argv: list[str], debug: bool, *, build_parser, check_args, command_names,
+        bounded_interrupt: bool = False) -> int:
     """Parse ``argv``, run its command and return the exit status (see the module doc).
 
     The command table comes in as arguments (``bridgeflap.design.cli.main`` passes its
     ``build_parser``, its argument checks and its command names), so that this module does not
-    import the CLI back."""
+    import the CLI back. ``bounded_interrupt``: the console script's run, whose process ends at
+    the latest :data:`INTERRUPT_GRACE_S` after an interrupt (never for a call from Python,
+    whose process goes on)."""
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, _on_sigint) if main_thread else None
     previous_term = signal.signal(signal.SIGTERM, _on_sigint) if main_thread else None
-    _STATE.update(pid=os.getpid(), interrupted=False, caught=False, status=EXIT_INTERRUPTED)
+    _STATE.update(pid=os.getpid(), interrupted=False, caught=False, status=EXIT_INTERRUPTED,
+                  said=False,
+                  watchdog=_start_watchdog() if (bounded_interrupt and main_thread) else None)
     hook, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
     hold_warnings()
     try:
@@ -125,6 +180,12 @@ def run(argv: list[str], debug: bool, *, build_parser, check_args, command_names
         return _interrupted()
     finally:
         release_warnings(hold=False)
+        if not bounded_interrupt:  # called from Python: later pools of this process wait again
+            clear_interrupt()
+        if _STATE["watchdog"] is not None and not _STATE["interrupted"]:
+            os.write(_STATE["watchdog"], b"q")  # no interrupt: the watchdog ends
+            os.close(_STATE["watchdog"])
+            _STATE["watchdog"] = None
         _STATE["pid"] = None
         for timer in _STATE["timers"]:  # a pending re-signal of a lost Ctrl-C: not any more
             timer.cancel()
@@ -180,6 +241,7 @@ def _interrupted() -> int:
     _STATE["caught"] = True
     drop_warnings()
     log(INTERRUPTED)
+    _STATE["said"] = True
     return _STATE.get("status", EXIT_INTERRUPTED)
 
 
