@@ -69,7 +69,7 @@ class _MovedFinder(importlib.abc.MetaPathFinder):
             return None
         raise ModuleNotFoundError(
             f"No module named {fullname!r}: it moved to {self.moved[rest]} when the package was "
-            f"split into rooms (README 'Module map')", name=fullname)
+            f"split into rooms (docs/background/architecture.md, 'Module map')", name=fullname)
 
 
 def moved_modules(package: str, moved: dict) -> None:

@@ -60,6 +60,13 @@ def cmd_robustness(args):
     check_scheduler(args.scheduler, "scheduler")
     if args.screen_modes is not None and args.screen_modes < 0:
         raise BridgeflapInputError("screen-modes", f"must be >= 0, got {args.screen_modes}")
+    if args.screen_modes and args.screen_modes >= args.modes:
+        # the screening sweep would have as many modes as the reference: nothing screened
+        raise BridgeflapInputError("screen-modes", f"must be below --modes ({args.modes}), got "
+                                                   f"{args.screen_modes} (0: no screening)")
+    if args.screen_modes is not None and args.method == "reference":
+        raise BridgeflapInputError("screen-modes", "not with --method reference (the full "
+                                                   "sweeps on --modes, never screened)")
     if args.stuck_angle_deg is not None and not args.failures:
         raise BridgeflapInputError("stuck-angle-deg", "only with --failures")
     if args.failures:

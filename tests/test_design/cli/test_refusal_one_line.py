@@ -38,6 +38,11 @@ CASES = [
     (["robustness", "--controller", "{c}", "--bridge", "great-belt", "--failures",
       "--scheduler", "local"], "scheduler"),
     (["robustness", "--controller", "{c}", "--bridge", "great-belt", "--seed", "-1"], "seed"),
+    # a screening on as many modes as the reference, or with no screening: ignored before
+    (["robustness", "--controller", "{c}", "--modes", "16", "--screen-modes", "16"],
+     "screen-modes"),
+    (["robustness", "--controller", "{c}", "--method", "reference", "--screen-modes", "8"],
+     "screen-modes"),
     # the controller's warning (designed on humber) and a progress line came first
     (["erection", "--controller", "{c}", "--bridge", "{coarse}", "--modes", "90",
       "--fractions", "0.5", "--speeds", "0:10:5"], "modes"),
