@@ -340,13 +340,20 @@ def _ctrl_c_group(argv: list[str], progress: str, cwd: Path) -> str:
             time.sleep(0.05)
         assert proc.poll() is None, b"".join(chunks).decode()
         os.killpg(proc.pid, signal.SIGINT)
-        rc = proc.wait(timeout=300)
+        try:
+            # the command ends by itself at most INTERRUPT_GRACE_S after the signal
+            rc = proc.wait(timeout=300)
+        except subprocess.TimeoutExpired:  # say what still runs and what it printed
+            tree = subprocess.run(["ps", "-o", "pid,ppid,stat,etime,cmd", "-g", str(proc.pid)],
+                                  capture_output=True, text=True).stdout
+            pytest.fail(f"no exit 300 s after SIGINT; processes:\n{tree}\nstderr:\n"
+                        + b"".join(chunks).decode(errors="replace"))
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
-    reader.join(timeout=60)
-    proc.stderr.close()
+        reader.join(timeout=60)
+        proc.stderr.close()  # also on a failure: no unclosed pipe for a later test to meet
     err = b"".join(chunks).decode(errors="replace")
     assert rc == 130, err
     assert _group_gone(proc.pid), "worker processes outlived the interrupted run"
