@@ -69,13 +69,13 @@ class _Pool(ProcessPoolExecutor):
     """:class:`ProcessPoolExecutor` that terminates its workers when interrupted (module doc)."""
 
     def __init__(self, *args, **kwargs):
-        self._before = {id(p) for p in multiprocessing.active_children()}
+        self._before = set(multiprocessing.active_children())  # Process objects, by identity
         super().__init__(*args, **kwargs)
 
     def _terminate_workers(self) -> None:
-        started = [p for p in multiprocessing.active_children() if id(p) not in self._before]
-        for proc in {id(p): p for p in [*(getattr(self, "_processes", None) or {}).values(),
-                                        *started]}.values():
+        ours = set((getattr(self, "_processes", None) or {}).values())
+        ours.update(p for p in multiprocessing.active_children() if p not in self._before)
+        for proc in ours:
             try:
                 proc.terminate()
             except (OSError, AttributeError, ValueError):  # already gone or closed
@@ -90,6 +90,7 @@ class _Pool(ProcessPoolExecutor):
         if exc_type is not None and issubclass(exc_type, KeyboardInterrupt):
             self._terminate_workers()
         return super().__exit__(exc_type, exc, tb)
+
 
 #: the reason of the one-line error
 MAIN_GUARD_REASON = ("this script starts worker processes, which re-run it: put its code under "

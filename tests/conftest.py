@@ -8,6 +8,9 @@
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import pytest
 
 from bridgeflap.model.structure.loader import load_bridge
@@ -46,3 +49,12 @@ def buffeting_problem():
                       buffeting_speeds_m_s=(10.0, 20.0))
     spec, model = build_model(s)
     return s, spec, model
+
+
+def subprocess_env(**extra) -> dict:
+    """The environment of a test's child Python: this checkout first on ``PYTHONPATH`` (the
+    package wherever the child's cwd is), one BLAS thread, plus ``extra``."""
+    root = str(Path(__file__).resolve().parents[1])
+    return {**os.environ, "OPENBLAS_NUM_THREADS": "1",
+            "PYTHONPATH": os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p),
+            **extra}

@@ -547,11 +547,10 @@ def _run_analyses(config: StudyConfig, spec, folder: Path, say, progress,
         try:
             return {kind: fut.result() for kind, fut in futures.items()}
         except KeyboardInterrupt:
-            # Ctrl-C: end the workers now, their analyses abandoned (cancelling the queued
-            # futures as well races the pool's own clean-up: CPython 3.11 then raises
-            # InvalidStateError in its manager thread, a traceback on stderr)
-            for proc in list((getattr(pool, "_processes", None) or {}).values()):
-                proc.terminate()
+            # Ctrl-C: the pool terminates its workers as the interrupt leaves it
+            # (model.workers.process_pool), their analyses abandoned; the queued futures are
+            # not cancelled as well (that races the pool's own clean-up: CPython 3.11 then
+            # raises InvalidStateError in its manager thread, a traceback on stderr)
             raise
         except BaseException:
             for fut in futures.values():

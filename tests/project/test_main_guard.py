@@ -4,25 +4,21 @@ refuses before starting any, in one line naming the fix (:mod:`bridgeflap.model.
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
 import pytest
+from conftest import subprocess_env
 
 from bridgeflap.model.workers import MAIN_GUARD_REASON, check_main_guard
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def _run(script: str, tmp_path: Path) -> subprocess.CompletedProcess:
     path = tmp_path / "user_script.py"
     path.write_text(textwrap.dedent(script))
-    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1",
-           "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH"))
-                                         if p)}
+    env = subprocess_env()
     # 60 s: the refusal takes ~1 s (an import of design); a re-running worker would hang longer
     return subprocess.run([sys.executable, str(path), str(tmp_path / "out")], env=env,
                           capture_output=True, text=True, timeout=60, cwd=tmp_path)

@@ -10,6 +10,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+from conftest import subprocess_env
+
 from bridgeflap.model.workers import MAIN_GUARD_REASON, process_pool
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -19,9 +21,7 @@ REFUSED = f"bridgeflap.model.errors.BridgeflapInputError: workers: {MAIN_GUARD_R
 def _run(script: str, tmp_path: Path) -> subprocess.CompletedProcess:
     path = tmp_path / "user_script.py"
     path.write_text(textwrap.dedent(script))
-    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1",
-           "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH"))
-                                         if p)}
+    env = subprocess_env()
     # a refusal takes about a second; a re-running spawned worker would take far longer
     return subprocess.run([sys.executable, str(path)], env=env, capture_output=True,
                           text=True, timeout=60, cwd=tmp_path)

@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import subprocess_env
 
 from bridgeflap.design.cli.main import COMMANDS, main
 from bridgeflap.design.io.outputs import OUTPUT_MARKER
@@ -320,9 +321,7 @@ def _ctrl_c_group(argv: list[str], progress: str, cwd: Path) -> str:
     """Run the CLI in its own process group, wait for ``progress`` (a regular expression) on
     its stderr, send SIGINT
     to the whole group (a terminal's Ctrl-C); the exit status must be 130; its stderr."""
-    root = str(Path(__file__).resolve().parents[3])  # the package, wherever cwd is
-    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "MPLBACKEND": "Agg",
-           "PYTHONPATH": os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p)}
+    env = subprocess_env(MPLBACKEND="Agg")  # the package, wherever cwd is
     proc = subprocess.Popen([sys.executable, "-c",
                              "import sys; from bridgeflap.design.cli.main import main; "
                              "sys.exit(main())",

@@ -15,10 +15,9 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import subprocess_env
 
 from bridgeflap.model.workers import process_pool
-
-ROOT = Path(__file__).resolve().parents[3]
 
 
 def _sleep(seconds: float) -> float:
@@ -58,9 +57,7 @@ def test_an_interrupted_pool_terminates_its_workers_and_what_it_started():
 def _console(script: str, tmp_path: Path) -> subprocess.Popen:
     path = tmp_path / "console.py"
     path.write_text(textwrap.dedent(script))
-    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1",
-           "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH"))
-                                         if p)}
+    env = subprocess_env()
     return subprocess.Popen([sys.executable, str(path)], env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, cwd=tmp_path,
                             start_new_session=True)
