@@ -24,7 +24,8 @@ processes (the design's parallel starts and follow-up checks, the layout neighbo
 counts, do-no-harm, fail-safe, erection stages, a study's analyses) is made by it, so that none
 skips the guard. It checks the guard before any process starts, keeps the platform's default
 start method (no package-wide context is set: fork on Linux up to Python 3.13), makes every
-worker end with the process that started it (:func:`_die_with_parent`) and starts at least
+worker end with the process that started it (:func:`_die_with_parent`), gives every worker one
+BLAS thread unless the user chose the threads (:func:`_one_blas_thread`) and starts at least
 one worker. Dask (:mod:`bridgeflap.design.batch.cluster`) is for DOE batches only.
 
 On an interrupt (a :class:`KeyboardInterrupt` leaving the pool's ``with`` block, or a shutdown
@@ -179,7 +180,8 @@ def process_pool(workers: int, *, die_with_parent: bool = True) -> ProcessPoolEx
     workers : int
         ``max_workers`` of the pool (at least 1 is used).
     die_with_parent : bool
-        Install :func:`_die_with_parent` as the workers' initializer (default).
+        The workers end with this process (:func:`_die_with_parent`; default). Every worker
+        uses one BLAS thread unless the user set a thread variable (:func:`_one_blas_thread`).
 
     Returns
     -------
@@ -194,9 +196,42 @@ def process_pool(workers: int, *, die_with_parent: bool = True) -> ProcessPoolEx
         script whatever the pool's size).
     """
     check_main_guard(max(2, int(workers)))  # even one spawned worker re-runs the script
-    extra = {"initializer": _die_with_parent, "initargs": (os.getpid(),)} if die_with_parent \
-        else {}
-    return _Pool(max_workers=max(1, int(workers)), **extra)
+    return _Pool(max_workers=max(1, int(workers)), initializer=_worker_start,
+                 initargs=(os.getpid() if die_with_parent else None,))
+
+
+#: The BLAS thread variables a user sets to choose the threads; with none set, a worker of the
+#: package's pools uses one BLAS thread (:func:`_one_blas_thread`).
+THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def _worker_start(parent: int | None) -> None:
+    """Pool initializer: one BLAS thread (:func:`_one_blas_thread`), and with ``parent`` the
+    worker ends with it (:func:`_die_with_parent`)."""
+    _one_blas_thread()
+    if parent is not None:
+        _die_with_parent(parent)
+
+
+def _one_blas_thread() -> None:
+    """One BLAS thread in a worker process, unless the user set a thread variable.
+
+    The matrices are small (at most a few hundred rows) and the pool already runs one task per
+    core: a worker with the library's default thread count (one per core) puts
+    ``workers x cores`` spinning threads on the cores. Measured on a 2-core machine, one
+    fixed-layout design of the placement search (``evaluate_layout``, quick card): 25.7 s
+    alone, 85 s each when two workers ran at once with 2 BLAS threads each, 24 s each with 1.
+    The command line already runs with one thread (``design.cli.main``); this gives a script
+    calling the API the same workers. The calling process is left alone (library code never
+    sets the user's environment); only the worker's own BLAS pool is limited.
+    """
+    if any(v in os.environ for v in THREAD_VARIABLES):
+        return
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - a dependency (pyproject.toml)
+        return
+    threadpool_limits(1, user_api="blas")
 
 
 def _die_with_parent(parent: int) -> None:

@@ -98,4 +98,26 @@ def test_factory_in_process():
         assert ex._max_workers == 1
         assert ex.submit(os.getppid).result() == os.getpid()
     with process_pool(2, die_with_parent=False) as ex:
-        assert ex._max_workers == 2 and ex._initializer is None
+        assert ex._max_workers == 2 and ex._initargs == (None,)
+
+
+def _blas_threads() -> list[int]:
+    from threadpoolctl import threadpool_info
+
+    return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+
+
+def test_a_worker_uses_one_blas_thread_unless_the_user_chose(monkeypatch):
+    """Two workers with a BLAS thread per core each oversubscribe the cores (measured 3.3x
+    slower per task on 2 cores, model.workers._one_blas_thread); a user's choice stands."""
+    from threadpoolctl import threadpool_limits
+
+    for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        monkeypatch.delenv(v, raising=False)
+    # the parent on 2 threads (where the machine has them), as a script's numpy starts
+    with threadpool_limits(2, user_api="blas"), process_pool(1) as ex:
+        assert set(ex.submit(_blas_threads).result()) == {1}
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "2")
+    with threadpool_limits(2, user_api="blas"), process_pool(1) as ex:
+        # the worker keeps what it inherited (2 here), not the one-thread default
+        assert set(ex.submit(_blas_threads).result()) == set(_blas_threads())
