@@ -37,6 +37,8 @@ CHECKED_INSIDE = {
     "its first line",
     "bridgeflap.design.do_no_harm": "bridgeflap.design.io.api_args.check_harm_args on its first "
     "line",
+    "bridgeflap.design.placement_search": "check_settings, then its numbers and log, on its "
+    "first lines",
 }
 
 _CONTROLLER = Controller(Compensator(0.0, 0.1, 0.5, 0.0, 0.1), flap_strip_positions_m=(0.0,),
@@ -160,6 +162,17 @@ SURVEY = [
     (lambda: design.design(design.load_settings(), warm_start="ctrl.toml"), "warm_start",
      BridgeflapTypeError),
     (lambda: design.design(design.load_settings(), bridge=3.0), "bridge", BridgeflapTypeError),
+    (lambda: design.placement_search("card.toml"), "settings", BridgeflapTypeError),
+    (lambda: design.placement_search(design.load_settings(), target_m_s="fast"), "target_m_s",
+     BridgeflapTypeError),
+    (lambda: design.placement_search(design.load_settings(), target_m_s=-1.0), "target_m_s",
+     BridgeflapInputError),
+    (lambda: design.placement_search(design.load_settings(), workers=0), "workers",
+     BridgeflapInputError),
+    (lambda: design.placement_search(design.load_settings(), max_steps=1.5), "max_steps",
+     BridgeflapTypeError),
+    (lambda: design.placement_search(design.load_settings(), log="stderr"), "log",
+     BridgeflapTypeError),
     (lambda: design.local_sensitivity("humber", parameters=5), "parameters",
      BridgeflapTypeError),
     (lambda: design.local_sensitivity("humber", parameters=[]), "parameters",

@@ -112,7 +112,25 @@ def records(fl) -> dict:
             "none"),
         "study": StudyResult(study, Path("out"), {"flutter": "ok"},
                              {"flutter": fl.summary()}, 3.0, {"flutter": fl}),
+        "placement": _placement(),
     }
+
+
+def _placement():
+    """A two-row placement: every candidate meets the target, one pair fewer fails."""
+    from bridgeflap.design.control.search.placement import PlacementResult, PlacementRow
+
+    def row(step, groups, meets, angle):
+        return PlacementRow(step, groups, None if step == 0 else 0, 56.4,
+                            tuple(float(x) for x in range(len(groups))), "Solve_Succeeded",
+                            meets, meets, () if meets else ("flap angle 3 sigma 21 deg > 20",),
+                            (0.5, 1.0, -0.8, 0.1, 0.19), 10.8, 0.72, 78.0, angle, 18.7, meets,
+                            True, 78.0, 0.0, 26, 22.0)
+
+    return PlacementResult("found", 76.71, "given", {"open_loop_critical_speed_m_s": 69.5},
+                           (row(0, (0, 1), True, 19.0), row(1, (1,), False, 21.0)), (0,), 0,
+                           (-56.4, 0.0, 56.4), 2, 44.0,
+                           {"flap_angle_limit_deg": 20.0, "gain_limit": 15.0})
 
 
 @pytest.fixture(scope="module")
@@ -130,7 +148,7 @@ def _figure_has_data(out) -> bool:
 NAMES = ["flutter", "sweep", "modal", "erection", "frequency_ratio", "buffeting", "plant",
          "closed_loop", "convergence", "pk", "mode_shape", "design", "batch", "doe",
          "sensitivity", "global_sensitivity", "harm", "acceptance", "failsafe",
-         "erection_control", "study"]
+         "erection_control", "study", "placement"]
 
 
 @pytest.mark.parametrize("name", NAMES)

@@ -44,7 +44,8 @@ class DesignResult(ResultData):
     min_flaps : FlapCountSearch or None
         Fewest evenly spaced flaps meeting the minimum damping
         (:func:`bridgeflap.design.control.search.driver.minimum_flap_count`; None when not
-        searched).
+        searched: no design, or a placed layout, whose fewest strips
+        :func:`bridgeflap.design.control.search.placement.placement_search` answers).
     wall_time_s : float
     extras : dict
         ``open_loop_abscissa`` [1/s], ``closed_loop`` (state space), ``buffeting``
@@ -148,7 +149,9 @@ class DesignResult(ResultData):
             "robust_bound_holds": b.robust_bound_holds if b is not None else None,
             "starts": [s.to_dict() for s in self.starts],
             "minimum_flaps": (self.min_flaps.to_dict() if self.min_flaps is not None
-                              else {"minimum": None, "counts": []}),
+                              else {"minimum": None, "counts": [],
+                                    **({"note": self.extras["minimum_flaps_note"]}
+                                       if "minimum_flaps_note" in self.extras else {})}),
             "wall_time_s": self.wall_time_s,
             "settings": {k2: v for k2, v in asdict(self.settings).items() if k2 != "extras"
                          and (crit or k2 not in CRITICAL_SPEED_FIELDS)

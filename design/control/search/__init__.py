@@ -1,5 +1,6 @@
 """The searches over solves, the top of :mod:`bridgeflap.design.control`: the rounded flap
-layout against its neighbouring layouts (``layout_search``), the critical-speed design, an outer
+layout against its neighbouring layouts (``layout_search``), the fewest flap strips that meet a
+target speed with K(s) re-optimised per layout (``placement``), the critical-speed design, an outer
 search over the design speed (``critical_speed``), and the multistart driver that runs the
 starts, selects one, checks it and runs these searches when the card asks for them
 (``driver``; its :func:`~bridgeflap.design.control.search.driver.design` is the compensator

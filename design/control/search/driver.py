@@ -316,13 +316,19 @@ def design(settings: DesignSettings, progress=None, bridge=None, warm_start=None
                                       model_d, numeric=True).verify(theta)
             extras["active_constraints"] = active_constraints(settings, best, ver_d)
             mark("chosen design checks")
-            if ok and not settings.optimise_placement:
-                # (a placed layout is its own flap-count answer: the same-K check of evenly
-                # spaced counts does not apply to it)
-                # the chosen start's check of its full evenly spaced layout is count flap_count
-                full = (not settings.optimise_placement
-                        and len(positions) == settings.flap_count
-                        and np.allclose(positions, settings.positions()))
+            # the chosen start's check of its full evenly spaced layout is count flap_count
+            even = settings.positions(settings.flap_count)
+            full = (len(positions) == len(even) and np.allclose(np.sort(positions), even))
+            if ok and not full:
+                # a placed layout (the card's flap_positions_m, or a placement's) is its own
+                # flap-count answer: the same-K check of evenly spaced counts asks about
+                # another layout family, and with K designed for this one (and no actuator
+                # limit) its count says nothing about how few strips would do
+                extras["minimum_flaps_note"] = (
+                    "not searched: the layout is placed (not the evenly spaced candidates); "
+                    "the fewest strips with K re-optimised per layout and the actuator limits: "
+                    "bridgeflap placement")
+            elif ok and not settings.optimise_placement:
                 min_flaps = minimum_flap_count(
                     settings, theta, spec=spec, pool=pool,
                     known={settings.flap_count: ver_best} if full else None)

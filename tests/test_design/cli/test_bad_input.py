@@ -319,6 +319,16 @@ CASES = [
     ("optimise-out-under-file", ["optimise", "--out", "{d}/prev.npz/sub"], "out"),
     # the folder's parent does not exist (was reported as "not writable")
     ("optimise-out-no-parent", ["optimise", "--out", "{d}/no_such_parent/opt"], "out"),
+    # ---- placement
+    ("placement-missing", ["placement", "{d}/nosuch.toml"], "definition"),
+    ("placement-bool", ["placement", "{d}/design_bool.toml"], "optimise_placement"),
+    ("placement-target-0", ["placement", "--target-m-s", "0"], "target-m-s"),
+    ("placement-target-nan", ["placement", "--target-m-s", "nan"], "target-m-s"),
+    ("placement-target-huge", ["placement", "--target-m-s", "1e6"], "target-m-s"),
+    ("placement-workers-0", ["placement", "--workers", "0"], "workers"),
+    ("placement-steps-neg", ["placement", "--max-steps", "-1"], "max-steps"),
+    ("placement-out-file", ["placement", "--out", "{d}/prev.npz"], "out"),
+    ("placement-out-no-parent", ["placement", "--out", "{d}/no_such_parent/p"], "out"),
     # ---- study
     ("study-missing", ["study", "{d}/nosuch.toml", "--out", "{d}/prev_study"], "study"),
     ("study-dir", ["study", "{d}/adir.toml", "--out", "{d}/prev_study"], "study"),

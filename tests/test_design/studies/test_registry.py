@@ -90,6 +90,7 @@ def test_cli_is_an_explicit_table():
     assert len(names) == len(set(names))
     assert {"modes", "flutter", "erection", "frequency-ratio", "section", "state-space", "rfa",
             "derivatives", "buffeting", "optimise", "study", "robustness", "actuators", "doe",
+            "placement",
             "sensitivity"} == set(names)
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     assert list(sub.choices) == names
