@@ -32,7 +32,7 @@ _PUBLIC = {
     "do_no_harm": "bridgeflap.design.assessment.harm",
     "DesignResult": "bridgeflap.design.control.results.result",
     "placement_search": "bridgeflap.design.control.search.placement",
-    "PlacementResult": "bridgeflap.design.control.search.placement",
+    "PlacementResult": "bridgeflap.design.control.results.placement",
     "local_sensitivity": "bridgeflap.design.sensitivity.local",
     "global_sensitivity": "bridgeflap.design.studies.screening",
     "load_study": "bridgeflap.design.studies.study", "run_study": "bridgeflap.design.studies.study",
