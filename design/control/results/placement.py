@@ -163,7 +163,8 @@ class PlacementResult(ResultData):
                       "flap_angle_3sigma_at_target_deg": r.flap_angle_3sigma_at_target_deg,
                       "flap_rate_3sigma_at_target_deg_s": r.flap_rate_3sigma_at_target_deg_s,
                       "failed_strip_stable_to_m_s": r.failed_strip_stable_to_m_s,
-                      "robust_margin": r.robust_margin, "why_not": list(r.why_not)})
+                      "robust_margin": r.robust_margin, "ipopt_status": r.status,
+                      "why_not": list(r.why_not)})
         return out
 
     @strict_json
@@ -210,7 +211,7 @@ class PlacementResult(ResultData):
             it.
         """
         head = (f"{'strips':>6} {'meets':>5} {'stable to':>9} {'max gain':>8} "
-                f"{'angle 3s':>8} {'rate 3s':>8} {'1 failed':>8}  layout |x| [m]")
+                f"{'angle 3s':>8} {'rate 3s':>8} {'1 failed':>8}  {'Ipopt':<28} layout |x| [m]")
         lines = [head]
         for t in self.tradeoff():
             ax = sorted({round(abs(x), 1) for x in t["flap_positions_m"]})
@@ -219,7 +220,7 @@ class PlacementResult(ResultData):
                          f"{_f(t['flap_angle_3sigma_at_target_deg'], '.1f'):>8} "
                          f"{_f(t['flap_rate_3sigma_at_target_deg_s'], '.1f'):>8} "
                          f"{_f(t['failed_strip_stable_to_m_s'], '.1f'):>8}  "
-                         f"{', '.join(f'{a:g}' for a in ax)}"
+                         f"{t['ipopt_status']:<28} {', '.join(f'{a:g}' for a in ax)}"
                          + ("" if t["meets_target"] else f"  ({'; '.join(t['why_not'][:2])})"))
         return "\n".join(lines)
 
