@@ -271,6 +271,19 @@ def check_writable_parent(field: str, path: Path) -> None:
         raise BridgeflapInputError(field, f"{_short(path)}: {exc.strerror or exc}") from None
 
 
+def check_output_folder(field: str, path: Path) -> None:
+    """Raise unless ``path``'s parent folder exists and is writable and ``path`` is not a file
+    (the output folder of ``optimise`` and ``placement``; what is in it:
+    :func:`bridgeflap.design.io.outputs.check_replaceable`)."""
+    parent = path.resolve().parent
+    if not parent.is_dir():
+        raise BridgeflapInputError(field, f"parent folder does not exist: {parent}")
+    if not os.access(parent, os.W_OK):
+        raise BridgeflapInputError(field, f"folder not writable: {parent}")
+    if path.exists() and not path.is_dir():
+        raise BridgeflapInputError(field, f"is a file, not a folder: {path}")
+
+
 def _check_figure_path(path: Path) -> None:
     if path.suffix.lower() not in FIGURE_SUFFIXES:
         raise BridgeflapInputError("plot", f"unsupported figure type {path.suffix!r} "

@@ -4,11 +4,17 @@ bridgeflap.design.control.search.driver."""
 from __future__ import annotations
 
 import json
-import os
 import shutil
 from pathlib import Path
 
-from bridgeflap.design.cli.common import add_common, default_workers, emit, log, save_figure
+from bridgeflap.design.cli.common import (
+    add_common,
+    check_output_folder,
+    default_workers,
+    emit,
+    log,
+    save_figure,
+)
 from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["arguments", "cmd_optimise"]
@@ -43,13 +49,7 @@ def cmd_optimise(args):
     if args.quick:
         settings = quick_settings(settings)
     out = Path(args.out)
-    parent = out.resolve().parent
-    if not parent.is_dir():
-        raise BridgeflapInputError("out", f"parent folder does not exist: {parent}")
-    if not os.access(parent, os.W_OK):
-        raise BridgeflapInputError("out", f"folder not writable: {parent}")
-    if out.exists() and not out.is_dir():
-        raise BridgeflapInputError("out", f"is a file, not a folder: {out}")
+    check_output_folder("out", out)
     from bridgeflap.model.structure.loader import load_bridge
 
     load_bridge(settings.bridge)  # bad bridge input stops here, before the design runs

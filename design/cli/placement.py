@@ -14,11 +14,17 @@ swapped into place whole. Exit 0 when a layout meets the target (``found``), 1 o
 from __future__ import annotations
 
 import json
-import os
 import shutil
 from pathlib import Path
 
-from bridgeflap.design.cli.common import add_common, default_workers, emit, log, save_figure
+from bridgeflap.design.cli.common import (
+    add_common,
+    check_output_folder,
+    default_workers,
+    emit,
+    log,
+    save_figure,
+)
 from bridgeflap.model.errors import BridgeflapInputError
 
 __all__ = ["arguments", "cmd_placement"]
@@ -58,13 +64,7 @@ def cmd_placement(args):
         from bridgeflap.design.io.outputs import check_replaceable
 
         out = Path(args.out)
-        parent = out.resolve().parent
-        if not parent.is_dir():
-            raise BridgeflapInputError("out", f"parent folder does not exist: {parent}")
-        if not os.access(parent, os.W_OK):
-            raise BridgeflapInputError("out", f"folder not writable: {parent}")
-        if out.exists() and not out.is_dir():
-            raise BridgeflapInputError("out", f"is a file, not a folder: {out}")
+        check_output_folder("out", out)
         out = check_replaceable(out, "out", "placement")
     load_bridge(settings.bridge)  # bad bridge input stops here, before the search runs
     if out is None:
