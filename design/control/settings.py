@@ -474,7 +474,7 @@ def load_settings(path: str | os.PathLike | None = "default", **overrides) -> De
     >>> from bridgeflap import design
     >>> card = design.load_settings()                   # the packaged card
     >>> len(card.flap_positions_m), card.weight_buffeting
-    (20, 3.0)
+    (11, 3.0)
     >>> bare = design.load_settings(None, n_modes=8)    # no card: the bare defaults
     >>> bare.flap_positions_m, bare.n_modes
     ((), 8)

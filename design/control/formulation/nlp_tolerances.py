@@ -24,7 +24,7 @@ VIOLATION_TOL = 1e-6
 #: below it. Measured (quick default card, deck GJ -10 %): 16-mode design held to 78.00 m/s,
 #: 30-mode closed-loop divergence at 77.99 m/s: ``unverified``; the 16- and 30-mode crossings
 #: of such designs lie 0.005-0.01 m/s apart, 1e-3 (0.078 m/s at 78 m/s) is 8 times that. An
-#: inactive top-speed constraint (the default card: 30-mode divergence at 78.18 m/s) meets the
+#: inactive top-speed constraint (the default card: 30-mode divergence at 80.62 m/s) meets the
 #: guard already and its design is unchanged.
 SPEED_GUARD_REL = 1e-3
 #: Relative back-off of the gain limit inside the NLP. Ipopt accepts a violation of

@@ -1,10 +1,11 @@
 """The participation reported with a closed-loop crossing is that of the root that crosses.
 
-The default design's K(s) (README) on its 10 outer pairs: the closed loop's governing limit is
-a torsional divergence at 87.32 m/s, a symmetric heave-twist root; its flutter crossing, far
-above (119 m/s), is an antisymmetric VA1 branch. The participation beside the divergence must
-be the divergence root's, checked here against an independent eigen-solution at the refined
-crossing speed.
+An earlier default design's K(s) on its 20 outer strips (|x| from 169.2 to 676.8 m, the
+default card's layout before it fixed the placement search's central strips): the closed loop's
+governing limit is a torsional divergence at 87.32 m/s, a symmetric heave-twist root; its
+flutter crossing, far above (119 m/s), is an antisymmetric VA1 branch. The participation
+beside the divergence must be the divergence root's, checked here against an independent
+eigen-solution at the refined crossing speed.
 """
 
 from __future__ import annotations
@@ -20,11 +21,14 @@ from bridgeflap.model.structure.loader import load_bridge
 
 K = Compensator(b2=-0.7263784036092082, b1=-0.3438703710282411, b0=-3.7120362195429366,
                 a2=0.27264373670970943, a1=0.31329235292884927)
+#: the layout K was designed on (the default card's earlier one)
+OUTER = tuple(s * x for s in (-1.0, 1.0) for x in (676.8, 620.4, 564.0, 507.6, 451.2, 394.8,
+                                                   338.4, 282.0, 225.6, 169.2))
 
 
 def test_divergence_reports_the_participation_of_the_crossing_root():
     s = load_settings("default")
-    ctrl = Controller(K, tuple(s.flap_positions_m), s.flap_width_m, True, True, s.gain_limit,
+    ctrl = Controller(K, tuple(sorted(OUTER)), s.flap_width_m, True, True, s.gain_limit,
                       s.flap_chord_m)
     lim = closed_loop_limits(s, ctrl)
     assert lim["critical_mechanism"] == "divergence"
