@@ -246,6 +246,9 @@ def run_start(settings: DesignSettings, theta0, index: int, spec=None,
             if bar is not None:
                 bar.update(1)
                 bar.set_postfix_str(f"objective {f:.4g}", refresh=False)
+            if say is not None and count[0] == 1:
+                # at once: a solve may converge before a tenth of its cap
+                say(f"start {index}: Ipopt running (at most {cap} iterations)")
             if say is not None and count[0] % every == 0:
                 say(f"start {index}: {count[0]} Ipopt iterations of at most {cap}, "
                     f"objective {f:.4g} {eta.text(count[0])}")

@@ -163,8 +163,8 @@ def test_a_signal_during_optimise_ends_it_and_writes_nothing(tmp_path, signum, c
                              "--quick", "--checks", "none", "--out", str(tmp_path / "new")],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     t0 = time.monotonic()
-    for line in proc.stderr:        # progress lines: wait for the first Ipopt iterations
-        if "Ipopt iterations of at most" in line or time.monotonic() - t0 > 300:
+    for line in proc.stderr:        # progress lines: wait for the first Ipopt iteration
+        if "Ipopt running" in line or time.monotonic() - t0 > 300:
             break
     proc.send_signal(signum)
     _, err = proc.communicate(timeout=300)
