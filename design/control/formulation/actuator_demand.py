@@ -161,6 +161,13 @@ class FlapDemand:
         """``SIGMAS^2 var / (limit (1 - DEMAND_BACKOFF))^2 - 1`` (<= 0 feasible)."""
         return self.variance(th) / ca.DM(self._scale) - 1.0
 
+    def fraction(self, theta) -> float:
+        """The largest 3 sigma flap angle or rate at ``theta`` over the speeds, as a fraction of
+        its limit (the card's limit itself, not the back-off: ``<= 1`` within the limits)."""
+        v = np.asarray(self.variance(ca.DM(np.asarray(theta, float))).full()).ravel()
+        back = (1.0 - DEMAND_BACKOFF) ** 2
+        return float(np.sqrt(np.max(np.maximum(v, 0.0) / self._scale) * back))
+
     def rms_deg(self, theta) -> np.ndarray:
         """RMS angle [deg] and rate [deg/s] per speed: (n_speeds, 4) (two flaps each)."""
         v = np.asarray(self.variance(ca.DM(np.asarray(theta, float))).full()).ravel()

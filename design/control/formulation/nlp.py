@@ -85,6 +85,7 @@ from bridgeflap.design.control.formulation.nlp_tolerances import (
     EIG_SCALE,
     FEASIBILITY_BACKOFF_1_S,
     GAIN_BACKOFF,
+    GAIN_CUT_SCALE,
     THETA_SCALE,
     WARM_MU_INIT,
 )
@@ -98,7 +99,7 @@ from bridgeflap.design.control.formulation.robust import (
     robust_dense_omega,
     robust_margin,
 )
-from bridgeflap.design.control.formulation.variants import speeds_of
+from bridgeflap.design.control.formulation.variants import demand_constraints, speeds_of
 from bridgeflap.design.control.results.records import CutsOutcome, RobustMargin, Solve, Verification
 from bridgeflap.design.control.settings import DesignSettings
 from bridgeflap.model.aeroelastic.control import Compensator
@@ -152,6 +153,10 @@ class DesignProblem:
         #: design.control.formulation.variants)
         self.variants: list[DesignProblem] = []
         self.lazy_speeds: list[float] = []   # a variant's own damping speeds (ditto)
+        #: A scenario variant's flap-demand constraints: None (a problem that carries none:
+        #: the nominal one, a failed-pair variant), False (checked after each round, not in
+        #: the NLP) or True (in the NLP; variants.demand_checks)
+        self.demand_held: bool | None = None
         #: The damping is checked at ``speed_max_m_s (1 + speed_guard_rel)`` too (0: not;
         #: design.control.formulation.verification.verify): set on a start's design model only
         self.speed_guard_rel = 0.0
@@ -310,10 +315,11 @@ class DesignProblem:
 
     # ---- actuator demand
     def flap_demand(self, theta_ref=None):
-        """The actuator-demand constraints of this layout
-        (:class:`bridgeflap.design.control.formulation.actuator_demand.FlapDemand`), built once (the
-        quadrature grids and the flaps frozen at ``theta_ref``, the first solve's start)."""
+        """The actuator-demand constraints of this layout (:class:`~bridgeflap.design.control.\
+formulation.actuator_demand.FlapDemand`), built once, frozen at ``theta_ref`` (the first call's)."""
         if self.callbacks.get("flap_demand") is None:
+            if theta_ref is None:
+                raise ValueError("flap_demand: theta_ref is needed to build the constraints")
             from bridgeflap.design.control.formulation.actuator_demand import FlapDemand
             from bridgeflap.model.aeroelastic.actuator_limits import ActuatorLimits
 
@@ -392,13 +398,13 @@ class DesignProblem:
         g = [EIG_SCALE * cb(p)]
         lbg = [np.full(n_eig_cons, -np.inf)]
         ubg = [np.full(n_eig_cons, -EIG_SCALE * FEASIBILITY_BACKOFF_1_S if feasibility else 0.0)]
-        # gain limit |K(j w)| <= L_nlp on the grid (+ gain cuts), at omega = 0 (b0) and at
-        # omega -> inf (b2/a2); L_nlp backed off by GAIN_BACKOFF (see there)
+        # gain limit |K(j w)| <= L_nlp on the grid (+ gain cuts, GAIN_CUT_BACKOFF), at omega = 0
+        # (b0) and at omega -> inf (b2/a2); L_nlp backed off by GAIN_BACKOFF (see there)
         L2 = (s.gain_limit * (1.0 - GAIN_BACKOFF)) ** 2
-        oms = self.omega_grid()
+        oms, cut = self.omega_grid(), set(self.gain_cuts)
         for om in oms:
             Kr, Ki = k_complex(th, om)
-            g.append((Kr * Kr + Ki * Ki) / L2 - 1.0)
+            g.append((Kr * Kr + Ki * Ki) / (L2 * GAIN_CUT_SCALE if om in cut else L2) - 1.0)
         g.append(th[2] * th[2] / L2 - 1.0)
         # omega -> inf as (b2/a2)^2 / L^2 - 1 (a2 >= a2_min > 0): scaled like the grid
         # points, so constr_viol_tol bounds the relative gain error (not a2^2 times it)
@@ -433,6 +439,8 @@ class DesignProblem:
             n_dem = 4 * len(dem.speeds_m_s)
             lbg.append(np.full(n_dem, -np.inf))
             ubg.append(np.zeros(n_dem))
+        if not feasibility:         # the held scenarios' flap demand (variants.demand_checks)
+            demand_constraints(self, th, g, lbg, ubg)
         if s.optimise_placement and s.weight_flaps > 0:
             f = f + s.weight_flaps * ca.sum1(w) / nF
         if s.optimise_placement and s.flap_budget > 0:
@@ -505,7 +513,7 @@ class DesignProblem:
         if trust is not None:       # a trust-region bound active (not one of the problem's)
             own_lo = np.array([-s.b_bound] * 3 + [s.a2_bounds[0], s.a1_bounds[0]])
             own_hi = np.array([s.b_bound] * 3 + [s.a2_bounds[1], s.a1_bounds[1]])
-            tol = 1e-6 * (tr_hi - tr_lo)
+            tol = 1e-4 * (tr_hi - tr_lo)    # Ipopt ends ~3e-6 of the width inside a bound
             on_trust_bound = bool(np.any((xs[:5] <= tr_lo + tol) & (tr_lo > own_lo))
                                   or np.any((xs[:5] >= tr_hi - tol) & (tr_hi < own_hi)))
         its = st.get("iterations", {})

@@ -184,6 +184,12 @@ class CutRound:
     #: pairs it adds (design.control.formulation.variants; 0 without variants)
     n_variant_constraints: int = 0
     new_variant_constraints: int = 0
+    #: scenarios whose flap-demand constraints the round's NLP carried, and those it adds
+    #: (variants.demand_checks; 0 without actuator constraints on scenarios)
+    n_demand_scenarios: int = 0
+    new_demand_scenarios: int = 0
+    #: every scenario's flap demand within the actuator limits at the round's design
+    scenario_demand_ok: bool = True
     #: what started this solve: ``"cuts"`` (the first solve, or a re-solve after cuts),
     #: ``"recovery"`` (after a diverged solve: from the last point that met damping and gain,
     #: inside a trust region), ``"trust step"`` (the previous solution lay on its trust
@@ -203,8 +209,11 @@ class CutRound:
                "n_robust_points": self.n_robust_points, "n_gain_points": self.n_gain_points,
                "new_cuts": {"speeds": self.new_speeds, "gain": self.new_gain_cuts,
                             "robust": self.new_robust_cuts,
-                            "variant_constraints": self.new_variant_constraints},
+                            "variant_constraints": self.new_variant_constraints,
+                            "demand_scenarios": self.new_demand_scenarios},
                "n_variant_constraints": self.n_variant_constraints,
+               "n_demand_scenarios": self.n_demand_scenarios,
+               "scenario_demand_ok": self.scenario_demand_ok,
                "eig_time_per_speed_s": self.eig_time_per_speed_s, "chosen": self.chosen,
                "step": self.step, "trust_radius": self.trust_radius}
         if self.placement is not None:

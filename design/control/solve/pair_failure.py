@@ -52,6 +52,8 @@ def extra_models(settings, model, spec, variants, positions=None) -> list:
         sv = scenario_settings(settings, v, m)   # no_harm: held below its own critical speed
         if sv is not None:
             out.append(DesignProblem(sv, m, spec=v))
+            if sv.actuator_design_speeds_m_s:
+                out[-1].demand_held = False     # checked each round (variants.demand_checks)
     if getattr(settings, "design_for_pair_failure", False):
         out += [FailedPairProblem(settings, model, f, spec=spec) for f in range(model.n_flaps)]
     return out

@@ -22,6 +22,16 @@ bridge (the stronger multi-model requirement).
 A scenario's problem is the nominal one on its own bridge with ``speed_max_m_s`` set to its
 limit, so the lazy constraint generation of :mod:`bridgeflap.design.control.formulation.variants`
 and every check of a round read its own range.
+
+**Actuators on the scenarios.** When the card holds the flap demand
+(``actuator_design_speeds_m_s``), scenario ``j`` is held to it too, at one speed: the card's top
+actuator design speed, or ``U_j`` when lower (:func:`scenario_demand_speed`). So on every scenario
+the flaps stay within their limits up to its own open-loop critical speed (capped at the card's
+actuator target): a scenario's usable speed is not below its open-loop one. One speed suffices:
+over the actuator range the 3 sigma flap angle grows with the wind speed (on the default card's
+12 scenarios the demand at the top speed was the largest of the card's speeds below it on every
+one; ``tests/test_design/control/test_scenario_demand.py``). The constraints join the NLP lazily,
+per scenario (:func:`bridgeflap.design.control.formulation.variants.demand_checks`).
 """
 
 from __future__ import annotations
@@ -32,7 +42,8 @@ from itertools import product
 import numpy as np
 
 __all__ = ["NO_HARM_GRID_FACTOR", "NO_HARM_MIN_SPEED_M_S", "NO_HARM_SPEED_MARGIN",
-           "corner_specs", "open_loop_limit", "scenario_settings", "scenario_specs"]
+           "corner_specs", "open_loop_limit", "scenario_demand_speed", "scenario_settings",
+           "scenario_specs"]
 
 #: the do-no-harm check sweeps to 1.5 ``speed_max_m_s`` (design.assessment.harm): a scenario is
 #: held up to there at most
@@ -105,11 +116,21 @@ def adopt_limits(entries: dict) -> None:
     _LIMITS.update(entries)
 
 
+def scenario_demand_speed(settings, open_loop_m_s=None) -> tuple:
+    """The actuator design speed [m/s] of a scenario (module docstring): ``()`` when the card
+    holds no flap demand, else ``(min(top, open_loop_m_s),)`` with ``top`` the card's largest
+    ``actuator_design_speeds_m_s`` (``open_loop_m_s`` None: ``top``)."""
+    if not settings.actuator_design_speeds_m_s:
+        return ()
+    top = float(max(settings.actuator_design_speeds_m_s))
+    return (top if open_loop_m_s is None else float(min(top, open_loop_m_s)),)
+
+
 def scenario_settings(settings, spec, model):
     """The settings of scenario ``spec``'s problem (module docstring), or None when it carries
     no constraint."""
     if settings.variant_rule != "no_harm":
-        return settings
+        return replace(settings, actuator_design_speeds_m_s=scenario_demand_speed(settings))
     u = open_loop_limit(settings, spec, model)
     if u < NO_HARM_MIN_SPEED_M_S:
         return None
@@ -117,4 +138,5 @@ def scenario_settings(settings, spec, model):
     # a scenario's problem carries constraints and checks only: the objective's own settings
     # (the critical-speed search's range) do not apply to it
     return replace(settings, speed_max_m_s=float(min(u * (1.0 + NO_HARM_SPEED_MARGIN), top)),
-                   objective="margin")
+                   objective="margin",
+                   actuator_design_speeds_m_s=scenario_demand_speed(settings, u))

@@ -369,9 +369,12 @@ def flap_demand_record(settings: DesignSettings, prob, theta) -> dict | None:
     the 3 sigma flap angle [deg] and rate [deg/s] per ``actuator_design_speeds_m_s`` on the
     NLP's own frozen integral (:meth:`DesignProblem.flap_demand`, built by the solve), against
     the card's limits themselves (the NLP holds 5 % inside them); None without actuator
-    constraints (none set, or a placement's relaxed problem). A design whose demand exceeds a
-    limit is not feasible: the NLP did not meet its own constraint (a solve stopped at an
-    infeasible or capped iterate)."""
+    constraints (none set, or a placement's relaxed problem). ``scenarios``: the same on each
+    scenario bridge at its one actuator speed
+    (:func:`bridgeflap.design.control.solve.scenarios.scenario_demand_speed`), with whether the
+    NLP held it. A design whose demand exceeds a limit, on the nominal bridge or a scenario, is
+    not feasible: the NLP did not meet its own constraint (a solve stopped at an infeasible or
+    capped iterate)."""
     from bridgeflap.design.control.formulation.actuator_demand import SIGMAS
 
     dem = prob.callbacks.get("flap_demand")
@@ -384,13 +387,31 @@ def flap_demand_record(settings: DesignSettings, prob, theta) -> dict | None:
             for u, a in zip(dem.speeds_m_s, angle, strict=True) if a > a_lim]
     over += [f"flap rate 3 sigma {v:.3g} deg/s > {r_lim:g} deg/s at {u:g} m/s"
              for u, v in zip(dem.speeds_m_s, rate, strict=True) if v > r_lim]
+    scen = []
+    for j, v in enumerate(getattr(prob, "variants", ())):
+        vd = v.callbacks.get("flap_demand") if v.demand_held is not None else None
+        if vd is None:
+            continue
+        rv = SIGMAS * vd.rms_deg(np.asarray(theta, float))
+        for u, row in zip(vd.speeds_m_s, rv, strict=True):
+            a, r = float(row[:2].max()), float(row[2:].max())
+            scen.append({"scenario": j, "speed_m_s": float(u), "flap_angle_3sigma_deg": a,
+                         "flap_rate_3sigma_deg_s": r, "held_in_nlp": bool(v.demand_held)})
+            if a > a_lim:
+                over.append(f"flap angle 3 sigma {a:.3g} deg > {a_lim:g} deg at {u:g} m/s "
+                            f"on scenario {j}")
+            if r > r_lim:
+                over.append(f"flap rate 3 sigma {r:.3g} deg/s > {r_lim:g} deg/s at {u:g} m/s "
+                            f"on scenario {j}")
     return {"speeds_m_s": [float(u) for u in dem.speeds_m_s],
             "flap_angle_3sigma_deg": [float(a) for a in angle],
             "flap_rate_3sigma_deg_s": [float(v) for v in rate],
             "flap_angle_limit_deg": a_lim, "flap_rate_limit_deg_s": r_lim,
             "within_limits": not over, "exceeded": over,
+            "scenarios": scen,
             "basis": "the design's own frozen spectral integral (ideal actuator), the two "
-                     "flaps of largest demand"}
+                     "flaps of largest demand; each scenario bridge at its own actuator speed "
+                     "(the card's top one, or its open-loop critical speed when lower)"}
 
 
 def _phase_1(res) -> bool:
