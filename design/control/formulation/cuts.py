@@ -73,6 +73,15 @@ TRUST_RADIUS_MAX = 2.0
 #: Measured before: the quick form of a card (2 cut rounds) ended on a capped iterate, and which
 #: one depended on the CPU (margins 0.168 and 0.080 on one card, AVX-512 on and off).
 MAX_CONTINUATIONS = 4
+#: Ipopt statuses that certify a local infeasibility (a stationary point of the constraint
+#: violation). Such a solve off the trust region's bound, with nothing new to cut, ends the
+#: loop: neither a continuation nor another round of the same problem moves it. Measured on
+#: the quick card's deck with GJ -10 % and mass -5 % (3 sigma flap angle 22 deg against 20 deg
+#: at 74 m/s): before, the loop continued that solve three times and re-solved it once as a
+#: cut round, each ending Infeasible_Problem_Detected again (8 solves, 610 Ipopt iterations);
+#: with the rule, 4 solves and 448 iterations, the same status, binding limit and best design
+#: (its coefficients within 3e-6 relative, along the flat optimum).
+LOCALLY_INFEASIBLE = ("Infeasible_Problem_Detected",)
 
 
 def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
@@ -244,6 +253,11 @@ def solve_with_cuts(prob, theta0, weights0=None) -> CutsOutcome:
             theta, w, gamma = (np.array(anchor[0]), np.array(anchor[1]), anchor[2])
             trust = (np.array(theta), TRUST_RADIUS * TRUST_SHRINK ** (recoveries - 1))
             step = "recovery"
+        elif (res.ipopt_status in LOCALLY_INFEASIBLE and not new_cuts
+              and not res.on_trust_bound):
+            # Ipopt's certificate of local infeasibility off the trust region's bound: the
+            # same problem from the same point ends there again (LOCALLY_INFEASIBLE)
+            break
         elif (not res.success and (not new_cuts or cut_rounds == s.cutting_plane_rounds)
               and continuations < MAX_CONTINUATIONS):
             # capped short of convergence with nothing new to cut: continue the same problem

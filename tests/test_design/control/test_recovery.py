@@ -68,3 +68,34 @@ def test_the_trust_region_bounds_theta_and_is_reported(small):
     assert np.all(np.abs(res.theta - centre) <= half + 1e-7)
     # a radius this small binds (the optimum is far from the start): reported as such
     assert res.on_trust_bound
+
+
+def test_a_certificate_of_local_infeasibility_ends_the_loop(small, monkeypatch):
+    # Ipopt's Infeasible_Problem_Detected off the trust region's bound, nothing new to cut:
+    # the same problem from the same point would end there again, so the loop stops after
+    # that solve instead of continuing it (MAX_CONTINUATIONS) or re-solving it as a cut round
+    s, model = small
+    prob = DesignProblem(s, model)
+    real = DesignProblem.solve
+    calls = []
+
+    def solve(self, theta0, speeds, **kw):
+        res = real(self, theta0, speeds, **kw)
+        calls.append(kw.get("feasibility"))
+        if not kw.get("feasibility"):     # every phase-2 solve: a local-infeasibility stop
+            res = replace(res, ipopt_status="Infeasible_Problem_Detected", success=False,
+                          on_trust_bound=False)
+        return res
+
+    monkeypatch.setattr(DesignProblem, "solve", solve)
+    out = prob.solve_with_cuts(START)
+    rounds = [r for r in out.rounds if r.placement is None and "phase 1" not in r.ipopt_status]
+    assert len([c for c in calls if not c]) == len(rounds)
+    # a round may add cuts found at its solution's checks (a new speed, gain or scenario
+    # point makes a new problem); the loop ends on the first round that adds none, and no
+    # round continues a locally infeasible solve
+    new = [r.new_speeds + r.new_gain_cuts + r.new_robust_cuts + r.new_variant_constraints
+           + r.new_demand_scenarios for r in rounds]
+    assert new[-1] == 0 and all(n > 0 for n in new[:-1]), new
+    assert "continuation" not in [r.step for r in rounds]
+    assert all(r.ipopt_status == "Infeasible_Problem_Detected" for r in rounds)
