@@ -25,8 +25,9 @@ counts, do-no-harm, fail-safe, erection stages, a study's analyses) is made by i
 skips the guard. It checks the guard before any process starts, keeps the platform's default
 start method (no package-wide context is set: fork on Linux up to Python 3.13), makes every
 worker end with the process that started it (:func:`_die_with_parent`), gives every worker one
-BLAS thread unless the user chose the threads (:func:`_one_blas_thread`) and starts at least
-one worker. Dask (:mod:`bridgeflap.design.batch.cluster`) is for DOE batches only.
+BLAS thread, or the thread count the user chose up to the cores shared among the workers
+(:func:`_one_blas_thread`), and starts at least one worker. Dask
+(:mod:`bridgeflap.design.batch.cluster`) is for DOE batches only.
 
 On an interrupt (a :class:`KeyboardInterrupt` leaving the pool's ``with`` block, or a shutdown
 after :func:`note_interrupt`, which the command line calls on Ctrl-C and SIGTERM) the pool
@@ -181,7 +182,8 @@ def process_pool(workers: int, *, die_with_parent: bool = True) -> ProcessPoolEx
         ``max_workers`` of the pool (at least 1 is used).
     die_with_parent : bool
         The workers end with this process (:func:`_die_with_parent`; default). Every worker
-        uses one BLAS thread unless the user set a thread variable (:func:`_one_blas_thread`).
+        uses one BLAS thread, or the count the user set up to its share of the cores
+        (:func:`_one_blas_thread`).
 
     Returns
     -------
@@ -196,8 +198,9 @@ def process_pool(workers: int, *, die_with_parent: bool = True) -> ProcessPoolEx
         script whatever the pool's size).
     """
     check_main_guard(max(2, int(workers)))  # even one spawned worker re-runs the script
-    return _Pool(max_workers=max(1, int(workers)), initializer=_worker_start,
-                 initargs=(os.getpid() if die_with_parent else None,))
+    n = max(1, int(workers))
+    return _Pool(max_workers=n, initializer=_worker_start,
+                 initargs=(os.getpid() if die_with_parent else None, _worker_blas_cap(n)))
 
 
 #: The BLAS thread variables a user sets to choose the threads; with none set, a worker of the
@@ -205,16 +208,28 @@ def process_pool(workers: int, *, die_with_parent: bool = True) -> ProcessPoolEx
 THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 
-def _worker_start(parent: int | None) -> None:
+def _worker_blas_cap(workers: int) -> int:
+    """BLAS threads a worker of a pool of ``workers`` may use when the user set a thread count:
+    the cores this process may run on, shared among the workers (at least 1)."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        cores = os.cpu_count() or 1
+    return max(1, cores // max(1, int(workers)))
+
+
+def _worker_start(parent: int | None, cap: int | None = None) -> None:
     """Pool initializer: one BLAS thread (:func:`_one_blas_thread`), and with ``parent`` the
     worker ends with it (:func:`_die_with_parent`)."""
-    _one_blas_thread()
+    _one_blas_thread(cap)
     if parent is not None:
         _die_with_parent(parent)
 
 
-def _one_blas_thread() -> None:
-    """One BLAS thread in a worker process, unless the user set a thread variable.
+def _one_blas_thread(cap: int | None = None) -> None:
+    """One BLAS thread in a worker process, unless the user set a thread variable; then the
+    user's count, but at most ``cap`` (:func:`_worker_blas_cap`: the cores shared among the
+    pool's workers).
 
     The matrices are small (at most a few hundred rows) and the pool already runs one task per
     core: a worker with the library's default thread count (one per core) puts
@@ -224,14 +239,24 @@ def _one_blas_thread() -> None:
     The command line already runs with one thread (``design.cli.main``); this gives a script
     calling the API the same workers. The calling process is left alone (library code never
     sets the user's environment); only the worker's own BLAS pool is limited.
+
+    A count the user set is a budget for the machine, not for each worker: with
+    ``OPENBLAS_NUM_THREADS=2`` on 2 cores the two check workers of ``bridgeflap optimise
+    --workers 2`` kept two threads each, and the default card's run had not finished after 22
+    minutes (2 min 41 s with one thread each). A worker now keeps the user's count up to the
+    cores divided among the workers.
     """
-    if any(v in os.environ for v in THREAD_VARIABLES):
-        return
     try:
-        from threadpoolctl import threadpool_limits
+        from threadpoolctl import threadpool_info, threadpool_limits
     except ImportError:  # pragma: no cover - a dependency (pyproject.toml)
         return
-    threadpool_limits(1, user_api="blas")
+    if not any(v in os.environ for v in THREAD_VARIABLES):
+        threadpool_limits(1, user_api="blas")
+        return
+    if cap is not None:
+        have = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+        if have and max(have) > cap:
+            threadpool_limits(int(cap), user_api="blas")
 
 
 def _die_with_parent(parent: int) -> None:

@@ -98,7 +98,7 @@ def test_factory_in_process():
         assert ex._max_workers == 1
         assert ex.submit(os.getppid).result() == os.getpid()
     with process_pool(2, die_with_parent=False) as ex:
-        assert ex._max_workers == 2 and ex._initargs == (None,)
+        assert ex._max_workers == 2 and ex._initargs[0] is None
 
 
 def _blas_threads() -> list[int]:
@@ -119,5 +119,27 @@ def test_a_worker_uses_one_blas_thread_unless_the_user_chose(monkeypatch):
         assert set(ex.submit(_blas_threads).result()) == {1}
     monkeypatch.setenv("OPENBLAS_NUM_THREADS", "2")
     with threadpool_limits(2, user_api="blas"), process_pool(1) as ex:
-        # the worker keeps what it inherited (2 here), not the one-thread default
-        assert set(ex.submit(_blas_threads).result()) == set(_blas_threads())
+        # the worker keeps what it inherited (2 here), not the one-thread default, up to the
+        # cores (one worker)
+        assert set(ex.submit(_blas_threads).result()) == {min(n, _cores())
+                                                           for n in _blas_threads()}
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def test_a_users_thread_count_is_shared_among_the_workers(monkeypatch):
+    """A thread count the user set is the machine's budget: each of two workers keeps it up to
+    half of the cores (two workers with two threads each on 2 cores made the default card's
+    checks crawl, model.workers._one_blas_thread)."""
+    from threadpoolctl import threadpool_limits
+
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "2")
+    with threadpool_limits(2, user_api="blas"), process_pool(2) as ex:
+        parent = set(_blas_threads())
+        got = {n for f in [ex.submit(_blas_threads) for _ in range(4)] for n in f.result()}
+    assert got == {min(n, max(1, _cores() // 2)) for n in parent}
