@@ -26,21 +26,32 @@ def small():
     return s, build_model(s)[1]
 
 
-def test_a_diverged_solve_restarts_from_the_anchor_in_a_trust_region(small, monkeypatch):
-    s, model = small
-    prob = DesignProblem(s, model)
+def _patch_solve(monkeypatch, alter) -> list:
+    """Wrap ``DesignProblem.solve``: each call is recorded as ``(theta0, trust, feasibility)``
+    in the returned list, and its result passed through ``alter(res, kw, calls)``."""
     real = DesignProblem.solve
     calls = []
 
     def solve(self, theta0, speeds, **kw):
         res = real(self, theta0, speeds, **kw)
         calls.append((np.array(theta0, float), kw.get("trust"), kw.get("feasibility")))
-        # the first phase-2 solve is declared diverged, as the watchdog would
-        if not kw.get("feasibility") and len([c for c in calls if not c[2]]) == 1:
-            res = replace(res, diverged=True, success=False)
-        return res
+        return alter(res, kw, calls)
 
     monkeypatch.setattr(DesignProblem, "solve", solve)
+    return calls
+
+
+def test_a_diverged_solve_restarts_from_the_anchor_in_a_trust_region(small, monkeypatch):
+    s, model = small
+    prob = DesignProblem(s, model)
+
+    def alter(res, kw, calls):
+        # the first phase-2 solve is declared diverged, as the watchdog would
+        if not kw.get("feasibility") and len([c for c in calls if not c[2]]) == 1:
+            return replace(res, diverged=True, success=False)
+        return res
+
+    calls = _patch_solve(monkeypatch, alter)
     out = prob.solve_with_cuts(START)
     steps = [r.step for r in out.rounds if r.placement is None]
     assert steps[0] == "cuts" and steps[1] == "recovery", steps
@@ -76,21 +87,17 @@ def test_a_certificate_of_local_infeasibility_ends_the_loop(small, monkeypatch):
     # that solve instead of continuing it (MAX_CONTINUATIONS) or re-solving it as a cut round
     s, model = small
     prob = DesignProblem(s, model)
-    real = DesignProblem.solve
-    calls = []
 
-    def solve(self, theta0, speeds, **kw):
-        res = real(self, theta0, speeds, **kw)
-        calls.append(kw.get("feasibility"))
+    def alter(res, kw, calls):
         if not kw.get("feasibility"):     # every phase-2 solve: a local-infeasibility stop
-            res = replace(res, ipopt_status="Infeasible_Problem_Detected", success=False,
-                          on_trust_bound=False)
+            return replace(res, ipopt_status="Infeasible_Problem_Detected", success=False,
+                           on_trust_bound=False)
         return res
 
-    monkeypatch.setattr(DesignProblem, "solve", solve)
+    calls = _patch_solve(monkeypatch, alter)
     out = prob.solve_with_cuts(START)
     rounds = [r for r in out.rounds if r.placement is None and "phase 1" not in r.ipopt_status]
-    assert len([c for c in calls if not c]) == len(rounds)
+    assert len([c for c in calls if not c[2]]) == len(rounds)
     # a round may add cuts found at its solution's checks (a new speed, gain or scenario
     # point makes a new problem); the loop ends on the first round that adds none, and no
     # round continues a locally infeasible solve
